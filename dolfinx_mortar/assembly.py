@@ -1,0 +1,122 @@
+"""PETSc matrices whose sparsity covers the bulk form plus the contact couplings.
+
+dolfinx's ``create_matrix`` preallocates the bulk pattern only; mortar contact
+couples slave dofs with master dofs that may live on other ranks. Here the
+pattern is the union of dolfinx's bulk sparsity (block level) and a list of
+contact couplings given as global block-row/block-column pairs; rows owned by
+other ranks are sent to their owner. The matrix is AIJ with block size gdim and
+the local-to-global map of the displacement space (so dolfinx's bulk assembly
+with ``MatSetValuesLocal`` works unchanged).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from petsc4py import PETSc
+
+from . import compat
+
+log = logging.getLogger(__name__)
+
+
+def bulk_block_pattern(a_form, V) -> tuple[np.ndarray, np.ndarray]:
+    """Global (block row, block column) pairs of the bulk form's sparsity, owned rows only.
+
+    Local, not collective except for dolfinx's pattern assembly (collective).
+    Returns two int64 arrays of equal length.
+    """
+    sp = compat.sparsity_pattern(a_form)
+    imap = V.dofmap.index_map
+    nrow = imap.size_local
+    graph = sp.graph
+    offsets = np.asarray(graph.offsets)
+    cols_local = np.asarray(graph.array, dtype=np.int32)
+    cmap = sp.column_index_map()
+    ncol_local = cmap.size_local + cmap.num_ghosts
+    col_global = np.asarray(
+        cmap.local_to_global(np.arange(ncol_local, dtype=np.int32)), dtype=np.int64
+    )
+    row_global = np.arange(nrow, dtype=np.int64) + imap.local_range[0]
+    counts = np.diff(offsets[: nrow + 1])
+    rows = np.repeat(row_global, counts)
+    cols = col_global[cols_local[: offsets[nrow]]]
+    return rows, cols
+
+
+def _send_rows_to_owners(comm, ranges: np.ndarray, rows: np.ndarray, cols: np.ndarray):
+    """Alltoallv the (row, col) pairs to the ranks owning the rows (collective)."""
+    owner = np.searchsorted(ranges, rows, side="right") - 1
+    order = np.argsort(owner, kind="stable")
+    rows, cols, owner = rows[order], cols[order], owner[order]
+    send_counts = np.bincount(owner, minlength=comm.size).astype(np.int64)
+    recv_counts = np.empty_like(send_counts)
+    comm.Alltoall(send_counts, recv_counts)
+    sbuf = np.empty(2 * rows.size, dtype=np.int64)
+    sbuf[0::2], sbuf[1::2] = rows, cols
+    rbuf = np.empty(2 * int(recv_counts.sum()), dtype=np.int64)
+    comm.Alltoallv([sbuf, 2 * send_counts], [rbuf, 2 * recv_counts])
+    return rbuf[0::2], rbuf[1::2]
+
+
+class MatrixPattern:
+    """Builds and owns nothing but the recipe: bulk pattern + contact couplings → AIJ matrix.
+
+    ``create(extra_rows, extra_cols)`` is collective; the returned Mat belongs to the caller.
+    """
+
+    def __init__(self, a_form, V):
+        self.V = V
+        self.comm = V.mesh.comm
+        self.bs = V.dofmap.index_map_bs
+        imap = V.dofmap.index_map
+        self.nrow = imap.size_local
+        self.rows, self.cols = bulk_block_pattern(a_form, V)
+        ranges = np.asarray(
+            self.comm.allgather(imap.local_range[0]) + [imap.size_global], dtype=np.int64
+        )
+        self.ranges = ranges
+        nblocks = imap.size_local + imap.num_ghosts
+        gblocks = np.asarray(
+            imap.local_to_global(np.arange(nblocks, dtype=np.int32)), dtype=PETSc.IntType
+        )
+        self.lgmap = PETSc.LGMap().create(gblocks, bsize=self.bs, comm=self.comm)
+        self.key_set = np.empty(0, dtype=np.int64)
+
+    def create(self, extra_rows=None, extra_cols=None) -> PETSc.Mat:
+        """A new preallocated matrix for the bulk pattern ∪ the given global block couplings."""
+        r0 = self.ranges[self.comm.rank]
+        if extra_rows is None:
+            extra_rows = np.empty(0, dtype=np.int64)
+            extra_cols = np.empty(0, dtype=np.int64)
+        er, ec = _send_rows_to_owners(
+            self.comm,
+            self.ranges,
+            np.asarray(extra_rows, np.int64),
+            np.asarray(extra_cols, np.int64),
+        )
+        nglob = int(self.ranges[-1])
+        keys = np.unique(np.concatenate([self.rows * nglob + self.cols, er * nglob + ec]))
+        self.key_set = keys
+        rows = keys // nglob
+        cols = keys % nglob
+        diag = (cols >= r0) & (cols < self.ranges[self.comm.rank + 1])
+        lr = (rows - r0).astype(np.int64)
+        d_nnz = np.bincount(lr[diag], minlength=self.nrow).astype(PETSc.IntType)
+        o_nnz = np.bincount(lr[~diag], minlength=self.nrow).astype(PETSc.IntType)
+        n = self.nrow * self.bs
+        A = PETSc.Mat().create(comm=self.comm)
+        A.setType(PETSc.Mat.Type.AIJ)
+        A.setSizes(((n, PETSc.DECIDE), (n, PETSc.DECIDE)), bsize=self.bs)
+        # AIJ with block size bs: petsc4py wants counts per scalar row
+        A.setPreallocationNNZ(
+            (np.repeat(d_nnz * self.bs, self.bs), np.repeat(o_nnz * self.bs, self.bs))
+        )
+        A.setLGMap(self.lgmap, self.lgmap)
+        # a coupling that appears within a Newton solve (sliding beyond the candidates
+        # used for the pattern) still goes in; the next rebuild covers it
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        A.setUp()
+        log.debug("matrix pattern: %d block nonzeros (%d from contact)", keys.size, er.size)
+        return A

@@ -1,0 +1,82 @@
+"""Hyperelastic and linear-elastic bulk in UFL (plane strain in 2D).
+
+Laws (Lamé constants λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)); units of E):
+
+- ``neo-hookean`` (compressible): ψ = μ/2 (I₁ − 3 − 2 ln J) + λ/2 (ln J)²,
+  I₁ = tr C (in 2D plane strain tr C + 1, the out-of-plane stretch being 1);
+- ``saint-venant-kirchhoff``: ψ = λ/2 (tr E)² + μ tr(E²), E = (C − I)/2 (in 2D
+  plane strain E₃₃ = 0, so the 2×2 formulas are exact);
+- ``linear-elastic`` (``kinematics = "small"`` only): σ = λ tr ε I + 2μ ε,
+  ε = sym ∇u.
+
+The first Piola stress P = ∂ψ/∂F is obtained with ``ufl.diff``; the residual is
+R(u; v) = Σ_regions ∫ P : ∇v dX − Σ_tractions ∫ t̄ · v dA (reference
+configuration; t̄ is the prescribed reference traction vector). Contact terms
+are added outside UFL and never depend on the law.
+
+Quadrature degrees are set explicitly: for displacement degree p, linear
+elasticity uses 2(p−1) on simplices (2p on quadrilaterals/hexahedra) and the
+hyperelastic laws 2p (2p+1 on quadrilaterals/hexahedra) — FFCx's automatic
+estimate for ln J would give ~1000 points per hexahedron.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
+
+
+def lame(E: float, nu: float) -> tuple[float, float]:
+    """Lamé constants (λ, μ) of Young's modulus E and Poisson's ratio ν."""
+    return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+
+
+def quadrature_degree(model: str, degree: int, simplex: bool) -> int:
+    """The explicit quadrature degree used for ``model`` with displacement degree ``degree``."""
+    if model == "linear-elastic":
+        return max(2 * (degree - 1), 1) if simplex else 2 * degree
+    return 2 * degree if simplex else 2 * degree + 1
+
+
+def strain_energy(model: str, E: float, nu: float, F):
+    """Stored energy density ψ(F) per unit reference volume (UFL expression)."""
+    lmbda, mu = lame(E, nu)
+    d = F.ufl_shape[0]
+    C = F.T * F
+    if model == "neo-hookean":
+        J = ufl.det(F)
+        I1 = ufl.tr(C) + (1 if d == 2 else 0)
+        return mu / 2 * (I1 - 3 - 2 * ufl.ln(J)) + lmbda / 2 * ufl.ln(J) ** 2
+    if model == "saint-venant-kirchhoff":
+        Eg = 0.5 * (C - ufl.Identity(d))
+        return lmbda / 2 * ufl.tr(Eg) ** 2 + mu * ufl.tr(Eg * Eg)
+    raise ValueError(f"no strain energy for model {model!r}")
+
+
+def first_piola(model: str, E: float, nu: float, u):
+    """First Piola–Kirchhoff stress P(u) (for linear elasticity: the Cauchy stress σ(ε(u)))."""
+    d = len(u)
+    if model == "linear-elastic":
+        lmbda, mu = lame(E, nu)
+        eps = ufl.sym(ufl.grad(u))
+        return lmbda * ufl.tr(eps) * ufl.Identity(d) + 2 * mu * eps
+    F = ufl.variable(ufl.Identity(d) + ufl.grad(u))
+    return ufl.diff(strain_energy(model, E, nu, F), F)
+
+
+def internal_residual(u, v, regions, cell_tags, simplex: bool):
+    """Σ_regions ∫ P(u) : ∇v dX.
+
+    ``regions`` is a sequence of ``(tag, model, E, nu)``; ``cell_tags`` the
+    dolfinx MeshTags of the cells. Returns a UFL form (rank 1).
+    """
+    mesh = u.function_space.mesh
+    degree = u.function_space.ufl_element().degree()
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
+    form = 0
+    for tag, model, E, nu in regions:
+        q = quadrature_degree(model, degree, simplex)
+        P = first_piola(model, E, nu, u)
+        form += ufl.inner(P, ufl.grad(v)) * dx(tag, metadata={"quadrature_degree": q})
+    return form

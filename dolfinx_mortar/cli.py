@@ -1,0 +1,112 @@
+"""Command line: ``dolfinx-mortar run | check | generators`` (also ``python3 -m dolfinx_mortar``).
+
+Bad input ends every rank with one line ``dolfinx-mortar: error: KEY: REASON``
+on stderr and exit status 2, without a traceback and before any output is
+written. A run that stops on non-convergence exits with status 1 after writing
+every finished step. Any other exception aborts all ranks (no hang).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import traceback
+from pathlib import Path
+
+from .errors import SceneError
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="dolfinx-mortar", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene (under mpirun for several ranks)")
+    r.add_argument("scene", type=Path)
+    r.add_argument(
+        "--out", type=Path, default=None, help="output directory (overrides [output] dir)"
+    )
+    r.add_argument(
+        "-v", "--verbose", action="store_true", help="log at INFO level (DEBUG with -vv)"
+    )
+    c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
+    c.add_argument("scene", type=Path)
+    sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
+    return p
+
+
+def _setup_logging(rank: int, verbose: int) -> None:
+    level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
+    logging.basicConfig(
+        level=level if rank == 0 else logging.ERROR,
+        format="[%(levelname)s %(name)s] %(message)s",
+        stream=sys.stderr,
+    )
+
+
+def _progress(comm):
+    def show(step, rec):
+        if comm.rank == 0:
+            its = "+".join(str(i) for i in rec["newton_iterations"])
+            forces = " ".join(
+                f"{k}={[round(v, 6) for v in f]}" for k, f in rec["contact_force"].items()
+            )
+            print(
+                f"step {step:4d}  t = {rec['t']:.6g}  newton {its}  uzawa {rec['uzawa_rounds']}"
+                f"  cutbacks {rec['cutbacks']}  active {rec['active_nodes']}  {forces}"
+                f"  {rec['wall_time']:.2f} s",
+                flush=True,
+            )
+
+    return show
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command == "generators":
+        from .generators import GENERATORS
+
+        for g in GENERATORS.values():
+            print(f"{g.name}: {g.description}")
+            for name, (typ, default, doc) in g.params.items():
+                print(f"    {name} ({typ.__name__}, default {default!r}): {doc}")
+        return 0
+
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    _setup_logging(comm.rank, getattr(args, "verbose", 0))
+    try:
+        from .scene import load_scene
+
+        scene = load_scene(args.scene)
+        if args.command == "check":
+            from .runner import prepare
+
+            problem, mesh_data = prepare(scene, comm)
+            if comm.rank == 0:
+                print(
+                    f"{args.scene}: ok ({mesh_data.gdim}D, {mesh_data.info['cell_type']}, "
+                    f"{problem.num_dofs} dofs, {len(problem.contacts)} contact pair(s))"
+                )
+            return 0
+        from .runner import run
+
+        summary = run(scene, comm, out_dir=args.out, progress=_progress(comm))
+    except SceneError as exc:
+        print(f"dolfinx-mortar: error: {exc}", file=sys.stderr, flush=True)
+        return 2
+    except Exception:
+        traceback.print_exc()
+        sys.stderr.flush()
+        if comm.size > 1:
+            comm.Abort(1)
+        return 1
+    if summary["status"] != "ok":
+        if comm.rank == 0:
+            print(f"dolfinx-mortar: run failed: {summary['error']}", file=sys.stderr, flush=True)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,87 @@
+"""Every dolfinx-0.5-specific call of the package, in one place.
+
+A move to a newer dolfinx should only need this module changed. Functions here
+are thin: they name the 0.5.2 API (``fem.VectorFunctionSpace``,
+``gmshio.model_to_mesh``, ``MeshTags.find``, ``IndexMap.local_range``) and
+return plain NumPy arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.io import gmshio
+from petsc4py import PETSc
+
+__all__ = [
+    "vector_space",
+    "model_to_mesh",
+    "tagged_entities",
+    "global_dof_numbers",
+    "owned_dof_count",
+    "create_form",
+    "sparsity_pattern",
+    "cell_geometry_nodes",
+]
+
+
+def vector_space(mesh, degree: int):
+    """Vector Lagrange space of the given degree on ``mesh`` (block size = gdim)."""
+    return fem.VectorFunctionSpace(mesh, ("CG", degree))
+
+
+def model_to_mesh(model, comm, gdim: int):
+    """Distribute the gmsh model held by rank 0 (collective).
+
+    dolfinx 0.5.2's ``gmshio.read_from_msh`` is broken (it returns an undefined
+    name), so the caller opens the file with gmsh on rank 0 and calls this.
+    Returns ``(mesh, cell_tags, facet_tags)``.
+    """
+    return gmshio.model_to_mesh(model, comm, 0, gdim=gdim)
+
+
+def tagged_entities(tags, value: int) -> np.ndarray:
+    """Local indices (int32) of the entities of ``tags`` carrying ``value``."""
+    return np.asarray(tags.find(value), dtype=np.int32)
+
+
+def global_dof_numbers(V) -> np.ndarray:
+    """Global PETSc index of every local scalar dof (owned then ghost), shape (n_local*bs,).
+
+    The numbering is the one of dolfinx's PETSc vectors and matrices for ``V``:
+    dof ``i*bs + c`` of block ``i`` has global index ``global_block(i)*bs + c``.
+    """
+    imap = V.dofmap.index_map
+    bs = V.dofmap.index_map_bs
+    nblocks = imap.size_local + imap.num_ghosts
+    gblocks = imap.local_to_global(np.arange(nblocks, dtype=np.int32))
+    return (
+        np.repeat(np.asarray(gblocks, dtype=np.int64) * bs, bs) + np.tile(np.arange(bs), nblocks)
+    ).astype(PETSc.IntType)
+
+
+def owned_dof_count(V) -> int:
+    """Number of scalar dofs owned by this rank."""
+    return V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+
+
+def sparsity_pattern(form):
+    """Assembled dolfinx SparsityPattern of a bilinear form (collective)."""
+    sp = fem.create_sparsity_pattern(form)
+    sp.assemble()
+    return sp
+
+
+def create_form(form: ufl.Form, jit_params: dict | None = None):
+    """Compile a UFL form (collective)."""
+    return fem.form(form, jit_params=jit_params or {})
+
+
+def cell_geometry_nodes(mesh) -> np.ndarray:
+    """Geometry dofmap as an array (num_cells, nodes_per_cell) of indices into ``mesh.geometry.x``."""
+    return np.asarray(mesh.geometry.dofmap.array, dtype=np.int32).reshape(
+        mesh.topology.index_map(mesh.topology.dim).size_local
+        + mesh.topology.index_map(mesh.topology.dim).num_ghosts,
+        -1,
+    )

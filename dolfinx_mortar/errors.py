@@ -1,0 +1,33 @@
+"""Exceptions raised by dolfinx_mortar.
+
+``SceneError`` is raised for bad user input (scene file, mesh, options) and is
+turned into a one-line message and exit status 2 by the command-line driver.
+``ConvergenceError`` is raised when a nonlinear or linear solve, or the Uzawa
+augmentation loop, fails; the load-stepping driver catches it and cuts the step.
+"""
+
+
+class DolfinxMortarError(Exception):
+    """Base class of the package's exceptions."""
+
+
+class SceneError(DolfinxMortarError):
+    """Invalid input: the message names the offending key or object and the reason.
+
+    Parameters
+    ----------
+    key:
+        Dotted path of the offending scene key (e.g. ``"material[1].nu"``) or an
+        empty string when the error is not tied to one key.
+    reason:
+        Human-readable reason, one line.
+    """
+
+    def __init__(self, key: str, reason: str):
+        self.key = key
+        self.reason = reason
+        super().__init__(f"{key}: {reason}" if key else reason)
+
+
+class ConvergenceError(DolfinxMortarError):
+    """A solve did not converge (SNES, KSP or the Uzawa augmentation loop)."""

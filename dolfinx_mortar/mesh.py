@@ -1,0 +1,163 @@
+"""Reading meshes: gmsh ``.msh`` files or built-in generators, with physical names.
+
+gmsh runs on rank 0 only; the physical names and any error are broadcast, so a
+bad mesh gives the same :class:`~dolfinx_mortar.errors.SceneError` on every rank
+before any further collective call.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import compat
+from .errors import SceneError
+
+log = logging.getLogger(__name__)
+
+# gmsh element types accepted as cells: (topological dim, name)
+_SUPPORTED_CELLS = {
+    2: (2, "triangle P1"),
+    9: (2, "triangle P2"),
+    3: (2, "quadrilateral Q1"),
+    10: (2, "quadrilateral Q2 (9 nodes)"),
+    4: (3, "tetrahedron P1"),
+    11: (3, "tetrahedron P2"),
+    5: (3, "hexahedron Q1"),
+    12: (3, "hexahedron Q2 (27 nodes)"),
+}
+
+
+@dataclass
+class MeshData:
+    """A distributed mesh with its tags and the physical names.
+
+    Attributes
+    ----------
+    mesh: dolfinx mesh (gdim = tdim = 2 or 3).
+    cell_tags, facet_tags: dolfinx MeshTags of the physical groups.
+    cell_groups, facet_groups: physical name -> tag value.
+    info: what rank 0 read (cell type, counts), for the summary.
+    """
+
+    mesh: object
+    cell_tags: object
+    facet_tags: object
+    cell_groups: dict[str, int]
+    facet_groups: dict[str, int]
+    info: dict = field(default_factory=dict)
+
+    @property
+    def gdim(self) -> int:
+        return self.mesh.geometry.dim
+
+
+def _inspect_model(gmsh) -> dict:
+    """Rank 0: physical names and cell type of the current gmsh model; raise SceneError if unusable."""
+    groups = gmsh.model.getPhysicalGroups()
+    if not groups:
+        raise SceneError("mesh", "the mesh has no physical groups (name the bodies and surfaces)")
+    dims = [d for d, _ in groups]
+    tdim = max(dims)
+    if tdim not in (2, 3):
+        raise SceneError("mesh", f"no 2D or 3D physical group of cells (highest dimension {tdim})")
+    cell_types = set()
+    for d, tag in groups:
+        if d != tdim:
+            continue
+        for ent in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+            types, _, _ = gmsh.model.mesh.getElements(d, ent)
+            cell_types.update(int(t) for t in types)
+    if not cell_types:
+        raise SceneError(
+            "mesh", "the physical groups of cells contain no elements (mesh not generated?)"
+        )
+    if len(cell_types) > 1:
+        raise SceneError("mesh", f"mixed cell types {sorted(cell_types)} are not supported")
+    ctype = cell_types.pop()
+    if ctype not in _SUPPORTED_CELLS:
+        raise SceneError("mesh", f"unsupported gmsh element type {ctype}")
+    names: dict[tuple[int, int], str] = {}
+    for d, tag in groups:
+        name = gmsh.model.getPhysicalName(d, tag)
+        if not name:
+            name = str(tag)
+        names[(d, tag)] = name
+    cell_groups = {n: t for (d, t), n in names.items() if d == tdim}
+    facet_groups = {n: t for (d, t), n in names.items() if d == tdim - 1}
+    _, coords, _ = gmsh.model.mesh.getNodes()
+    coords = np.asarray(coords).reshape(-1, 3)
+    if coords.size == 0:
+        raise SceneError("mesh", "the mesh has no nodes")
+    gdim = 3 if tdim == 3 else 2
+    if tdim == 2 and np.abs(coords[:, 2]).max() > 1e-12 * max(1.0, np.abs(coords).max()):
+        raise SceneError("mesh", "a 2D mesh must lie in the plane z = 0")
+    return {
+        "tdim": tdim,
+        "gdim": gdim,
+        "cell_type": _SUPPORTED_CELLS[ctype][1],
+        "cell_groups": cell_groups,
+        "facet_groups": facet_groups,
+        "num_nodes": int(coords.shape[0]),
+        "all_groups": {f"{d}:{t}": n for (d, t), n in names.items()},
+    }
+
+
+def load_mesh(
+    comm, file: Path | None = None, generator: str | None = None, params=None
+) -> MeshData:
+    """Read ``file`` (gmsh .msh 2.2/4.1) or build ``generator`` on rank 0 and distribute it.
+
+    Collective on ``comm``. Raises SceneError (on every rank) for a missing,
+    unreadable or unusable mesh.
+    """
+    info = None
+    error = None
+    gmsh = None
+    if comm.rank == 0:
+        import gmsh
+
+        try:
+            gmsh.initialize(["-noenv"], readConfigFiles=False)
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.option.setNumber("General.Verbosity", 0)
+            gmsh.model.add("dolfinx_mortar")
+            if file is not None:
+                if not Path(file).is_file():
+                    raise SceneError("mesh.file", f"file not found: {file}")
+                try:
+                    gmsh.open(str(file))
+                except Exception as exc:  # gmsh raises bare Exceptions
+                    raise SceneError("mesh.file", f"cannot read {file}: {exc}") from None
+            else:
+                from . import generators
+
+                generators.build(generator, dict(params or {}))
+            info = _inspect_model(gmsh)
+        except SceneError as exc:
+            error = (exc.key, exc.reason)
+        except Exception as exc:  # a generator or gmsh failing: still one clean message
+            error = ("mesh", f"{type(exc).__name__}: {exc}")
+    error, info = comm.bcast((error, info), root=0)
+    if error is not None:
+        if comm.rank == 0:
+            gmsh.finalize()
+        raise SceneError(*error)
+    try:
+        mesh, cell_tags, facet_tags = compat.model_to_mesh(
+            gmsh.model if comm.rank == 0 else None, comm, info["gdim"]
+        )
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+    log.info(
+        "mesh: %s, %d nodes, cell groups %s, facet groups %s",
+        info["cell_type"],
+        info["num_nodes"],
+        sorted(info["cell_groups"]),
+        sorted(info["facet_groups"]),
+    )
+    return MeshData(mesh, cell_tags, facet_tags, info["cell_groups"], info["facet_groups"], info)

@@ -1,0 +1,252 @@
+"""ContactProblem: the "what" of a simulation (forms, boundary data, contact terms).
+
+The problem knows how to evaluate the residual R(u) and its Jacobian at a
+given time t; it knows nothing about Newton, load stepping or Uzawa rounds,
+which belong to :mod:`dolfinx_mortar.solver`. Contact terms plug in through a
+small interface (:class:`ContactTerm`): they are updated before every residual
+evaluation (search and pairing), add their residual and Jacobian contributions
+with global PETSc indices, report the dof couplings for the sparsity pattern,
+and update their multipliers in the solver's Uzawa loop.
+
+Sign convention: R(u) = F_int(u) − F_ext(t) − F_contact(u); the reaction of a
+Dirichlet boundary (the force it exerts on the body) is the sum of R over that
+boundary's dofs, per component.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from time import perf_counter
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import (
+    apply_lifting,
+    assemble_matrix,
+    assemble_vector,
+    create_vector,
+    set_bc,
+)
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import compat
+from .assembly import MatrixPattern
+from .bulk import internal_residual
+
+log = logging.getLogger(__name__)
+
+
+def interpolate_path(path, t: float) -> np.ndarray:
+    """Piecewise-linear value of ``path`` (rows [t, v0, v1, ...]) at time t, constant beyond the ends."""
+    arr = np.asarray(path, dtype=float)
+    return np.array([np.interp(t, arr[:, 0], arr[:, j]) for j in range(1, arr.shape[1])])
+
+
+@dataclass
+class _Dirichlet:
+    name: str
+    components: tuple[int, ...]
+    path: np.ndarray
+    constants: list
+    bcs: list
+    dofs_by_component: list  # owned local dofs of the boundary, per component (all gdim components)
+
+
+class ContactProblem:
+    """Bulk forms plus contact terms (collective construction).
+
+    Parameters
+    ----------
+    mesh_data: :class:`dolfinx_mortar.mesh.MeshData`.
+    materials: sequence of ``(region_name, model, E, nu)``.
+    dirichlet: sequence of ``(boundary_name, components or None, path)``.
+    tractions: sequence of ``(boundary_name, path)``; path rows [t, t_x, t_y(, t_z)],
+        reference traction vector (force per unit reference area).
+    degree: displacement degree (defaults to the mesh's geometric degree).
+    """
+
+    def __init__(self, mesh_data, materials, dirichlet=(), tractions=(), degree: int | None = None):
+        self.mesh_data = mesh_data
+        mesh = mesh_data.mesh
+        self.mesh = mesh
+        self.comm = mesh.comm
+        gdim = mesh.geometry.dim
+        self.gdim = gdim
+        if degree is None:
+            degree = mesh.geometry.cmap.degree
+        self.degree = degree
+        self.V = compat.vector_space(mesh, degree)
+        self.u = fem.Function(self.V, name="displacement")
+        v = ufl.TestFunction(self.V)
+        du = ufl.TrialFunction(self.V)
+        simplex = mesh.topology.cell_name() in ("triangle", "tetrahedron")
+        regions = [(mesh_data.cell_groups[r], model, E, nu) for r, model, E, nu in materials]
+        self.materials = list(materials)
+        F = internal_residual(self.u, v, regions, mesh_data.cell_tags, simplex)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=mesh_data.facet_tags)
+        self._tractions = []
+        for name, path in tractions:
+            c = fem.Constant(mesh, np.zeros(gdim, dtype=PETSc.ScalarType))
+            F -= ufl.inner(c, v) * ds(mesh_data.facet_groups[name])
+            self._tractions.append((name, np.asarray(path, float), c))
+        self.F_form = compat.create_form(F)
+        self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
+        fdim = mesh.topology.dim - 1
+        mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+        nowned = compat.owned_dof_count(self.V)
+        self._dirichlet: list[_Dirichlet] = []
+        for name, comps, path in dirichlet:
+            facets = compat.tagged_entities(mesh_data.facet_tags, mesh_data.facet_groups[name])
+            comps = tuple(range(gdim)) if comps is None else tuple(comps)
+            consts, bcs = [], []
+            for c in comps:
+                dofs = fem.locate_dofs_topological(self.V.sub(c), fdim, facets)
+                const = fem.Constant(mesh, PETSc.ScalarType(0.0))
+                bcs.append(fem.dirichletbc(const, dofs, self.V.sub(c)))
+                consts.append(const)
+            by_comp = []
+            for c in range(gdim):
+                dofs = np.asarray(fem.locate_dofs_topological(self.V.sub(c), fdim, facets))
+                by_comp.append(dofs[dofs < nowned])
+            self._dirichlet.append(
+                _Dirichlet(name, comps, np.asarray(path, float), consts, bcs, by_comp)
+            )
+        self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
+        # negative indices, so contact terms never touch constrained rows or columns)
+        self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
+        gdofs = self.global_dofs_all.copy()
+        for bc in self.bcs:
+            gdofs[np.asarray(bc.dof_indices()[0])] = -1
+        self.global_dofs = gdofs
+        self.contacts: list = []
+        self._pattern = MatrixPattern(self.J_form, self.V)
+        self._pattern_keys = None
+        self.t = 0.0
+        self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
+
+    # ---------------------------------------------------------------- set-up
+    def add_contact(self, term) -> None:
+        """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`)."""
+        self.contacts.append(term)
+
+    @property
+    def num_dofs(self) -> int:
+        return self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
+
+    def set_time(self, t: float) -> None:
+        """Set the Dirichlet values and tractions of time ``t`` (local, no communication)."""
+        self.t = t
+        for d in self._dirichlet:
+            vals = interpolate_path(d.path, t)
+            for const, val in zip(d.constants, vals, strict=True):
+                const.value = val
+        for _, path, const in self._tractions:
+            const.value = interpolate_path(path, t)
+
+    # ---------------------------------------------------------------- assembly
+    def _set_state(self, x: PETSc.Vec) -> None:
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        if x.handle != self.u.vector.handle:
+            x.copy(self.u.vector)
+            self.u.x.scatter_forward()
+
+    def update_contact(self, x: PETSc.Vec) -> None:
+        """Per-iteration hook: search and pairing of every contact term at state ``x`` (collective)."""
+        self._set_state(x)
+        for term in self.contacts:
+            term.update(self.u)
+
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
+        """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
+        dofs hold x − ū (scaled as in dolfinx) instead of the residual."""
+        t0 = perf_counter()
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, self.F_form)
+        if apply_bcs:
+            apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.timings["bulk_assembly"] += perf_counter() - t0
+        t0 = perf_counter()
+        for term in self.contacts:
+            term.add_residual(b, masked=apply_bcs)
+        b.assemble()
+        self.timings["contact_assembly"] += perf_counter() - t0
+        if apply_bcs:
+            set_bc(b, self.bcs, x, -1.0)
+
+    def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective)."""
+        t0 = perf_counter()
+        A.zeroEntries()
+        assemble_matrix(A, self.J_form, self.bcs)
+        A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
+        A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
+        self.timings["bulk_assembly"] += perf_counter() - t0
+        t0 = perf_counter()
+        for term in self.contacts:
+            term.add_jacobian(A)
+        A.assemble()
+        self.timings["contact_assembly"] += perf_counter() - t0
+
+    # ---------------------------------------------------------------- matrix
+    def create_matrix(self) -> PETSc.Mat:
+        """A new Jacobian matrix whose pattern covers the bulk and every contact coupling
+        currently known (collective). The caller owns (and destroys) it."""
+        rows, cols = [], []
+        for term in self.contacts:
+            r, c = term.block_couplings()
+            rows.append(r)
+            cols.append(c)
+        r = np.concatenate(rows) if rows else None
+        c = np.concatenate(cols) if cols else None
+        A = self._pattern.create(r, c)
+        self._pattern_keys = sum(term.coupling_signature() for term in self.contacts)
+        return A
+
+    def pattern_outdated(self) -> bool:
+        """True when a contact term has couplings the last matrix did not preallocate (collective)."""
+        sig = sum(term.coupling_signature() for term in self.contacts)
+        return bool(self.comm.allreduce(int(sig != self._pattern_keys), op=MPI.MAX))
+
+    # ---------------------------------------------------------------- steps
+    def uzawa_update(self) -> tuple[bool, dict]:
+        """Update the multipliers of every contact term; True when all have converged (collective)."""
+        done, info = True, {}
+        for term in self.contacts:
+            ok, i = term.uzawa_update()
+            done = done and ok
+            info[term.name] = i
+        return done, info
+
+    def begin_step(self) -> None:
+        """Start a load step (contact terms reset their per-step counters)."""
+        for term in self.contacts:
+            term.begin_step()
+
+    def commit_step(self) -> None:
+        """Accept the converged step: contact history and multipliers become the new reference."""
+        for term in self.contacts:
+            term.commit_step()
+
+    def restore_step(self) -> None:
+        """Undo a failed step: contact multipliers and history go back to the last commit."""
+        for term in self.contacts:
+            term.restore_step()
+
+    def reactions(self) -> dict[str, list[float]]:
+        """Force each Dirichlet boundary exerts on the body at the current state (collective)."""
+        b = create_vector(self.F_form)
+        self.update_contact(self.u.vector)
+        self.residual(self.u.vector, b, apply_bcs=False)
+        arr = b.array_r
+        out = {}
+        for d in self._dirichlet:
+            local = np.array([arr[dofs].sum() for dofs in d.dofs_by_component])
+            out[d.name] = [float(v) for v in self.comm.allreduce(local)]
+        b.destroy()
+        return out

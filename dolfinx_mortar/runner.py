@@ -1,0 +1,174 @@
+"""Run a validated scene: mesh → problem → contact terms → solver → output (collective).
+
+Everything that can be wrong with the input is checked before the output
+directory is touched; a run whose load stepping fails after its cutbacks stops
+with ``status = "failed"`` and keeps every finished step.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from time import perf_counter
+
+import numpy as np
+
+from .errors import ConvergenceError, SceneError
+from .mesh import load_mesh
+from .scene import Scene, check_components, check_groups
+
+log = logging.getLogger(__name__)
+
+
+def prepare(scene: Scene, comm):
+    """Load the mesh and build the problem with its contact terms; validates everything (collective).
+
+    Returns ``(problem, mesh_data)``. Raises SceneError on every rank for bad input.
+    """
+    m = scene.mesh
+    mesh_data = load_mesh(comm, file=m.file, generator=m.generator, params=m.params)
+    check_groups(scene, mesh_data.cell_groups, mesh_data.facet_groups)
+    check_components(scene, mesh_data.gdim)
+    from .problem import ContactProblem
+
+    used = {mat.region for mat in scene.materials}
+    unused = sorted(set(mesh_data.cell_groups) - used)
+    if unused:
+        raise SceneError("material", f"cell group(s) {', '.join(unused)} have no [[material]]")
+    problem = ContactProblem(
+        mesh_data,
+        [(mat.region, mat.model, mat.E, mat.nu) for mat in scene.materials],
+        [(d.boundary, d.components, d.path) for d in scene.dirichlet],
+        [(t.boundary, t.path) for t in scene.tractions],
+    )
+    if scene.contacts:
+        from .contact import MortarContact
+
+        for i, pair in enumerate(scene.contacts):
+            problem.add_contact(MortarContact.from_pair(problem, pair, key=f"contact[{i}]"))
+    return problem, mesh_data
+
+
+def modelled(scene: Scene, problem) -> dict:
+    """What the run models (summary.json ``modelled``)."""
+    return {
+        "dimension": problem.gdim,
+        "kinematics": scene.kinematics,
+        "materials": {m.region: m.model for m in scene.materials},
+        "displacement_degree": problem.degree,
+        "cell_type": problem.mesh_data.info.get("cell_type"),
+        "contact_pairs": {c.name: c.describe() for c in problem.contacts},
+        "friction": any(getattr(c, "frictional", False) for c in problem.contacts),
+    }
+
+
+def run(scene: Scene, comm, out_dir: Path | None = None, progress=None) -> dict:
+    """Run ``scene`` (collective). Returns the summary dictionary (also written to summary.json).
+
+    ``progress(step, record)`` is called on every rank after each converged step.
+    Raises SceneError before writing anything when the input is bad.
+    """
+    from .output import OutputWriter
+    from .solver import LoadStepper, NewtonSolver, SolverSettings
+
+    t_setup = perf_counter()
+    problem, _ = prepare(scene, comm)
+    out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
+    so = scene.solver
+    settings = SolverSettings(
+        so.rtol, so.atol, so.max_it, so.linear, so.line_search, dict(so.petsc)
+    )
+    summary = {
+        "scene": scene.title,
+        "source": str(scene.source),
+        "modelled": modelled(scene, problem),
+        "ranks": comm.size,
+        "dofs": problem.num_dofs,
+        "steps": [],
+    }
+    writer = OutputWriter(out_dir, problem, summary, scene.output.fields)
+    newton = NewtonSolver(problem, settings)
+    totals = {
+        "search": 0.0,
+        "contact_assembly": 0.0,
+        "bulk_assembly": 0.0,
+        "linear_solve": 0.0,
+        "total": 0.0,
+    }
+    problem.set_time(0.0)
+    writer.start()
+    totals["setup"] = perf_counter() - t_setup
+
+    def on_step(step, res):
+        record = step_record(problem, res)
+        for k in ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total"):
+            totals[k] += res.timings.get(k, 0.0)
+        writer.write_step(step, res.t, record)
+        if progress is not None:
+            progress(step, record)
+
+    uzawa_max = max([c.uzawa_max for c in problem.contacts] or [1])
+    stepper = LoadStepper(
+        problem,
+        newton,
+        scene.steps.t_end,
+        scene.steps.n,
+        scene.steps.max_cutbacks,
+        scene.steps.output_times,
+        uzawa_max=uzawa_max,
+        on_step=on_step,
+    )
+    status, error = "ok", None
+    try:
+        stepper.run()
+    except ConvergenceError as exc:
+        status, error = "failed", str(exc)
+        log.error("run stopped: %s", exc)
+    finally:
+        newton.destroy()
+    writer.finish(status, error, totals)
+    return writer.summary
+
+
+def step_record(problem, res) -> dict:
+    """The summary.json entry of a converged step (collective: reactions and contact sums)."""
+    rec = {
+        "t": res.t,
+        "converged": True,
+        "newton_iterations": res.newton_iterations,
+        "residual_norms": res.residual_norms,
+        "uzawa_rounds": res.uzawa_rounds,
+        "cutbacks": res.cutbacks,
+        "reactions": problem.reactions(),
+        "contact_force": {},
+        "max_penetration": 0.0,
+        "active_nodes": 0,
+        "stick_nodes": 0,
+        "slip_nodes": 0,
+    }
+    for term in problem.contacts:
+        s = term.statistics()
+        rec["contact_force"][term.name] = s["force"]
+        rec["max_penetration"] = max(rec["max_penetration"], s["max_penetration"])
+        for k in ("active_nodes", "stick_nodes", "slip_nodes"):
+            rec[k] += s[k]
+        if "dissipation" in s:
+            rec.setdefault("dissipation", 0.0)
+            rec["dissipation"] += s["dissipation"]
+    rec["wall_time"] = res.timings["total"]
+    rec["timings"] = {
+        k: res.timings.get(k, 0.0)
+        for k in ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total")
+    }
+    return rec
+
+
+def observed_order(norms) -> float:
+    """Observed order of convergence from the last three residual norms (nan if undefined)."""
+    r = [x for x in norms if x > 0]
+    if len(r) < 3:
+        return float("nan")
+    e0, e1, e2 = r[-3:]
+    if e1 >= e0 or e2 >= e1:
+        return float("nan")
+    return float(np.log(e2 / e1) / np.log(e1 / e0))

@@ -1,0 +1,1123 @@
+"""Scene files: parse and validate the declarative TOML input (see ``SCENES.md``).
+
+A scene is read with :mod:`tomllib` and turned into frozen dataclasses. This module
+is pure Python (no dolfinx, no MPI, no numpy) so that every rank can call it.
+Every problem is reported as a :class:`~dolfinx_mortar.errors.SceneError` whose
+``key`` is the dotted path of the offending entry (``material[1].nu``,
+``contact[0].recovery``, ``steps.n``, ...) and whose ``reason`` is one line.
+
+Units: the package is unit-agnostic; all quantities must use one consistent set
+(e.g. length in mm, force in N, stress in MPa). "time" is the pseudo-time of the
+load path.
+
+Schema (``*`` = required; defaults in brackets)::
+
+    title        string                      [scene file stem]
+    kinematics   "finite" | "small"          ["finite"]
+
+    [mesh] *     exactly one of:
+      file       string, gmsh .msh path, relative to the scene file's directory
+      generator  string, one of KNOWN_GENERATORS
+      [mesh.params]  table of int / float / string / bool (only with generator)
+
+    [[material]] *   one or more; distinct regions
+      region *   string, physical group of cells
+      model *    "neo-hookean" | "saint-venant-kirchhoff" | "linear-elastic"
+                 (kinematics "small" requires "linear-elastic"; "finite" forbids it)
+      E *        float > 0 (Young's modulus, stress units)
+      nu *       float in (-1, 0.5) (Poisson's ratio)
+
+    [[contact]]      zero or more
+      slave *    string, physical group of facets (carries the mixed fields)
+      master *   string, physical group of facets, != slave
+      friction   float >= 0, Coulomb coefficient mu           [0.0]
+      recovery   "unconstrained" | "lumped" | "constrained"   ["lumped"]
+      integration "element" | "segment" | "node"             ["element"]
+      penalty    float > 0 (stress / length) or "auto"        ["auto"]
+      penalty_tangential  float > 0 or "auto"                 [None = penalty]
+      uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
+      uzawa_max  int >= 1                                     [20]
+
+    [[dirichlet]]    zero or more
+      boundary * string, physical group of facets
+      components list of distinct int >= 0 (< gdim)          [None = all]
+      path *     rows [t, v_0, v_1, ...] (one value per component; length units)
+
+    [[traction]]     zero or more (reference-configuration traction vector)
+      boundary * string, physical group of facets
+      path *     rows [t, T_x, T_y(, T_z)] (stress units)
+
+    [steps]
+      t_end        float > 0                   [1.0]
+      n            int >= 1                    [10]
+      max_cutbacks int >= 0                    [6]
+      output_times list of float in (0, t_end] [[]]
+
+    [solver]
+      rtol         float > 0                   [1e-9]
+      atol         float >= 0                  [1e-10]
+      max_it       int >= 1                    [25]
+      linear       "mumps" | "lu" | "superlu_dist" | "petsc"  ["mumps"]
+                   ("petsc": use the [solver.petsc] options as given)
+      line_search  "basic" | "bt" | "l2" | "cp"               ["basic"]
+      [solver.petsc]  table of PETSc options: string / int / float / bool values
+
+    [output]
+      dir          string, relative to the scene file's directory
+                   ["results/<scene file stem>"]
+      fields       list of "displacement", "contact_pressure",
+                   "tangential_traction", "gap", "contact_state"   [all]
+
+Paths (load paths) are piecewise linear in t with constant extrapolation outside
+the listed times; rows must have equal length, finite numbers and strictly
+increasing t.
+
+Public API: :func:`load_scene`, :func:`parse_scene`, :func:`check_groups`,
+:func:`check_components`, :func:`interpolate_path`, the dataclasses, and the
+module-level :data:`KNOWN_GENERATORS` (which the mesh module may replace).
+"""
+
+from __future__ import annotations
+
+import bisect
+import difflib
+import math
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from dolfinx_mortar.errors import SceneError
+
+__all__ = [
+    "KNOWN_GENERATORS",
+    "LoadPath",
+    "MODELS",
+    "KINEMATICS",
+    "RECOVERIES",
+    "INTEGRATIONS",
+    "LINEAR_SOLVERS",
+    "LINE_SEARCHES",
+    "OUTPUT_FIELDS",
+    "Scene",
+    "MeshSpec",
+    "Material",
+    "ContactPair",
+    "DirichletBC",
+    "TractionBC",
+    "Steps",
+    "SolverOptions",
+    "OutputOptions",
+    "load_scene",
+    "parse_scene",
+    "check_groups",
+    "check_components",
+    "interpolate_path",
+]
+
+#: Names accepted by ``mesh.generator``. Looked up at parse time, so the mesh
+#: module may replace or extend it (``scene.KNOWN_GENERATORS = {...}``).
+KNOWN_GENERATORS: set[str] = {
+    "hertz2d",
+    "hertz3d",
+    "patch2d",
+    "patch3d",
+    "cattaneo2d",
+    "wedge2d",
+    "ironing2d",
+    "ironing3d",
+    "tied_curved2d",
+}
+
+#: Allowed values of ``kinematics``.
+KINEMATICS = ("finite", "small")
+#: Allowed values of ``material.model``.
+MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
+#: Allowed values of ``contact.recovery`` (METHOD.md section 3).
+RECOVERIES = ("unconstrained", "lumped", "constrained")
+#: Allowed values of ``contact.integration`` (METHOD.md section 7).
+INTEGRATIONS = ("element", "segment", "node")
+#: Allowed values of ``solver.linear``.
+LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
+#: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
+LINE_SEARCHES = ("basic", "bt", "l2", "cp")
+#: Allowed entries of ``output.fields`` (the default is all of them, in this order).
+OUTPUT_FIELDS = (
+    "displacement",
+    "contact_pressure",
+    "tangential_traction",
+    "gap",
+    "contact_state",
+)
+
+LoadPath = tuple[tuple[float, ...], ...]
+"""A load path: rows ``(t, v_0, v_1, ...)`` with strictly increasing ``t``."""
+
+
+# --------------------------------------------------------------------------- dataclasses
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """Where the mesh comes from: exactly one of ``file`` and ``generator`` is set.
+
+    Attributes
+    ----------
+    file:
+        Absolute path of a gmsh ``.msh`` file (resolved against the scene file's
+        directory), or ``None``.
+    generator:
+        Name of a built-in generator (one of :data:`KNOWN_GENERATORS`), or ``None``.
+    params:
+        Generator parameters (lengths in the scene's length unit, etc.); empty
+        for a mesh file.
+    """
+
+    file: Path | None
+    generator: str | None
+    params: dict[str, int | float | str | bool] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Material:
+    """A hyperelastic material assigned to one physical group of cells.
+
+    Attributes
+    ----------
+    region:
+        Name of the physical group of cells.
+    model:
+        ``"neo-hookean"``, ``"saint-venant-kirchhoff"`` or ``"linear-elastic"``.
+    E:
+        Young's modulus (stress unit, e.g. MPa), > 0.
+    nu:
+        Poisson's ratio (dimensionless), in (-1, 0.5).
+    """
+
+    region: str
+    model: str
+    E: float
+    nu: float
+
+
+@dataclass(frozen=True)
+class ContactPair:
+    """One slave/master contact pair.
+
+    Attributes
+    ----------
+    slave, master:
+        Names of physical groups of facets; the slave carries the mixed fields.
+    friction:
+        Coulomb coefficient mu (dimensionless), >= 0; 0 = frictionless.
+    recovery:
+        ``"unconstrained"``, ``"lumped"`` or ``"constrained"`` (METHOD.md section 3).
+    integration:
+        ``"element"``, ``"segment"`` or ``"node"`` (METHOD.md section 7).
+    penalty:
+        Normal penalty epsilon_N (stress per length, e.g. MPa/mm), > 0, or ``"auto"``.
+    penalty_tangential:
+        Tangential penalty epsilon_T (stress per length), > 0, ``"auto"``, or
+        ``None`` meaning "same as ``penalty``" (see :attr:`penalty_t`).
+    uzawa_tol:
+        Relative tolerance on the multiplier change (dimensionless), >= 0;
+        0 = pure penalty.
+    uzawa_max:
+        Maximum number of Uzawa augmentations per load step, >= 1.
+    """
+
+    slave: str
+    master: str
+    friction: float = 0.0
+    recovery: str = "lumped"
+    integration: str = "element"
+    penalty: float | str = "auto"
+    penalty_tangential: float | str | None = None
+    uzawa_tol: float = 1e-6
+    uzawa_max: int = 20
+
+    @property
+    def name(self) -> str:
+        """``"SLAVE:MASTER"``, the key used in ``summary.json``."""
+        return f"{self.slave}:{self.master}"
+
+    @property
+    def penalty_t(self) -> float | str:
+        """Effective tangential penalty: ``penalty_tangential``, else ``penalty``."""
+        return self.penalty if self.penalty_tangential is None else self.penalty_tangential
+
+
+@dataclass(frozen=True)
+class DirichletBC:
+    """Prescribed displacement on a physical group of facets.
+
+    Attributes
+    ----------
+    boundary:
+        Name of the physical group of facets.
+    components:
+        Constrained displacement components (0 = x, 1 = y, 2 = z), or ``None``
+        for all components.
+    path:
+        Rows ``(t, u_0, u_1, ...)``: one displacement value (length unit) per
+        constrained component, piecewise linear in t.
+    """
+
+    boundary: str
+    components: tuple[int, ...] | None
+    path: LoadPath
+
+    def value(self, t: float) -> tuple[float, ...]:
+        """Prescribed displacement values at time ``t`` (see :func:`interpolate_path`)."""
+        return interpolate_path(self.path, t)
+
+
+@dataclass(frozen=True)
+class TractionBC:
+    """Reference-configuration traction vector on a physical group of facets.
+
+    Attributes
+    ----------
+    boundary:
+        Name of the physical group of facets.
+    path:
+        Rows ``(t, T_x, T_y[, T_z])``: force per unit reference area (stress
+        unit), piecewise linear in t.
+    """
+
+    boundary: str
+    path: LoadPath
+
+    def value(self, t: float) -> tuple[float, ...]:
+        """Traction vector at time ``t`` (see :func:`interpolate_path`)."""
+        return interpolate_path(self.path, t)
+
+
+@dataclass(frozen=True)
+class Steps:
+    """Load stepping.
+
+    Attributes
+    ----------
+    t_end:
+        Final pseudo-time, > 0; steps run from 0 to ``t_end``.
+    n:
+        Initial number of equal steps, >= 1.
+    max_cutbacks:
+        How many times a failed step may be halved, >= 0.
+    output_times:
+        Extra times in (0, t_end] that must be hit exactly (sorted, distinct).
+    """
+
+    t_end: float = 1.0
+    n: int = 10
+    max_cutbacks: int = 6
+    output_times: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Nonlinear (SNES) and linear solver options.
+
+    Attributes
+    ----------
+    rtol:
+        SNES relative residual tolerance (dimensionless), > 0.
+    atol:
+        SNES absolute residual tolerance (force unit), >= 0.
+    max_it:
+        Maximum Newton iterations per solve, >= 1.
+    linear:
+        ``"mumps"``, ``"lu"``, ``"superlu_dist"`` (direct) or ``"petsc"`` (use
+        :attr:`petsc` as given).
+    line_search:
+        SNES line search: ``"basic"`` (full Newton step), ``"bt"``, ``"l2"``, ``"cp"``.
+    petsc:
+        Extra PETSc options, names without the leading ``-`` (``{"ksp_type": "gmres"}``).
+    """
+
+    rtol: float = 1e-9
+    atol: float = 1e-10
+    max_it: int = 25
+    linear: str = "mumps"
+    line_search: str = "basic"
+    petsc: dict[str, str | int | float | bool] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class OutputOptions:
+    """What to write, and where.
+
+    Attributes
+    ----------
+    dir:
+        Output directory (absolute when the scene came from a file; the command
+        line's ``--out`` overrides it).
+    fields:
+        Fields written per converged step, a subset of :data:`OUTPUT_FIELDS`.
+    """
+
+    dir: Path
+    fields: tuple[str, ...] = OUTPUT_FIELDS
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene (see the module docstring for the schema).
+
+    Attributes
+    ----------
+    title:
+        Free text (default: the scene file's stem).
+    kinematics:
+        ``"finite"`` or ``"small"``.
+    mesh, materials, contacts, dirichlet, tractions, steps, solver, output:
+        The sections of the scene file, in file order.
+    source:
+        Where the scene came from (file path, or ``"<dict>"``).
+    base_dir:
+        Directory against which relative paths were resolved.
+    """
+
+    title: str
+    kinematics: str
+    mesh: MeshSpec
+    materials: tuple[Material, ...]
+    contacts: tuple[ContactPair, ...]
+    dirichlet: tuple[DirichletBC, ...]
+    tractions: tuple[TractionBC, ...]
+    steps: Steps
+    solver: SolverOptions
+    output: OutputOptions
+    source: str
+    base_dir: Path
+
+    @property
+    def frictional(self) -> bool:
+        """True when any contact pair has a positive friction coefficient."""
+        return any(c.friction > 0.0 for c in self.contacts)
+
+
+# --------------------------------------------------------------------------- helpers
+
+_MISSING = object()
+
+
+def _key(prefix: str, name: str) -> str:
+    """Dotted key ``prefix.name`` (or ``name`` at top level)."""
+    return f"{prefix}.{name}" if prefix else name
+
+
+def _type_name(value: Any) -> str:
+    """TOML-flavoured name of the type of ``value`` for messages."""
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "float"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, Mapping):
+        return "table"
+    if isinstance(value, list | tuple):
+        return "array"
+    return type(value).__name__
+
+
+def _show(value: Any) -> str:
+    """Short representation of an offending value."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _suggest(word: str, choices: Sequence[str] | set[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest choice, or an empty string."""
+    if not choices:
+        return ""
+    close = difflib.get_close_matches(word, list(choices), n=len(choices), cutoff=0.6)
+    if not close:
+        return ""
+    # best score first; ties broken alphabetically (difflib prefers the larger string)
+    best = min(close, key=lambda c: (-difflib.SequenceMatcher(None, word, c).ratio(), c))
+    return f"; did you mean '{best}'?"
+
+
+def _check_keys(table: Mapping[str, Any], allowed: Sequence[str], prefix: str) -> None:
+    """Reject keys of ``table`` not in ``allowed``."""
+    for name in table:
+        if name not in allowed:
+            raise SceneError(
+                _key(prefix, name),
+                f"unknown key (allowed: {', '.join(allowed)}){_suggest(name, allowed)}",
+            )
+
+
+def _get(table: Mapping[str, Any], name: str, prefix: str, default: Any = _MISSING) -> Any:
+    """``table[name]``, or ``default``; a missing required key raises SceneError."""
+    if name in table:
+        return table[name]
+    if default is _MISSING:
+        raise SceneError(_key(prefix, name), "required key is missing")
+    return default
+
+
+def _table(value: Any, key: str) -> Mapping[str, Any]:
+    """Check that ``value`` is a table."""
+    if not isinstance(value, Mapping):
+        raise SceneError(key, f"expected a table, got {_type_name(value)} {_show(value)}")
+    return value
+
+
+def _tables(value: Any, key: str) -> list[Mapping[str, Any]]:
+    """Check that ``value`` is an array of tables (``[[key]]``)."""
+    if isinstance(value, Mapping):
+        raise SceneError(key, f"expected an array of tables ([[{key}]]), got a single table")
+    if not isinstance(value, list | tuple):
+        raise SceneError(key, f"expected an array of tables ([[{key}]]), got {_type_name(value)}")
+    for i, item in enumerate(value):
+        _table(item, f"{key}[{i}]")
+    return list(value)
+
+
+def _string(value: Any, key: str) -> str:
+    """Check that ``value`` is a string."""
+    if not isinstance(value, str):
+        raise SceneError(key, f"expected a string, got {_type_name(value)} {_show(value)}")
+    return value
+
+
+def _nonempty_string(value: Any, key: str) -> str:
+    """Check that ``value`` is a non-blank string."""
+    text = _string(value, key)
+    if not text.strip():
+        raise SceneError(key, "must not be empty")
+    return text
+
+
+def _choice(value: Any, key: str, choices: Sequence[str]) -> str:
+    """Check that ``value`` is one of ``choices``."""
+    text = _string(value, key)
+    if text not in choices:
+        options = ", ".join(f'"{c}"' for c in choices)
+        raise SceneError(
+            key, f"unknown value {text!r} (choices: {options}){_suggest(text, choices)}"
+        )
+    return text
+
+
+def _number(value: Any, key: str) -> float:
+    """Check that ``value`` is a finite number (int or float, not bool)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(key, f"expected a number, got {_type_name(value)} {_show(value)}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise SceneError(key, f"must be a finite number, got {x}")
+    return x
+
+
+def _integer(value: Any, key: str) -> int:
+    """Check that ``value`` is an integer (not bool, not float)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise SceneError(key, f"expected an integer, got {_type_name(value)} {_show(value)}")
+    return int(value)
+
+
+def _positive(value: Any, key: str) -> float:
+    """A finite number > 0."""
+    x = _number(value, key)
+    if x <= 0.0:
+        raise SceneError(key, f"must be > 0, got {x:g}")
+    return x
+
+
+def _nonnegative(value: Any, key: str) -> float:
+    """A finite number >= 0."""
+    x = _number(value, key)
+    if x < 0.0:
+        raise SceneError(key, f"must be >= 0, got {x:g}")
+    return x
+
+
+def _int_at_least(value: Any, key: str, low: int) -> int:
+    """An integer >= ``low``."""
+    n = _integer(value, key)
+    if n < low:
+        raise SceneError(key, f"must be >= {low}, got {n}")
+    return n
+
+
+def _penalty(value: Any, key: str) -> float | str:
+    """A penalty: a finite number > 0 or the string ``"auto"``."""
+    if isinstance(value, str):
+        if value != "auto":
+            raise SceneError(key, f'expected a number > 0 or "auto", got {value!r}')
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(
+            key, f'expected a number > 0 or "auto", got {_type_name(value)} {_show(value)}'
+        )
+    return _positive(value, key)
+
+
+def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
+    """A table whose values are scalars (int, float, string or bool)."""
+    table = _table(value, key)
+    out: dict[str, int | float | str | bool] = {}
+    for name, item in table.items():
+        if not isinstance(item, bool | int | float | str):
+            raise SceneError(
+                _key(key, name),
+                f"expected an integer, float, string or boolean, got {_type_name(item)}",
+            )
+        if isinstance(item, float) and not math.isfinite(item):
+            raise SceneError(_key(key, name), f"must be a finite number, got {item}")
+        out[name] = item
+    return out
+
+
+def _path(value: Any, key: str) -> LoadPath:
+    """Validate a load path: non-empty rows of equal length >= 2, finite, t increasing."""
+    if not isinstance(value, list | tuple):
+        raise SceneError(
+            key, f"expected an array of rows [t, v, ...], got {_type_name(value)} {_show(value)}"
+        )
+    if len(value) == 0:
+        raise SceneError(key, "path is empty: give at least one row [t, v, ...]")
+    rows: list[tuple[float, ...]] = []
+    for i, row in enumerate(value):
+        if not isinstance(row, list | tuple):
+            raise SceneError(
+                key, f"row {i} is not an array [t, v, ...]: got {_type_name(row)} {_show(row)}"
+            )
+        if len(row) < 2:
+            raise SceneError(key, f"row {i} has {len(row)} entries; need [t, v, ...]")
+        numbers = []
+        for j, item in enumerate(row):
+            if isinstance(item, bool) or not isinstance(item, int | float):
+                raise SceneError(
+                    key, f"row {i} entry {j} is not a number: {_type_name(item)} {_show(item)}"
+                )
+            x = float(item)
+            if not math.isfinite(x):
+                raise SceneError(key, f"row {i} entry {j} is not a finite number: {x}")
+            numbers.append(x)
+        if rows and len(numbers) != len(rows[0]):
+            raise SceneError(
+                key,
+                f"rows of unequal length: row 0 has {len(rows[0])} entries, "
+                f"row {i} has {len(numbers)}",
+            )
+        if rows and numbers[0] <= rows[-1][0]:
+            raise SceneError(
+                key,
+                f"path not sorted in t: t = {numbers[0]:g} in row {i} does not exceed "
+                f"t = {rows[-1][0]:g} in row {i - 1} (times must increase strictly)",
+            )
+        rows.append(tuple(numbers))
+    return tuple(rows)
+
+
+def interpolate_path(path: Sequence[Sequence[float]], t: float) -> tuple[float, ...]:
+    """Values of a piecewise-linear load path at time ``t``.
+
+    Parameters
+    ----------
+    path:
+        Rows ``(t_k, v_k0, v_k1, ...)`` with strictly increasing ``t_k``.
+    t:
+        Time at which to evaluate.
+
+    Returns
+    -------
+    tuple of float
+        ``(v_0(t), v_1(t), ...)``: linear interpolation between neighbouring rows,
+        constant extrapolation before the first and after the last row.
+    """
+    if len(path) == 0:
+        raise ValueError("interpolate_path: empty path")
+    times = [float(row[0]) for row in path]
+    if t <= times[0]:
+        return tuple(float(v) for v in path[0][1:])
+    if t >= times[-1]:
+        return tuple(float(v) for v in path[-1][1:])
+    k = bisect.bisect_right(times, t)  # times[k-1] <= t < times[k]
+    t0, t1 = times[k - 1], times[k]
+    w = (t - t0) / (t1 - t0)
+    row0, row1 = path[k - 1], path[k]
+    return tuple(
+        (1.0 - w) * float(a) + w * float(b) for a, b in zip(row0[1:], row1[1:], strict=True)
+    )
+
+
+# --------------------------------------------------------------------------- sections
+
+_TOP_KEYS = (
+    "title",
+    "kinematics",
+    "mesh",
+    "material",
+    "contact",
+    "dirichlet",
+    "traction",
+    "steps",
+    "solver",
+    "output",
+)
+_MESH_KEYS = ("file", "generator", "params")
+_MATERIAL_KEYS = ("region", "model", "E", "nu")
+_CONTACT_KEYS = (
+    "slave",
+    "master",
+    "friction",
+    "recovery",
+    "integration",
+    "penalty",
+    "penalty_tangential",
+    "uzawa_tol",
+    "uzawa_max",
+)
+_DIRICHLET_KEYS = ("boundary", "components", "path")
+_TRACTION_KEYS = ("boundary", "path")
+_STEPS_KEYS = ("t_end", "n", "max_cutbacks", "output_times")
+_SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc")
+_OUTPUT_KEYS = ("dir", "fields")
+
+
+def _resolve(text: str, base_dir: Path) -> Path:
+    """``text`` as a path, relative ones taken against ``base_dir``."""
+    p = Path(text).expanduser()
+    return p if p.is_absolute() else base_dir / p
+
+
+def _parse_mesh(value: Any, base_dir: Path) -> MeshSpec:
+    """Parse ``[mesh]``."""
+    table = _table(value, "mesh")
+    _check_keys(table, _MESH_KEYS, "mesh")
+    has_file, has_gen = "file" in table, "generator" in table
+    if has_file == has_gen:
+        which = "both" if has_file else "neither"
+        raise SceneError(
+            "mesh", f"give exactly one of mesh.file and mesh.generator ({which} given)"
+        )
+    if has_file:
+        if "params" in table:
+            raise SceneError("mesh.params", "only allowed with mesh.generator, not mesh.file")
+        text = _nonempty_string(table["file"], "mesh.file")
+        return MeshSpec(file=_resolve(text, base_dir), generator=None, params={})
+    name = _nonempty_string(table["generator"], "mesh.generator")
+    known = sorted(KNOWN_GENERATORS)
+    if name not in KNOWN_GENERATORS:
+        raise SceneError(
+            "mesh.generator",
+            f"unknown generator {name!r} (choices: {', '.join(known)}){_suggest(name, known)}",
+        )
+    params = _scalar_table(table.get("params", {}), "mesh.params")
+    return MeshSpec(file=None, generator=name, params=params)
+
+
+def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str) -> Material:
+    """Parse one ``[[material]]``."""
+    _check_keys(table, _MATERIAL_KEYS, prefix)
+    region = _nonempty_string(_get(table, "region", prefix), _key(prefix, "region"))
+    model = _choice(_get(table, "model", prefix), _key(prefix, "model"), MODELS)
+    E = _number(_get(table, "E", prefix), _key(prefix, "E"))
+    nu = _number(_get(table, "nu", prefix), _key(prefix, "nu"))
+    if E <= 0.0:
+        raise SceneError(_key(prefix, "E"), f"Young's modulus must be > 0, got {E:g}")
+    if not -1.0 < nu < 0.5:
+        raise SceneError(_key(prefix, "nu"), f"Poisson's ratio must lie in (-1, 0.5), got {nu:g}")
+    if kinematics == "small" and model != "linear-elastic":
+        raise SceneError(
+            _key(prefix, "model"),
+            f'kinematics = "small" needs model = "linear-elastic", got {model!r}',
+        )
+    if kinematics == "finite" and model == "linear-elastic":
+        raise SceneError(
+            _key(prefix, "model"),
+            'model "linear-elastic" needs kinematics = "small" (small-strain linear '
+            "elasticity in finite kinematics is not objective); use "
+            '"saint-venant-kirchhoff" or "neo-hookean"',
+        )
+    return Material(region=region, model=model, E=E, nu=nu)
+
+
+def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
+    """Parse one ``[[contact]]``."""
+    _check_keys(table, _CONTACT_KEYS, prefix)
+    slave = _nonempty_string(_get(table, "slave", prefix), _key(prefix, "slave"))
+    master = _nonempty_string(_get(table, "master", prefix), _key(prefix, "master"))
+    if slave == master:
+        raise SceneError(_key(prefix, "master"), f"slave and master are the same group {slave!r}")
+    friction = _number(table.get("friction", 0.0), _key(prefix, "friction"))
+    if friction < 0.0:
+        raise SceneError(
+            _key(prefix, "friction"), f"friction coefficient must be >= 0, got {friction:g}"
+        )
+    recovery = _choice(table.get("recovery", "lumped"), _key(prefix, "recovery"), RECOVERIES)
+    integration = _choice(
+        table.get("integration", "element"), _key(prefix, "integration"), INTEGRATIONS
+    )
+    penalty = _penalty(table.get("penalty", "auto"), _key(prefix, "penalty"))
+    penalty_t = table.get("penalty_tangential")
+    if penalty_t is not None:
+        penalty_t = _penalty(penalty_t, _key(prefix, "penalty_tangential"))
+    uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
+    uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
+    return ContactPair(
+        slave=slave,
+        master=master,
+        friction=friction,
+        recovery=recovery,
+        integration=integration,
+        penalty=penalty,
+        penalty_tangential=penalty_t,
+        uzawa_tol=uzawa_tol,
+        uzawa_max=uzawa_max,
+    )
+
+
+def _parse_dirichlet(table: Mapping[str, Any], prefix: str) -> DirichletBC:
+    """Parse one ``[[dirichlet]]``."""
+    _check_keys(table, _DIRICHLET_KEYS, prefix)
+    boundary = _nonempty_string(_get(table, "boundary", prefix), _key(prefix, "boundary"))
+    components: tuple[int, ...] | None = None
+    if "components" in table:
+        key = _key(prefix, "components")
+        raw = table["components"]
+        if not isinstance(raw, list | tuple):
+            raise SceneError(
+                key, f"expected an array of integers, got {_type_name(raw)} {_show(raw)}"
+            )
+        if len(raw) == 0:
+            raise SceneError(key, "must not be empty (omit the key to constrain all components)")
+        comps = []
+        for item in raw:
+            if isinstance(item, bool) or not isinstance(item, int):
+                raise SceneError(
+                    key, f"components must be integers, got {_type_name(item)} {_show(item)}"
+                )
+            if item < 0:
+                raise SceneError(key, f"component indices must be >= 0, got {item}")
+            comps.append(int(item))
+        if len(set(comps)) != len(comps):
+            raise SceneError(key, f"components must be distinct, got {comps}")
+        components = tuple(comps)
+    path_key = _key(prefix, "path")
+    path = _path(_get(table, "path", prefix), path_key)
+    if components is not None and len(path[0]) != 1 + len(components):
+        raise SceneError(
+            path_key,
+            f"rows must have 1 + {len(components)} entries [t, one value per component "
+            f"{list(components)}], got {len(path[0])}",
+        )
+    if components is None and len(path[0]) not in (3, 4):
+        raise SceneError(
+            path_key,
+            f"rows must be [t, u_x, u_y] (2D) or [t, u_x, u_y, u_z] (3D) when all components "
+            f"are constrained, got {len(path[0])} entries",
+        )
+    return DirichletBC(boundary=boundary, components=components, path=path)
+
+
+def _parse_traction(table: Mapping[str, Any], prefix: str) -> TractionBC:
+    """Parse one ``[[traction]]``."""
+    _check_keys(table, _TRACTION_KEYS, prefix)
+    boundary = _nonempty_string(_get(table, "boundary", prefix), _key(prefix, "boundary"))
+    path_key = _key(prefix, "path")
+    path = _path(_get(table, "path", prefix), path_key)
+    if len(path[0]) not in (3, 4):
+        raise SceneError(
+            path_key,
+            f"rows must be [t, T_x, T_y] (2D) or [t, T_x, T_y, T_z] (3D), "
+            f"got {len(path[0])} entries",
+        )
+    return TractionBC(boundary=boundary, path=path)
+
+
+def _parse_steps(value: Any) -> Steps:
+    """Parse ``[steps]``."""
+    table = _table(value, "steps")
+    _check_keys(table, _STEPS_KEYS, "steps")
+    t_end = _positive(table.get("t_end", 1.0), "steps.t_end")
+    n = _int_at_least(table.get("n", 10), "steps.n", 1)
+    max_cutbacks = _int_at_least(table.get("max_cutbacks", 6), "steps.max_cutbacks", 0)
+    raw = table.get("output_times", [])
+    if not isinstance(raw, list | tuple):
+        raise SceneError(
+            "steps.output_times",
+            f"expected an array of numbers, got {_type_name(raw)} {_show(raw)}",
+        )
+    times = []
+    for item in raw:
+        t = _number(item, "steps.output_times")
+        if not 0.0 < t <= t_end:
+            raise SceneError(
+                "steps.output_times", f"time {t:g} outside (0, t_end] = (0, {t_end:g}]"
+            )
+        times.append(t)
+    return Steps(
+        t_end=t_end, n=n, max_cutbacks=max_cutbacks, output_times=tuple(sorted(set(times)))
+    )
+
+
+def _parse_solver(value: Any) -> SolverOptions:
+    """Parse ``[solver]``."""
+    table = _table(value, "solver")
+    _check_keys(table, _SOLVER_KEYS, "solver")
+    rtol = _positive(table.get("rtol", 1e-9), "solver.rtol")
+    atol = _nonnegative(table.get("atol", 1e-10), "solver.atol")
+    max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
+    linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)
+    line_search = _choice(table.get("line_search", "basic"), "solver.line_search", LINE_SEARCHES)
+    petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
+    petsc = {name.lstrip("-"): item for name, item in petsc.items()}
+    return SolverOptions(
+        rtol=rtol, atol=atol, max_it=max_it, linear=linear, line_search=line_search, petsc=petsc
+    )
+
+
+def _parse_output(value: Any, base_dir: Path, stem: str) -> OutputOptions:
+    """Parse ``[output]``."""
+    table = _table(value, "output")
+    _check_keys(table, _OUTPUT_KEYS, "output")
+    out_dir = _nonempty_string(table.get("dir", f"results/{stem}"), "output.dir")
+    raw = table.get("fields", list(OUTPUT_FIELDS))
+    if not isinstance(raw, list | tuple):
+        raise SceneError(
+            "output.fields", f"expected an array of strings, got {_type_name(raw)} {_show(raw)}"
+        )
+    fields: list[str] = []
+    for item in raw:
+        name = _choice(item, "output.fields", OUTPUT_FIELDS)
+        if name in fields:
+            raise SceneError("output.fields", f"field {name!r} listed twice")
+        fields.append(name)
+    return OutputOptions(dir=_resolve(out_dir, base_dir), fields=tuple(fields))
+
+
+def _stem(source: str) -> str:
+    """Scene name from its source: the file stem, or ``"scene"`` for ``"<dict>"``-like."""
+    if source.startswith("<"):
+        return "scene"
+    return Path(source).stem or "scene"
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>") -> Scene:
+    """Validate a scene given as a (TOML-decoded) dictionary.
+
+    Parameters
+    ----------
+    data:
+        The decoded TOML document.
+    base_dir:
+        Directory against which relative ``mesh.file`` and ``output.dir`` are resolved
+        (the scene file's directory).
+    source:
+        Where the data came from, for ``Scene.source`` and the default title and
+        output directory (the file stem).
+
+    Raises
+    ------
+    SceneError
+        On the first problem found, naming the dotted key and the reason.
+    """
+    base_dir = Path(base_dir)
+    table = _table(data, "scene")
+    _check_keys(table, _TOP_KEYS, "")
+    stem = _stem(source)
+
+    title = _string(table.get("title", stem), "title")
+    kinematics = _choice(table.get("kinematics", "finite"), "kinematics", KINEMATICS)
+    mesh = _parse_mesh(_get(table, "mesh", ""), base_dir)
+
+    if "material" not in table:
+        raise SceneError("material", "required: at least one [[material]] table")
+    material_tables = _tables(table["material"], "material")
+    if not material_tables:
+        raise SceneError("material", "required: at least one [[material]] table")
+    materials = tuple(
+        _parse_material(t, f"material[{i}]", kinematics) for i, t in enumerate(material_tables)
+    )
+    seen: dict[str, int] = {}
+    for i, m in enumerate(materials):
+        if m.region in seen:
+            raise SceneError(
+                f"material[{i}].region",
+                f"region {m.region!r} already used by material[{seen[m.region]}]",
+            )
+        seen[m.region] = i
+
+    contacts = tuple(
+        _parse_contact(t, f"contact[{i}]")
+        for i, t in enumerate(_tables(table.get("contact", []), "contact"))
+    )
+    dirichlet = tuple(
+        _parse_dirichlet(t, f"dirichlet[{i}]")
+        for i, t in enumerate(_tables(table.get("dirichlet", []), "dirichlet"))
+    )
+    tractions = tuple(
+        _parse_traction(t, f"traction[{i}]")
+        for i, t in enumerate(_tables(table.get("traction", []), "traction"))
+    )
+    steps = _parse_steps(table.get("steps", {}))
+    solver = _parse_solver(table.get("solver", {}))
+    output = _parse_output(table.get("output", {}), base_dir, stem)
+    return Scene(
+        title=title,
+        kinematics=kinematics,
+        mesh=mesh,
+        materials=materials,
+        contacts=contacts,
+        dirichlet=dirichlet,
+        tractions=tractions,
+        steps=steps,
+        solver=solver,
+        output=output,
+        source=source,
+        base_dir=base_dir,
+    )
+
+
+_TOML_POSITION = re.compile(r"\(at line (\d+), column (\d+)\)")
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a TOML scene file.
+
+    Relative paths in the scene are resolved against the file's directory
+    (made absolute, so the result does not depend on later changes of directory).
+
+    Raises
+    ------
+    SceneError
+        When the file cannot be read, is not valid TOML (the message names the
+        file and line; ``key`` is ``""``), or fails validation (see
+        :func:`parse_scene`).
+    """
+    path = Path(path).expanduser()
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        raise SceneError("", f"cannot read scene file {path}: {reason}") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError("", f"{path}: not a UTF-8 text file ({exc.reason})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        match = _TOML_POSITION.search(message)
+        detail = _TOML_POSITION.sub("", message).strip()
+        if match:
+            where = f"{path}, line {match.group(1)}, column {match.group(2)}"
+            raise SceneError("", f"{where}: TOML syntax error: {detail}") from None
+        raise SceneError("", f"{path}: TOML syntax error: {detail}") from None
+    return parse_scene(data, path.resolve().parent, source=str(path))
+
+
+def _group_error(
+    key: str,
+    name: str,
+    wanted: str,
+    groups: Mapping[str, int],
+    other: Mapping[str, int],
+    other_kind: str,
+) -> SceneError:
+    """The SceneError for a physical group ``name`` missing from ``groups``."""
+    available = ", ".join(sorted(groups)) or "none"
+    if name in other:
+        return SceneError(
+            key,
+            f"physical group {name!r} is a {other_kind} group, not a {wanted} group "
+            f"(available {wanted} groups: {available})",
+        )
+    return SceneError(
+        key,
+        f"physical group {name!r} not found among {wanted} groups (available: {available})"
+        f"{_suggest(name, list(groups))}",
+    )
+
+
+def check_groups(
+    scene: Scene, cell_groups: Mapping[str, int], facet_groups: Mapping[str, int]
+) -> None:
+    """Check that every physical group the scene names exists with the right dimension.
+
+    Parameters
+    ----------
+    scene:
+        A parsed scene.
+    cell_groups, facet_groups:
+        Physical group name -> tag, for cells (dimension tdim) and facets (tdim - 1).
+
+    Raises
+    ------
+    SceneError
+        Naming the key (``material[0].region``, ``contact[1].slave``, ...) when a
+        material region is not a cell group or a contact / boundary name is not a
+        facet group, or when two materials share a region.
+    """
+    seen: dict[str, int] = {}
+    for i, m in enumerate(scene.materials):
+        key = f"material[{i}].region"
+        if m.region not in cell_groups:
+            raise _group_error(key, m.region, "cell", cell_groups, facet_groups, "facet")
+        if m.region in seen:
+            raise SceneError(key, f"region {m.region!r} already used by material[{seen[m.region]}]")
+        seen[m.region] = i
+
+    def facet(key: str, name: str) -> None:
+        if name not in facet_groups:
+            raise _group_error(key, name, "facet", facet_groups, cell_groups, "cell")
+
+    for i, c in enumerate(scene.contacts):
+        facet(f"contact[{i}].slave", c.slave)
+        facet(f"contact[{i}].master", c.master)
+    for i, d in enumerate(scene.dirichlet):
+        facet(f"dirichlet[{i}].boundary", d.boundary)
+    for i, tr in enumerate(scene.tractions):
+        facet(f"traction[{i}].boundary", tr.boundary)
+
+
+def check_components(scene: Scene, gdim: int) -> None:
+    """Check component indices and path row lengths against the mesh dimension.
+
+    Dirichlet components must lie in ``[0, gdim)``; Dirichlet path rows have
+    ``1 + len(components)`` entries (``1 + gdim`` when all components are
+    constrained); traction path rows have ``1 + gdim`` entries.
+
+    Raises
+    ------
+    SceneError
+        Naming ``dirichlet[i].components``, ``dirichlet[i].path`` or
+        ``traction[i].path``.
+    """
+    for i, d in enumerate(scene.dirichlet):
+        if d.components is not None:
+            bad = [c for c in d.components if not 0 <= c < gdim]
+            if bad:
+                raise SceneError(
+                    f"dirichlet[{i}].components",
+                    f"component {bad[0]} out of range [0, {gdim}) for a {gdim}D mesh",
+                )
+        n = gdim if d.components is None else len(d.components)
+        if len(d.path[0]) != 1 + n:
+            what = "all components" if d.components is None else f"components {list(d.components)}"
+            raise SceneError(
+                f"dirichlet[{i}].path",
+                f"rows must have 1 + {n} entries for {what} of a {gdim}D mesh, "
+                f"got {len(d.path[0])}",
+            )
+    for i, tr in enumerate(scene.tractions):
+        if len(tr.path[0]) != 1 + gdim:
+            raise SceneError(
+                f"traction[{i}].path",
+                f"rows must have 1 + {gdim} entries [t, traction vector] for a {gdim}D mesh, "
+                f"got {len(tr.path[0])}",
+            )

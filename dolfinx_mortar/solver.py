@@ -1,0 +1,264 @@
+"""The "how": Newton (PETSc SNES), Uzawa augmentation rounds and load stepping.
+
+- :class:`NewtonSolver` owns the SNES, its KSP and the Jacobian matrix. Every
+  residual evaluation first calls the problem's per-iteration hook
+  (``update_contact``: search and pairing), so pairs may change within a load
+  step. Options go to PETSc under the solver's prefix (default ``dm_``), so
+  ``-dm_snes_monitor`` or ``[solver.petsc] ksp_type = "gmres"`` work. The
+  matrix is rebuilt between solves when the contact couplings outgrow its
+  pattern. Failure raises :class:`~dolfinx_mortar.errors.ConvergenceError`.
+- :func:`solve_step` runs the Uzawa rounds around Newton for one load step.
+- :class:`LoadStepper` walks the time grid, cuts a failed step in half (up to
+  ``max_cutbacks`` times in a row) and calls back after every converged step.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from time import perf_counter
+
+import numpy as np
+from petsc4py import PETSc
+
+from .errors import ConvergenceError
+
+log = logging.getLogger(__name__)
+
+_LINEAR = {
+    "mumps": {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
+    "lu": {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
+    "superlu_dist": {
+        "ksp_type": "preonly",
+        "pc_type": "lu",
+        "pc_factor_mat_solver_type": "superlu_dist",
+    },
+    "petsc": {},
+}
+
+
+@dataclass
+class SolverSettings:
+    """Newton settings. ``petsc``: extra PETSc options (without prefix) that override the defaults."""
+
+    rtol: float = 1e-9
+    atol: float = 1e-10
+    max_it: int = 25
+    linear: str = "mumps"
+    line_search: str = "basic"
+    petsc: dict = field(default_factory=dict)
+    prefix: str = "dm_"
+
+
+class NewtonSolver:
+    """PETSc SNES (newtonls) on a :class:`~dolfinx_mortar.problem.ContactProblem` (collective).
+
+    Owns its SNES, KSP, residual vector and Jacobian matrix; call :meth:`destroy`
+    (or use as a context manager) to free them.
+    """
+
+    def __init__(self, problem, settings: SolverSettings | None = None):
+        self.problem = problem
+        self.settings = settings = settings or SolverSettings()
+        comm = problem.comm
+        self.snes = PETSc.SNES().create(comm)
+        self.snes.setOptionsPrefix(settings.prefix)
+        opts = PETSc.Options()
+        defaults = {
+            "snes_type": "newtonls",
+            "snes_linesearch_type": settings.line_search,
+            "snes_error_if_not_converged": False,
+            **_LINEAR[settings.linear],
+            **settings.petsc,
+        }
+        for k, v in defaults.items():
+            opts[settings.prefix + k] = v
+        self._b = _create_vector(problem)
+        self._A = problem.create_matrix()
+        self.snes.setFunction(self._F, self._b)
+        self.snes.setJacobian(self._J, self._A, self._A)
+        self.snes.setTolerances(
+            rtol=settings.rtol, atol=settings.atol, stol=0.0, max_it=settings.max_it
+        )
+        self.snes.setConvergenceHistory(length=settings.max_it + 1, reset=True)
+        self.snes.setFromOptions()
+        self.snes.getKSP().setFromOptions()
+        self.timings = {"linear_solve": 0.0}
+        self._n_solves = 0
+
+    def _F(self, snes, x, b):
+        t0 = perf_counter()
+        self.problem.update_contact(x)
+        self.problem.timings["search"] += perf_counter() - t0
+        self.problem.residual(x, b)
+
+    def _J(self, snes, x, A, P):
+        self.problem.jacobian(x, A)
+
+    def solve(self) -> tuple[int, list[float]]:
+        """Solve R(u) = 0 from the problem's current ``u`` (collective).
+
+        Returns (iterations, residual norms per iteration). Raises ConvergenceError.
+        """
+        p = self.problem
+        p.update_contact(p.u.vector)
+        if p.pattern_outdated():
+            self._A.destroy()
+            self._A = p.create_matrix()
+            self.snes.setJacobian(self._J, self._A, self._A)
+        x = p.u.vector.copy()
+        t_ksp0 = _ksp_time()
+        try:
+            self.snes.solve(None, x)
+        finally:
+            self.timings["linear_solve"] += _ksp_time() - t_ksp0
+        reason = self.snes.getConvergedReason()
+        its = self.snes.getIterationNumber()
+        norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
+        if reason <= 0 or not np.all(np.isfinite(norms)):
+            x.destroy()
+            raise ConvergenceError(
+                f"Newton did not converge (SNES reason {reason}, {its} iterations, "
+                f"residual {norms[-1] if norms else float('nan'):.3e})"
+            )
+        x.copy(p.u.vector)
+        p.u.x.scatter_forward()
+        x.destroy()
+        return its, norms
+
+    def destroy(self) -> None:
+        self.snes.destroy()
+        self._A.destroy()
+        self._b.destroy()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
+
+
+def _create_vector(problem):
+    from dolfinx.fem.petsc import create_vector
+
+    return create_vector(problem.F_form)
+
+
+def _ksp_time() -> float:
+    """Seconds spent in KSPSolve so far (PETSc's log event; logging is started on import)."""
+    return PETSc.Log.Event("KSPSolve").getPerfInfo()["time"]
+
+
+PETSc.Log.begin()
+
+
+@dataclass
+class StepResult:
+    """What one converged load step did (the ``steps`` entries of summary.json)."""
+
+    t: float
+    newton_iterations: list[int]
+    residual_norms: list[list[float]]
+    uzawa_rounds: int
+    cutbacks: int
+    wall_time: float
+    timings: dict
+    uzawa: list[dict] = field(default_factory=list)
+
+
+def solve_step(
+    problem, newton: NewtonSolver, uzawa_max: int
+) -> tuple[list[int], list[list[float]], list[dict]]:
+    """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle.
+
+    ``uzawa_max`` bounds the number of Newton solves. Raises ConvergenceError.
+    """
+    its_all, norms_all, info_all = [], [], []
+    for _ in range(max(uzawa_max, 1)):
+        its, norms = newton.solve()
+        its_all.append(its)
+        norms_all.append(norms)
+        done, info = problem.uzawa_update()
+        info_all.append(info)
+        if done:
+            return its_all, norms_all, info_all
+    raise ConvergenceError(
+        f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
+    )
+
+
+class LoadStepper:
+    """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective).
+
+    A step that raises ConvergenceError is retried from the last converged state
+    with half the time increment, at most ``max_cutbacks`` times in a row; then
+    the ConvergenceError propagates (every finished step has been passed to
+    ``on_step`` already). ``on_step(step_index, result)`` is called after each
+    converged step, with the problem holding the converged state.
+    """
+
+    def __init__(
+        self,
+        problem,
+        newton: NewtonSolver,
+        t_end: float,
+        n: int,
+        max_cutbacks: int = 6,
+        output_times=(),
+        uzawa_max: int = 1,
+        on_step: Callable | None = None,
+    ):
+        self.problem = problem
+        self.newton = newton
+        grid = set(np.linspace(0.0, t_end, n + 1)[1:].tolist()) | {float(t) for t in output_times}
+        self.targets = sorted(t for t in grid if 0.0 < t <= t_end * (1 + 1e-12))
+        self.max_cutbacks = max_cutbacks
+        self.uzawa_max = uzawa_max
+        self.on_step = on_step
+        self.results: list[StepResult] = []
+
+    def run(self) -> list[StepResult]:
+        p = self.problem
+        t = 0.0
+        step = 0
+        pending = list(self.targets)
+        saved = p.u.x.array.copy()
+        cutbacks = 0
+        while pending:
+            t_new = pending[0]
+            wall0 = perf_counter()
+            tim0 = dict(p.timings)
+            ls0 = self.newton.timings["linear_solve"]
+            p.set_time(t_new)
+            p.begin_step()
+            try:
+                its, norms, info = solve_step(p, self.newton, self.uzawa_max)
+            except ConvergenceError as exc:
+                p.u.x.array[:] = saved
+                p.set_time(t)
+                p.restore_step()
+                if cutbacks >= self.max_cutbacks:
+                    raise ConvergenceError(
+                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}"
+                    ) from exc
+                cutbacks += 1
+                pending.insert(0, 0.5 * (t + t_new))
+                log.warning(
+                    "step to t = %g failed (%s); cutting back to t = %g", t_new, exc, pending[0]
+                )
+                continue
+            pending.pop(0)
+            p.commit_step()
+            step += 1
+            t = t_new
+            saved = p.u.x.array.copy()
+            timings = {k: p.timings[k] - tim0[k] for k in p.timings}
+            timings["linear_solve"] = self.newton.timings["linear_solve"] - ls0
+            timings["total"] = perf_counter() - wall0
+            res = StepResult(t, its, norms, len(its), cutbacks, timings["total"], timings, info)
+            self.results.append(res)
+            cutbacks = 0
+            if self.on_step is not None:
+                self.on_step(step, res)
+        return self.results

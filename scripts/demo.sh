@@ -1,0 +1,9 @@
+#!/bin/sh
+# Command 1 of the README: install what is missing, then run the main job
+# (2D Hertz contact under mpirun -n 2; prints its error against the analytic solution).
+set -eu
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+sh "$REPO/scripts/install.sh"
+. "$REPO/scripts/env.sh"
+cd "$REPO"
+exec mpirun -n 2 $PY demos/demo_hertz2d.py "$@"

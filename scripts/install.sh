@@ -1,0 +1,38 @@
+#!/bin/sh
+# Install whatever is missing for dolfinx_mortar on Debian bookworm (run as root).
+# Idempotent: when everything is present it only checks, in about a second.
+#   - Debian packages of the stack (DESIGN.md): dolfinx 0.5.2, PETSc, MPI, gmsh, numba, ...
+#   - ruff (not packaged in bookworm) from PyPI, pinned
+#   - this checkout, installed in editable mode for Debian's /usr/bin/python3
+# numpy, petsc4py, mpi4py, numba and the FEniCS parts are NEVER taken from PyPI.
+set -eu
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+PY=/usr/bin/python3
+RUFF_VERSION=0.17.6
+PKGS="python3-dolfinx-real python3-petsc4py python3-mpi4py python3-gmsh python3-numba
+python3-scipy python3-matplotlib python3-pytest python3-pip python3-setuptools python3-wheel
+openmpi-bin"
+
+missing=""
+for p in $PKGS; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+        missing="$missing $p"
+    fi
+done
+if [ -n "$missing" ]; then
+    echo "install.sh: installing Debian packages:$missing"
+    apt-get update
+    DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $missing
+fi
+
+if [ "$($PY -m ruff --version 2>/dev/null)" != "ruff $RUFF_VERSION" ]; then
+    echo "install.sh: installing ruff $RUFF_VERSION from PyPI"
+    $PY -m pip install --break-system-packages --no-deps -q "ruff==$RUFF_VERSION"
+fi
+
+# Editable install of this very checkout (re-done when another checkout was installed).
+where=$(cd /tmp && $PY -c "import dolfinx_mortar, os; print(os.path.dirname(os.path.dirname(os.path.abspath(dolfinx_mortar.__file__))))" 2>/dev/null || true)
+if [ "$where" != "$REPO" ] || ! command -v dolfinx-mortar >/dev/null 2>&1; then
+    echo "install.sh: installing dolfinx_mortar from $REPO (editable)"
+    $PY -m pip install --break-system-packages --no-deps --no-build-isolation -q -e "$REPO"
+fi

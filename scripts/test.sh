@@ -1,0 +1,32 @@
+#!/bin/sh
+# Command 2 of the README (and the only thing .ci/run does): install what is missing,
+# then lint, then the whole test suite serially and the MPI tests on 2 and 3 ranks.
+# pytest's exit status 5 ("no tests collected") is a failure here.
+set -eu
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+sh "$REPO/scripts/install.sh"
+. "$REPO/scripts/env.sh"
+cd "$REPO"
+
+run_pytest() {
+    # $1: label, rest: command; fails on any non-zero status, including 5 (no tests)
+    label=$1; shift
+    echo "== $label"
+    set +e
+    "$@"
+    rc=$?
+    set -e
+    if [ $rc -eq 5 ]; then echo "test.sh: $label collected no tests" >&2; exit 1; fi
+    if [ $rc -ne 0 ]; then echo "test.sh: $label failed (exit $rc)" >&2; exit $rc; fi
+}
+
+echo "== ruff"
+$PY -m ruff check .
+$PY -m ruff format --check .
+
+run_pytest "pytest (serial)" $PY -m pytest -q -p no:cacheprovider tests
+for n in 2 3; do
+    run_pytest "pytest -m mpi (mpirun -n $n)" \
+        mpirun -n $n $PY -m mpi4py -m pytest -q -p no:cacheprovider -m mpi tests
+done
+echo "test.sh: all passed"

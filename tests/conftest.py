@@ -1,0 +1,86 @@
+"""Shared fixtures: small gmsh meshes with named groups, written by rank 0 only."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+
+def write_block_msh(
+    path: Path, dim: int, n: int = 3, quads: bool = False, order: int = 1, size=(2.0, 1.0, 1.0)
+):
+    """Block [0,Lx]×[0,Ly](×[0,Lz]) with groups body; left/right (x), bottom/top (y), back/front (z)."""
+    import gmsh
+
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add("block")
+    occ = gmsh.model.occ
+    if dim == 2:
+        occ.addRectangle(0, 0, 0, size[0], size[1])
+    else:
+        occ.addBox(0, 0, 0, *size)
+    occ.synchronize()
+    body = gmsh.model.getEntities(dim)
+    gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [e[1] for e in body]), "body")
+    names = {
+        (0, 0): "left",
+        (0, 1): "right",
+        (1, 0): "bottom",
+        (1, 1): "top",
+        (2, 0): "back",
+        (2, 1): "front",
+    }
+    groups = {}
+    for d, tag in gmsh.model.getEntities(dim - 1):
+        c = gmsh.model.occ.getCenterOfMass(d, tag)
+        for axis in range(dim):
+            for side in (0, 1):
+                if abs(c[axis] - side * size[axis]) < 1e-9:
+                    groups.setdefault(names[(axis, side)], []).append(tag)
+    for name, tags in groups.items():
+        gmsh.model.setPhysicalName(dim - 1, gmsh.model.addPhysicalGroup(dim - 1, tags), name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", min(size[:dim]) / n)
+    if quads:
+        for d in range(1, dim + 1):
+            for _, tag in gmsh.model.getEntities(d):
+                if d == 1:
+                    gmsh.model.mesh.setTransfiniteCurve(tag, n + 1)
+                elif d == 2:
+                    gmsh.model.mesh.setTransfiniteSurface(tag)
+                    gmsh.model.mesh.setRecombine(2, tag)
+                else:
+                    gmsh.model.mesh.setTransfiniteVolume(tag)
+    gmsh.model.mesh.generate(dim)
+    gmsh.model.mesh.setOrder(order)
+    gmsh.write(str(path))
+    gmsh.finalize()
+
+
+@pytest.fixture
+def shared_tmp(tmp_path_factory):
+    """A temporary directory with the same path on every rank (collective)."""
+    comm = MPI.COMM_WORLD
+    path = str(tmp_path_factory.mktemp("shared")) if comm.rank == 0 else None
+    path = comm.bcast(path, root=0)
+    return Path(path)
+
+
+@pytest.fixture
+def block_msh(shared_tmp):
+    """Factory: block_msh(dim, n, quads, order) -> path of a .msh file (collective)."""
+
+    def make(dim, n=3, quads=False, order=1, size=(2.0, 1.0, 1.0)):
+        path = shared_tmp / f"block{dim}_{n}_{int(quads)}_{order}.msh"
+        if MPI.COMM_WORLD.rank == 0 and not path.exists():
+            write_block_msh(path, dim, n, quads, order, size)
+        MPI.COMM_WORLD.barrier()
+        return path
+
+    return make
+
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")

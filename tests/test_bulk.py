@@ -1,0 +1,105 @@
+"""Bulk mechanics against closed-form homogeneous solutions, serial and under MPI.
+
+Homogeneous states are represented exactly by P1/Q1 (and P2) displacements, so
+the reactions must match the analytic values to round-off (1e-8 relative).
+"""
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from scipy.optimize import brentq
+
+from dolfinx_mortar.bulk import lame
+from dolfinx_mortar.runner import run
+from dolfinx_mortar.scene import parse_scene
+
+E, NU = 200.0, 0.3
+
+
+def _scene(msh, dim, model, kinematics, right_ux, out):
+    fixed = [
+        {"boundary": "left", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        {"boundary": "bottom", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        {"boundary": "right", "components": [0], "path": [[0.0, 0.0], [1.0, right_ux]]},
+    ]
+    if dim == 3:
+        fixed.append({"boundary": "back", "components": [2], "path": [[0.0, 0.0], [1.0, 0.0]]})
+    data = {
+        "kinematics": kinematics,
+        "mesh": {"file": str(msh)},
+        "material": [{"region": "body", "model": model, "E": E, "nu": NU}],
+        "dirichlet": fixed,
+        "steps": {"t_end": 1.0, "n": 2},
+        "output": {"dir": str(out), "fields": ["displacement"]},
+    }
+    return parse_scene(data, msh.parent)
+
+
+def _reaction_right(summary):
+    return summary["steps"][-1]["reactions"]["right"][0]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("quads", [False, True])
+def test_small_strain_uniaxial(block_msh, shared_tmp, dim, quads):
+    """Uniaxial stress by prescribed end displacement: F = E' δ/L · A (E' = E/(1−ν²) in plane strain)."""
+    msh = block_msh(dim, n=3, quads=quads)
+    delta, L = 1e-3, 2.0
+    s = run(
+        _scene(msh, dim, "linear-elastic", "small", delta, shared_tmp / f"out_s{dim}{quads}"),
+        MPI.COMM_WORLD,
+    )
+    assert s["status"] == "ok"
+    Eeff, area = (E / (1 - NU**2), 1.0) if dim == 2 else (E, 1.0)
+    expected = Eeff * delta / L * area
+    assert _reaction_right(s) == pytest.approx(expected, rel=1e-8)
+    assert s["steps"][-1]["reactions"]["left"][0] == pytest.approx(-expected, rel=1e-8)
+
+
+def _neo_hooke_uniaxial(stretch, dim):
+    """P11 of compressible neo-Hooke in uniaxial stress (plane strain in 2D): lateral P22 = 0 by root find."""
+    lm, mu = lame(E, NU)
+    nlat = 1 if dim == 2 else 2
+
+    def p22(l2):
+        J = stretch * l2**nlat
+        return mu * (l2 - 1 / l2) + lm * np.log(J) / l2
+
+    l2 = brentq(p22, 0.3, 1.5)
+    J = stretch * l2**nlat
+    return mu * (stretch - 1 / stretch) + lm * np.log(J) / stretch
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+def test_neo_hookean_uniaxial_stretch(block_msh, shared_tmp, dim):
+    """Finite stretch λ = 1.3: the reaction equals P11(λ)·A from the closed-form response."""
+    msh = block_msh(dim, n=2, quads=(dim == 2))
+    L, stretch = 2.0, 1.3
+    s = run(
+        _scene(msh, dim, "neo-hookean", "finite", (stretch - 1) * L, shared_tmp / f"out_nh{dim}"),
+        MPI.COMM_WORLD,
+    )
+    assert s["status"] == "ok"
+    assert _reaction_right(s) == pytest.approx(_neo_hooke_uniaxial(stretch, dim), rel=1e-8)
+
+
+@pytest.mark.mpi
+def test_svk_and_p2(block_msh, shared_tmp):
+    """Saint Venant–Kirchhoff on a P2 mesh: uniaxial stretch, P11 = λ S11 with S from E_green."""
+    msh = block_msh(2, n=2, order=2)
+    L, stretch = 2.0, 1.1
+    s = run(
+        _scene(
+            msh, 2, "saint-venant-kirchhoff", "finite", (stretch - 1) * L, shared_tmp / "out_svk"
+        ),
+        MPI.COMM_WORLD,
+    )
+    lm, mu = lame(E, NU)
+    # plane strain, S22 = 0: E11 = (λ²−1)/2; S22 = lm (E11+E22) + 2 mu E22 = 0
+    E11 = (stretch**2 - 1) / 2
+    E22 = -lm * E11 / (lm + 2 * mu)
+    S11 = lm * (E11 + E22) + 2 * mu * E11
+    assert s["modelled"]["displacement_degree"] == 2
+    assert _reaction_right(s) == pytest.approx(stretch * S11, rel=1e-8)
