@@ -194,24 +194,32 @@ class ContactProblem:
         self.timings["contact_assembly"] += perf_counter() - t0
 
     # ---------------------------------------------------------------- matrix
-    def create_matrix(self) -> PETSc.Mat:
-        """A new Jacobian matrix whose pattern covers the bulk and every contact coupling
-        currently known (collective). The caller owns (and destroys) it."""
-        rows, cols = [], []
+    def _contact_couplings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, cols, sorted unique keys) of the global block couplings of all contact terms."""
+        rows, cols = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
         for term in self.contacts:
             r, c = term.block_couplings()
             rows.append(r)
             cols.append(c)
-        r = np.concatenate(rows) if rows else None
-        c = np.concatenate(cols) if cols else None
-        A = self._pattern.create(r, c)
-        self._pattern_keys = sum(term.coupling_signature() for term in self.contacts)
-        return A
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        n = self.V.dofmap.index_map.size_global
+        return r, c, np.unique(r * n + c)
+
+    def create_matrix(self) -> PETSc.Mat:
+        """A new Jacobian matrix whose pattern covers the bulk and every contact coupling
+        currently possible (collective). The caller owns (and destroys) it."""
+        r, c, keys = self._contact_couplings()
+        self._pattern_keys = keys
+        return self._pattern.create(r, c)
 
     def pattern_outdated(self) -> bool:
-        """True when a contact term has couplings the last matrix did not preallocate (collective)."""
-        sig = sum(term.coupling_signature() for term in self.contacts)
-        return bool(self.comm.allreduce(int(sig != self._pattern_keys), op=MPI.MAX))
+        """True when the contact terms can now fill entries the last matrix did not
+        preallocate (collective)."""
+        if not self.contacts:
+            return False
+        _, _, keys = self._contact_couplings()
+        local = not np.isin(keys, self._pattern_keys, assume_unique=True).all()
+        return bool(self.comm.allreduce(int(local), op=MPI.MAX))
 
     # ---------------------------------------------------------------- steps
     def uzawa_update(self) -> tuple[bool, dict]:

@@ -138,6 +138,7 @@ def step_record(problem, res) -> dict:
         "newton_iterations": res.newton_iterations,
         "residual_norms": res.residual_norms,
         "uzawa_rounds": res.uzawa_rounds,
+        "uzawa": res.uzawa,
         "cutbacks": res.cutbacks,
         "reactions": problem.reactions(),
         "contact_force": {},

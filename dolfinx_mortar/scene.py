@@ -59,7 +59,7 @@ Schema (``*`` = required; defaults in brackets)::
       max_it       int >= 1                    [25]
       linear       "mumps" | "lu" | "superlu_dist" | "petsc"  ["mumps"]
                    ("petsc": use the [solver.petsc] options as given)
-      line_search  "basic" | "bt" | "l2" | "cp"               ["basic"]
+      line_search  "basic" | "bt" | "l2" | "cp"               ["l2"]
       [solver.petsc]  table of PETSc options: string / int / float / bool values
 
     [output]
@@ -333,7 +333,8 @@ class SolverOptions:
         ``"mumps"``, ``"lu"``, ``"superlu_dist"`` (direct) or ``"petsc"`` (use
         :attr:`petsc` as given).
     line_search:
-        SNES line search: ``"basic"`` (full Newton step), ``"bt"``, ``"l2"``, ``"cp"``.
+        SNES line search: ``"l2"`` (default: secant on the residual norm, robust when the
+        active set changes), ``"basic"`` (full Newton step), ``"bt"``, ``"cp"``.
     petsc:
         Extra PETSc options, names without the leading ``-`` (``{"ksp_type": "gmres"}``).
     """
@@ -342,7 +343,7 @@ class SolverOptions:
     atol: float = 1e-10
     max_it: int = 25
     linear: str = "mumps"
-    line_search: str = "basic"
+    line_search: str = "l2"
     petsc: dict[str, str | int | float | bool] = field(default_factory=dict)
 
 
@@ -871,7 +872,7 @@ def _parse_solver(value: Any) -> SolverOptions:
     atol = _nonnegative(table.get("atol", 1e-10), "solver.atol")
     max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
     linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)
-    line_search = _choice(table.get("line_search", "basic"), "solver.line_search", LINE_SEARCHES)
+    line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
     petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
     return SolverOptions(

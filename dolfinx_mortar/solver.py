@@ -46,7 +46,7 @@ class SolverSettings:
     atol: float = 1e-10
     max_it: int = 25
     linear: str = "mumps"
-    line_search: str = "basic"
+    line_search: str = "l2"
     petsc: dict = field(default_factory=dict)
     prefix: str = "dm_"
 
@@ -146,8 +146,9 @@ def _create_vector(problem):
 
 
 def _ksp_time() -> float:
-    """Seconds spent in KSPSolve so far (PETSc's log event; logging is started on import)."""
-    return PETSc.Log.Event("KSPSolve").getPerfInfo()["time"]
+    """Seconds spent in linear solves so far: PETSc's KSPSolve and PCSetUp events (the LU
+    factorisation is logged under PCSetUp, outside KSPSolve). Logging starts on import."""
+    return sum(PETSc.Log.Event(e).getPerfInfo()["time"] for e in ("KSPSolve", "PCSetUp"))
 
 
 PETSc.Log.begin()
@@ -208,6 +209,7 @@ class LoadStepper:
         output_times=(),
         uzawa_max: int = 1,
         on_step: Callable | None = None,
+        predictor: bool = True,
     ):
         self.problem = problem
         self.newton = newton
@@ -216,6 +218,7 @@ class LoadStepper:
         self.max_cutbacks = max_cutbacks
         self.uzawa_max = uzawa_max
         self.on_step = on_step
+        self.predictor = predictor
         self.results: list[StepResult] = []
 
     def run(self) -> list[StepResult]:
@@ -224,12 +227,17 @@ class LoadStepper:
         step = 0
         pending = list(self.targets)
         saved = p.u.x.array.copy()
+        previous = None  # (u, t) of the step before the last converged one
         cutbacks = 0
         while pending:
             t_new = pending[0]
             wall0 = perf_counter()
             tim0 = dict(p.timings)
             ls0 = self.newton.timings["linear_solve"]
+            if self.predictor and previous is not None:
+                # linear extrapolation of the last increment: u = u_n + (Δt/Δt_n)(u_n − u_{n−1})
+                u_prev, t_prev = previous
+                p.u.x.array[:] = saved + (t_new - t) / (t - t_prev) * (saved - u_prev)
             p.set_time(t_new)
             p.begin_step()
             try:
@@ -251,6 +259,7 @@ class LoadStepper:
             pending.pop(0)
             p.commit_step()
             step += 1
+            previous = (saved, t)
             t = t_new
             saved = p.u.x.array.copy()
             timings = {k: p.timings[k] - tim0[k] for k in p.timings}

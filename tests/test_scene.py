@@ -170,7 +170,7 @@ def test_example_parses_with_documented_values():
         25,
         "mumps",
     )
-    assert s.solver.line_search == "basic" and s.solver.petsc == {}
+    assert s.solver.line_search == "l2" and s.solver.petsc == {}
     assert s.output.dir == BASE / "results" / "hertz2d"
     assert s.output.fields == OUTPUT_FIELDS
     assert s.source == "/scenes/hertz.toml" and s.base_dir == BASE
@@ -210,7 +210,7 @@ def test_defaults_are_filled():
     assert s.steps == scene_mod.Steps(t_end=1.0, n=10, max_cutbacks=6, output_times=())
     assert s.solver.rtol == 1e-9 and s.solver.atol == 1e-10
     assert s.solver.max_it == 25 and s.solver.linear == "mumps"
-    assert s.solver.line_search == "basic" and s.solver.petsc == {}
+    assert s.solver.line_search == "l2" and s.solver.petsc == {}
     assert s.output.dir == BASE / "results" / "patch"
     assert s.output.fields == (
         "displacement",

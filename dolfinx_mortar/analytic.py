@@ -1,0 +1,202 @@
+"""Analytic reference solutions for the contact benchmarks (METHOD.md section 8).
+
+Pure NumPy; used by demos, tests and benchmarks. Conventions: pressures and
+tractions are positive in compression, loads ``P`` are positive pressing
+forces (per unit length in 2D / plane strain), lengths and moduli in the
+scene's units.
+
+Effective quantities::
+
+    1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2,     1/R* = 1/R1 + 1/R2
+
+Functions
+---------
+effective_modulus, effective_radius
+hertz2d, hertz2d_pressure                    line contact (plane strain)
+hertz3d, hertz3d_pressure                    point contact
+cattaneo_mindlin2d_stick, cattaneo_mindlin2d partial slip, line contact
+cattaneo_mindlin3d, cattaneo_mindlin3d_traction   partial slip, point contact
+torsion_full_slip                            torque of a fully sliding Hertz contact
+wedge_slip_ratio                             gross-slip force ratio of a block on a wedge
+
+Reference numbers (BENCHMARKS.md): a cylinder of R = 8 on a block, both
+E = 200, nu = 0.3, P = 10: E* = 109.89, a = 0.9628, p0 = 6.612.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "cattaneo_mindlin2d",
+    "cattaneo_mindlin2d_stick",
+    "cattaneo_mindlin3d",
+    "cattaneo_mindlin3d_traction",
+    "effective_modulus",
+    "effective_radius",
+    "hertz2d",
+    "hertz2d_pressure",
+    "hertz3d",
+    "hertz3d_pressure",
+    "torsion_full_slip",
+    "wedge_slip_ratio",
+]
+
+
+def effective_modulus(E1: float, nu1: float, E2: float | None = None, nu2: float | None = None):
+    """Contact modulus ``E*`` with ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2``.
+
+    ``E2 = None`` (default) means the second body is of the same material as the
+    first (``nu2`` then defaults to ``nu1``): ``E* = E/(2(1 - nu^2))``.
+    ``E2 = inf`` is a rigid second body: ``E* = E1/(1 - nu1^2)``.
+    """
+    if E2 is None:
+        E2 = E1
+        nu2 = nu1 if nu2 is None else nu2
+    elif nu2 is None:
+        nu2 = nu1
+    if E1 <= 0.0 or E2 <= 0.0:
+        raise ValueError("Young's moduli must be positive")
+    inv = (1.0 - nu1**2) / E1 + (0.0 if math.isinf(E2) else (1.0 - nu2**2) / E2)
+    return 1.0 / inv
+
+
+def effective_radius(R1: float, R2: float = math.inf) -> float:
+    """Effective radius ``R*`` with ``1/R* = 1/R1 + 1/R2`` (``R2 = inf``: flat)."""
+    return 1.0 / (1.0 / R1 + (0.0 if math.isinf(R2) else 1.0 / R2))
+
+
+# ---------------------------------------------------------------------------
+# Hertz
+# ---------------------------------------------------------------------------
+
+
+def hertz2d(P: float, R_star: float, E_star: float) -> dict:
+    """Hertz line contact (plane strain), load ``P`` per unit length.
+
+    ``a = 2 sqrt(P R*/(pi E*))`` (contact half-width), ``p0 = 2P/(pi a)``
+    (peak pressure). Returns ``{"a": a, "p0": p0}``.
+    """
+    a = 2.0 * math.sqrt(P * R_star / (math.pi * E_star))
+    return {"a": a, "p0": 2.0 * P / (math.pi * a)}
+
+
+def hertz2d_pressure(x, P: float, R_star: float, E_star: float):
+    """Hertz line-contact pressure ``p(x) = p0 sqrt(1 - x^2/a^2)`` for |x| < a, 0 outside.
+
+    ``x`` is the distance from the contact centre along the surface (array or scalar).
+    """
+    h = hertz2d(P, R_star, E_star)
+    return _ellipse(x, h["a"], h["p0"])
+
+
+def hertz3d(P: float, R_star: float, E_star: float) -> dict:
+    """Hertz point contact of spheres, total load ``P``.
+
+    ``a = (3 P R*/(4 E*))^(1/3)`` (contact radius), ``p0 = 3P/(2 pi a^2)`` (peak
+    pressure), ``delta = a^2/R*`` (approach of distant points). Returns
+    ``{"a": a, "p0": p0, "delta": delta}``.
+    """
+    a = (3.0 * P * R_star / (4.0 * E_star)) ** (1.0 / 3.0)
+    return {"a": a, "p0": 3.0 * P / (2.0 * math.pi * a**2), "delta": a**2 / R_star}
+
+
+def hertz3d_pressure(r, P: float, R_star: float, E_star: float):
+    """Hertz point-contact pressure ``p(r) = p0 sqrt(1 - r^2/a^2)`` for r < a, 0 outside."""
+    h = hertz3d(P, R_star, E_star)
+    return _ellipse(r, h["a"], h["p0"])
+
+
+def _ellipse(x, a: float, p0: float):
+    """``p0 sqrt(1 - x^2/a^2)`` for |x| < a, else 0 (scalar in, scalar out)."""
+    x = np.asarray(x, dtype=float)
+    out = p0 * np.sqrt(np.clip(1.0 - (x / a) ** 2, 0.0, None)) if a > 0 else np.zeros_like(x)
+    return out[()] if out.ndim == 0 else out
+
+
+# ---------------------------------------------------------------------------
+# Cattaneo-Mindlin partial slip
+# ---------------------------------------------------------------------------
+
+
+def _slip_fraction(P: float, Q: float, mu: float) -> float:
+    """``|Q|/(mu P)``, checked to lie in [0, 1]."""
+    if P <= 0.0:
+        raise ValueError("the normal load P must be positive")
+    if Q == 0.0:
+        return 0.0
+    if mu <= 0.0 or abs(Q) > mu * P * (1.0 + 1e-12):
+        raise ValueError(f"|Q| = {abs(Q)} exceeds mu P = {mu * P}: gross sliding")
+    return min(abs(Q) / (mu * P), 1.0)
+
+
+def cattaneo_mindlin2d_stick(P: float, Q: float, mu: float, R_star: float, E_star: float):
+    """Stick zone of a 2D (line) Cattaneo-Mindlin contact.
+
+    Same material on both sides, constant ``P``, tangential force ``Q`` rising
+    monotonically from 0 with ``|Q| <= mu P``: ``c/a = sqrt(1 - |Q|/(mu P))``.
+    Returns ``{"a": a, "p0": p0, "c": c}`` (``a``, ``p0`` from :func:`hertz2d`).
+    """
+    h = hertz2d(P, R_star, E_star)
+    c = h["a"] * math.sqrt(1.0 - _slip_fraction(P, Q, mu))
+    return {"a": h["a"], "p0": h["p0"], "c": c}
+
+
+def cattaneo_mindlin2d(x, P: float, Q: float, mu: float, R_star: float, E_star: float):
+    """Tangential traction ``q(x)`` of a 2D Cattaneo-Mindlin contact.
+
+    ``q(x) = mu p0 [sqrt(1 - x^2/a^2) - (c/a) sqrt(1 - x^2/c^2)]`` for |x| <= c
+    (stick), ``q(x) = mu p(x)`` for c <= |x| <= a (slip), 0 outside; with ``a``,
+    ``p0`` of :func:`hertz2d` and ``c`` of :func:`cattaneo_mindlin2d_stick`.
+    ``q`` has the sign of ``Q``; its integral over x is ``Q``.
+    """
+    s = cattaneo_mindlin2d_stick(P, Q, mu, R_star, E_star)
+    return _cm_traction(x, s["a"], s["c"], mu * s["p0"], Q)
+
+
+def cattaneo_mindlin3d(P: float, Q: float, mu: float) -> float:
+    """Stick ratio ``c/a = (1 - |Q|/(mu P))^(1/3)`` of a 3D (point) Cattaneo-Mindlin contact."""
+    return (1.0 - _slip_fraction(P, Q, mu)) ** (1.0 / 3.0)
+
+
+def cattaneo_mindlin3d_traction(r, P: float, Q: float, mu: float, R_star: float, E_star: float):
+    """Tangential traction ``q(r)`` of a 3D Cattaneo-Mindlin contact.
+
+    ``q(r) = mu p0 [sqrt(1 - r^2/a^2) - (c/a) sqrt(1 - r^2/c^2)]`` for r <= c,
+    ``mu p(r)`` for c <= r <= a, 0 outside, with ``a``, ``p0`` of :func:`hertz3d`
+    and ``c/a`` of :func:`cattaneo_mindlin3d`; it integrates over the disc to ``Q``.
+    """
+    h = hertz3d(P, R_star, E_star)
+    c = h["a"] * cattaneo_mindlin3d(P, Q, mu)
+    return _cm_traction(r, h["a"], c, mu * h["p0"], Q)
+
+
+def _cm_traction(x, a: float, c: float, q0: float, Q: float):
+    x = np.asarray(x, dtype=float)
+    q = _ellipse(x, a, q0) - (c / a) * _ellipse(x, c, q0) if c > 0 else _ellipse(x, a, q0)
+    q = np.asarray(q) * (1.0 if Q >= 0 else -1.0)
+    return q[()] if q.ndim == 0 else q
+
+
+# ---------------------------------------------------------------------------
+# Torsion, wedge
+# ---------------------------------------------------------------------------
+
+
+def torsion_full_slip(mu: float, P: float, a: float) -> float:
+    """Torque of a Hertz point contact sliding everywhere in torsion:
+    ``M = (3 pi/16) mu P a`` (integral of ``mu p(r) r`` over the disc of radius ``a``)."""
+    return 3.0 * math.pi / 16.0 * mu * P * a
+
+
+def wedge_slip_ratio(tan_alpha: float, mu: float) -> float:
+    """Horizontal-to-vertical force ratio at gross slip of a block pushed up a wedge:
+    ``F_x/F_y = (tan alpha + mu)/(1 - mu tan alpha)``.
+
+    Infinite when ``mu tan alpha >= 1`` (self-locking: no horizontal push makes
+    the block slide up).
+    """
+    den = 1.0 - mu * tan_alpha
+    return math.inf if den <= 0.0 else (tan_alpha + mu) / den

@@ -1,0 +1,605 @@
+"""MortarContact: one slave/master pair of the three-field mixed formulation (frictionless part).
+
+Per Newton iteration (``update``): fetch the current displacements of the
+slave facets and master candidates, refresh the master ghost layer when the
+bodies moved by more than a quarter of the search margin, pair the slave
+quadrature points with master facets (:mod:`dolfinx_mortar.kernels.mortar`),
+and recover the nodal mixed variables. Lumped recovery (METHOD.md §3):
+
+    A^I = ∫ Φ_I dA₀,   γ^I = G^I / A^I,   p^I = ⟨λ^I − ε^I γ^I⟩,
+
+the stationary point of the mixed functional with the mortar mass matrix
+lumped. The contact residual and its exact tangent are
+
+    R_c = −Σ_I p^I B^I,
+    K_c = Σ_I (ε^I H^I / A^I) B^I ⊗ B^I − Σ_I p^I ∂²G^I/∂u²,   H^I = [λ^I − ε^I γ^I ≥ 0].
+
+Uzawa augmentation (METHOD.md §5): after a converged Newton solve λ^I ← p^I
+until max_I |p^I − λ^I| ≤ uzawa_tol · max_I p^I; ``uzawa_tol = 0`` is pure
+penalty. Each rank computes the nodes it owns (it receives every slave facet
+touching them), so nodal sums need no reverse communication and the results
+do not depend on the number of ranks.
+
+Integrals are over the reference slave surface: p^I is a nominal pressure
+(force per unit reference area), as the CSV output reports it.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .errors import SceneError
+from .kernels import mortar as kmortar
+from .kernels.shape import QUAD1, QUAD2, TRIANGLE1, TRIANGLE2
+from .layout import FacetArrays
+from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
+from .surface import extract_facets, mixed_nodes, quadrature
+
+log = logging.getLogger(__name__)
+
+RECOVERIES = ("lumped",)
+INTEGRATIONS = ("element", "segment")
+#: ``penalty = "auto"``: ε_N^I = AUTO_PENALTY_FACTOR · E* / h_I (h_I: mean size of the
+#: slave facets around node I, E* the plane-strain effective modulus of the two bodies).
+AUTO_PENALTY_FACTOR = 100.0
+
+
+def _plane_modulus(E: float, nu: float) -> float:
+    return E / (1.0 - nu**2)
+
+
+class MortarContact:
+    """Frictionless mortar contact between two facet groups (collective construction).
+
+    Parameters
+    ----------
+    problem: the :class:`~dolfinx_mortar.problem.ContactProblem`.
+    slave, master: facet group names.
+    penalty: ε_N (stress per length) or "auto" (see :data:`AUTO_PENALTY_FACTOR`).
+    recovery, integration: see METHOD.md §3 and §7.
+    uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
+    quadrature_degree: of the slave facet rule (default 4 for linear, 6 for quadratic facets).
+    key: scene key used in error messages.
+    """
+
+    frictional = False
+
+    def __init__(
+        self,
+        problem,
+        slave: str,
+        master: str,
+        penalty="auto",
+        recovery="lumped",
+        integration="element",
+        uzawa_tol=1e-6,
+        uzawa_max=20,
+        quadrature_degree=None,
+        key="contact",
+    ):
+        if recovery not in RECOVERIES:
+            raise SceneError(
+                f"{key}.recovery",
+                f"recovery {recovery!r} is not available yet (have: {', '.join(RECOVERIES)})",
+            )
+        if integration not in INTEGRATIONS:
+            raise SceneError(
+                f"{key}.integration",
+                f"integration {integration!r} is not available yet (have: {', '.join(INTEGRATIONS)})",
+            )
+        self.problem = problem
+        self.comm = comm = problem.comm
+        self.slave_name, self.master_name = slave, master
+        self.name = f"{slave}:{master}"
+        self.recovery, self.integration = recovery, integration
+        self.uzawa_tol, self.uzawa_max = float(uzawa_tol), int(uzawa_max)
+        self.bs = problem.V.dofmap.index_map_bs
+        self.gdim = problem.gdim
+        imap = problem.V.dofmap.index_map
+        self.ranges = np.asarray(
+            comm.allgather(imap.local_range[0]) + [imap.size_global], dtype=np.int64
+        )
+
+        slave_local, slave_cells = extract_facets(problem, slave)
+        master_local, master_cells = extract_facets(problem, master)
+        for name, fa, k in ((slave, slave_local, "slave"), (master, master_local, "master")):
+            if comm.allreduce(fa.num_facets) == 0:
+                raise SceneError(f"{key}.{k}", f"contact surface {name!r} is empty")
+        self.ftype = slave_local.ftype
+        self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
+        self.mixed = mixed_nodes(self.ftype)
+        self.slave = distribute_slave_facets(comm, slave_local, self.mixed, self.ranges)
+        self.master_local = master_local
+        nsf = self.slave.num_facets
+
+        # quadrature: the element rule on every slave facet, or the rule per segment
+        qdeg = quadrature_degree or (4 if problem.degree == 1 else 6)
+        self.rule = quadrature(self.ftype, qdeg)
+        if integration == "element":
+            nq = self.rule[1].size
+            self.qp_xi = np.zeros((nsf, nq, self.rule[0].shape[1]))
+            self.qp_w = np.zeros((nsf, nq))
+            if nsf:
+                kmortar.reference_weights(
+                    self.ftype, self.slave.X, *self.rule, self.qp_xi, self.qp_w
+                )
+        else:
+            from .kernels.shape import tdim
+
+            seg_cell = "interval" if tdim(self.ftype) == 1 else "triangle"
+            self.seg_rule = quadrature(0 if seg_cell == "interval" else TRIANGLE1, qdeg)
+            self.seg_capacity = 8 * self.seg_rule[1].size
+
+        # owned slave nodes (mixed-field nodes) and one facet-local occurrence of each
+        lo, hi = self.ranges[comm.rank], self.ranges[comm.rank + 1]
+        mb = self.slave.blocks[:, self.mixed]
+        owned = (mb >= lo) & (mb < hi)
+        self.node_blocks = np.unique(mb[owned])
+        self.node_of = np.where(owned, np.searchsorted(self.node_blocks, mb), -1).astype(np.int64)
+        n = self.node_blocks.size
+        self.n_global_nodes = comm.allreduce(n)
+        fidx, iidx = np.nonzero(self.node_of >= 0)
+        first = np.full(n, -1, np.int64)
+        first[self.node_of[fidx, iidx][::-1]] = np.arange(fidx.size)[::-1]
+        self._node_at = (
+            (fidx[first], self.mixed[iidx[first]]) if n else (np.empty(0, int), np.empty(0, int))
+        )
+
+        # sizes: per slave facet (search reach, accepted penetration) and per node (penalty)
+        self.h_facet = self._facet_sizes(self.slave.X)
+        h_node = np.zeros(n)
+        cnt = np.zeros(n)
+        for i in range(len(self.mixed)):
+            nodes = self.node_of[:, i]
+            sel = nodes >= 0
+            np.add.at(h_node, nodes[sel], self.h_facet[sel])
+            np.add.at(cnt, nodes[sel], 1.0)
+        self.h_node = h_node / np.maximum(cnt, 1.0)
+        h_all = self._facet_sizes(slave_local.X)
+        self.h_mean = comm.allreduce(h_all.sum()) / max(comm.allreduce(h_all.size), 1)
+        self.h_slave_max = comm.allreduce(h_all.max(initial=0.0), op=MPI.MAX)
+        self.margin = 2.0 * self.h_slave_max
+        E_s = self._surface_modulus(slave_cells)
+        E_m = self._surface_modulus(master_cells)
+        self.E_star = 1.0 / (1.0 / E_s + 1.0 / E_m)
+        if penalty == "auto":
+            self.eps = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+            self.penalty_description = f"auto: {AUTO_PENALTY_FACTOR:g} E*/h_I"
+        else:
+            self.eps = np.full(n, float(penalty))
+            self.penalty_description = float(penalty)
+        self.penalty_range = (
+            comm.allreduce(float(self.eps.min(initial=np.inf)), op=MPI.MIN),
+            comm.allreduce(float(self.eps.max(initial=0.0)), op=MPI.MAX),
+        )
+
+        # multipliers and nodal state
+        self.lmbda = np.zeros(n)
+        self.lmbda_committed = np.zeros(n)
+        self.p = np.zeros(n)
+        self.kcoef = np.zeros(n)
+        self.gamma = np.zeros(n)
+        self.has_area = np.zeros(n, bool)
+
+        # displacement fetchers: slave facets (fixed), local masters (fixed), candidates (rebuilt)
+        self._fetch_slave = Fetcher(problem.u.vector, self._all_dofs(self.slave))
+        self._fetch_mlocal = Fetcher(problem.u.vector, self._all_dofs(master_local))
+        self._fetch_cand = None
+        self.master = None
+        self._u_exchange = None
+        log.info(
+            "contact %s: %d slave nodes, penalty %s in [%.4g, %.4g] (E* = %.4g), %s recovery, %s integration",
+            self.name,
+            self.n_global_nodes,
+            self.penalty_description,
+            *self.penalty_range,
+            self.E_star,
+            recovery,
+            integration,
+        )
+
+    @classmethod
+    def from_pair(cls, problem, pair, key="contact"):
+        """Build from a :class:`dolfinx_mortar.scene.ContactPair`."""
+        if pair.friction > 0.0:
+            raise SceneError(
+                f"{key}.friction",
+                "Coulomb friction (friction > 0) is not available yet; use friction = 0",
+            )
+        return cls(
+            problem,
+            pair.slave,
+            pair.master,
+            pair.penalty,
+            pair.recovery,
+            pair.integration,
+            pair.uzawa_tol,
+            pair.uzawa_max,
+            key=key,
+        )
+
+    # ------------------------------------------------------------------ helpers
+    def _all_dofs(self, fa: FacetArrays) -> np.ndarray:
+        """Unmasked global dofs (nf·nn·d,) of the facets, node-major."""
+        return (fa.blocks[:, :, None] * self.bs + np.arange(self.gdim)).ravel()
+
+    def _facet_sizes(self, X: np.ndarray) -> np.ndarray:
+        """Largest vertex distance of each facet (reference), shape (nf,)."""
+        if X.shape[0] == 0:
+            return np.empty(0)
+        nv = 2 if self.gdim == 2 else (4 if self.ftype in (QUAD1, QUAD2) else 3)
+        verts = X[:, :nv]
+        return np.linalg.norm(verts[:, :, None, :] - verts[:, None, :, :], axis=3).max(axis=(1, 2))
+
+    def _surface_modulus(self, cells) -> float:
+        """Largest plane-strain modulus E/(1−ν²) of the bodies owning ``cells`` (collective)."""
+        md = self.problem.mesh_data
+        tags = dict(
+            zip(np.asarray(md.cell_tags.indices), np.asarray(md.cell_tags.values), strict=True)
+        )
+        by_tag = {md.cell_groups[r]: (E, nu) for r, _m, E, nu in self.problem.materials}
+        vals = [
+            _plane_modulus(*by_tag[tags[c]]) for c in set(cells.tolist()) if tags.get(c) in by_tag
+        ]
+        return self.comm.allreduce(max(vals, default=0.0), op=MPI.MAX)
+
+    def describe(self) -> dict:
+        """What this pair models (summary.json ``modelled``)."""
+        return {
+            "slave": self.slave_name,
+            "master": self.master_name,
+            "friction": 0.0,
+            "tangential_fields": False,
+            "recovery": self.recovery,
+            "integration": self.integration,
+            "penalty": self.penalty_description,
+            "penalty_range": list(self.penalty_range),
+            "uzawa_tol": self.uzawa_tol,
+            "slave_nodes": self.n_global_nodes,
+        }
+
+    # ------------------------------------------------------------------ per iteration
+    def update(self, u) -> None:
+        """Search, pairing and nodal recovery at the displacement ``u`` (collective)."""
+        vec = u.vector
+        us = self._fetch_slave(vec).reshape(self.slave.X.shape)
+        um = self._fetch_mlocal(vec).reshape(self.master_local.X.shape)
+        self.xs = self.slave.X + us
+        moved = 0.0
+        if self._u_exchange is not None:
+            moved = max(
+                np.abs(us - self._u_exchange[0]).max(initial=0.0),
+                np.abs(um - self._u_exchange[1]).max(initial=0.0),
+            )
+        moved = self.comm.allreduce(moved, op=MPI.MAX)
+        if self._u_exchange is None or moved > 0.25 * self.margin:
+            self.master = exchange_master_facets(
+                self.comm, self.master_local, self.master_local.X + um, self.xs, self.margin
+            )
+            if self._fetch_cand is not None:
+                self._fetch_cand.destroy()
+            self._fetch_cand = Fetcher(vec, self._all_dofs(self.master))
+            self._u_exchange = (us.copy(), um.copy())
+        self.xm = self.master.X + self._fetch_cand(vec).reshape(self.master.X.shape)
+        off, idx = candidates(self.xs, self.xm, 0.5 * self.h_facet)
+        self.cand_off, self.cand = off, idx
+        self._pair()
+        n = self.node_blocks.size
+        self.A, self.G = np.zeros(n), np.zeros(n)
+        if self.slave.num_facets:
+            kmortar.nodal_integrals(
+                self.ftype_phi,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+                self.qp_g,
+                self.node_of,
+                self.A,
+                self.G,
+            )
+        self._recover()
+
+    def _pair(self) -> None:
+        nsf = self.slave.num_facets
+        km = self.gdim - 1
+        if self.integration == "segment":
+            self._segment_points()
+        nq = self.qp_w.shape[1]
+        if self.integration == "element":
+            self.qp_m = np.full((nsf, nq), -1, np.int64)
+        self.qp_zeta = np.zeros((nsf, nq, km))
+        self.qp_g = np.zeros((nsf, nq))
+        if not nsf:
+            return
+        if self.integration == "element":
+            kmortar.pair_points(
+                self.ftype,
+                self.master.ftype,
+                self.xs,
+                self.slave.sign,
+                self.qp_xi,
+                self.qp_w,
+                self.xm,
+                self.master.sign,
+                self.cand_off,
+                self.cand,
+                2.0 * self.h_facet,
+                self.h_facet,
+                self.qp_m,
+                self.qp_zeta,
+                self.qp_g,
+            )
+        else:
+            kmortar.forced_points(
+                self.ftype,
+                self.master.ftype,
+                self.xs,
+                self.qp_xi,
+                self.qp_m,
+                self.xm,
+                self.master.sign,
+                self.qp_zeta,
+                self.qp_g,
+            )
+
+    def _segment_points(self) -> None:
+        from .kernels.segment import segment_points
+
+        nsf, k = self.slave.num_facets, self.gdim - 1
+        while True:
+            cap = self.seg_capacity
+            self.qp_xi = np.zeros((nsf, cap, k))
+            self.qp_w = np.zeros((nsf, cap))
+            self.qp_m = np.full((nsf, cap), -1, np.int64)
+            if not nsf:
+                return
+            count = segment_points(
+                self.ftype,
+                self.xs,
+                self.slave.X,
+                self.slave.sign,
+                self.master.ftype,
+                self.xm,
+                self.master.sign,
+                self.cand_off,
+                self.cand,
+                *self.seg_rule,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+            )
+            if count.min(initial=0) >= 0:
+                return
+            self.seg_capacity = int(2 * max(-count.min(), cap))
+
+    def _recover(self) -> None:
+        """Lumped recovery: γ = G/A, p = ⟨λ − ε γ⟩, tangent coefficient ε H / A (collective)."""
+        eps = self.eps
+        has = self.A > 1e-12 * self.h_node ** (self.gdim - 1)
+        safe_A = np.where(has, self.A, 1.0)
+        gamma = np.where(has, self.G / safe_A, 0.0)
+        trial = self.lmbda - eps * gamma
+        active = has & (trial >= 0.0)
+        self.gamma, self.has_area = gamma, has
+        self.p = np.where(active, trial, 0.0)
+        self.kcoef = np.where(active, eps / safe_A, 0.0)
+        self.predictor_nodes = 0
+        if self.comm.allreduce(int(active.sum())) == 0:
+            # Nothing in contact: a body held only by contact would have a singular Jacobian.
+            # The nodes closest to contact (within 1e-3 h of the smallest gap, and closer than
+            # one facet size) get the penalty stiffness in the TANGENT only (the residual stays
+            # exact), so the first Newton step brings the bodies into contact. Switched off as
+            # soon as one node is active, where the tangent is exact again.
+            gmin = self.comm.allreduce(float(gamma[has].min(initial=np.inf)), op=MPI.MIN)
+            near = has & (gamma <= gmin + 1e-3 * self.h_mean) & (gamma < self.h_node)
+            self.kcoef = np.where(near, eps / safe_A, 0.0)
+            self.predictor_nodes = int(near.sum())
+
+    # ------------------------------------------------------------------ assembly
+    def _terms(self, want_jac: bool, masked: bool = True):
+        nsf, nq = self.qp_w.shape
+        ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
+        nloc = (ns + nm) * d
+        sdofs = self.slave.dofs if masked else self._all_dofs(self.slave).reshape(nsf, -1)
+        mdofs = (
+            self.master.dofs
+            if masked
+            else self._all_dofs(self.master).reshape(self.master.num_facets, -1)
+        )
+        res_idx = np.full((nsf * nq, nloc), -1, np.int64)
+        res_val = np.zeros((nsf * nq, nloc))
+        hess_val = np.zeros((nsf * nq if want_jac else 1, nloc, nloc))
+        b_count = np.zeros(self.node_blocks.size, np.int64)
+        force = np.zeros(d)
+        if nsf:
+            kmortar.contact_terms(
+                self.ftype,
+                self.master.ftype,
+                self.ftype_phi,
+                self.xs,
+                self.xm,
+                self.master.sign,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+                self.qp_zeta,
+                sdofs,
+                mdofs,
+                self.node_of,
+                self.p,
+                self.kcoef,
+                want_jac,
+                res_idx,
+                res_val,
+                hess_val,
+                b_count,
+                force,
+            )
+        return res_idx, res_val, hess_val, b_count, force, sdofs, mdofs
+
+    def add_residual(self, b: PETSc.Vec, masked: bool = True) -> None:
+        """Add R_c = −Σ p^I B^I to ``b`` with global indices (call before b.assemble())."""
+        res_idx, res_val, _, _, _, _, _ = self._terms(False, masked)
+        keep = res_idx >= 0
+        b.setValues(
+            res_idx[keep].astype(PETSc.IntType), res_val[keep], addv=PETSc.InsertMode.ADD_VALUES
+        )
+
+    def add_jacobian(self, A: PETSc.Mat) -> None:
+        """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
+        res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
+        ADD = PETSc.InsertMode.ADD_VALUES
+        for r in np.flatnonzero(res_idx.max(axis=1) >= 0):
+            idx = res_idx[r].astype(PETSc.IntType)
+            A.setValues(idx, idx, hess_val[r], addv=ADD)
+        # B^I ⊗ B^I of the nodes with a tangent coefficient
+        b_off = np.zeros(b_count.size + 1, np.int64)
+        np.cumsum(b_count, out=b_off[1:])
+        b_idx = np.empty(b_off[-1], np.int64)
+        b_val = np.empty(b_off[-1])
+        if self.slave.num_facets:
+            kmortar.node_rows(
+                self.ftype,
+                self.master.ftype,
+                self.ftype_phi,
+                self.xs,
+                self.xm,
+                self.master.sign,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+                self.qp_zeta,
+                sdofs,
+                mdofs,
+                self.node_of,
+                self.kcoef,
+                b_off,
+                b_idx,
+                b_val,
+            )
+        c_off = np.zeros_like(b_off)
+        c_idx = np.empty_like(b_idx)
+        c_val = np.empty_like(b_val)
+        kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+        for node in np.flatnonzero(self.kcoef > 0.0):
+            s, e = c_off[node], c_off[node + 1]
+            if e > s:
+                idx = c_idx[s:e].astype(PETSc.IntType)
+                v = c_val[s:e]
+                A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
+
+    # ------------------------------------------------------------------ sparsity
+    def block_couplings(self) -> tuple[np.ndarray, np.ndarray]:
+        """Global (block row, block col) pairs the contact terms may fill: for every owned
+        node, all nodes of its slave facets and of their candidate master facets."""
+        if self.master is None:
+            self.update(self.problem.u)
+        nsf = self.slave.num_facets
+        if nsf == 0 or self.node_blocks.size == 0:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        # blocks seen by each slave facet: its own nodes and its candidates' nodes
+        counts = np.diff(self.cand_off)
+        fac = np.concatenate(
+            [
+                np.repeat(np.arange(nsf), self.slave.nodes_per_facet),
+                np.repeat(np.repeat(np.arange(nsf), counts), self.master.nodes_per_facet),
+            ]
+        )
+        blk = np.concatenate([self.slave.blocks.ravel(), self.master.blocks[self.cand].ravel()])
+        # (node, block) incidence through the facets around each owned node
+        fi, ii = np.nonzero(self.node_of >= 0)
+        node_of_f = self.node_of[fi, ii]
+        order = np.argsort(fac, kind="stable")
+        fac, blk = fac[order], blk[order]
+        start = np.searchsorted(fac, np.arange(nsf))
+        stop = np.searchsorted(fac, np.arange(nsf), side="right")
+        nodes = np.concatenate(
+            [np.full(stop[f] - start[f], n) for f, n in zip(fi, node_of_f, strict=True)]
+        )
+        blocks = np.concatenate([blk[start[f] : stop[f]] for f in fi])
+        pairs = np.unique(nodes * (self.ranges[-1] + 1) + blocks)
+        nodes, blocks = pairs // (self.ranges[-1] + 1), pairs % (self.ranges[-1] + 1)
+        bounds = np.searchsorted(nodes, np.arange(self.node_blocks.size + 1))
+        rows, cols = [], []
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            sset = blocks[a:b]
+            rows.append(np.repeat(sset, sset.size))
+            cols.append(np.tile(sset, sset.size))
+        return np.concatenate(rows), np.concatenate(cols)
+
+    # ------------------------------------------------------------------ Uzawa, steps
+    def uzawa_update(self) -> tuple[bool, dict]:
+        """λ ← p unless converged (collective). Returns (converged, info)."""
+        pmax = self.comm.allreduce(self.p.max(initial=0.0), op=MPI.MAX)
+        change = self.comm.allreduce(np.abs(self.p - self.lmbda).max(initial=0.0), op=MPI.MAX)
+        rel = change / pmax if pmax > 0 else 0.0
+        info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
+        if self.uzawa_tol == 0.0 or rel <= self.uzawa_tol:
+            return True, info
+        self.lmbda = self.p.copy()
+        return False, info
+
+    def _max_penetration(self) -> float:
+        active = self.p > 0
+        return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
+
+    def begin_step(self) -> None:
+        """Nothing per step for frictionless contact (multipliers carry over)."""
+
+    def commit_step(self) -> None:
+        self.lmbda_committed = self.lmbda.copy()
+
+    def restore_step(self) -> None:
+        self.lmbda = self.lmbda_committed.copy()
+
+    # ------------------------------------------------------------------ results
+    def statistics(self) -> dict:
+        """Force of the master on the slave, penetration and node counts (collective)."""
+        force = self._terms(False)[4]
+        nact = int(self.comm.allreduce(int((self.p > 0).sum())))
+        return {
+            "force": [float(v) for v in self.comm.allreduce(force)],
+            "max_penetration": self._max_penetration(),
+            "active_nodes": nact,
+            "stick_nodes": 0,
+            "slip_nodes": nact,
+        }
+
+    def node_table(self) -> np.ndarray | None:
+        """Rows x, y(, z), X, Y(, Z), p_N, p_T0(, p_T1), gap, slip, state of every slave node, on rank 0.
+
+        Frictionless active nodes are reported as sliding (state 2); ``gap`` is the mixed
+        nodal gap γ^I (NaN where the node sees no master).
+        """
+        f, i = self._node_at
+        n, d = self.node_blocks.size, self.gdim
+        gap = np.where(self.has_area, self.gamma, np.nan)
+        state = np.where(self.p > 0, 2, 0)
+        cols = [
+            self.slave.X[f, i],
+            self.xs[f, i],
+            self.p[:, None],
+            np.zeros((n, d - 1)),
+            gap[:, None],
+            np.zeros((n, 1)),
+            state[:, None],
+        ]
+        table = np.hstack(cols) if n else np.empty((0, 3 * d + 3))
+        parts = self.comm.gather(table, root=0)
+        return np.concatenate(parts) if self.comm.rank == 0 else None
+
+    def fill_fields(self, functions: dict) -> None:
+        """Write nodal contact fields into scalar P_k functions (owned slave nodes only)."""
+        local = (self.node_blocks - self.ranges[self.comm.rank]).astype(np.int64)
+        vals = {
+            "contact_pressure": self.p,
+            "gap": np.where(self.has_area, self.gamma, 0.0),
+            "contact_state": np.where(self.p > 0, 2.0, 0.0),
+        }
+        for key, v in vals.items():
+            if key in functions:
+                functions[key].x.array[local] = v

@@ -1,0 +1,477 @@
+"""Mortar integrals over slave facets (numba): pairing, weighted gaps, residual and tangent entries.
+
+Quadrature points live on the slave reference facet, per facet: ``qp_xi``
+(nsf, nq, k) and weights ``qp_w`` (nsf, nq) that already include the reference
+surface Jacobian J₀ (a slot of weight 0 is unused). The element rule
+(:func:`reference_weights`) puts the same Gauss rule on every facet; segment
+integration (:mod:`dolfinx_mortar.kernels.segment`) puts a rule on each
+overlap of the slave facet with a master facet.
+
+Element-based pairing (:func:`pair_points`, the paper's choice): every point is
+projected onto its candidate master facets; the closest valid projection pairs
+it with one master facet. A projection is valid when ζ lies in the master
+reference facet, the slave and master normals face each other (n_s·ν < 0) and
+the penetration is not deeper than ``max_depth``. Unpaired points contribute to
+nothing (neither A^I nor G^I), in residual and tangent alike. Segment points
+come paired (:func:`forced_points`).
+
+With mixed-field shape functions Φ_I on the slave facet (element ``ftype_phi``)
+and integrals over the reference slave surface (the mixed pressure is a
+nominal traction):
+
+    A^I = Σ_q w_q J₀ Φ_I(ξ_q) [q paired],     G^I = Σ_q w_q J₀ Φ_I(ξ_q) g(ξ_q),
+    B^I = ∂G^I/∂u = Σ_q w_q J₀ Φ_I ∂g/∂u,    ∂²G^I/∂u² = Σ_q w_q J₀ Φ_I ∂²g/∂u²,
+
+with the exact derivatives of the closest-point gap
+(:func:`dolfinx_mortar.kernels.gap.gap_and_derivatives`, x¹ = Σ_a N_a x_a).
+For segment integration the motion of the segment ends with u is not
+differentiated (exact when the gap is continuous across master facets and
+the segments tile the slave facet, e.g. a flat or smooth master).
+
+Local dof vector of a paired point: [slave facet dofs (ns·d), master facet dofs
+(nm·d)], node-major (see :mod:`dolfinx_mortar.layout`).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .gap import gap_and_derivatives, gap_only, project, unit_normal
+from .shape import inside, shape, tdim
+
+
+@numba.njit(cache=True)
+def reference_weights(ftype_s, Xs, qpts, qw, qp_xi, qp_w):
+    """Element rule on every slave facet: qp_xi[f, q] = qpts[q], qp_w[f, q] = w_q J₀(ξ_q).
+
+    Xs (nsf, ns, d) reference slave coordinates; qpts (nq, k), qw (nq,).
+    """
+    nsf, ns, d = Xs.shape
+    nq, k = qpts.shape
+    tmp = np.empty(d)
+    for f in range(nsf):
+        for q in range(nq):
+            for a in range(k):
+                qp_xi[f, q, a] = qpts[q, a]
+            qp_w[f, q] = qw[q] * unit_normal(Xs[f], ftype_s, 1.0, qpts[q], tmp)
+
+
+@numba.njit(cache=True)
+def _slave_point(ftype_s, xs_f, xi, N, dN, ddN, x1):
+    ns, d = xs_f.shape
+    shape(ftype_s, xi, N, dN, ddN)
+    for c in range(d):
+        x1[c] = 0.0
+        for a in range(ns):
+            x1[c] += N[a] * xs_f[a, c]
+
+
+@numba.njit(cache=True)
+def pair_points(
+    ftype_s,
+    ftype_m,
+    xs,
+    ssign,
+    qp_xi,
+    qp_w,
+    xm,
+    msign,
+    cand_off,
+    cand,
+    max_depth,
+    reach,
+    qp_m,
+    qp_zeta,
+    qp_g,
+):
+    """Pair every slave quadrature point with its closest valid master facet (or none: -1).
+
+    Inputs: xs (nsf, ns, d) current slave nodes, ssign (nsf,), qp_xi (nsf, nq, ks),
+    qp_w (nsf, nq), xm (nmf, nm, d) current master nodes, msign (nmf,), max_depth (nsf,)
+    deepest accepted penetration and reach (nsf,) largest accepted distance per slave
+    facet, candidates of
+    facet f in cand[cand_off[f]:cand_off[f+1]]. Outputs qp_m (nsf, nq), qp_zeta
+    (nsf, nq, km), qp_g (nsf, nq).
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    ks = tdim(ftype_s)
+    km = tdim(ftype_m)
+    N = np.empty(ns)
+    dN = np.empty((ns, ks))
+    ddN = np.empty((ns, ks, ks))
+    x1 = np.empty(d)
+    nus = np.empty(d)
+    num = np.empty(d)
+    zeta = np.empty(km)
+    z0 = np.full(km, np.nan)
+    best_z = np.zeros(km)
+    for f in range(nsf):
+        for q in range(nq):
+            qp_m[f, q] = -1
+            qp_g[f, q] = 0.0
+            if qp_w[f, q] == 0.0:
+                continue
+            xi = qp_xi[f, q]
+            _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
+            unit_normal(xs[f], ftype_s, ssign[f], xi, nus)
+            best = -1
+            best_dist = np.inf
+            best_g = 0.0
+            for j in range(cand_off[f], cand_off[f + 1]):
+                m = cand[j]
+                # cheap rejection: distance from x1 to the facet's bounding box
+                dbox = 0.0
+                for c in range(d):
+                    lo = xm[m, 0, c]
+                    hi = lo
+                    for a in range(1, xm.shape[1]):
+                        lo = min(lo, xm[m, a, c])
+                        hi = max(hi, xm[m, a, c])
+                    e = max(lo - x1[c], x1[c] - hi, 0.0)
+                    dbox += e * e
+                if dbox > min(best_dist, reach[f]) ** 2:
+                    continue
+                project(x1, xm[m], ftype_m, z0, zeta, 1e-13, 30)
+                if not inside(ftype_m, zeta, 1e-9):
+                    continue
+                unit_normal(xm[m], ftype_m, msign[m], zeta, num)
+                facing = 0.0
+                for c in range(d):
+                    facing += nus[c] * num[c]
+                if facing >= 0.0:
+                    continue
+                g = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
+                if g < -max_depth[f]:
+                    continue
+                if abs(g) < best_dist:
+                    best_dist = abs(g)
+                    best = m
+                    best_g = g
+                    for a in range(km):
+                        best_z[a] = zeta[a]
+            qp_m[f, q] = best
+            qp_g[f, q] = best_g
+            for a in range(km):
+                qp_zeta[f, q, a] = best_z[a] if best >= 0 else np.nan
+
+
+@numba.njit(cache=True)
+def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
+    """Gap at points already paired with a master facet (segment integration).
+
+    qp_m (nsf, nq) is given (−1: unused slot); the closest-point projection onto that
+    master facet is used even slightly outside it (segments come from a clipping along
+    the slave normal).
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    ks = tdim(ftype_s)
+    km = tdim(ftype_m)
+    N = np.empty(ns)
+    dN = np.empty((ns, ks))
+    ddN = np.empty((ns, ks, ks))
+    x1 = np.empty(d)
+    zeta = np.empty(km)
+    z0 = np.full(km, np.nan)
+    for f in range(nsf):
+        for q in range(nq):
+            m = qp_m[f, q]
+            qp_g[f, q] = 0.0
+            if m < 0:
+                continue
+            _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
+            project(x1, xm[m], ftype_m, z0, zeta, 1e-13, 30)
+            qp_g[f, q] = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
+            for a in range(km):
+                qp_zeta[f, q, a] = zeta[a]
+
+
+@numba.njit(cache=True)
+def nodal_integrals(ftype_phi, qp_xi, qp_w, qp_m, qp_g, node_of, A, G):
+    """A^I = Σ w J₀ Φ_I [paired] and G^I = Σ w J₀ Φ_I g over the owned nodes (node_of ≥ 0).
+
+    node_of (nsf, nphi): owned-node index of the facet's mixed nodes, −1 if not owned.
+    A, G (n_nodes,) are overwritten.
+    """
+    nsf, nq, k = qp_xi.shape
+    nphi = node_of.shape[1]
+    Phi = np.empty(9)
+    dP = np.empty((9, k))
+    ddP = np.empty((9, k, k))
+    A[:] = 0.0
+    G[:] = 0.0
+    for f in range(nsf):
+        for q in range(nq):
+            if qp_m[f, q] < 0:
+                continue
+            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            for i in range(nphi):
+                node = node_of[f, i]
+                if node >= 0:
+                    A[node] += qp_w[f, q] * Phi[i]
+                    G[node] += qp_w[f, q] * Phi[i] * qp_g[f, q]
+
+
+@numba.njit(cache=True)
+def _local_derivatives(
+    ftype_s,
+    ftype_m,
+    xs_f,
+    xm_m,
+    sign,
+    xi,
+    zeta,
+    want_hess,
+    dg_loc,
+    d2g_loc,
+    dg,
+    d2g,
+    x1,
+    N,
+    dN,
+    ddN,
+):
+    """g and its derivatives with respect to the local dofs [slave facet, master facet] of one point."""
+    ns = xs_f.shape[0]
+    nm = xm_m.shape[0]
+    d = xs_f.shape[1]
+    _slave_point(ftype_s, xs_f, xi, N, dN, ddN, x1)
+    g = gap_and_derivatives(x1, xm_m, ftype_m, sign, zeta, dg, d2g)
+    # T maps local dofs to y = [x1, xm]: dx1_c/dxs_{a,c} = N_a, identity on the master block
+    nsd = ns * d
+    nloc = nsd + nm * d
+    for a in range(ns):
+        for c in range(d):
+            dg_loc[a * d + c] = N[a] * dg[c]
+    for j in range(nm * d):
+        dg_loc[nsd + j] = dg[d + j]
+    if want_hess:
+        for i in range(nloc):
+            if i < nsd:
+                wi = N[i // d]
+                yi = i % d
+            else:
+                wi = 1.0
+                yi = d + i - nsd
+            for j in range(nloc):
+                if j < nsd:
+                    d2g_loc[i, j] = wi * N[j // d] * d2g[yi, j % d]
+                else:
+                    d2g_loc[i, j] = wi * d2g[yi, d + j - nsd]
+    return g
+
+
+@numba.njit(cache=True)
+def contact_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    p,
+    kcoef,
+    want_jac,
+    res_idx,
+    res_val,
+    hess_val,
+    b_count,
+    force,
+):
+    """Residual entries, Hessian blocks and the number of B^I entries of every active node.
+
+    Inputs: node_of (nsf, nphi) owned-node index or −1; p (n_nodes,) nodal pressures;
+    kcoef (n_nodes,) = ε H^I / A^I (0: no B⊗B term); sdofs (nsf, ns·d), mdofs (nmf, nm·d)
+    global dofs (−1 = ignored by PETSc).
+    Outputs: res_idx, res_val (nsf·nq, nloc): entries of R_c = −Σ_I p^I B^I per point
+    (row unused: res_idx −1); hess_val (nsf·nq, nloc, nloc): −Σ_I p^I w J₀ Φ_I ∂²g per point
+    when want_jac (indices = res_idx row); b_count (n_nodes,) += entries of B^I;
+    force (d,) += Σ_I p^I Σ_q w J₀ Φ_I ν, the force of the master on the slave.
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = node_of.shape[1]
+    ks = tdim(ftype_s)
+    nloc = (ns + nm) * d
+    N = np.empty(ns)
+    dN = np.empty((ns, ks))
+    ddN = np.empty((ns, ks, ks))
+    Phi = np.empty(9)
+    dP = np.empty((9, ks))
+    ddP = np.empty((9, ks, ks))
+    x1 = np.empty(d)
+    ny = d * (1 + nm)
+    dg = np.empty(ny)
+    d2g = np.empty((ny, ny))
+    dg_loc = np.empty(nloc)
+    d2g_loc = np.empty((nloc, nloc))
+    for f in range(nsf):
+        for q in range(nq):
+            row = f * nq + q
+            for j in range(nloc):
+                res_idx[row, j] = -1
+            m = qp_m[f, q]
+            if m < 0:
+                continue
+            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            pw = 0.0
+            for i in range(nphi):
+                node = node_of[f, i]
+                if node >= 0:
+                    pw += p[node] * Phi[i]
+                    if kcoef[node] > 0.0:
+                        b_count[node] += nloc
+            pw *= qp_w[f, q]
+            if pw == 0.0:
+                continue
+            _local_derivatives(
+                ftype_s,
+                ftype_m,
+                xs[f],
+                xm[m],
+                msign[m],
+                qp_xi[f, q],
+                qp_zeta[f, q],
+                want_jac,
+                dg_loc,
+                d2g_loc,
+                dg,
+                d2g,
+                x1,
+                N,
+                dN,
+                ddN,
+            )
+            for c in range(d):
+                force[c] += pw * dg[c]
+            for j in range(ns * d):
+                res_idx[row, j] = sdofs[f, j]
+            for j in range(nm * d):
+                res_idx[row, ns * d + j] = mdofs[m, j]
+            for j in range(nloc):
+                res_val[row, j] = -pw * dg_loc[j]
+            if want_jac:
+                for i in range(nloc):
+                    for j in range(nloc):
+                        hess_val[row, i, j] = -pw * d2g_loc[i, j]
+
+
+@numba.njit(cache=True)
+def node_rows(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    kcoef,
+    b_off,
+    b_idx,
+    b_val,
+):
+    """Fill the rows B^I (entries b_idx/b_val in b_off[I]:b_off[I+1]) of the nodes with kcoef > 0."""
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = node_of.shape[1]
+    ks = tdim(ftype_s)
+    nloc = (ns + nm) * d
+    N = np.empty(ns)
+    dN = np.empty((ns, ks))
+    ddN = np.empty((ns, ks, ks))
+    Phi = np.empty(9)
+    dP = np.empty((9, ks))
+    ddP = np.empty((9, ks, ks))
+    x1 = np.empty(d)
+    ny = d * (1 + nm)
+    dg = np.empty(ny)
+    d2g = np.empty((ny, ny))
+    dg_loc = np.empty(nloc)
+    d2g_loc = np.empty((1, 1))
+    fill = b_off[:-1].copy()
+    for f in range(nsf):
+        for q in range(nq):
+            m = qp_m[f, q]
+            if m < 0:
+                continue
+            need = False
+            for i in range(nphi):
+                node = node_of[f, i]
+                if node >= 0 and kcoef[node] > 0.0:
+                    need = True
+            if not need:
+                continue
+            _local_derivatives(
+                ftype_s,
+                ftype_m,
+                xs[f],
+                xm[m],
+                msign[m],
+                qp_xi[f, q],
+                qp_zeta[f, q],
+                False,
+                dg_loc,
+                d2g_loc,
+                dg,
+                d2g,
+                x1,
+                N,
+                dN,
+                ddN,
+            )
+            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            for i in range(nphi):
+                node = node_of[f, i]
+                if node < 0 or kcoef[node] <= 0.0:
+                    continue
+                wphi = qp_w[f, q] * Phi[i]
+                o = fill[node]
+                for j in range(ns * d):
+                    b_idx[o + j] = sdofs[f, j]
+                for j in range(nm * d):
+                    b_idx[o + ns * d + j] = mdofs[m, j]
+                for j in range(nloc):
+                    b_val[o + j] = wphi * dg_loc[j]
+                fill[node] += nloc
+
+
+@numba.njit(cache=True)
+def compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val):
+    """Merge duplicate dofs of every row (sorted), dropping dofs < 0; c_off gets the new offsets."""
+    n = b_off.shape[0] - 1
+    c_off[0] = 0
+    for r in range(n):
+        s, e = b_off[r], b_off[r + 1]
+        order = np.argsort(b_idx[s:e])
+        o = c_off[r]
+        last = -2
+        for t in range(e - s):
+            k = s + order[t]
+            i = b_idx[k]
+            if i < 0:
+                continue
+            if i == last:
+                c_val[o - 1] += b_val[k]
+            else:
+                c_idx[o] = i
+                c_val[o] = b_val[k]
+                o += 1
+                last = i
+        c_off[r + 1] = o

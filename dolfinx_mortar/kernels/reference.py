@@ -1,0 +1,318 @@
+r"""Slow, obviously-correct NumPy/SciPy reference implementations of the contact kernels.
+
+Used by the tests to validate the numba kernels of :mod:`.shape` and :mod:`.gap`; same
+conventions (see :mod:`dolfinx_mortar.kernels.gap`). The derivatives are obtained by a
+route independent of the numba code:
+
+* shape functions are written once as polynomial expressions (:func:`shape_expressions`,
+  N and its first derivatives); second derivatives come from automatic differentiation;
+* :class:`Jet` is a small second-order forward-mode AD number (value, gradient, Hessian);
+* the gap derivatives are computed by differentiating f(zeta, y) = (x1 - S).nu and the
+  projection condition r(zeta, y) = -(x1 - S).a = 0 with jets in z = (y, zeta), then by
+  full second-order implicit differentiation of zeta(y) (no envelope theorem, no
+  differential-geometry identities):
+
+  .. math::
+     \zeta_y = -r_\zeta^{-1} r_y,\qquad
+     r_\zeta \zeta_{y_i y_j} = -(r_{y_i y_j} + r_{y_i\zeta}\zeta_{y_j}
+       + r_{y_j\zeta}\zeta_{y_i} + \zeta_{y_i}^T r_{\zeta\zeta}\zeta_{y_j}),
+
+     g_{y y} = f_{yy} + f_{y\zeta}\zeta_y + \zeta_y^T f_{\zeta y}
+       + \zeta_y^T f_{\zeta\zeta}\zeta_y + f_\zeta\cdot\zeta_{yy}.
+
+* the projection minimises 0.5 |x1 - S(zeta)|^2 from the best point of a dense grid with
+  :func:`scipy.optimize.minimize` (trust-exact, jet gradient and Hessian), then polishes
+  with a few plain Newton steps.
+"""
+
+import math
+
+import numpy as np
+import scipy.optimize
+
+from .shape import (
+    INTERVAL1,
+    INTERVAL2,
+    QUAD1,
+    QUAD2,
+    TRIANGLE1,
+    TRIANGLE2,
+)
+
+_TDIM = {INTERVAL1: 1, INTERVAL2: 1, TRIANGLE1: 2, TRIANGLE2: 2, QUAD1: 2, QUAD2: 2}
+
+
+class Jet:
+    """Second-order forward-mode AD number: value ``v``, gradient ``g`` (m,), Hessian ``h`` (m, m)."""
+
+    __slots__ = ("v", "g", "h")
+
+    def __init__(self, v, g, h):
+        self.v = float(v)
+        self.g = g
+        self.h = h
+
+    @classmethod
+    def variable(cls, value, index, m):
+        """Independent variable number ``index`` out of ``m``."""
+        g = np.zeros(m)
+        g[index] = 1.0
+        return cls(value, g, np.zeros((m, m)))
+
+    @classmethod
+    def constant(cls, value, m):
+        return cls(value, np.zeros(m), np.zeros((m, m)))
+
+    def __add__(self, o):
+        if isinstance(o, Jet):
+            return Jet(self.v + o.v, self.g + o.g, self.h + o.h)
+        return Jet(self.v + o, self.g, self.h)
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Jet(-self.v, -self.g, -self.h)
+
+    def __sub__(self, o):
+        return self + (-o)
+
+    def __rsub__(self, o):
+        return (-self) + o
+
+    def __mul__(self, o):
+        if isinstance(o, Jet):
+            gg = np.outer(self.g, o.g)
+            return Jet(
+                self.v * o.v,
+                self.g * o.v + o.g * self.v,
+                self.h * o.v + o.h * self.v + gg + gg.T,
+            )
+        return Jet(self.v * o, self.g * o, self.h * o)
+
+    __rmul__ = __mul__
+
+    def reciprocal(self):
+        v = 1.0 / self.v
+        return Jet(v, -self.g * v**2, -self.h * v**2 + 2.0 * v**3 * np.outer(self.g, self.g))
+
+    def __truediv__(self, o):
+        if isinstance(o, Jet):
+            return self * o.reciprocal()
+        return self * (1.0 / o)
+
+    def __rtruediv__(self, o):
+        return self.reciprocal() * o
+
+    def sqrt(self):
+        s = math.sqrt(self.v)
+        return Jet(
+            s, self.g / (2.0 * s), self.h / (2.0 * s) - np.outer(self.g, self.g) / (4.0 * s**3)
+        )
+
+
+def tdim(ftype):
+    """Topological dimension of the facet type."""
+    return _TDIM[ftype]
+
+
+def _lagrange_1d(degree, x):
+    """1D Lagrange functions (nodes 0, 1[, 0.5]) and derivatives, as expressions in x."""
+    if degree == 1:
+        return [1 - x, x], [-1.0 + 0 * x, 1.0 + 0 * x]
+    return (
+        [(1 - x) * (1 - 2 * x), x * (2 * x - 1), 4 * x * (1 - x)],
+        [4 * x - 3, 4 * x - 1, 4 - 8 * x],
+    )
+
+
+def shape_expressions(ftype, xi):
+    """Shape functions N_a and derivatives dN_a/dxi_alpha as expressions in ``xi``.
+
+    ``xi`` is a sequence of k numbers (floats or :class:`Jet`); returns (N, dN) as nested
+    lists, N[a] and dN[a][alpha], basix node order.
+    """
+    if ftype in (INTERVAL1, INTERVAL2):
+        N, dN = _lagrange_1d(1 if ftype == INTERVAL1 else 2, xi[0])
+        return N, [[v] for v in dN]
+    x, y = xi[0], xi[1]
+    if ftype == TRIANGLE1:
+        z = 0 * x
+        return [1 - x - y, x, y], [[z - 1, z - 1], [z + 1, z], [z, z + 1]]
+    if ftype == TRIANGLE2:
+        L = 1 - x - y
+        z = 0 * x
+        N = [L * (2 * L - 1), x * (2 * x - 1), y * (2 * y - 1), 4 * x * y, 4 * L * y, 4 * L * x]
+        dN = [
+            [1 - 4 * L, 1 - 4 * L],
+            [4 * x - 1, z],
+            [z, 4 * y - 1],
+            [4 * y, 4 * x],
+            [-4 * y, 4 * L - 4 * y],
+            [4 * L - 4 * x, -4 * x],
+        ]
+        return N, dN
+    if ftype in (QUAD1, QUAD2):
+        deg = 1 if ftype == QUAD1 else 2
+        fx, dfx = _lagrange_1d(deg, x)
+        fy, dfy = _lagrange_1d(deg, y)
+        if deg == 1:
+            ij = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        else:
+            ij = [(0, 0), (1, 0), (0, 1), (1, 1), (2, 0), (0, 2), (1, 2), (2, 1), (2, 2)]
+        N = [fx[i] * fy[j] for i, j in ij]
+        dN = [[dfx[i] * fy[j], fx[i] * dfy[j]] for i, j in ij]
+        return N, dN
+    raise ValueError(f"unknown facet type {ftype}")
+
+
+def shape(ftype, xi):
+    """NumPy shape functions at ``xi`` (k,): returns N (n,), dN (n, k), ddN (n, k, k)."""
+    k = tdim(ftype)
+    xi = np.asarray(xi, dtype=float)
+    N, dN = shape_expressions(ftype, [float(v) for v in xi])
+    jets = [Jet.variable(xi[al], al, k) for al in range(k)]
+    _, dNj = shape_expressions(ftype, jets)
+    ddN = np.array([[_as_jet(v, k).g for v in row] for row in dNj])
+    return np.array(N, dtype=float), np.array(dN, dtype=float), ddN
+
+
+def _as_jet(v, m):
+    return v if isinstance(v, Jet) else Jet.constant(v, m)
+
+
+def surface(xm, ftype, zeta):
+    """S(zeta) (d,) and tangents A (k, d) (A[alpha] = dS/dzeta_alpha)."""
+    N, dN, _ = shape(ftype, zeta)
+    return N @ xm, dN.T @ xm
+
+
+def normal(xm, ftype, sign, zeta):
+    """Unit normal nu (d,) at zeta: sign*(a1_y, -a1_x) (2D) or sign*a1 x a2 (3D), normalised."""
+    _, A = surface(xm, ftype, zeta)
+    if xm.shape[1] == 2:
+        n = sign * np.array([A[0, 1], -A[0, 0]])
+    else:
+        n = sign * np.cross(A[0], A[1])
+    return n / np.linalg.norm(n)
+
+
+def _phi_jet(x1, xm, ftype, zeta):
+    """0.5 |x1 - S(zeta)|^2 as a Jet in zeta (k variables)."""
+    k = tdim(ftype)
+    z = [Jet.variable(zeta[al], al, k) for al in range(k)]
+    N, _ = shape_expressions(ftype, z)
+    phi = Jet.constant(0.0, k)
+    for i in range(xm.shape[1]):
+        s = x1[i] - sum((N[a] * xm[a, i] for a in range(len(N))), Jet.constant(0.0, k))
+        phi = phi + 0.5 * s * s
+    return phi
+
+
+def project(x1, xm, ftype, zeta0=None, box=(0.0, 1.0), ngrid=41, newton_polish=5):
+    """Reference closest-point projection of x1 onto the (extrapolated) facet.
+
+    Starts from ``zeta0`` or from the best point of an ``ngrid``^k grid on ``box``^k (by
+    default the reference square, i.e. the local minimum "belonging" to the facet is
+    sought, not a global one of the extrapolated polynomial surface), minimises
+    0.5|x1 - S|^2 without bounds with scipy's trust-exact method and polishes with plain
+    Newton steps. Returns zeta (k,), possibly outside the reference facet.
+    """
+    x1 = np.asarray(x1, dtype=float)
+    xm = np.asarray(xm, dtype=float)
+    k = tdim(ftype)
+    if zeta0 is None:
+        t = np.linspace(box[0], box[1], ngrid)
+        if k == 1:
+            cand = t[:, None]
+        else:
+            cand = np.array(np.meshgrid(t, t, indexing="ij")).reshape(2, -1).T
+        vals = [np.sum((x1 - surface(xm, ftype, c)[0]) ** 2) for c in cand]
+        zeta0 = cand[int(np.argmin(vals))]
+
+    def fun(z):
+        return _phi_jet(x1, xm, ftype, z).v
+
+    def jac(z):
+        return _phi_jet(x1, xm, ftype, z).g
+
+    def hess(z):
+        return _phi_jet(x1, xm, ftype, z).h
+
+    res = scipy.optimize.minimize(
+        fun, np.asarray(zeta0, float), jac=jac, hess=hess, method="trust-exact",
+        options={"gtol": 1e-13},
+    )  # fmt: skip
+    z = np.array(res.x, dtype=float)
+    for _ in range(newton_polish):
+        p = _phi_jet(x1, xm, ftype, z)
+        z = z - np.linalg.solve(p.h, p.g)
+    return z
+
+
+def gap(x1, xm, ftype, sign, zeta):
+    """Normal gap (x1 - S(zeta)) . nu(zeta)."""
+    S, _ = surface(np.asarray(xm, float), ftype, zeta)
+    return float((np.asarray(x1) - S) @ normal(np.asarray(xm, float), ftype, sign, zeta))
+
+
+def _f_r_jets(x1, xm, ftype, sign, zeta):
+    """f = (x1 - S).nu and r_alpha = -(x1 - S).a_alpha as Jets in z = (y, zeta)."""
+    d = xm.shape[1]
+    n = xm.shape[0]
+    k = tdim(ftype)
+    ny = d * (1 + n)
+    m = ny + k
+    y = np.concatenate([x1, xm.ravel()])
+    yj = [Jet.variable(y[i], i, m) for i in range(ny)]
+    zj = [Jet.variable(zeta[al], ny + al, m) for al in range(k)]
+    x1j = yj[:d]
+    xmj = [yj[d + a * d : d + (a + 1) * d] for a in range(n)]
+    N, dN = shape_expressions(ftype, zj)
+    N = [_as_jet(v, m) for v in N]
+    dN = [[_as_jet(v, m) for v in row] for row in dN]
+    zero = Jet.constant(0.0, m)
+    S = [sum((N[a] * xmj[a][i] for a in range(n)), zero) for i in range(d)]
+    A = [
+        [sum((dN[a][al] * xmj[a][i] for a in range(n)), zero) for i in range(d)] for al in range(k)
+    ]
+    w = [x1j[i] - S[i] for i in range(d)]
+    if d == 2:
+        nv = [sign * A[0][1], -sign * A[0][0]]
+    else:
+        a1, a2 = A
+        nv = [
+            sign * (a1[1] * a2[2] - a1[2] * a2[1]),
+            sign * (a1[2] * a2[0] - a1[0] * a2[2]),
+            sign * (a1[0] * a2[1] - a1[1] * a2[0]),
+        ]
+    norm = sum((v * v for v in nv), zero).sqrt()
+    f = sum((w[i] * nv[i] for i in range(d)), zero) / norm
+    r = [-sum((w[i] * A[al][i] for i in range(d)), zero) for al in range(k)]
+    return f, r, ny, k
+
+
+def gap_derivatives(x1, xm, ftype, sign, zeta):
+    """Reference g, dg/dy (n_y,), d2g/dy2 (n_y, n_y) by AD + implicit differentiation.
+
+    ``zeta`` must be the converged projection of x1; y = [x1, xm.ravel()].
+    """
+    x1 = np.asarray(x1, dtype=float)
+    xm = np.asarray(xm, dtype=float)
+    f, r, ny, k = _f_r_jets(x1, xm, ftype, sign, np.asarray(zeta, float))
+    Y = slice(0, ny)
+    Z = slice(ny, ny + k)
+    f_y, f_z = f.g[Y], f.g[Z]
+    f_yy, f_yz, f_zz = f.h[Y, Y], f.h[Y, Z], f.h[Z, Z]
+    r_z = np.array([ra.g[Z] for ra in r])  # (k, k)
+    r_y = np.array([ra.g[Y] for ra in r])  # (k, ny)
+    zeta_y = -np.linalg.solve(r_z, r_y)  # (k, ny)
+    # second derivatives of zeta(y)
+    rhs = np.empty((k, ny, ny))
+    for ga, ra in enumerate(r):
+        t = ra.h[Y, Z] @ zeta_y  # (ny, ny)
+        rhs[ga] = ra.h[Y, Y] + t + t.T + zeta_y.T @ ra.h[Z, Z] @ zeta_y
+    zeta_yy = -np.einsum("ag,gij->aij", np.linalg.inv(r_z), rhs)
+    dg = f_y + zeta_y.T @ f_z
+    t = f_yz @ zeta_y
+    d2g = f_yy + t + t.T + zeta_y.T @ f_zz @ zeta_y + np.einsum("a,aij->ij", f_z, zeta_yy)
+    return f.v, dg, d2g

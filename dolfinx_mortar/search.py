@@ -1,0 +1,154 @@
+"""Distributed contact search: no rank ever holds a whole contact surface.
+
+- :func:`distribute_slave_facets`: each slave facet goes to every rank owning
+  one of its mixed-field nodes (a rank computes the nodal mortar integrals of
+  the nodes it owns, so it needs every facet touching them).
+- :func:`exchange_master_facets`: each rank sends its master facets only to the
+  ranks whose (inflated) slave bounding box they come near, with all-to-all
+  messages of packed facets (:mod:`dolfinx_mortar.layout`).
+- :func:`candidates`: per slave facet, the master facets whose centroid lies
+  within reach (k-d tree, O(n log n)).
+- :class:`Fetcher`: current displacements of arbitrary global dofs (PETSc
+  scatter from the global vector), rebuilt only when the set of dofs changes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+from scipy.spatial import cKDTree
+
+from .layout import FacetArrays, pack, record_width, unpack
+
+
+def _alltoall_rows(comm, rows_per_rank: list[np.ndarray], width: int) -> np.ndarray:
+    """Send rows_per_rank[r] (shape (n_r, width)) to rank r; return the received rows (collective)."""
+    send_counts = np.array([r.shape[0] * width for r in rows_per_rank], dtype=np.int64)
+    recv_counts = np.empty_like(send_counts)
+    comm.Alltoall(send_counts, recv_counts)
+    sbuf = np.concatenate([r.ravel() for r in rows_per_rank]) if rows_per_rank else np.empty(0)
+    rbuf = np.empty(int(recv_counts.sum()))
+    comm.Alltoallv([sbuf, send_counts], [rbuf, recv_counts])
+    return rbuf.reshape(-1, width)
+
+
+def block_owner(ranges: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """Owning rank of global blocks, from the gathered ownership ranges (size+1,)."""
+    return np.searchsorted(ranges, blocks, side="right") - 1
+
+
+def distribute_slave_facets(
+    comm, local: FacetArrays, mixed: np.ndarray, ranges: np.ndarray
+) -> FacetArrays:
+    """Local slave facets plus those of other ranks touching nodes this rank owns (collective).
+
+    Returns only facets with at least one owned mixed-field node.
+    """
+    nn, d = local.nodes_per_facet, local.gdim
+    owners = (
+        block_owner(ranges, local.blocks[:, mixed])
+        if local.num_facets
+        else np.empty((0, len(mixed)), int)
+    )
+    rows = pack(local)
+    out = []
+    for r in range(comm.size):
+        sel = np.any(owners == r, axis=1) if r != comm.rank else np.zeros(local.num_facets, bool)
+        out.append(rows[sel])
+    recv = unpack(_alltoall_rows(comm, out, record_width(nn, d)), local.ftype, nn, d)
+    allf = FacetArrays.concatenate([local, recv])
+    lo, hi = ranges[comm.rank], ranges[comm.rank + 1]
+    mine = (allf.blocks[:, mixed] >= lo) & (allf.blocks[:, mixed] < hi)
+    return allf.take(np.flatnonzero(mine.any(axis=1)))
+
+
+def bounding_box(x: np.ndarray, d: int) -> np.ndarray:
+    """(2, d) box of points x (..., d); an inverted box when there are none."""
+    pts = x.reshape(-1, d)
+    if pts.size == 0:
+        return np.array([np.full(d, np.inf), np.full(d, -np.inf)])
+    return np.array([pts.min(axis=0), pts.max(axis=0)])
+
+
+def exchange_master_facets(
+    comm, local: FacetArrays, x_local: np.ndarray, slave_x: np.ndarray, margin: float
+) -> FacetArrays:
+    """Master facets (of any rank) near this rank's slave facets (collective).
+
+    ``x_local`` (nf, nn, d): current coordinates of the local master facets;
+    ``slave_x``: current coordinates of this rank's slave facet nodes.
+    A facet is sent to rank r when its box, inflated by ``margin``, meets r's slave box.
+    """
+    d = local.gdim
+    boxes = np.array(comm.allgather(bounding_box(slave_x, d)))
+    rows = pack(local)
+    if local.num_facets:
+        lo = x_local.min(axis=1) - margin
+        hi = x_local.max(axis=1) + margin
+    out = []
+    for r in range(comm.size):
+        if local.num_facets == 0:
+            out.append(rows)
+            continue
+        sel = np.all((hi >= boxes[r, 0]) & (lo <= boxes[r, 1]), axis=1)
+        out.append(rows[sel])
+    recv = _alltoall_rows(comm, out, record_width(local.nodes_per_facet, d))
+    return unpack(recv, local.ftype, local.nodes_per_facet, d)
+
+
+def candidates(xs: np.ndarray, xm: np.ndarray, reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (offsets (nsf+1,), indices) of the master facets near each slave facet.
+
+    A master facet is a candidate of slave facet f when their bounding boxes, the
+    slave's inflated by ``reach[f]``, overlap. Master facets are grouped in size
+    classes (radius within a factor 2) with one k-d tree each, so graded meshes
+    keep the cost O(n log n).
+    """
+    nsf, nmf = xs.shape[0], xm.shape[0]
+    if nsf == 0 or nmf == 0:
+        return np.zeros(nsf + 1, np.int64), np.empty(0, np.int64)
+    cs = xs.mean(axis=1)
+    cm = xm.mean(axis=1)
+    rs = np.linalg.norm(xs - cs[:, None, :], axis=2).max(axis=1)
+    rm = np.linalg.norm(xm - cm[:, None, :], axis=2).max(axis=1)
+    slo, shi = xs.min(axis=1) - reach[:, None], xs.max(axis=1) + reach[:, None]
+    mlo, mhi = xm.min(axis=1), xm.max(axis=1)
+    cls = np.floor(np.log2(np.maximum(rm, 1e-300) / rm.max())).astype(np.int64)
+    found: list[list[int]] = [[] for _ in range(nsf)]
+    for c in np.unique(cls):
+        members = np.flatnonzero(cls == c)
+        tree = cKDTree(cm[members])
+        lists = tree.query_ball_point(cs, rs + reach + rm[members].max())
+        for f, lst in enumerate(lists):
+            if lst:
+                m = members[np.asarray(lst)]
+                ok = np.all((mhi[m] >= slo[f]) & (mlo[m] <= shi[f]), axis=1)
+                found[f].extend(m[ok].tolist())
+    counts = np.array([len(x) for x in found], dtype=np.int64)
+    off = np.zeros(nsf + 1, np.int64)
+    np.cumsum(counts, out=off[1:])
+    idx = np.fromiter((i for lst in found for i in sorted(lst)), dtype=np.int64, count=int(off[-1]))
+    return off, idx
+
+
+class Fetcher:
+    """Current values of given global dofs of a distributed PETSc vector (collective create and fetch).
+
+    Owns a PETSc Scatter, an IS and a sequential Vec; :meth:`destroy` frees them.
+    """
+
+    def __init__(self, vec: PETSc.Vec, dofs: np.ndarray):
+        self.dofs = np.asarray(dofs, dtype=PETSc.IntType)
+        self._is = PETSc.IS().createGeneral(self.dofs, comm=PETSc.COMM_SELF)
+        self._out = PETSc.Vec().createSeq(self.dofs.size, comm=PETSc.COMM_SELF)
+        self._sc = PETSc.Scatter().create(vec, self._is, self._out, None)
+
+    def __call__(self, vec: PETSc.Vec) -> np.ndarray:
+        self._sc.scatter(
+            vec, self._out, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD
+        )
+        return self._out.array_r.copy()
+
+    def destroy(self) -> None:
+        for obj in (self._sc, self._out, self._is):
+            obj.destroy()

@@ -1,0 +1,174 @@
+"""Slave and master surfaces: facets of a physical group as packed :class:`FacetArrays`.
+
+For every facet of a group whose cell this rank owns, the facet's geometry
+nodes are taken in basix's Lagrange order for the facet cell (the order the
+kernels' shape functions use). That order is found once per (cell type,
+local facet) geometrically: the cell's reference nodes are mapped to the
+facet's reference coordinates through the facet's reference vertices and
+matched against the facet element's nodes. The outward-normal sign of each
+facet is fixed from the reference configuration (facet normal against the
+vector from the cell centroid to the facet centroid).
+"""
+
+from __future__ import annotations
+
+import basix
+import numpy as np
+
+from . import compat
+from .kernels.gap import unit_normal
+from .kernels.shape import (
+    INTERVAL1,
+    INTERVAL2,
+    QUAD1,
+    QUAD2,
+    REFERENCE_NODES,
+    TRIANGLE1,
+    TRIANGLE2,
+    tdim,
+)
+from .layout import FacetArrays
+
+_BASIX_CELL = {
+    "triangle": basix.CellType.triangle,
+    "quadrilateral": basix.CellType.quadrilateral,
+    "tetrahedron": basix.CellType.tetrahedron,
+    "hexahedron": basix.CellType.hexahedron,
+}
+_FACET_TYPE = {
+    ("triangle", 1): INTERVAL1,
+    ("triangle", 2): INTERVAL2,
+    ("quadrilateral", 1): INTERVAL1,
+    ("quadrilateral", 2): INTERVAL2,
+    ("tetrahedron", 1): TRIANGLE1,
+    ("tetrahedron", 2): TRIANGLE2,
+    ("hexahedron", 1): QUAD1,
+    ("hexahedron", 2): QUAD2,
+}
+
+
+def facet_type(cell_name: str, degree: int) -> int:
+    """Kernel facet type code of the facets of ``cell_name`` cells of geometric degree ``degree``."""
+    try:
+        return _FACET_TYPE[(cell_name, degree)]
+    except KeyError:
+        raise ValueError(f"no contact facets for {cell_name} of degree {degree}") from None
+
+
+def facet_node_orders(cell_name: str, degree: int) -> np.ndarray:
+    """Cell-local node indices of each local facet in facet (basix) order, shape (num_facets, nn)."""
+    ct = _BASIX_CELL[cell_name]
+    cell_pts = basix.create_element(
+        basix.ElementFamily.P, ct, degree, basix.LagrangeVariant.equispaced
+    ).points
+    verts = basix.geometry(ct)
+    topo = basix.topology(ct)
+    tdim = verts.shape[1]
+    ftype = facet_type(cell_name, degree)
+    ref = REFERENCE_NODES[ftype]
+    orders = []
+    for fverts in topo[tdim - 1]:
+        v = verts[fverts]
+        axes = (v[1:] - v[0]) if tdim == 2 else np.stack([v[1] - v[0], v[2] - v[0]])
+        axes = axes.reshape(tdim - 1, tdim)
+        rel = cell_pts - v[0]
+        xi, *_ = np.linalg.lstsq(axes.T, rel.T, rcond=None)
+        xi = xi.T
+        on_facet = np.linalg.norm(xi @ axes - rel, axis=1) < 1e-10
+        order = []
+        for r in ref:
+            d = np.linalg.norm(xi - r, axis=1) + np.where(on_facet, 0.0, 1e9)
+            j = int(np.argmin(d))
+            if d[j] > 1e-10:
+                raise RuntimeError(f"facet node {r} not found on {cell_name} facet {fverts}")
+            order.append(j)
+        orders.append(order)
+    return np.asarray(orders, dtype=np.int32)
+
+
+def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray]:
+    """Facets of facet group ``group`` whose cells this rank owns (local, no communication).
+
+    Returns ``(facets, cells)``: the packed facets and the local index of each
+    facet's cell (for material look-ups).
+    """
+    mesh = problem.mesh
+    md = problem.mesh_data
+    tdim = mesh.topology.dim
+    fdim = tdim - 1
+    cell_name = mesh.topology.cell_name()
+    degree = mesh.geometry.cmap.degree
+    if problem.degree != degree:
+        raise ValueError("contact needs the displacement degree to equal the geometric degree")
+    ftype = facet_type(cell_name, degree)
+    orders = facet_node_orders(cell_name, degree)
+    nn = orders.shape[1]
+    d = mesh.geometry.dim
+    facets = compat.tagged_entities(md.facet_tags, md.facet_groups[group])
+    mesh.topology.create_connectivity(fdim, tdim)
+    mesh.topology.create_connectivity(tdim, fdim)
+    f2c = mesh.topology.connectivity(fdim, tdim)
+    c2f = mesh.topology.connectivity(tdim, fdim)
+    n_owned_cells = mesh.topology.index_map(tdim).size_local
+    geo_nodes = compat.cell_geometry_nodes(mesh)
+    x = mesh.geometry.x[:, :d]
+    dofmap = problem.V.dofmap
+    bs = dofmap.index_map_bs
+    imap = dofmap.index_map
+    nblocks = imap.size_local + imap.num_ghosts
+    gblocks = np.asarray(imap.local_to_global(np.arange(nblocks, dtype=np.int32)), dtype=np.int64)
+    rank = mesh.comm.rank
+    blocks, dofs, X, signs, cells = [], [], [], [], []
+    nu = np.empty(d)
+    centre = np.array([0.5] if fdim == 1 else ([1 / 3, 1 / 3] if ftype in (2, 3) else [0.5, 0.5]))
+    for f in facets:
+        cs = f2c.links(f)
+        c = int(cs[0])
+        if len(cs) != 1:
+            raise ValueError(
+                f"facet of group {group!r} is not on the boundary (shared by {len(cs)} cells)"
+            )
+        if c >= n_owned_cells:
+            continue
+        lf = int(np.flatnonzero(c2f.links(c) == f)[0])
+        local_nodes = orders[lf]
+        xn = x[geo_nodes[c, local_nodes]]
+        cdofs = dofmap.cell_dofs(c)[local_nodes]
+        gb = gblocks[cdofs]
+        ldofs = (cdofs[:, None] * bs + np.arange(bs)).ravel()
+        unit_normal(np.ascontiguousarray(xn), ftype, 1.0, centre, nu)
+        out = xn.mean(axis=0) - x[geo_nodes[c]].mean(axis=0)
+        blocks.append(gb)
+        dofs.append(problem.global_dofs[ldofs])
+        X.append(xn)
+        signs.append(1.0 if nu @ out > 0 else -1.0)
+        cells.append(c)
+    if not blocks:
+        return FacetArrays.empty(ftype, nn, d), np.empty(0, np.int32)
+    nf = len(blocks)
+    fa = FacetArrays(
+        ftype,
+        d,
+        np.asarray(blocks, np.int64),
+        np.asarray(dofs, np.int64),
+        np.asarray(X, float),
+        np.asarray(signs, float),
+        np.full(nf, rank, np.int32),
+    )
+    return fa, np.asarray(cells, np.int32)
+
+
+def mixed_nodes(ftype: int) -> np.ndarray:
+    """Facet-local nodes carrying the mixed fields (P1 vertices on 6-node triangles, where ∫N_vertex = 0)."""
+    if ftype == TRIANGLE2:
+        return np.arange(3)
+    return np.arange(REFERENCE_NODES[ftype].shape[0])
+
+
+def quadrature(ftype: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss points (nq, k) and weights (nq,) on the reference facet, exact to ``degree``."""
+    cell = {1: basix.CellType.interval, 2: basix.CellType.triangle}[tdim(ftype)]
+    if ftype in (QUAD1, QUAD2):
+        cell = basix.CellType.quadrilateral
+    pts, wts = basix.make_quadrature(cell, degree)
+    return np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(wts, dtype=float)

@@ -1,0 +1,116 @@
+"""Tests of dolfinx_mortar.analytic against BENCHMARKS.md and by quadrature."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from dolfinx_mortar import analytic as A
+
+E, NU, R, P = 200.0, 0.3, 8.0, 10.0
+
+
+def test_effective_modulus_and_radius():
+    Es = A.effective_modulus(E, NU)
+    assert Es == pytest.approx(E / (2 * (1 - NU**2)), rel=1e-14)
+    assert A.effective_modulus(E, NU, E, NU) == pytest.approx(Es, rel=1e-14)
+    assert A.effective_modulus(E, NU, math.inf) == pytest.approx(E / (1 - NU**2), rel=1e-14)
+    assert A.effective_modulus(100.0, 0.0, 300.0, 0.5) == pytest.approx(
+        1 / (1 / 100 + 0.75 / 300), rel=1e-14
+    )
+    assert A.effective_radius(R) == R
+    assert A.effective_radius(R, R) == pytest.approx(R / 2)
+    with pytest.raises(ValueError):
+        A.effective_modulus(-1.0, 0.3)
+
+
+def test_hertz2d_benchmark_numbers():
+    h = A.hertz2d(P, R, A.effective_modulus(E, NU))
+    assert h["a"] == pytest.approx(0.9628, abs=5e-5)
+    assert h["p0"] == pytest.approx(6.612, abs=5e-4)
+
+
+def test_hertz2d_force_balance():
+    Es = A.effective_modulus(E, NU)
+    a = A.hertz2d(P, R, Es)["a"]
+    total, _ = quad(lambda x: A.hertz2d_pressure(x, P, R, Es), -a, a, epsabs=1e-13)
+    assert total == pytest.approx(P, rel=1e-9)
+    assert A.hertz2d_pressure(1.5 * a, P, R, Es) == 0.0
+    assert A.hertz2d_pressure(0.0, P, R, Es) == pytest.approx(A.hertz2d(P, R, Es)["p0"])
+    x = np.linspace(-2 * a, 2 * a, 11)
+    p = A.hertz2d_pressure(x, P, R, Es)
+    assert p.shape == x.shape and np.all(p >= 0.0)
+
+
+def test_hertz3d():
+    Es = A.effective_modulus(E, NU)
+    h = A.hertz3d(P, R, Es)
+    assert h["a"] == pytest.approx((3 * P * R / (4 * Es)) ** (1 / 3), rel=1e-14)
+    assert h["p0"] == pytest.approx(3 * P / (2 * math.pi * h["a"] ** 2), rel=1e-14)
+    assert h["delta"] == pytest.approx(h["a"] ** 2 / R, rel=1e-14)
+    total, _ = quad(lambda r: 2 * math.pi * r * A.hertz3d_pressure(r, P, R, Es), 0, h["a"])
+    assert total == pytest.approx(P, rel=1e-9)
+    # M = (3 pi / 16) mu P a is the integral of mu p(r) r over the disc
+    mu = 0.2
+    torque, _ = quad(lambda r: 2 * math.pi * r**2 * mu * A.hertz3d_pressure(r, P, R, Es), 0, h["a"])
+    assert A.torsion_full_slip(mu, P, h["a"]) == pytest.approx(torque, rel=1e-9)
+
+
+@pytest.mark.parametrize("ratio", [0.1, 0.5, 0.9])
+def test_cattaneo_mindlin2d(ratio):
+    mu, Rs = 0.2, 4.0  # two half-cylinders R = 8
+    Es = A.effective_modulus(E, NU)
+    Q = ratio * mu * P
+    s = A.cattaneo_mindlin2d_stick(P, Q, mu, Rs, Es)
+    a, c = s["a"], s["c"]
+    assert c / a == pytest.approx(math.sqrt(1 - ratio), rel=1e-14)
+
+    def q(x):
+        return A.cattaneo_mindlin2d(x, P, Q, mu, Rs, Es)
+
+    # continuous at c (a square-root cusp on the stick side), mu p in the slip zone, 0 outside
+    assert q(c * (1 - 1e-12)) == pytest.approx(q(c * (1 + 1e-12)), abs=1e-5)
+    xs = np.linspace(c, a, 7)[1:-1]
+    assert np.allclose(q(xs), mu * A.hertz2d_pressure(xs, P, Rs, Es))
+    assert q(1.01 * a) == 0.0 and q(-1.01 * a) == 0.0
+    assert np.all(q(np.linspace(-a, a, 101)) >= 0.0)
+    total = quad(q, -a, a, points=[-c, c], epsabs=1e-13, limit=200)[0]
+    assert total == pytest.approx(Q, rel=1e-8)
+    # the sign follows Q
+    assert A.cattaneo_mindlin2d(0.3 * c, P, -Q, mu, Rs, Es) == pytest.approx(-q(0.3 * c))
+
+
+def test_cattaneo_mindlin_limits():
+    Es = A.effective_modulus(E, NU)
+    s = A.cattaneo_mindlin2d_stick(P, 0.0, 0.2, 4.0, Es)
+    assert s["c"] == s["a"]
+    assert A.cattaneo_mindlin2d(0.1, P, 0.0, 0.2, 4.0, Es) == 0.0
+    assert A.cattaneo_mindlin2d_stick(P, 2.0, 0.2, 4.0, Es)["c"] == 0.0  # Q = mu P
+    with pytest.raises(ValueError):
+        A.cattaneo_mindlin2d_stick(P, 2.5, 0.2, 4.0, Es)
+    with pytest.raises(ValueError):
+        A.cattaneo_mindlin3d(P, 1.0, 0.0)
+
+
+def test_cattaneo_mindlin3d():
+    mu, Es = 0.2, A.effective_modulus(E, NU)
+    Q = 0.5 * mu * P
+    assert A.cattaneo_mindlin3d(P, Q, mu) == pytest.approx(0.5 ** (1 / 3), rel=1e-14)
+    a = A.hertz3d(P, R, Es)["a"]
+    c = a * A.cattaneo_mindlin3d(P, Q, mu)
+
+    def q(r):
+        return A.cattaneo_mindlin3d_traction(r, P, Q, mu, R, Es)
+
+    total = quad(lambda r: 2 * math.pi * r * q(r), 0, a, points=[c], epsabs=1e-13)[0]
+    assert total == pytest.approx(Q, rel=1e-8)
+    # continuous at c (a square-root cusp on the stick side), mu p in the slip zone, 0 outside
+    assert q(c * (1 - 1e-12)) == pytest.approx(q(c * (1 + 1e-12)), abs=1e-5)
+
+
+def test_wedge_slip_ratio():
+    assert A.wedge_slip_ratio(0.1, 0.3) == pytest.approx(0.41237, abs=5e-6)
+    assert A.wedge_slip_ratio(0.1, 0.5) == pytest.approx(0.63158, abs=5e-6)
+    assert A.wedge_slip_ratio(0.0, 0.3) == pytest.approx(0.3)
+    assert A.wedge_slip_ratio(2.0, 0.5) == math.inf

@@ -1,0 +1,178 @@
+"""The contact tangent K_c against central finite differences of the contact residual R_c.
+
+Configurations with partial contact and sliding: the slave body is pushed into
+the master and shifted sideways by a non-uniform displacement field, the master
+is deformed too; the multipliers λ are nonzero (mid-Uzawa). For random
+directions v, (R_c(u + h v) − R_c(u − h v)) / 2h must equal K_c v. Runs
+serially and under MPI (the contact data then crosses ranks).
+"""
+
+import numpy as np
+import pytest
+from dolfinx import fem
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dolfinx_mortar.runner import prepare
+from dolfinx_mortar.scene import parse_scene
+
+CASES = {
+    # name: (generator, params, slave, master, bodies (slave, master), gdim)
+    "hertz2d-P1": (
+        "hertz2d",
+        {"h_contact": 0.4, "h_far": 4.0},
+        "cylinder_surface",
+        "block_top",
+        ("cylinder", "block"),
+        2,
+    ),
+    "hertz2d-P2": (
+        "hertz2d",
+        {"h_contact": 0.5, "h_far": 4.0, "order": 2},
+        "cylinder_surface",
+        "block_top",
+        ("cylinder", "block"),
+        2,
+    ),
+    "hertz2d-Q1": (
+        "hertz2d",
+        {"h_contact": 0.4, "h_far": 4.0, "quads": True},
+        "cylinder_surface",
+        "block_top",
+        ("cylinder", "block"),
+        2,
+    ),
+    "hertz3d-P1": (
+        "hertz3d",
+        {"h_contact": 0.6, "h_far": 6.0, "W": 8.0, "H": 6.0},
+        "sphere_surface",
+        "block_top",
+        ("sphere", "block"),
+        3,
+    ),
+    "hertz3d-P2": (
+        "hertz3d",
+        {"h_contact": 0.5, "h_far": 8.0, "W": 8.0, "H": 6.0, "order": 2},
+        "sphere_surface",
+        "block_top",
+        ("sphere", "block"),
+        3,
+    ),
+    "patch3d-Q1": (
+        "patch3d",
+        {"n_lower": 3, "n_upper": 4},
+        "upper_bottom",
+        "lower_top",
+        ("upper", "lower"),
+        3,
+    ),
+}
+
+
+def _problem(case, integration="element"):
+    gen, params, slave, master, bodies, gdim = CASES[case]
+    data = {
+        "kinematics": "finite",
+        "mesh": {"generator": gen, "params": params},
+        "material": [{"region": b, "model": "neo-hookean", "E": 200.0, "nu": 0.3} for b in bodies],
+        "contact": [
+            {
+                "slave": slave,
+                "master": master,
+                "penalty": 1.0e3,
+                "uzawa_tol": 0.0,
+                "integration": integration,
+            }
+        ],
+        "output": {"dir": "unused"},
+    }
+    problem, _ = prepare(parse_scene(data, __import__("pathlib").Path(".")), MPI.COMM_WORLD)
+    return problem
+
+
+def _set_state(problem, depth, slave_body):
+    """Slave body: push down by `depth` (z or y) with a sideways shift and a non-uniform part;
+    master body: a smooth non-affine deformation."""
+    md = problem.mesh_data
+    gdim = problem.gdim
+    u = problem.u
+    V = problem.V
+    slave_cells = md.cell_tags.find(md.cell_groups[slave_body])
+
+    def master_u(x):
+        out = np.zeros((gdim, x.shape[1]))
+        out[0] = 0.004 * x[0] + 0.002 * np.sin(2 * x[1])
+        out[gdim - 1] = 0.003 * np.sin(1.3 * x[0]) - 0.001 * x[gdim - 1]
+        if gdim == 3:
+            out[1] = 0.002 * x[1] + 0.001 * np.cos(x[0])
+        return out
+
+    def slave_u(x):
+        out = np.zeros((gdim, x.shape[1]))
+        out[0] = 0.03 + 0.01 * np.sin(x[0]) + 0.002 * x[gdim - 1]
+        out[gdim - 1] = -depth - 0.004 * x[0] ** 2
+        if gdim == 3:
+            out[1] = 0.02 + 0.005 * np.cos(x[1])
+        return out
+
+    u.interpolate(master_u)
+    w = fem.Function(V)
+    w.interpolate(slave_u, slave_cells)
+    dofs = fem.locate_dofs_topological(V, problem.mesh.topology.dim, slave_cells)
+    bs = V.dofmap.index_map_bs
+    idx = (np.repeat(dofs * bs, bs) + np.tile(np.arange(bs), dofs.size)).astype(np.int64)
+    u.x.array[idx] = w.x.array[idx]
+    u.x.scatter_forward()
+
+
+def _residual(problem, term, vec_u):
+    vec_u.copy(problem.u.vector)
+    problem.u.x.scatter_forward()
+    term.update(problem.u)
+    b = problem.u.vector.copy()
+    b.zeroEntries()
+    term.add_residual(b)
+    b.assemble()
+    return b
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", list(CASES))
+def test_contact_tangent_matches_finite_differences(case):
+    problem = _problem(case)
+    term = problem.contacts[0]
+    depth = {2: 0.05, 3: 0.04}[problem.gdim]
+    _set_state(problem, depth, CASES[case][4][0])
+    term.update(problem.u)
+    # mid-Uzawa multipliers: some nodes active through λ, others through the penalty
+    rng = np.random.default_rng(1 + MPI.COMM_WORLD.rank)
+    term.lmbda = np.where(rng.random(term.lmbda.size) < 0.5, 0.2 * rng.random(term.lmbda.size), 0.0)
+    u0 = problem.u.vector.copy()
+    term.update(problem.u)
+    nact = MPI.COMM_WORLD.allreduce(int((term.p > 0).sum()))
+    assert nact >= 3, f"configuration should have several active nodes (got {nact})"
+    assert term.predictor_nodes == 0
+    A = problem.create_matrix()
+    A.zeroEntries()
+    term.add_jacobian(A)
+    A.assemble()
+    errs = []
+    for trial in range(3):
+        v = u0.copy()
+        v.setRandom(PETSc.Random().create(MPI.COMM_WORLD))
+        v.scale(1e-2)
+        h = 1e-6
+        up = u0.copy()
+        up.axpy(h, v)
+        um = u0.copy()
+        um.axpy(-h, v)
+        fd = _residual(problem, term, up)
+        fd.axpy(-1.0, _residual(problem, term, um))
+        fd.scale(0.5 / h)
+        Jv = u0.copy()
+        A.mult(v, Jv)
+        diff = Jv.copy()
+        diff.axpy(-1.0, fd)
+        errs.append(diff.norm() / max(fd.norm(), 1e-300))
+        assert fd.norm() > 0.0
+    assert max(errs) < 1e-5, errs

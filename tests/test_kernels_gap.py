@@ -1,0 +1,438 @@
+"""Tests of the per-point contact kernels: shape functions (against basix), closest-point
+projection (against a SciPy reference), gap sign, and exact gap derivatives (against
+central finite differences with re-projection and against an independent AD reference)."""
+
+import basix
+import numpy as np
+import pytest
+
+from dolfinx_mortar.kernels import (
+    FACET_TYPES,
+    INTERVAL1,
+    INTERVAL2,
+    QUAD1,
+    QUAD2,
+    REFERENCE_NODES,
+    TRIANGLE1,
+    TRIANGLE2,
+    clamp_to_reference,
+    gap_and_derivatives,
+    gap_only,
+    inside,
+    num_nodes,
+    project,
+    projection_derivative,
+    shape,
+    tdim,
+    unit_normal,
+)
+from dolfinx_mortar.kernels import reference as ref
+
+TOL = 1e-13
+MAXIT = 50
+
+_BASIX = {
+    INTERVAL1: (basix.CellType.interval, 1),
+    INTERVAL2: (basix.CellType.interval, 2),
+    TRIANGLE1: (basix.CellType.triangle, 1),
+    TRIANGLE2: (basix.CellType.triangle, 2),
+    QUAD1: (basix.CellType.quadrilateral, 1),
+    QUAD2: (basix.CellType.quadrilateral, 2),
+}
+
+
+def basix_element(ftype):
+    cell, degree = _BASIX[ftype]
+    return basix.create_element(
+        basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.equispaced
+    )
+
+
+def numba_shape(ftype, xi):
+    n, k = num_nodes(ftype), tdim(ftype)
+    N, dN, ddN = np.empty(n), np.empty((n, k)), np.empty((n, k, k))
+    shape(ftype, np.asarray(xi, dtype=float), N, dN, ddN)
+    return N, dN, ddN
+
+
+def nproject(x1, xm, ftype, zeta0=None, tol=TOL, maxit=MAXIT):
+    k = tdim(ftype)
+    z0 = np.full(k, np.nan) if zeta0 is None else np.array(zeta0, dtype=float)
+    z = np.empty(k)
+    ok = project(x1, xm, ftype, z0, z, tol, maxit)
+    return ok, z
+
+
+def rotation(rng, d):
+    q, r = np.linalg.qr(rng.standard_normal((d, d)))
+    q = q * np.sign(np.diag(r))
+    if np.linalg.det(q) < 0:
+        q[:, 0] *= -1
+    return q
+
+
+def make_facet(ftype, rng, amp=0.1, rotate=True):
+    """Master facet from the reference nodes embedded in the plane x_d = 0 (body below,
+    outward normal +e_d before rotation), perturbed by ``amp`` noise, randomly rotated and
+    translated. Returns (xm, sign)."""
+    nodes = REFERENCE_NODES[ftype]
+    k = nodes.shape[1]
+    d = k + 1
+    xm = np.column_stack([nodes, np.zeros(len(nodes))])
+    xm = xm + amp * rng.standard_normal(xm.shape)
+    if rotate:
+        xm = xm @ rotation(rng, d).T + rng.uniform(-3, 3, d)
+    sign = -1.0 if d == 2 else 1.0  # n = s (a1_y, -a1_x) resp. s a1 x a2, a1 ~ e1 (, a2 ~ e2)
+    return xm, sign
+
+
+def slave_point(ftype, xm, sign, h, rng, zeta=None):
+    """Point at signed distance ~h along the normal of S(zeta), slightly shifted."""
+    k = tdim(ftype)
+    zeta = np.full(k, 0.3) + 0.05 * rng.standard_normal(k) if zeta is None else zeta
+    S, _ = ref.surface(xm, ftype, zeta)
+    nu = ref.normal(xm, ftype, sign, zeta)
+    return S + h * nu + 0.02 * rng.standard_normal(xm.shape[1])
+
+
+# --------------------------------------------------------------------------- shape
+
+
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_node_ordering_matches_basix(ftype):
+    e = basix_element(ftype)
+    assert num_nodes(ftype) == e.dim == len(REFERENCE_NODES[ftype])
+    assert tdim(ftype) == REFERENCE_NODES[ftype].shape[1]
+    np.testing.assert_allclose(REFERENCE_NODES[ftype], e.points, atol=1e-15)
+    # Kronecker property at the nodes
+    for b, xb in enumerate(e.points):
+        N, _, _ = numba_shape(ftype, xb)
+        np.testing.assert_allclose(N, np.eye(len(N))[b], atol=1e-14)
+
+
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_shape_matches_basix_tabulate(ftype):
+    rng = np.random.default_rng(ftype)
+    e = basix_element(ftype)
+    k = tdim(ftype)
+    pts = rng.uniform(-0.3, 1.3, (7, k))  # inside and outside (extrapolation)
+    tab = e.tabulate(2, pts)[:, :, :, 0]  # (nderiv, npts, n)
+    if k == 1:
+        i1, i2 = [basix.index(1)], [[basix.index(2)]]
+    else:
+        i1 = [basix.index(1, 0), basix.index(0, 1)]
+        i2 = [
+            [basix.index(2, 0), basix.index(1, 1)],
+            [basix.index(1, 1), basix.index(0, 2)],
+        ]
+    for p, xi in enumerate(pts):
+        dN_b = np.array([tab[i1[al], p] for al in range(k)]).T
+        ddN_b = np.array([[tab[i2[al][be], p] for be in range(k)] for al in range(k)])
+        ddN_b = np.moveaxis(ddN_b, 2, 0)
+        for N, dN, ddN in (numba_shape(ftype, xi), ref.shape(ftype, xi)):
+            np.testing.assert_allclose(N, tab[0, p], atol=1e-13)
+            np.testing.assert_allclose(dN, dN_b, atol=1e-12)
+            np.testing.assert_allclose(ddN, ddN_b, atol=1e-11)
+
+
+def test_inside_and_clamp():
+    for ft in (INTERVAL1, INTERVAL2):
+        assert inside(ft, np.array([0.5]), 0.0)
+        assert inside(ft, np.array([1.0 + 1e-9]), 1e-8)
+        assert not inside(ft, np.array([1.1]), 1e-8)
+        assert not inside(ft, np.array([np.nan]), 1e-8)
+        z = np.array([-0.4])
+        clamp_to_reference(ft, z)
+        assert z[0] == 0.0
+    for ft in (TRIANGLE1, TRIANGLE2):
+        assert inside(ft, np.array([0.2, 0.3]), 0.0)
+        assert not inside(ft, np.array([0.6, 0.6]), 1e-8)
+        assert not inside(ft, np.array([-0.1, 0.3]), 1e-8)
+        for xi, expect in [
+            ([0.6, 0.6], [0.5, 0.5]),
+            ([-0.5, -0.2], [0.0, 0.0]),
+            ([2.0, -0.5], [1.0, 0.0]),
+            ([-0.3, 0.4], [0.0, 0.4]),
+            ([0.9, 0.3], [0.8, 0.2]),
+            ([0.2, 0.3], [0.2, 0.3]),
+        ]:
+            z = np.array(xi)
+            clamp_to_reference(ft, z)
+            np.testing.assert_allclose(z, expect, atol=1e-15)
+    for ft in (QUAD1, QUAD2):
+        assert inside(ft, np.array([0.9, 0.9]), 0.0)
+        assert not inside(ft, np.array([0.5, 1.2]), 1e-8)
+        z = np.array([1.5, -0.5])
+        clamp_to_reference(ft, z)
+        np.testing.assert_allclose(z, [1.0, 0.0])
+
+
+# --------------------------------------------------------------------------- projection
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL1, TRIANGLE1, QUAD1])
+def test_project_flat_facet_middle(ftype):
+    xm, sign = make_facet(ftype, np.random.default_rng(1), amp=0.0, rotate=False)
+    k = tdim(ftype)
+    centre = np.full(k, 1 / 3 if ftype == TRIANGLE1 else 0.5)
+    x1 = ref.surface(xm, ftype, centre)[0]
+    x1[-1] = 0.7
+    ok, z = nproject(x1, xm, ftype, zeta0=np.zeros(k))
+    assert ok
+    np.testing.assert_allclose(z, centre, atol=1e-14)
+    np.testing.assert_allclose(z, ref.project(x1, xm, ftype), atol=1e-10)
+    assert gap_only(x1, xm, ftype, sign, z) == pytest.approx(0.7, abs=1e-14)
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL1, INTERVAL2, TRIANGLE1, QUAD1, QUAD2])
+def test_project_beyond_edge(ftype):
+    rng = np.random.default_rng(2)
+    xm, sign = make_facet(ftype, rng, amp=0.03)
+    k = tdim(ftype)
+    target = np.full(k, 0.4)
+    target[0] = 1.3  # beyond the xi_1 = 1 edge (for the triangle also beyond xi1 + xi2 = 1)
+    x1 = slave_point(ftype, xm, sign, 0.2, rng, zeta=target)
+    ok, z = nproject(x1, xm, ftype)
+    assert ok
+    assert z[0] > 1.1
+    assert not inside(ftype, z, 1e-6)
+    np.testing.assert_allclose(z, ref.project(x1, xm, ftype), atol=1e-10)
+    zc = z.copy()
+    clamp_to_reference(ftype, zc)
+    assert inside(ftype, zc, 0.0)
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL2, TRIANGLE2, QUAD2])
+def test_project_curved_p2(ftype):
+    """Facet nodes on a circle / sphere of radius 1.5 (convex body below)."""
+    nodes = REFERENCE_NODES[ftype]
+    k = nodes.shape[1]
+    R = 1.5
+    p = nodes - 0.5
+    h = R - np.sqrt(R**2 - np.sum(p**2, axis=1))
+    xm = np.column_stack([nodes, -h])
+    sign = -1.0 if k == 1 else 1.0
+    rng = np.random.default_rng(3)
+    for h_slave in (0.5, -0.3, 2.0):
+        x1 = slave_point(ftype, xm, sign, h_slave, rng, zeta=np.full(k, 0.35))
+        ok, z = nproject(x1, xm, ftype)
+        assert ok
+        assert inside(ftype, z, 0.0)
+        np.testing.assert_allclose(z, ref.project(x1, xm, ftype), atol=1e-10)
+        # orthogonality of x1 - S to the tangents
+        S, A = ref.surface(xm, ftype, z)
+        assert np.abs(A @ (x1 - S)).max() < 1e-13
+        assert np.sign(gap_only(x1, xm, ftype, sign, z)) == np.sign(h_slave)
+
+
+def test_project_warped_bilinear_quad():
+    xm = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.2], [0.0, 1.0, 0.3], [1.2, 1.1, -0.25]])
+    rng = np.random.default_rng(4)
+    for target, h in [((0.3, 0.6), 0.4), ((0.8, 0.2), -0.15), ((1.4, 0.5), 0.3)]:
+        target = np.array(target)
+        x1 = slave_point(QUAD1, xm, 1.0, h, rng, zeta=target)
+        ok, z = nproject(x1, xm, QUAD1)
+        assert ok
+        np.testing.assert_allclose(z, ref.project(x1, xm, QUAD1), atol=1e-10)
+        assert inside(QUAD1, z, 1e-8) == bool(target[0] <= 1.0)
+
+
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_project_far_point_terminates(ftype):
+    rng = np.random.default_rng(5)
+    xm, sign = make_facet(ftype, rng, amp=0.1)
+    d = xm.shape[1]
+    for x1 in (1e3 * rng.standard_normal(d), np.full(d, 50.0), xm.mean(axis=0) + 1e-9):
+        ok, z = nproject(x1, xm, ftype, maxit=100)
+        assert np.all(np.isfinite(z))
+        if ok:
+            S, A = ref.surface(xm, ftype, z)
+            assert np.abs(A @ (x1 - S)).max() < 1e-9 * (1 + np.linalg.norm(x1 - S))
+    ok, z = nproject(np.ones(d), xm, ftype, zeta0=np.full(tdim(ftype), 0.2), maxit=0)
+    assert not ok
+    np.testing.assert_allclose(z, 0.2)
+
+
+# --------------------------------------------------------------------------- gap sign
+
+
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_gap_sign(ftype):
+    rng = np.random.default_rng(6)
+    xm, sign = make_facet(ftype, rng, amp=0.05, rotate=False)
+    nu = np.empty(xm.shape[1])
+    k = tdim(ftype)
+    jac = unit_normal(xm, ftype, sign, np.full(k, 0.3), nu)
+    assert jac > 0 and nu[-1] > 0.9  # outward normal of the body below the facet
+    for h in (0.25, -0.1):
+        x1 = slave_point(ftype, xm, sign, h, rng)
+        ok, z = nproject(x1, xm, ftype)
+        assert ok and inside(ftype, z, 0.0)
+        g = gap_only(x1, xm, ftype, sign, z)
+        assert np.sign(g) == np.sign(h)
+        assert gap_only(x1, xm, ftype, -sign, z) == pytest.approx(-g, abs=1e-15)
+        assert ref.gap(x1, xm, ftype, sign, z) == pytest.approx(g, abs=1e-14)
+
+
+# --------------------------------------------------------------------------- derivatives
+
+
+def split(y, d):
+    return y[:d].copy(), y[d:].reshape(-1, d).copy()
+
+
+def gap_reprojected(y, ftype, sign, d, zeta):
+    x1, xm = split(y, d)
+    ok, z = nproject(x1, xm, ftype, zeta0=zeta)
+    assert ok
+    return gap_only(x1, xm, ftype, sign, z)
+
+
+def derivs_reprojected(y, ftype, sign, d, zeta):
+    x1, xm = split(y, d)
+    ok, z = nproject(x1, xm, ftype, zeta0=zeta)
+    assert ok
+    dg = np.empty(len(y))
+    d2g = np.empty((len(y), len(y)))
+    g = gap_and_derivatives(x1, xm, ftype, sign, z, dg, d2g)
+    return g, dg, d2g, z
+
+
+def relerr(a, b):
+    return np.abs(a - b).max() / np.abs(b).max()
+
+
+def fd_errors(ftype, xm, sign, x1):
+    """Relative errors (max-norm, relative to the max entry) of dg, d2g against central FD
+    with re-projection for every perturbed y: (dg vs FD of g, d2g vs FD of the analytic dg,
+    d2g vs second differences of g)."""
+    d = xm.shape[1]
+    y0 = np.concatenate([x1, xm.ravel()])
+    ny = len(y0)
+    g0, dg, d2g, z0 = derivs_reprojected(y0, ftype, sign, d, None)
+    assert inside(ftype, z0, 0.0)
+    np.testing.assert_allclose(d2g, d2g.T, atol=1e-14 * np.abs(d2g).max())
+
+    def gfun(y):
+        return gap_reprojected(y, ftype, sign, d, z0)
+
+    h1 = 1e-6
+    I = np.eye(ny)
+    dg_fd = np.array([(gfun(y0 + h1 * I[i]) - gfun(y0 - h1 * I[i])) / (2 * h1) for i in range(ny)])
+    d2g_fd1 = np.array(
+        [
+            (
+                derivs_reprojected(y0 + h1 * I[i], ftype, sign, d, z0)[1]
+                - derivs_reprojected(y0 - h1 * I[i], ftype, sign, d, z0)[1]
+            )
+            / (2 * h1)
+            for i in range(ny)
+        ]
+    )
+
+    def second_differences(h):
+        H = np.empty((ny, ny))
+        for i in range(ny):
+            H[i, i] = (gfun(y0 + h * I[i]) - 2 * g0 + gfun(y0 - h * I[i])) / h**2
+            for j in range(i):
+                ei, ej = h * I[i], h * I[j]
+                v = gfun(y0 + ei + ej) - gfun(y0 + ei - ej) - gfun(y0 - ei + ej)
+                H[i, j] = H[j, i] = (v + gfun(y0 - ei - ej)) / (4 * h**2)
+        return H
+
+    # central second differences, one Richardson step (O(h^4)): allows a step large
+    # enough for the round-off of g (~1e-16 |x|) not to be amplified by 1/h^2
+    h2 = 1e-3
+    d2g_fd2 = (4 * second_differences(h2) - second_differences(2 * h2)) / 3
+    return g0, relerr(dg, dg_fd), relerr(d2g, d2g_fd1), relerr(d2g, d2g_fd2)
+
+
+CASES = {
+    "outside": dict(amp=0.1, h=0.3),
+    "penetrating": dict(amp=0.1, h=-0.2),
+    "flat_outside": dict(amp=0.0, h=0.25),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_gap_derivatives_fd(ftype, case):
+    rng = np.random.default_rng(10 + ftype)
+    c = CASES[case]
+    xm, sign = make_facet(ftype, rng, amp=c["amp"])
+    x1 = slave_point(ftype, xm, sign, c["h"], rng)
+    g, e1, e2, e3 = fd_errors(ftype, xm, sign, x1)
+    assert np.sign(g) == np.sign(c["h"])
+    assert e1 < 1e-6, e1
+    assert e2 < 1e-6, e2
+    assert e3 < 1e-6, e3
+
+
+@pytest.mark.parametrize("ftype", FACET_TYPES)
+def test_numba_matches_reference(ftype):
+    rng = np.random.default_rng(20 + ftype)
+    xm, sign = make_facet(ftype, rng, amp=0.12)
+    d = xm.shape[1]
+    ny = d * (1 + len(xm))
+    for h in (0.35, -0.15):
+        x1 = slave_point(ftype, xm, sign, h, rng)
+        ok, z = nproject(x1, xm, ftype)
+        assert ok
+        np.testing.assert_allclose(z, ref.project(x1, xm, ftype), atol=1e-10)
+        dg = np.empty(ny)
+        d2g = np.empty((ny, ny))
+        g = gap_and_derivatives(x1, xm, ftype, sign, z, dg, d2g)
+        gr, dgr, d2gr = ref.gap_derivatives(x1, xm, ftype, sign, z)
+        assert g == pytest.approx(gr, abs=1e-12)
+        assert gap_only(x1, xm, ftype, sign, z) == pytest.approx(g, abs=1e-14)
+        assert relerr(dg, dgr) < 1e-10
+        assert relerr(d2g, d2gr) < 1e-10
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL2, TRIANGLE1, QUAD2])
+def test_projection_derivative_fd(ftype):
+    rng = np.random.default_rng(30 + ftype)
+    xm, sign = make_facet(ftype, rng, amp=0.1)
+    x1 = slave_point(ftype, xm, sign, 0.2, rng)
+    d = xm.shape[1]
+    k = tdim(ftype)
+    y0 = np.concatenate([x1, xm.ravel()])
+    ok, z0 = nproject(x1, xm, ftype)
+    assert ok
+    dz = np.empty((k, len(y0)))
+    projection_derivative(x1, xm, ftype, z0, dz)
+    h = 1e-6
+    fd = np.empty_like(dz)
+    for i in range(len(y0)):
+        zz = []
+        for s in (1, -1):
+            y = y0.copy()
+            y[i] += s * h
+            ok, z = nproject(*split(y, d), ftype, zeta0=z0)
+            assert ok
+            zz.append(z)
+        fd[:, i] = (zz[0] - zz[1]) / (2 * h)
+    assert relerr(dz, fd) < 1e-6
+
+
+def test_project_robust_strongly_curved():
+    """Random points around strongly curved P2 facets, from the centre and from random
+    starts (indefinite initial Hessians): always a converged local minimum."""
+    rng = np.random.default_rng(40)
+    ang = np.deg2rad([190.0, 350.0, 270.0])  # interval2 nodes on a circle of radius 0.6
+    xm2 = np.array([0.5, 0.0]) + 0.6 * np.column_stack([np.cos(ang), np.sin(ang)])
+    nodes = REFERENCE_NODES[QUAD2]
+    xm3 = np.column_stack([nodes, -1.5 * np.sum((nodes - 0.5) ** 2, axis=1)])
+    for ftype, xm in ((INTERVAL2, xm2), (QUAD2, xm3)):
+        k = tdim(ftype)
+        for _ in range(200):
+            x1 = xm.mean(axis=0) + rng.uniform(-2, 2, xm.shape[1])
+            for z0 in (None, rng.uniform(-0.5, 1.5, k)):
+                ok, z = nproject(x1, xm, ftype, zeta0=z0, maxit=60)
+                assert ok
+                N, dN, ddN = ref.shape(ftype, z)
+                w = x1 - N @ xm
+                A = dN.T @ xm
+                H = A @ A.T - np.einsum("i,abi->ab", w, np.einsum("nab,ni->abi", ddN, xm))
+                assert np.abs(A @ w).max() < 1e-10
+                assert np.linalg.eigvalsh(H).min() > -1e-10
