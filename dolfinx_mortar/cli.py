@@ -26,7 +26,7 @@ def _parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=None, help="output directory (overrides [output] dir)"
     )
     r.add_argument(
-        "-v", "--verbose", action="store_true", help="log at INFO level (DEBUG with -vv)"
+        "-v", "--verbose", action="count", default=0, help="log at INFO level (DEBUG with -vv)"
     )
     c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
     c.add_argument("scene", type=Path)
@@ -36,11 +36,34 @@ def _parser() -> argparse.ArgumentParser:
 
 def _setup_logging(rank: int, verbose: int) -> None:
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
+    level = level if rank == 0 else logging.ERROR
     logging.basicConfig(
-        level=level if rank == 0 else logging.ERROR,
-        format="[%(levelname)s %(name)s] %(message)s",
-        stream=sys.stderr,
+        level=level, format="[%(levelname)s %(name)s] %(message)s", stream=sys.stderr
     )
+    # The level goes on the handlers too: setuptools (used by the JIT compilation of forms)
+    # lowers the root logger's level, which would print its build log on stderr.
+    for handler in logging.getLogger().handlers:
+        handler.setLevel(level)
+
+
+def _error_line(text: str) -> None:
+    """Write one line to stderr in a single write: print() writes the text and the newline
+    separately, which (with unbuffered stderr, e.g. PYTHONUNBUFFERED=1) lets the lines of
+    several ranks interleave under mpirun."""
+    sys.stderr.write(" ".join(text.splitlines()) + "\n")
+    sys.stderr.flush()
+
+
+def _check_out_dir(out: Path, key: str) -> None:
+    """Raise SceneError if the output directory cannot be created: it, or the nearest of
+    its ancestors that exists, is not a directory (a clean error instead of an OSError
+    from the writer, after the set-up)."""
+    p = Path(out).absolute()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    if not p.is_dir():
+        where = "" if p == Path(out).absolute() else f" ({p} is not a directory)"
+        raise SceneError(key, f"cannot use {out} as output directory: not a directory{where}")
 
 
 def _progress(comm):
@@ -89,11 +112,15 @@ def main(argv=None) -> int:
                     f"{problem.num_dofs} dofs, {len(problem.contacts)} contact pair(s))"
                 )
             return 0
+        if args.out is not None:
+            _check_out_dir(args.out, "--out")
+        else:
+            _check_out_dir(scene.output.dir, "output.dir")
         from .runner import run
 
         summary = run(scene, comm, out_dir=args.out, progress=_progress(comm))
     except SceneError as exc:
-        print(f"dolfinx-mortar: error: {exc}", file=sys.stderr, flush=True)
+        _error_line(f"dolfinx-mortar: error: {exc}")
         return 2
     except Exception:
         traceback.print_exc()
@@ -103,7 +130,7 @@ def main(argv=None) -> int:
         return 1
     if summary["status"] != "ok":
         if comm.rank == 0:
-            print(f"dolfinx-mortar: run failed: {summary['error']}", file=sys.stderr, flush=True)
+            _error_line(f"dolfinx-mortar: run failed: {summary['error']}")
         return 1
     return 0
 

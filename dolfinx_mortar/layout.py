@@ -101,7 +101,7 @@ def pack(f: FacetArrays) -> np.ndarray:
     o += nn
     out[:, o : o + nn * d] = f.dofs
     o += nn * d
-    out[:, o : o + nn * d] = f.X.reshape(nf, -1)
+    out[:, o : o + nn * d] = f.X.reshape(nf, nn * d)
     o += nn * d
     out[:, o] = f.sign
     out[:, o + 1] = f.owner

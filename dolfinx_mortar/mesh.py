@@ -80,6 +80,17 @@ def _inspect_model(gmsh) -> dict:
     ctype = cell_types.pop()
     if ctype not in _SUPPORTED_CELLS:
         raise SceneError("mesh", f"unsupported gmsh element type {ctype}")
+    # a physical group without elements (e.g. a discrete entity that was never meshed)
+    # breaks dolfinx's model_to_mesh; load_mesh drops it from the model but keeps its
+    # name, so that using it gives a clear error later (e.g. "contact surface is empty")
+    empty = []
+    for d, tag in groups:
+        count = 0
+        for ent in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+            _, elem_tags, _ = gmsh.model.mesh.getElements(d, ent)
+            count += sum(len(t) for t in elem_tags)
+        if count == 0:
+            empty.append((d, tag))
     names: dict[tuple[int, int], str] = {}
     for d, tag in groups:
         name = gmsh.model.getPhysicalName(d, tag)
@@ -103,7 +114,23 @@ def _inspect_model(gmsh) -> dict:
         "facet_groups": facet_groups,
         "num_nodes": int(coords.shape[0]),
         "all_groups": {f"{d}:{t}": n for (d, t), n in names.items()},
+        "empty_groups": [names[dt] for dt in empty],
+        "empty_dimtags": empty,
     }
+
+
+class _HideGroups:
+    """A gmsh model whose ``getPhysicalGroups`` leaves out the given (dim, tag) pairs."""
+
+    def __init__(self, model, hidden):
+        self._model = model
+        self._hidden = {tuple(dt) for dt in hidden}
+
+    def getPhysicalGroups(self, dim=-1):
+        return [dt for dt in self._model.getPhysicalGroups(dim) if tuple(dt) not in self._hidden]
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
 
 
 def load_mesh(
@@ -146,10 +173,15 @@ def load_mesh(
         if comm.rank == 0:
             gmsh.finalize()
         raise SceneError(*error)
+    model = None
+    if comm.rank == 0:
+        model = gmsh.model
+        if info["empty_dimtags"]:
+            # gmsh cannot remove physical groups read from a .msh file: hide them instead
+            log.info("physical group(s) without elements: %s", ", ".join(info["empty_groups"]))
+            model = _HideGroups(gmsh.model, info["empty_dimtags"])
     try:
-        mesh, cell_tags, facet_tags = compat.model_to_mesh(
-            gmsh.model if comm.rank == 0 else None, comm, info["gdim"]
-        )
+        mesh, cell_tags, facet_tags = compat.model_to_mesh(model, comm, info["gdim"])
     finally:
         if comm.rank == 0:
             gmsh.finalize()

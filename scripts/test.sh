@@ -9,7 +9,9 @@ sh "$REPO/scripts/install.sh"
 cd "$REPO"
 
 run_pytest() {
-    # $1: label, rest: command; fails on any non-zero status, including 5 (no tests)
+    # $1: label, rest: command; fails on any non-zero status, including 5 (no tests).
+    # MPI runs sit under `timeout`: a test failing on one rank only would otherwise leave
+    # the other ranks waiting in a collective forever.
     label=$1; shift
     echo "== $label"
     set +e
@@ -27,6 +29,6 @@ $PY -m ruff format --check .
 run_pytest "pytest (serial)" $PY -m pytest -q -p no:cacheprovider tests
 for n in 2 3; do
     run_pytest "pytest -m mpi (mpirun -n $n)" \
-        mpirun -n $n $PY -m mpi4py -m pytest -q -p no:cacheprovider -m mpi tests
+        timeout 1500 mpirun -n $n $PY -m mpi4py -m pytest -q -p no:cacheprovider -m mpi tests
 done
 echo "test.sh: all passed"

@@ -10,7 +10,8 @@ overlap of the slave facet with a master facet.
 Element-based pairing (:func:`pair_points`, the paper's choice): every point is
 projected onto its candidate master facets; the closest valid projection pairs
 it with one master facet. A projection is valid when ζ lies in the master
-reference facet, the slave and master normals face each other (n_s·ν < 0) and
+reference facet (or, when no candidate contains it, at most ``OUTSIDE_TOL``
+outside the nearest one: the neighbourhood of a concave kink), the slave and master normals face each other (n_s·ν < 0) and
 the penetration is not deeper than ``max_depth``. Unpaired points contribute to
 nothing (neither A^I nor G^I), in residual and tangent alike. Segment points
 come paired (:func:`forced_points`).
@@ -38,7 +39,7 @@ import numba
 import numpy as np
 
 from .gap import gap_and_derivatives, gap_only, project, unit_normal
-from .shape import inside, shape, tdim
+from .shape import shape, tdim
 
 
 @numba.njit(cache=True)
@@ -65,6 +66,22 @@ def _slave_point(ftype_s, xs_f, xi, N, dN, ddN, x1):
         x1[c] = 0.0
         for a in range(ns):
             x1[c] += N[a] * xs_f[a, c]
+
+
+#: ζ-tolerance of "inside the master facet"
+INSIDE_TOL = 1e-9
+#: largest ζ-distance outside a master facet still accepted when no facet contains the projection
+OUTSIDE_TOL = 1e-3
+
+
+@numba.njit(cache=True)
+def _outside(ftype, zeta):
+    """How far ζ lies outside the reference facet (≤ 0 inside), in reference coordinates."""
+    if tdim(ftype) == 1:
+        return max(-zeta[0], zeta[0] - 1.0)
+    if ftype == 2 or ftype == 3:  # triangles
+        return max(-zeta[0], -zeta[1], zeta[0] + zeta[1] - 1.0)
+    return max(-zeta[0], zeta[0] - 1.0, -zeta[1], zeta[1] - 1.0)
 
 
 @numba.njit(cache=True)
@@ -116,9 +133,13 @@ def pair_points(
             xi = qp_xi[f, q]
             _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
             unit_normal(xs[f], ftype_s, ssign[f], xi, nus)
+            # prefer facets containing the projection (closest |g|); failing that, the facet
+            # whose projection lies least outside it (≤ OUTSIDE_TOL in ζ): a point near a
+            # concave kink of the deformed master projects just outside both neighbours
             best = -1
             best_dist = np.inf
             best_g = 0.0
+            best_out = np.inf
             for j in range(cand_off[f], cand_off[f + 1]):
                 m = cand[j]
                 # cheap rejection: distance from x1 to the facet's bounding box
@@ -134,7 +155,8 @@ def pair_points(
                 if dbox > min(best_dist, reach[f]) ** 2:
                     continue
                 project(x1, xm[m], ftype_m, z0, zeta, 1e-13, 30)
-                if not inside(ftype_m, zeta, 1e-9):
+                out = _outside(ftype_m, zeta)
+                if out > OUTSIDE_TOL or out > best_out:
                     continue
                 unit_normal(xm[m], ftype_m, msign[m], zeta, num)
                 facing = 0.0
@@ -145,7 +167,9 @@ def pair_points(
                 g = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
                 if g < -max_depth[f]:
                     continue
-                if abs(g) < best_dist:
+                out = max(out, INSIDE_TOL)
+                if out < best_out or abs(g) < best_dist:
+                    best_out = out
                     best_dist = abs(g)
                     best = m
                     best_g = g

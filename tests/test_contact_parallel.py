@@ -1,0 +1,105 @@
+"""Parallel runs against serial ones: the same nodal pressures and contact forces on 1, 2, 3 ranks.
+
+Under ``mpirun -n N`` each test runs the scene on COMM_WORLD (N ranks) and, on
+rank 0, the same scene on COMM_SELF (serial); the CSV tables (sorted by
+reference coordinates) and the summary forces must agree to 1e-8. Serially the
+two runs coincide, which still exercises the path.
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dolfinx_mortar.runner import run
+from dolfinx_mortar.scene import parse_scene
+
+HERTZ2D = {
+    "kinematics": "small",
+    "mesh": {"generator": "hertz2d", "params": {"h_contact": 0.25, "h_far": 3.0}},
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
+        for r in ("cylinder", "block")
+    ],
+    "contact": [{"slave": "cylinder_surface", "master": "block_top", "uzawa_tol": 1e-8}],
+    "dirichlet": [
+        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+        {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+    ],
+    "traction": [{"boundary": "cylinder_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.625]]}],
+    "steps": {"n": 2},
+}
+HERTZ3D = {
+    "kinematics": "small",
+    "mesh": {
+        "generator": "hertz3d",
+        "params": {"h_contact": 0.5, "h_far": 4.0, "W": 8.0, "H": 6.0},
+    },
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3} for r in ("sphere", "block")
+    ],
+    "contact": [
+        {
+            "slave": "sphere_surface",
+            "master": "block_top",
+            "uzawa_tol": 1e-8,
+            "integration": "segment",
+        }
+    ],
+    "dirichlet": [
+        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]},
+        {"boundary": "symmetry_x", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        {"boundary": "symmetry_y", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
+    ],
+    "traction": [
+        {"boundary": "sphere_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.0497359]]}
+    ],
+    "steps": {"n": 1},
+}
+
+
+def _run(data, out, comm):
+    d = dict(data, output={"dir": str(out), "fields": ["displacement", "contact_pressure"]})
+    return run(parse_scene(d, pathlib.Path(".")), comm)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "name, data, slave",
+    [("hertz2d", HERTZ2D, "cylinder_surface"), ("hertz3d", HERTZ3D, "sphere_surface")],
+)
+def test_parallel_equals_serial(shared_tmp, name, data, slave):
+    comm = MPI.COMM_WORLD
+    par = _run(data, shared_tmp / f"{name}_par", comm)
+    assert par["status"] == "ok" and par["ranks"] == comm.size
+    if comm.rank == 0:
+        ser = _run(data, shared_tmp / f"{name}_ser", MPI.COMM_SELF)
+        assert ser["status"] == "ok"
+        k = len(par["steps"])
+        assert k == len(ser["steps"]) and k >= 1
+        tp = np.loadtxt(
+            shared_tmp / f"{name}_par" / f"contact_{slave}_{k}.csv", delimiter=",", skiprows=1
+        )
+        ts = np.loadtxt(
+            shared_tmp / f"{name}_ser" / f"contact_{slave}_{k}.csv", delimiter=",", skiprows=1
+        )
+        assert tp.shape == ts.shape and tp.shape[0] > 10
+        pcol = 4 if "2d" in name else 6  # p_N column
+        assert np.count_nonzero(ts[:, pcol] > 0) >= 3
+        scale = ts[:, pcol].max()
+        np.testing.assert_allclose(tp[:, pcol], ts[:, pcol], rtol=0, atol=1e-8 * scale)
+        np.testing.assert_allclose(tp[:, :pcol], ts[:, :pcol], rtol=0, atol=1e-10)
+        fp = np.array(
+            par["steps"][-1]["contact_force"][next(iter(par["steps"][-1]["contact_force"]))]
+        )
+        fs = np.array(
+            ser["steps"][-1]["contact_force"][next(iter(ser["steps"][-1]["contact_force"]))]
+        )
+        np.testing.assert_allclose(fp, fs, rtol=1e-8, atol=1e-10 * np.abs(fs).max())
+        rp, rs = par["steps"][-1]["reactions"], ser["steps"][-1]["reactions"]
+        for b in rs:
+            np.testing.assert_allclose(
+                rp[b], rs[b], rtol=1e-8, atol=1e-9 * max(np.abs(rs[b]).max(), 1.0)
+            )
+    comm.barrier()
