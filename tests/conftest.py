@@ -10,7 +10,13 @@ from mpi4py import MPI
 
 
 def write_block_msh(
-    path: Path, dim: int, n: int = 3, quads: bool = False, order: int = 1, size=(2.0, 1.0, 1.0)
+    path: Path,
+    dim: int,
+    n: int = 3,
+    quads: bool = False,
+    order: int = 1,
+    size=(2.0, 1.0, 1.0),
+    version=4.1,
 ):
     """Block [0,Lx]×[0,Ly](×[0,Lz]) with groups body; left/right (x), bottom/top (y), back/front (z)."""
     import gmsh
@@ -56,6 +62,7 @@ def write_block_msh(
                     gmsh.model.mesh.setTransfiniteVolume(tag)
     gmsh.model.mesh.generate(dim)
     gmsh.model.mesh.setOrder(order)
+    gmsh.option.setNumber("Mesh.MshFileVersion", version)
     gmsh.write(str(path))
     gmsh.finalize()
 
@@ -73,10 +80,10 @@ def shared_tmp(tmp_path_factory):
 def block_msh(shared_tmp):
     """Factory: block_msh(dim, n, quads, order) -> path of a .msh file (collective)."""
 
-    def make(dim, n=3, quads=False, order=1, size=(2.0, 1.0, 1.0)):
-        path = shared_tmp / f"block{dim}_{n}_{int(quads)}_{order}.msh"
+    def make(dim, n=3, quads=False, order=1, size=(2.0, 1.0, 1.0), version=4.1):
+        path = shared_tmp / f"block{dim}_{n}_{int(quads)}_{order}_{version}.msh"
         if MPI.COMM_WORLD.rank == 0 and not path.exists():
-            write_block_msh(path, dim, n, quads, order, size)
+            write_block_msh(path, dim, n, quads, order, size, version)
         MPI.COMM_WORLD.barrier()
         return path
 

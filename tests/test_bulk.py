@@ -103,3 +103,17 @@ def test_svk_and_p2(block_msh, shared_tmp):
     S11 = lm * (E11 + E22) + 2 * mu * E11
     assert s["modelled"]["displacement_degree"] == 2
     assert _reaction_right(s) == pytest.approx(stretch * S11, rel=1e-8)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim, quads", [(2, False), (2, True), (3, False), (3, True)])
+def test_p2_every_cell_type(block_msh, shared_tmp, dim, quads):
+    """P2 geometry and displacement on triangles, 9-node quadrilaterals, 10-node tetrahedra
+    and 27-node hexahedra, read from a .msh 2.2 file: the uniaxial reaction to 1e-8."""
+    msh = block_msh(dim, n=2, quads=quads, order=2, version=2.2)
+    delta, L = 1e-3, 2.0
+    out = shared_tmp / f"out_p2_{dim}{quads}"
+    s = run(_scene(msh, dim, "linear-elastic", "small", delta, out), MPI.COMM_WORLD)
+    assert s["modelled"]["displacement_degree"] == 2
+    Eeff = E / (1 - NU**2) if dim == 2 else E
+    assert _reaction_right(s) == pytest.approx(Eeff * delta / L, rel=1e-8)

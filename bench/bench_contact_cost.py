@@ -1,0 +1,173 @@
+"""Cost of one Newton iteration's contact work against the bulk, on hertz3d (or hertz2d).
+
+For each mesh level the sphere is pushed into the block (a prescribed displacement,
+no solve), then search + pairing (``update``), contact residual + Jacobian and bulk
+residual + Jacobian are timed ``--repeat`` times; medians are reported. Writes a CSV
+row per level and prints a table. Run from the repository root:
+
+    /usr/bin/python3 bench/bench_contact_cost.py --levels 0 1 2 3 --repeat 5
+    mpirun -n 2 /usr/bin/python3 bench/bench_contact_cost.py --levels 2
+
+The claim checked (issue "Mortar normal contact", performance): contact assembly per
+Newton iteration <= bulk assembly, and search time growing no faster than n log n in
+the number of slave facets (the fitted exponent is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import pathlib
+import sys
+from time import perf_counter
+
+import numpy as np
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector, create_vector
+from mpi4py import MPI
+
+from dolfinx_mortar.runner import prepare
+from dolfinx_mortar.scene import parse_scene
+
+
+def scene(gen: str, h: float, integration: str) -> dict:
+    if gen == "hertz3d":
+        bodies, slave, params = (
+            ("sphere", "block"),
+            "sphere_surface",
+            {"h_contact": h, "h_far": 3.0, "c_zone": 1.5},
+        )
+    else:
+        bodies, slave, params = (
+            ("cylinder", "block"),
+            "cylinder_surface",
+            {"h_contact": h, "h_far": 2.0},
+        )
+    return {
+        "kinematics": "finite",
+        "mesh": {"generator": gen, "params": params},
+        "material": [{"region": b, "model": "neo-hookean", "E": 200.0, "nu": 0.3} for b in bodies],
+        "contact": [{"slave": slave, "master": "block_top", "integration": integration}],
+        "output": {"dir": "unused"},
+    }, bodies[0]
+
+
+def push(problem, body: str, depth: float) -> None:
+    """Rigid push of the slave body by ``depth`` into the master (plus a small tilt)."""
+    md, d = problem.mesh_data, problem.gdim
+    cells = md.cell_tags.find(md.cell_groups[body])
+    w = fem.Function(problem.V)
+
+    def f(x):
+        out = np.zeros((d, x.shape[1]))
+        out[d - 1] = -depth - 0.01 * depth * x[0]
+        return out
+
+    w.interpolate(f, cells)
+    problem.u.x.array[:] = w.x.array
+    problem.u.x.scatter_forward()
+
+
+def median_time(fn, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        MPI.COMM_WORLD.barrier()
+        t0 = perf_counter()
+        fn()
+        MPI.COMM_WORLD.barrier()
+        times.append(perf_counter() - t0)
+    return float(np.median(times))
+
+
+def run_level(args, level: int, comm) -> dict:
+    """Time search, contact and bulk assembly at one mesh level (collective)."""
+    h = args.h0 / 2**level
+    data, body = scene(args.generator, h, args.integration)
+    problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
+    term = problem.contacts[0]
+    push(problem, body, 0.08 if args.generator == "hertz3d" else 0.05)  # Hertz approach a²/R
+    x = problem.u.vector
+    b = create_vector(problem.F_form)
+    problem.update_contact(x)
+    A = problem.create_matrix()
+
+    def bulk():
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, problem.F_form)
+        A.zeroEntries()
+        assemble_matrix(A, problem.J_form, problem.bcs)
+        A.assemble()
+
+    def contact():
+        term.add_residual(b)
+        b.assemble()
+        term.add_jacobian(A)
+        A.assemble()
+
+    bulk()
+    contact()  # numba warm-up
+    t_search = median_time(lambda: term.update(problem.u), args.repeat)
+    t_contact = median_time(contact, args.repeat)
+    t_bulk = median_time(bulk, args.repeat)
+    nsf = comm.allreduce(term.slave.num_facets)
+    active = comm.allreduce(int((term.p > 0).sum()))
+    row = {
+        "generator": args.generator,
+        "integration": args.integration,
+        "level": level,
+        "h_contact": h,
+        "ranks": comm.size,
+        "dofs": problem.num_dofs,
+        "slave_facets": nsf,
+        "slave_nodes": term.n_global_nodes,
+        "active_nodes": active,
+        "search_s": t_search,
+        "contact_assembly_s": t_contact,
+        "bulk_assembly_s": t_bulk,
+        "contact_over_bulk": t_contact / t_bulk,
+    }
+    if comm.rank == 0:
+        print(
+            " ".join(
+                f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()
+            ),
+            flush=True,
+        )
+    A.destroy()
+    b.destroy()
+    return row
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--generator", default="hertz3d", choices=["hertz3d", "hertz2d"])
+    ap.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument(
+        "--h0", type=float, default=0.4, help="contact-zone size at level 0 (halved per level)"
+    )
+    ap.add_argument("--integration", default="element", choices=["element", "segment"])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--csv", default="bench/out/contact_cost.csv")
+    args = ap.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    rows = []
+    for level in args.levels:
+        rows.append(run_level(args, level, comm))
+    if comm.rank == 0:
+        path = pathlib.Path(args.csv)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        if len(rows) >= 2:
+            n = np.array([r["slave_facets"] for r in rows], float)
+            t = np.array([r["search_s"] for r in rows])
+            slope = np.polyfit(np.log(n), np.log(t), 1)[0]
+            print(f"search time ~ n^{slope:.2f} in slave facets (n log n would fit ~1.0-1.2)")
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
