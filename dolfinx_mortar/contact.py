@@ -110,9 +110,19 @@ class MortarContact:
             comm.allgather(imap.local_range[0]) + [imap.size_global], dtype=np.int64
         )
 
-        slave_local, slave_cells = extract_facets(problem, slave)
-        master_local, master_cells = extract_facets(problem, master)
-        for name, fa, k in ((slave, slave_local, "slave"), (master, master_local, "master")):
+        slave_local, slave_cells, slave_interior = extract_facets(problem, slave)
+        master_local, master_cells, master_interior = extract_facets(problem, master)
+        for name, fa, interior, k in (
+            (slave, slave_local, slave_interior, "slave"),
+            (master, master_local, master_interior, "master"),
+        ):
+            n_interior = comm.allreduce(interior)
+            if n_interior:
+                raise SceneError(
+                    f"{key}.{k}",
+                    f"contact surface {name!r} has {n_interior} facet(s) inside the mesh "
+                    "(shared by two cells): contact surfaces must lie on the boundary",
+                )
             if comm.allreduce(fa.num_facets) == 0:
                 raise SceneError(f"{key}.{k}", f"contact surface {name!r} is empty")
         self.ftype = slave_local.ftype

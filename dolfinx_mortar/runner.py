@@ -29,6 +29,18 @@ def prepare(scene: Scene, comm):
     mesh_data = load_mesh(comm, file=m.file, generator=m.generator, params=m.params)
     check_groups(scene, mesh_data.cell_groups, mesh_data.facet_groups)
     check_components(scene, mesh_data.gdim)
+    empty = set(mesh_data.info.get("empty_groups", ()))
+    for key, names in (
+        ("material", [m.region for m in scene.materials]),
+        ("dirichlet", [d.boundary for d in scene.dirichlet]),
+        ("traction", [t.boundary for t in scene.tractions]),
+    ):
+        for i, name in enumerate(names):
+            if name in empty:
+                field = "region" if key == "material" else "boundary"
+                raise SceneError(
+                    f"{key}[{i}].{field}", f"physical group {name!r} has no elements in the mesh"
+                )
     from .problem import ContactProblem
 
     used = {mat.region for mat in scene.materials}

@@ -86,11 +86,12 @@ def facet_node_orders(cell_name: str, degree: int) -> np.ndarray:
     return np.asarray(orders, dtype=np.int32)
 
 
-def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray]:
+def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
     """Facets of facet group ``group`` whose cells this rank owns (local, no communication).
 
-    Returns ``(facets, cells)``: the packed facets and the local index of each
-    facet's cell (for material look-ups).
+    Returns ``(facets, cells, interior)``: the packed facets, the local index of each
+    facet's cell (for material look-ups) and the number of facets of the group that are
+    not on the boundary (shared by two cells; the caller rejects them collectively).
     """
     mesh = problem.mesh
     md = problem.mesh_data
@@ -119,15 +120,15 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray]:
     gblocks = np.asarray(imap.local_to_global(np.arange(nblocks, dtype=np.int32)), dtype=np.int64)
     rank = mesh.comm.rank
     blocks, dofs, X, signs, cells = [], [], [], [], []
+    interior = 0
     nu = np.empty(d)
     centre = np.array([0.5] if fdim == 1 else ([1 / 3, 1 / 3] if ftype in (2, 3) else [0.5, 0.5]))
     for f in facets:
         cs = f2c.links(f)
         c = int(cs[0])
         if len(cs) != 1:
-            raise ValueError(
-                f"facet of group {group!r} is not on the boundary (shared by {len(cs)} cells)"
-            )
+            interior += 1
+            continue
         if c >= n_owned_cells:
             continue
         lf = int(np.flatnonzero(c2f.links(c) == f)[0])
@@ -144,7 +145,7 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray]:
         signs.append(1.0 if nu @ out > 0 else -1.0)
         cells.append(c)
     if not blocks:
-        return FacetArrays.empty(ftype, nn, d), np.empty(0, np.int32)
+        return FacetArrays.empty(ftype, nn, d), np.empty(0, np.int32), interior
     nf = len(blocks)
     fa = FacetArrays(
         ftype,
@@ -155,7 +156,7 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray]:
         np.asarray(signs, float),
         np.full(nf, rank, np.int32),
     )
-    return fa, np.asarray(cells, np.int32)
+    return fa, np.asarray(cells, np.int32), interior
 
 
 def mixed_nodes(ftype: int) -> np.ndarray:

@@ -157,7 +157,7 @@ def test_contact_tangent_matches_finite_differences(case):
     term.add_jacobian(A)
     A.assemble()
     errs = []
-    for trial in range(3):
+    for _ in range(3):
         v = u0.copy()
         v.setRandom(PETSc.Random().create(MPI.COMM_WORLD))
         v.scale(1e-2)

@@ -1,0 +1,319 @@
+"""Shared helpers of the demo scripts (not part of the library).
+
+- :func:`parser`, :func:`run_scene`: command line and a collective run of a scene dict;
+- :func:`final_csv`: the slave-node table of the last converged step (rank 0);
+- :func:`mirror`: unfold a symmetric half model's profile onto -x;
+- :func:`profile_metrics`: the peers' pressure metrics (``shared/peers/hertz_common.py``
+  ``normal_metrics``): L2 error of the piecewise-linear interpolant of the nodal
+  pressures against the exact profile on [-1.25 a, 1.25 a], the peak pressure error
+  and the contact half-width, evaluated with the MEASURED load;
+- :func:`newton_orders`: observed order of convergence of the last Newton iterations;
+- :func:`oscillation_index`, :func:`report`.
+
+Every function that reads files runs on rank 0 only; the demos broadcast their
+metrics so that ``main()`` returns the same dictionary on every rank.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+#: A slave node counts as "in contact" when p > ACTIVE_TOL * max(p) (as the peers).
+ACTIVE_TOL = 0.01
+
+
+def parser(description: str, out: str, integration: bool = True) -> argparse.ArgumentParser:
+    """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument(
+        "--refine",
+        type=int,
+        default=0,
+        help="mesh refinement level: the contact-zone element size is halved per level [0]",
+    )
+    ap.add_argument("--out", default=out, help=f"output directory [{out}]")
+    if integration:
+        ap.add_argument(
+            "--integration",
+            choices=("element", "segment"),
+            default="element",
+            help="mortar integration: slave quadrature or exact segments [element]",
+        )
+    return ap
+
+
+def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD) -> tuple[dict, float]:
+    """Parse and run a scene dict (collective). Returns (summary, wall time in s).
+
+    Raises RuntimeError on every rank when the run did not finish (status != "ok").
+    """
+    from time import perf_counter
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    out_dir = Path(out_dir).resolve()
+    parsed = parse_scene(scene, out_dir.parent, source=f"<{scene.get('title', 'demo')}>")
+    comm.barrier()
+    t0 = perf_counter()
+    summary = run(parsed, comm, out_dir)
+    wall = comm.allreduce(perf_counter() - t0, op=MPI.MAX)
+    if summary.get("status") != "ok":
+        raise RuntimeError(f"run failed: {summary.get('error')}")
+    return summary, wall
+
+
+def final_csv(out_dir, slave: str) -> dict[str, np.ndarray]:
+    """Columns of ``contact_<slave>_<k>.csv`` with the largest k (the final state), as arrays."""
+    pattern = re.compile(rf"contact_{re.escape(slave)}_(\d+)\.csv$")
+    files = {}
+    for f in Path(out_dir).glob(f"contact_{slave}_*.csv"):
+        m = pattern.match(f.name)
+        if m:
+            files[int(m.group(1))] = f
+    if not files:
+        raise FileNotFoundError(f"no contact_{slave}_<step>.csv in {out_dir}")
+    with open(files[max(files)], newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r]
+    head = [c.strip() for c in rows[0]]
+    data = np.array([[float(c) for c in r] for r in rows[1:]], dtype=float).reshape(-1, len(head))
+    return {h: data[:, i] for i, h in enumerate(head)}
+
+
+def mirror(x: np.ndarray, p: np.ndarray, tol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """Unfold the profile p(x) of a half model (x >= 0) onto x <= 0; sorted by x.
+
+    A node on the symmetry plane (|x| < tol) appears once.
+    """
+    o = np.argsort(x)
+    x, p = x[o], p[o]
+    off = np.abs(x) > tol
+    xs = np.concatenate([-x[off][::-1], x])
+    ps = np.concatenate([p[off][::-1], p])
+    return xs, ps
+
+
+def _trapz(y, x) -> float:
+    """Trapezoidal rule (numpy 1.24 has ``trapz``, numpy 2 ``trapezoid``: neither is used)."""
+    y, x = np.asarray(y, dtype=float), np.asarray(x, dtype=float)
+    return float(0.5 * np.sum((y[1:] + y[:-1]) * np.diff(x)))
+
+
+def half_width(xn: np.ndarray, pn: np.ndarray) -> dict:
+    """Measured contact half-width of a (full, x-sorted) pressure profile.
+
+    ``a_edge`` (the reported one): the outermost active node on each side
+    (p > ACTIVE_TOL max p) extrapolated with a square-root edge through it and its
+    inner neighbour, clipped to the interval to the first inactive node, averaged
+    over both sides (hertz_common ``normal_metrics``); ``a_lo``/``a_hi`` bracket it
+    (last active / first inactive node). ``a_mom`` = 2 sqrt(∫ x² p / ∫ p), exact for
+    an elliptic profile.
+    """
+    pmax = float(pn.max())
+    idx = np.where(pn > ACTIVE_TOL * pmax)[0]
+    if len(idx) == 0 or pmax <= 0:
+        return {"a_edge": 0.0, "a_lo": 0.0, "a_hi": 0.0, "a_mom": float("nan"), "n_active": 0}
+    il, ir = idx[0], idx[-1]
+    a_lo = 0.5 * (xn[ir] - xn[il])
+    xl = xn[il - 1] if il > 0 else xn[il]
+    xr = xn[ir + 1] if ir + 1 < len(xn) else xn[ir]
+    a_hi = 0.5 * (xr - xl)
+
+    def edge(i_last, i_in, i_out):
+        x2, p2 = xn[i_last], pn[i_last]
+        xe = x2
+        if 0 <= i_in < len(xn) and pn[i_in] > p2:
+            x1, p1 = xn[i_in], pn[i_in]
+            xe = x2 + (x2 - x1) * p2**2 / (p1**2 - p2**2)
+        if 0 <= i_out < len(xn):
+            lo, hi = sorted((x2, xn[i_out]))
+            xe = min(max(xe, lo), hi)
+        return xe
+
+    a_edge = 0.5 * (edge(ir, ir - 1, ir + 1) - edge(il, il + 1, il - 1))
+    pp = np.clip(pn, 0.0, None)
+    m0 = _trapz(pp, xn)
+    a_mom = 2.0 * math.sqrt(_trapz(xn**2 * pp, xn) / m0) if m0 > 0 else float("nan")
+    return {"a_edge": a_edge, "a_lo": a_lo, "a_hi": a_hi, "a_mom": a_mom, "n_active": len(idx)}
+
+
+def profile_metrics(xn: np.ndarray, pn: np.ndarray, a: float, p0: float) -> dict:
+    """Errors of the nodal pressures pn at xn (full profile, sorted) against p0 sqrt(1 - x²/a²).
+
+    ``l2``: ‖p_h − p‖/‖p‖ over [−L, L], L = max(1.25 a, a_hi), p_h the piecewise-linear
+    interpolant of the nodal values (negative values kept); ``p_max_err``: max p_h / p0 − 1;
+    ``a_err``: a_edge / a − 1 (see :func:`half_width`).
+    """
+    hw = half_width(xn, pn)
+    L = max(1.25 * a, hw["a_hi"])
+    xs = np.unique(
+        np.concatenate([np.linspace(-L, L, 40 * len(xn) + 1), xn[np.abs(xn) <= L], [-a, a]])
+    )
+    ph = np.interp(xs, xn, pn, left=0.0, right=0.0)
+    pe = p0 * np.sqrt(np.clip(1.0 - (xs / a) ** 2, 0.0, None))
+    l2 = math.sqrt(_trapz((ph - pe) ** 2, xs) / _trapz(pe**2, xs))
+    pmax = float(pn.max())
+    return {
+        "l2": l2,
+        "p_max": pmax,
+        "p_max_err": pmax / p0 - 1.0,
+        "a_measured": hw["a_edge"],
+        "a_err": hw["a_edge"] / a - 1.0,
+        "a_mom": hw["a_mom"],
+        "a_lo": hw["a_lo"],
+        "a_hi": hw["a_hi"],
+        "n_active": hw["n_active"],
+        "negative": int(np.sum(pn < 0.0)),
+        "p_min": float(pn.min()),
+    }
+
+
+def oscillation_index(pn: np.ndarray, p0: float) -> float:
+    """Σ |p_{i+1} − 2 p_i + p_{i−1}| / p0 over the active nodes (p > ACTIVE_TOL max p)."""
+    act = np.where(pn > ACTIVE_TOL * pn.max())[0]
+    if len(act) < 3:
+        return 0.0
+    q = pn[act[0] : act[-1] + 1]
+    return float(np.abs(np.diff(q, 2)).sum() / p0)
+
+
+def observed_order(norms, floor: float = 0.0) -> float:
+    """Order of convergence q = log(r_k/r_{k-1}) / log(r_{k-1}/r_{k-2}) from the last three
+    residual norms above the round-off ``floor`` (nan if fewer than three, or if they do
+    not decrease)."""
+    r = [float(x) for x in norms if x > max(floor, 0.0)]
+    if len(r) < 3:
+        return float("nan")
+    e0, e1, e2 = r[-3:]
+    if not (e2 < e1 < e0):
+        return float("nan")
+    return math.log(e2 / e1) / math.log(e1 / e0)
+
+
+def roundoff_floor(summary: dict) -> float:
+    """Round-off level of the residual norm: twice the smallest norm reached in the run.
+
+    The floor is a property of the discrete problem (the size of the internal forces
+    times machine precision), not of the first residual of a solve, which also contains
+    the load increment; a relative floor would drop the final quadratic iterate."""
+    norms = [
+        x for st in summary["steps"] for r in st.get("residual_norms") or [] for x in r if x > 0
+    ]
+    return 2.0 * min(norms) if norms else 0.0
+
+
+def newton_orders(summary: dict) -> list[float]:
+    """Per step: the observed order (:func:`observed_order`) of the main Newton solve, the
+    Uzawa round with the most iterations (the first one normally: later rounds start near
+    the solution and converge in one to three iterations)."""
+    floor = roundoff_floor(summary)
+    out = []
+    for st in summary["steps"]:
+        rounds = st.get("residual_norms") or []
+        out.append(observed_order(max(rounds, key=len), floor) if rounds else float("nan"))
+    return out
+
+
+def quadratic_constants(summary: dict) -> list[float]:
+    """Per step, the largest C = r_{k+1} r_0 / r_k² over the last two iterations above the
+    round-off floor of every Uzawa round: bounded C is quadratic convergence (r_0 the
+    first norm of the round)."""
+    floor = roundoff_floor(summary)
+    out = []
+    for st in summary["steps"]:
+        cs = [0.0]
+        for r in st.get("residual_norms") or []:
+            r = [x for x in r if x > 0]
+            for k in range(max(1, len(r) - 2), len(r)):
+                if r[k] > floor and r[k - 1] > floor:
+                    cs.append(r[k] * r[0] / r[k - 1] ** 2)
+        out.append(max(cs))
+    return out
+
+
+def uzawa_round_orders(summary: dict) -> list[list[float]]:
+    """Per step, per Uzawa round: the observed order (nan where < 3 norms above round-off)."""
+    floor = roundoff_floor(summary)
+    return [
+        [observed_order(r, floor) for r in st.get("residual_norms") or []]
+        for st in summary["steps"]
+    ]
+
+
+def newton_iterations(summary: dict) -> list[int]:
+    """Total Newton iterations per step (summed over Uzawa rounds)."""
+    out = []
+    for st in summary["steps"]:
+        its = st.get("newton_iterations", 0)
+        out.append(int(sum(its)) if isinstance(its, list | tuple) else int(its))
+    return out
+
+
+def contact_force(summary: dict, pair: str, step: int = -1) -> np.ndarray:
+    """Contact force vector of ``pair`` ("SLAVE:MASTER") at a step (default: the last)."""
+    return np.asarray(summary["steps"][step]["contact_force"][pair], dtype=float)
+
+
+def on_root(fn, *args, comm=MPI.COMM_WORLD, **kwargs):
+    """Evaluate ``fn(*args, **kwargs)`` on rank 0 and broadcast the result (collective).
+
+    An exception on rank 0 is re-raised on every rank (as RuntimeError elsewhere), so
+    that no rank is left waiting in a collective.
+    """
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn(*args, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - re-raised below on every rank
+            error = exc
+    ok = comm.bcast(error is None, root=0)
+    if not ok:
+        if comm.rank == 0:
+            raise error
+        raise RuntimeError("evaluation failed on rank 0")
+    return comm.bcast(result, root=0)
+
+
+def script(main, name: str) -> None:
+    """Run ``main()`` as a script: exit 0 on success; on an exception print one line and
+    exit 1 (abort the whole MPI job when it runs on several ranks, so that no rank hangs).
+    Library warnings are shown on rank 0 only."""
+    import logging
+    import sys
+
+    comm = MPI.COMM_WORLD
+    if comm.rank > 0:  # the library's warnings (step cutbacks) once, not once per rank
+        logging.getLogger("dolfinx_mortar").setLevel(logging.ERROR)
+    try:
+        main()
+    except SystemExit:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the script's one-line error report
+        from dolfinx_mortar.errors import SceneError
+
+        if isinstance(exc, SceneError):  # raised on every rank: a clean exit, status 2
+            if comm.rank == 0:
+                print(f"{name}: {exc}", file=sys.stderr)
+            sys.exit(2)
+        print(f"{name} failed on rank {comm.rank}: {type(exc).__name__}: {exc}", file=sys.stderr)
+        sys.stderr.flush()
+        if comm.size > 1:
+            comm.Abort(1)
+        sys.exit(1)
+
+
+def report(title: str, rows: list[tuple[str, str]], comm=MPI.COMM_WORLD) -> None:
+    """Print ``title`` and one ``name: value`` line per metric (rank 0)."""
+    if comm.rank != 0:
+        return
+    width = max(len(k) for k, _ in rows)
+    print(title)
+    for k, v in rows:
+        print(f"  {k:<{width}} : {v}")

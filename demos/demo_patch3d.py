@@ -1,0 +1,29 @@
+"""Contact patch test in 3D: two stacked blocks under a uniform pressure p0 = 2.
+
+See ``_patch.py`` for the set-up. The interface pressure must equal p0 at every
+slave node: to round-off with ``--integration segment``, within the quadrature
+error (<= 2 %) with ``--integration element`` (the default). ``--swap`` makes the
+coarser side the slave; ``--tri`` uses tetrahedra.
+
+Run::
+
+    mpirun -n 2 python3 demos/demo_patch3d.py [--integration segment] [--swap] [--refine K]
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as cm  # noqa: E402
+import _patch  # noqa: E402
+
+
+def main(argv=None) -> dict:
+    return _patch.main(3, argv)
+
+
+if __name__ == "__main__":
+    cm.script(main, "demo_patch3d")

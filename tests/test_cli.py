@@ -1,0 +1,501 @@
+"""End-to-end tests of the command line: bad input, serial and under ``mpirun``.
+
+The contract (SCENES.md): bad input gives exactly one line
+``dolfinx-mortar: error: KEY: REASON`` on stderr per rank, exit status 2, no Python
+traceback, and leaves an existing output directory untouched. Every test runs the
+program as a subprocess (``python3 -m dolfinx_mortar``), so none of them may itself
+run under mpirun (no nested MPI): none is marked ``mpi``. The MPI variant launches
+``mpirun -n 2`` itself.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import write_block_msh
+
+TIMEOUT = 120  # seconds per subprocess
+ERROR_LINE = re.compile(r"^dolfinx-mortar: error: (?P<key>[^:]*): (?P<reason>\S.*)$")
+
+# Environment variables that tie a process to a running MPI job (an Open MPI singleton
+# or an mpirun): a child must not inherit them, or it would try to join that job.
+_MPI_JOB_PREFIXES = ("PMIX_", "PMI_", "OMPI_COMM_WORLD_", "OMPI_MCA_ess_", "OMPI_MCA_orte_")
+
+
+def _env(**extra: str) -> dict[str, str]:
+    """A clean environment for a child: os.environ (not the C-level environ, which an
+    MPI singleton extends), without MPI job variables, plus root-friendly Open MPI
+    settings (as scripts/env.sh) and one thread per process."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_JOB_PREFIXES)}
+    env.update(
+        OMPI_ALLOW_RUN_AS_ROOT="1",
+        OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+        OMPI_MCA_rmaps_base_oversubscribe="1",
+        OMP_NUM_THREADS="1",
+        OPENBLAS_NUM_THREADS="1",
+        PYTHONUNBUFFERED="1",
+    )
+    env.update(extra)
+    return env
+
+
+def cli(cwd: Path, *args: str, ranks: int = 0, **env: str) -> subprocess.CompletedProcess:
+    """Run ``python3 -m dolfinx_mortar ARGS`` in ``cwd``; under ``mpirun -n RANKS`` if ranks > 0."""
+    cmd = [sys.executable, "-m", "dolfinx_mortar", *args]
+    if ranks:
+        mpirun = shutil.which("mpirun")
+        assert mpirun is not None, "mpirun not found on PATH: the MPI tests need Open MPI"
+        # -q: no "mpirun detected that one or more processes exited with non-zero status"
+        # banner, so that stderr holds only what the ranks print
+        cmd = [mpirun, "-q", "-n", str(ranks), *cmd]
+    return subprocess.run(
+        cmd, cwd=cwd, env=_env(**env), capture_output=True, text=True, timeout=TIMEOUT
+    )
+
+
+def snapshot(root: Path) -> dict[str, tuple]:
+    """Every file and directory under ``root``: relative name -> (kind, mtime_ns, bytes)."""
+    out = {}
+    for path in sorted(root.rglob("*")):
+        st = path.lstat()
+        rel = path.relative_to(root).as_posix()
+        if path.is_dir():
+            out[rel] = ("dir", st.st_mtime_ns, None)
+        else:
+            out[rel] = ("file", st.st_mtime_ns, path.read_bytes())
+    return out
+
+
+# --------------------------------------------------------------------------- scenes
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, int | float):
+        return repr(v)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(v)
+
+
+def to_toml(scene: dict) -> str:
+    """Enough TOML for the scenes here: scalars, arrays, tables and arrays of tables."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in scene.items() if not isinstance(v, dict | list)]
+    lines += [
+        f"{k} = {_toml_value(v)}"
+        for k, v in scene.items()
+        if isinstance(v, list) and not (v and isinstance(v[0], dict))
+    ]
+    for k, v in scene.items():
+        if isinstance(v, dict):
+            lines.append(f"\n[{k}]")
+            lines += [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for item in v:
+                lines.append(f"\n[[{k}]]")
+                lines += [f"{kk} = {_toml_value(vv)}" for kk, vv in item.items()]
+    return "\n".join(lines) + "\n"
+
+
+def base_scene(mesh: str = "block.msh") -> dict:
+    """Valid tiny bulk scene: small-strain block, fixed left, pulled right, one step."""
+    return {
+        "title": "cli test",
+        "kinematics": "small",
+        "mesh": {"file": mesh},
+        "material": [{"region": "body", "model": "linear-elastic", "E": 100.0, "nu": 0.3}],
+        "dirichlet": [{"boundary": "left", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]}],
+        "traction": [{"boundary": "right", "path": [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]]}],
+        "steps": {"n": 1},
+        "output": {"dir": "out"},
+    }
+
+
+def _contact(**kw) -> dict:
+    return {"slave": "top", "master": "bottom", **kw}
+
+
+def _set(section: str, index: int | None = None, **kw):
+    """Edit: update ``scene[section]`` (or its ``index``-th table) with ``kw``."""
+
+    def edit(s):
+        target = s[section] if index is None else s[section][index]
+        target.update(kw)
+
+    return edit
+
+
+def _add_contact(**kw):
+    def edit(s):
+        s["contact"] = [_contact(**kw)]
+
+    return edit
+
+
+def _small_hyperelastic(s):
+    s["kinematics"] = "small"
+    s["material"][0]["model"] = "neo-hookean"
+
+
+def _unsorted_path(s):
+    s["dirichlet"][0]["path"] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.0, 0.0]]
+
+
+def _corrupt_mesh(s):
+    s["mesh"]["file"] = "garbage.msh"  # written by write_case
+
+
+def _empty_surface(s):
+    s["mesh"]["file"] = "ghost.msh"
+    s["contact"] = [_contact(slave="ghost", master="top")]
+
+
+# (id, edit of the base scene, expected key, text expected in the reason)
+CASES = [
+    ("unknown-key", _set("material", 0, young=1.0), "material[0].young", "unknown key"),
+    ("unknown-top-key", _set("steps", None, nn=2), "steps.nn", "unknown key"),
+    (
+        "missing-group-material",
+        _set("material", 0, region="bdy"),
+        "material[0].region",
+        "'bdy' not found",
+    ),
+    (
+        "missing-group-contact-slave",
+        _add_contact(slave="nowhere"),
+        "contact[0].slave",
+        "'nowhere' not found",
+    ),
+    (
+        "missing-group-dirichlet",
+        _set("dirichlet", 0, boundary="lft"),
+        "dirichlet[0].boundary",
+        "'lft' not found",
+    ),
+    (
+        "cell-group-as-boundary",
+        _set("dirichlet", 0, boundary="body"),
+        "dirichlet[0].boundary",
+        "is a cell group, not a facet group",
+    ),
+    ("wrong-type", _set("material", 0, E="100"), "material[0].E", "expected a number"),
+    ("E-zero", _set("material", 0, E=0.0), "material[0].E", "must be > 0"),
+    ("E-negative", _set("material", 0, E=-5.0), "material[0].E", "must be > 0"),
+    ("nu-half", _set("material", 0, nu=0.5), "material[0].nu", "(-1, 0.5)"),
+    ("nu-minus-one", _set("material", 0, nu=-1.0), "material[0].nu", "(-1, 0.5)"),
+    ("mu-negative", _add_contact(friction=-0.1), "contact[0].friction", "must be >= 0"),
+    (
+        "slave-is-master",
+        _add_contact(slave="top", master="top"),
+        "contact[0].master",
+        "same group",
+    ),
+    (
+        "unknown-recovery",
+        _add_contact(recovery="exact"),
+        "contact[0].recovery",
+        "unknown value 'exact'",
+    ),
+    (
+        "unknown-model",
+        _set("material", 0, model="mooney-rivlin"),
+        "material[0].model",
+        "unknown value 'mooney-rivlin'",
+    ),
+    ("mesh-missing", _set("mesh", None, file="nope/absent.msh"), "mesh.file", "not found"),
+    ("mesh-corrupt", _corrupt_mesh, "mesh.file", "cannot read"),
+    ("unsorted-path", _unsorted_path, "dirichlet[0].path", "not sorted in t"),
+    (
+        "component-out-of-range",
+        _set("dirichlet", 0, components=[2], path=[[0.0, 0.0], [1.0, 0.0]]),
+        "dirichlet[0].components",
+        "component 2 out of range [0, 2)",
+    ),
+    ("toml-syntax", "syntax", "", "TOML syntax error"),
+    ("empty-contact-surface", _empty_surface, "contact[0].slave", "'ghost' is empty"),
+    ("small-hyperelastic", _small_hyperelastic, "material[0].model", 'kinematics = "small"'),
+]
+CASE_IDS = [c[0] for c in CASES]
+CASE_BY_ID = {c[0]: c for c in CASES}
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory) -> Path:
+    """block.msh (2D block, groups body/left/right/bottom/top) and ghost.msh (the same
+    plus a facet group "ghost" that has no elements: a discrete curve never meshed)."""
+    import gmsh
+
+    d = tmp_path_factory.mktemp("meshes")
+    write_block_msh(d / "block.msh", 2, n=2)
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(d / "block.msh"))
+        curve = gmsh.model.addDiscreteEntity(1)
+        tag = gmsh.model.addPhysicalGroup(1, [curve])
+        gmsh.model.setPhysicalName(1, tag, "ghost")
+        gmsh.write(str(d / "ghost.msh"))
+    finally:
+        gmsh.finalize()
+    write_two_squares_msh(d / "inner.msh")
+    return d
+
+
+def write_two_squares_msh(path: Path) -> None:
+    """Two unit squares sharing the edge x = 1: groups body, inner (the shared, interior
+    edge) and top."""
+    import gmsh
+
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        a, b = occ.addRectangle(0, 0, 0, 1, 1), occ.addRectangle(1, 0, 0, 1, 1)
+        occ.fragment([(2, a)], [(2, b)])
+        occ.synchronize()
+        model = gmsh.model
+        model.setPhysicalName(2, model.addPhysicalGroup(2, [a, b]), "body")
+        for name, axis, value in (("inner", 0, 1.0), ("top", 1, 1.0)):
+            tags = [
+                t
+                for _, t in model.getEntities(1)
+                if abs(occ.getCenterOfMass(1, t)[axis] - value) < 1e-9
+            ]
+            model.setPhysicalName(1, model.addPhysicalGroup(1, tags), name)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+@pytest.fixture
+def workdir(meshes, tmp_path) -> Path:
+    """A fresh working directory with the meshes and the output of an earlier run."""
+    cwd = tmp_path / "work"
+    cwd.mkdir()
+    for name in ("block.msh", "ghost.msh", "inner.msh"):
+        shutil.copy(meshes / name, cwd / name)
+    out = cwd / "out"
+    (out / "sub").mkdir(parents=True)
+    (out / "sentinel.txt").write_text("results of an earlier run\n")
+    (out / "summary.json").write_text('{"status": "ok", "steps": []}\n')
+    (out / "sub" / "contact_top_0.csv").write_bytes(b"x,y\n0,0\n")
+    old = 1_000_000_000  # 2001: any rewrite, even with equal content, changes the mtime
+    for p in [*out.rglob("*"), out]:
+        os.utime(p, (old, old))
+    return cwd
+
+
+def write_case(cwd: Path, case_id: str) -> Path:
+    _, edit, _, _ = CASE_BY_ID[case_id]
+    path = cwd / "bad.toml"
+    if edit == "syntax":
+        text = to_toml(base_scene()).replace("E = 100.0", "E = = 100.0")
+        assert text.count("E = = 100.0") == 1
+    else:
+        scene = base_scene()
+        edit(scene)
+        text = to_toml(scene)
+    if case_id == "mesh-corrupt":
+        (cwd / "garbage.msh").write_bytes(bytes(range(256)) * 4 + b"$MeshFormat\n\x00\xff")
+    path.write_text(text)
+    return path
+
+
+def assert_bad_input(res, case_id: str, ranks: int, before: dict, cwd: Path) -> None:
+    _, _, key, reason = CASE_BY_ID[case_id]
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert "Traceback" not in res.stderr + res.stdout, where
+    assert res.returncode == 2, where
+    lines = res.stderr.splitlines()
+    assert len(lines) == ranks, f"expected {ranks} line(s) on stderr{where}"
+    assert len(set(lines)) == 1, f"ranks disagree{where}"
+    if key:
+        m = ERROR_LINE.match(lines[0])
+        assert m, where
+        assert m.group("key") == key, where
+        assert reason in m.group("reason"), where
+    else:  # TOML syntax error: no key, the file, line and column instead
+        assert lines[0].startswith("dolfinx-mortar: error: "), where
+        assert "bad.toml, line" in lines[0] and reason in lines[0], where
+    assert snapshot(cwd) == before, f"the working or output directory was touched{where}"
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("command", ["check", "run"])
+@pytest.mark.parametrize("case_id", CASE_IDS)
+def test_bad_input_serial(workdir, case_id, command):
+    scene = write_case(workdir, case_id)
+    before = snapshot(workdir)
+    res = cli(workdir, command, scene.name)
+    assert_bad_input(res, case_id, 1, before, workdir)
+
+
+@pytest.mark.parametrize(
+    "case_id, command",
+    [
+        ("unknown-key", "run"),
+        ("missing-group-material", "check"),
+        ("mesh-corrupt", "run"),
+        ("unsorted-path", "run"),
+        ("empty-contact-surface", "run"),
+    ],
+)
+def test_bad_input_mpirun(workdir, case_id, command):
+    """The same under ``mpirun -n 2`` (launched here: this test must not run under mpirun)."""
+    scene = write_case(workdir, case_id)
+    before = snapshot(workdir)
+    res = cli(workdir, command, scene.name, ranks=2)
+    assert_bad_input(res, case_id, 2, before, workdir)
+
+
+def test_bad_input_cold_jit_cache(workdir, tmp_path_factory):
+    """An error found after the forms are compiled: with an empty JIT cache the
+    compiler's build log must not reach stderr (only the one error line)."""
+    scene = write_case(workdir, "empty-contact-surface")
+    before = snapshot(workdir)
+    cache = tmp_path_factory.mktemp("jit_cache")
+    res = cli(workdir, "run", scene.name, XDG_CACHE_HOME=str(cache))
+    assert_bad_input(res, "empty-contact-surface", 1, before, workdir)
+
+
+def test_missing_scene_file(workdir):
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "-vv", "absent.toml")
+    where = f"\nstderr:\n{res.stderr}"
+    assert res.returncode == 2, where
+    assert res.stderr.splitlines() == [
+        "dolfinx-mortar: error: cannot read scene file absent.toml: No such file or directory"
+    ], where
+    assert snapshot(workdir) == before
+
+
+@pytest.mark.parametrize("where", ["--out", "output.dir"])
+def test_output_dir_is_a_file(workdir, where):
+    """An output directory that cannot be created (a file is in the way) is bad input too."""
+    scene = base_scene()
+    args = []
+    if where == "--out":
+        args = ["--out", "out/sentinel.txt"]
+    else:
+        scene["output"]["dir"] = "out/sentinel.txt/results"
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "good.toml", *args)
+    where_ = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert "Traceback" not in res.stderr, where_
+    assert res.returncode == 2, where_
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1, where_
+    m = ERROR_LINE.match(lines[0])
+    assert m and m.group("key") == where and "not a directory" in m.group("reason"), where_
+    assert snapshot(workdir) == before
+
+
+def test_interior_contact_surface(workdir):
+    """A contact surface made of interior facets (shared by two cells) is unusable."""
+    scene = base_scene("inner.msh")
+    scene["kinematics"] = "finite"
+    scene["material"][0]["model"] = "neo-hookean"
+    scene["dirichlet"][0]["boundary"] = "top"
+    del scene["traction"]
+    scene["contact"] = [{"slave": "inner", "master": "top"}]
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "check", "bad.toml")
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert "Traceback" not in res.stderr, where
+    assert res.returncode == 2, where
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1 and ERROR_LINE.match(lines[0]), where
+    assert ERROR_LINE.match(lines[0]).group("key") == "contact[0].slave", where
+    assert snapshot(workdir) == before
+
+
+def test_verbosity_flags():
+    """-v gives INFO, -vv DEBUG (as the help says): the flag counts."""
+    from dolfinx_mortar.cli import _parser
+
+    assert _parser().parse_args(["run", "s.toml"]).verbose == 0
+    assert _parser().parse_args(["run", "-v", "s.toml"]).verbose == 1
+    assert _parser().parse_args(["run", "-vv", "s.toml"]).verbose == 2
+
+
+# --------------------------------------------------------------------------- good input
+
+
+def test_generators(tmp_path):
+    res = cli(tmp_path, "generators")
+    assert res.returncode == 0, res.stderr
+    assert re.search(r"^hertz2d: ", res.stdout, re.M), res.stdout
+    assert res.stderr == ""
+
+
+def test_check_ok(workdir, tmp_path_factory):
+    (workdir / "good.toml").write_text(to_toml(base_scene()))
+    before = snapshot(workdir)
+    # cold JIT cache: nothing but the ok line, not even the compiler's build log
+    cache = tmp_path_factory.mktemp("jit_cache")
+    res = cli(workdir, "check", "good.toml", XDG_CACHE_HOME=str(cache))
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""
+    lines = res.stdout.splitlines()
+    assert len(lines) == 1 and re.match(r"^good\.toml: ok \(2D, triangle P1, \d+ dofs", lines[0])
+    assert snapshot(workdir) == before
+
+
+def test_run_ok(workdir):
+    scene = base_scene()
+    scene["output"]["dir"] = "fresh/results"
+    (workdir / "good.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "good.toml")
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr
+    summary = json.loads((workdir / "fresh" / "results" / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["error"] is None
+    assert summary["ranks"] == 1
+    assert summary["modelled"]["kinematics"] == "small"
+    assert [s["t"] for s in summary["steps"]] == [1.0]
+    assert all(s["converged"] for s in summary["steps"])
+    assert (workdir / "fresh" / "results" / "fields.xdmf").is_file()
+
+
+def test_run_not_converging(workdir):
+    """Newton cannot converge: exit 1, summary.json says failed with an error, step 0 kept."""
+    scene = base_scene()
+    scene["kinematics"] = "finite"
+    scene["material"][0]["model"] = "neo-hookean"
+    del scene["traction"]
+    scene["dirichlet"].append(
+        {"boundary": "right", "components": [0], "path": [[0.0, 0.0], [1.0, 1.0]]}
+    )
+    scene["steps"] = {"n": 1, "max_cutbacks": 1}
+    scene["solver"] = {"max_it": 1, "rtol": 1e-14}
+    scene["output"]["dir"] = "failed"
+    (workdir / "stretch.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "stretch.toml")
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 1, where
+    assert "Traceback" not in res.stderr, where
+    assert "dolfinx-mortar: run failed: " in res.stderr, where
+    out = workdir / "failed"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert isinstance(summary["error"], str) and summary["error"]
+    assert summary["steps"] == []
+    xdmf = (out / "fields.xdmf").read_text()
+    assert '<Time Value="0"' in xdmf
+    assert (out / "fields.h5").stat().st_size > 0
