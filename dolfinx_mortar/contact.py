@@ -433,19 +433,7 @@ class MortarContact:
         force = np.zeros(d)
         if nsf:
             kmortar.contact_terms(
-                self.ftype,
-                self.master.ftype,
-                self.ftype_phi,
-                self.xs,
-                self.xm,
-                self.master.sign,
-                self.qp_xi,
-                self.qp_w,
-                self.qp_m,
-                self.qp_zeta,
-                sdofs,
-                mdofs,
-                self.node_of,
+                *self._point_args(sdofs, mdofs),
                 self.p,
                 self.kcoef,
                 want_jac,
@@ -456,6 +444,24 @@ class MortarContact:
                 force,
             )
         return res_idx, res_val, hess_val, b_count, force, sdofs, mdofs
+
+    def _point_args(self, sdofs, mdofs) -> tuple:
+        """The leading arguments shared by the point kernels (see kernels/mortar.py)."""
+        return (
+            self.ftype,
+            self.master.ftype,
+            self.ftype_phi,
+            self.xs,
+            self.xm,
+            self.master.sign,
+            self.qp_xi,
+            self.qp_w,
+            self.qp_m,
+            self.qp_zeta,
+            sdofs,
+            mdofs,
+            self.node_of,
+        )
 
     def add_residual(self, b: PETSc.Vec, masked: bool = True) -> None:
         """Add R_c = −Σ p^I B^I to ``b`` with global indices (call before b.assemble())."""
@@ -479,19 +485,7 @@ class MortarContact:
         b_val = np.empty(b_off[-1])
         if self.slave.num_facets:
             kmortar.node_rows(
-                self.ftype,
-                self.master.ftype,
-                self.ftype_phi,
-                self.xs,
-                self.xm,
-                self.master.sign,
-                self.qp_xi,
-                self.qp_w,
-                self.qp_m,
-                self.qp_zeta,
-                sdofs,
-                mdofs,
-                self.node_of,
+                *self._point_args(sdofs, mdofs),
                 self.kcoef,
                 b_off,
                 b_idx,
