@@ -52,6 +52,8 @@ DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
 #: ``penalty = "auto"``: ε_N^I = AUTO_PENALTY_FACTOR · E* / h_I (h_I: mean size of the
 #: slave facets around node I, E* the plane-strain effective modulus of the two bodies).
 AUTO_PENALTY_FACTOR = 100.0
+#: Upper bound of the Aitken relaxation of the Uzawa update.
+OMEGA_MAX = 10.0
 
 
 def _plane_modulus(E: float, nu: float) -> float:
@@ -194,6 +196,8 @@ class MortarContact:
         )
 
         # multipliers and nodal state
+        self.aitken = True
+        self._d_prev, self._omega = None, 1.0
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)
         self.p = np.zeros(n)
@@ -543,14 +547,31 @@ class MortarContact:
 
     # ------------------------------------------------------------------ Uzawa, steps
     def uzawa_update(self) -> tuple[bool, dict]:
-        """λ ← p unless converged (collective). Returns (converged, info)."""
+        """Augment the multipliers unless converged (collective). Returns (converged, info).
+
+        Plain Uzawa is λ ← p, i.e. λ ← λ + d with d = p − λ. The change contracts by a
+        steady factor per round (one slow mode, dominated by the nodes at the contact
+        edge), so the step is relaxed with the Irons–Tuck (vector Aitken) factor
+        ω_k = −ω_{k−1} d_{k−1}·(d_k − d_{k−1}) / |d_k − d_{k−1}|², clamped to
+        [1, OMEGA_MAX]: λ ← max(λ + ω d, 0). The first round of a step uses ω = 1.
+        """
+        d = self.p - self.lmbda
         pmax = self.comm.allreduce(self.p.max(initial=0.0), op=MPI.MAX)
-        change = self.comm.allreduce(np.abs(self.p - self.lmbda).max(initial=0.0), op=MPI.MAX)
+        change = self.comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
         rel = change / pmax if pmax > 0 else 0.0
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
         if self.uzawa_tol == 0.0 or rel <= self.uzawa_tol:
             return True, info
-        self.lmbda = self.p.copy()
+        omega = 1.0
+        if self.aitken and self._d_prev is not None:
+            dd = d - self._d_prev
+            num = self.comm.allreduce(float(self._d_prev @ dd))
+            den = self.comm.allreduce(float(dd @ dd))
+            if den > 0.0:
+                omega = float(np.clip(-self._omega * num / den, 1.0, OMEGA_MAX))
+        info["relaxation"] = omega
+        self._d_prev, self._omega = d, omega
+        self.lmbda = np.maximum(self.lmbda + omega * d, 0.0)
         return False, info
 
     def _max_penetration(self) -> float:
@@ -558,13 +579,15 @@ class MortarContact:
         return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
 
     def begin_step(self) -> None:
-        """Nothing per step for frictionless contact (multipliers carry over)."""
+        """Reset the Aitken history (multipliers carry over from the last step)."""
+        self._d_prev, self._omega = None, 1.0
 
     def commit_step(self) -> None:
         self.lmbda_committed = self.lmbda.copy()
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()
+        self._d_prev, self._omega = None, 1.0
 
     # ------------------------------------------------------------------ results
     def statistics(self) -> dict:
