@@ -1,4 +1,4 @@
-"""Command line: ``dolfinx-mortar run | check | generators`` (also ``python3 -m dolfinx_mortar``).
+"""Command line: ``dolfinx-mortar run | check | generators | bench`` (or ``python3 -m`` it).
 
 Bad input ends every rank with one line ``dolfinx-mortar: error: KEY: REASON``
 on stderr and exit status 2, without a traceback and before any output is
@@ -31,6 +31,21 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
     c.add_argument("scene", type=Path)
     sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
+    b = sub.add_parser(
+        "bench", help="mesh-level sweep of an analytic benchmark: CSV row per run and PNG plots"
+    )
+    b.add_argument("name", help="hertz2d, hertz3d, patch2d or all")
+    b.add_argument("--levels", type=int, default=3, help="mesh levels 0 .. K-1 [3]")
+    b.add_argument("--out", type=Path, default=Path("bench/out"), help="output dir [bench/out]")
+    b.add_argument(
+        "--integration",
+        choices=("element", "segment", "both"),
+        default="both",
+        help="mortar integration(s) to run [both]",
+    )
+    b.add_argument(
+        "--tiny", action="store_true", help="coarse level 0 (h_contact 0.4 in 2D): a smoke run"
+    )
     return p
 
 
@@ -99,6 +114,14 @@ def main(argv=None) -> int:
     comm = MPI.COMM_WORLD
     _setup_logging(comm.rank, getattr(args, "verbose", 0))
     try:
+        if args.command == "bench":
+            from .bench import INTEGRATIONS, TINY_H0, run_bench
+
+            _check_out_dir(args.out, "--out")
+            integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
+            h0 = TINY_H0 if args.tiny else None
+            run_bench(args.name, args.levels, args.out, integ, comm, h0=h0)
+            return 0
         from .scene import load_scene
 
         scene = load_scene(args.scene)

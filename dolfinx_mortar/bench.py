@@ -1,0 +1,347 @@
+"""``dolfinx-mortar bench NAME --levels K``: mesh-level sweeps of the analytic benchmarks.
+
+For each benchmark (``hertz2d``, ``hertz3d``, ``patch2d`` or ``all``), each level
+k = 0 .. K-1 (the contact-zone element size of the demo's default mesh halved k
+times) and each integration ("element", "segment"; the recovery is always
+"lumped", the only one implemented) the scene of the corresponding demo is run in
+its own directory ``OUT/<name>_L<k>_<integration>``, evaluated with the demo's own
+metrics (``demos/_common.py``: pressure profile errors, observed Newton order), and
+written as one row of ``OUT/bench.csv``. A progress line per run is printed on rank 0.
+Then rank 0 draws ``work_precision.png`` (L2 pressure error against wall time,
+log-log, one curve per benchmark, recovery and integration), ``error_vs_h.png``
+(L2 error against h with the fitted rate in the legend) and ``newton_history.png``
+(residual norms of the last load step of every run, semilog).
+
+The scenes and metrics live in the repository's ``demos/`` directory (they are not
+part of the installed library): :func:`run_bench` puts that directory on
+``sys.path`` when it runs, so the bench needs the source checkout (the package is
+installed editable).
+
+Metrics per benchmark:
+
+- ``hertz2d``: ``l2_rel_error`` = ‖p_h − p‖/‖p‖ of the mirrored profile
+  (``profile_metrics``), ``max_rel_error`` = max over slave nodes |p_i − p(x_i)|/p0;
+- ``hertz3d``: ``l2_rel_error`` = the demo's L2 error over r < 1.25 a,
+  ``max_rel_error`` = |max p_i / p0 − 1| (the peak nodal pressure error);
+- ``patch2d``: exact pressure p0 everywhere: ``l2_rel_error`` = ‖p − p0‖/‖p0‖ over
+  the slave nodes, ``max_rel_error`` = max |p_i/p0 − 1|.
+
+Timings are those of the run's summary.json (``timings``: search, contact assembly,
+bulk assembly, linear solve, total), max-reduced over ranks; ``wall_time`` is the
+run's total; ``peak_memory_mb`` is ru_maxrss of the process (max over ranks), which
+only grows, so it is the peak up to and including that run.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import resource
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SceneError
+
+BENCHMARKS = ("hertz2d", "hertz3d", "patch2d")
+INTEGRATIONS = ("element", "segment")
+RECOVERY = "lumped"
+
+#: Level-0 contact element sizes of ``--tiny`` (quick smoke runs; the patch test is
+#: already coarse at its default level 0).
+TINY_H0 = {"hertz2d": 0.4, "hertz3d": 0.5}
+
+COLUMNS = (
+    "benchmark",
+    "level",
+    "recovery",
+    "integration",
+    "h",
+    "dofs",
+    "slave_nodes",
+    "ranks",
+    "l2_rel_error",
+    "max_rel_error",
+    "newton_iterations",
+    "uzawa_rounds",
+    "newton_order",
+    "wall_time",
+    "search_time",
+    "contact_assembly_time",
+    "bulk_assembly_time",
+    "solve_time",
+    "peak_memory_mb",
+)
+
+_TIMING_COLUMNS = {
+    "search_time": "search",
+    "contact_assembly_time": "contact_assembly",
+    "bulk_assembly_time": "bulk_assembly",
+    "solve_time": "linear_solve",
+    "wall_time": "total",
+}
+
+
+def demos_dir() -> Path:
+    """The repository's ``demos`` directory (next to the package in the source checkout)."""
+    d = Path(__file__).resolve().parents[1] / "demos"
+    if not (d / "_common.py").is_file():
+        raise SceneError("bench", f"needs the source checkout's demos directory ({d} not found)")
+    return d
+
+
+def _import_demos():
+    d = str(demos_dir())
+    if d not in sys.path:
+        sys.path.insert(0, d)
+    import _common as cm  # noqa: PLC0415 - from demos/, on sys.path only while benching
+    import _patch  # noqa: PLC0415
+    import demo_hertz2d  # noqa: PLC0415
+    import demo_hertz3d  # noqa: PLC0415
+
+    return cm, demo_hertz2d, demo_hertz3d, _patch
+
+
+def _names(name: str) -> tuple[str, ...]:
+    if name == "all":
+        return BENCHMARKS
+    if name not in BENCHMARKS:
+        raise SceneError(
+            "bench", f"unknown benchmark {name!r} (choose from {', '.join(BENCHMARKS)}, all)"
+        )
+    return (name,)
+
+
+def _h0(name: str, h0) -> float | None:
+    if h0 is None:
+        return None
+    if isinstance(h0, dict):
+        return h0.get(name)
+    return float(h0)
+
+
+def _scene(mods, name: str, level: int, integration: str, h0):
+    """(scene dict, h, evaluate(summary, out_dir) -> metrics on rank 0) of one run."""
+    cm, hz2, hz3, patch = mods
+    if name in ("hertz2d", "hertz3d"):
+        demo = hz2 if name == "hertz2d" else hz3
+        sc = demo.scene(level, integration=integration)
+        h = (_h0(name, h0) or demo.H_CONTACT) / 2**level
+        sc["mesh"]["params"]["h_contact"] = h
+
+        def evaluate(summary, out_dir):
+            m = demo.evaluate(summary, out_dir)
+            if name == "hertz2d":
+                x, p = (np.asarray(v) for v in m["profile"])
+                pe = m["p0"] * np.sqrt(np.clip(1.0 - (x / m["a"]) ** 2, 0.0, None))
+                mx = float(np.max(np.abs(p - pe)) / m["p0"])
+            else:
+                mx = abs(m["p_max_err"])
+                m["residual_norms"] = [st["residual_norms"] for st in summary["steps"]]
+            return {
+                "l2_rel_error": m["l2"],
+                "max_rel_error": mx,
+                "slave_nodes": m["slave_nodes"],
+                "newton_iterations": int(sum(m["newton_iterations"])),
+                "uzawa_rounds": int(sum(m["uzawa_rounds"])),
+                "newton_order": m["newton_order"][-1],
+                "residual_norms": m["residual_norms"],
+            }
+
+        return sc, h, evaluate
+
+    sc = patch.scene(2, level, integration)  # patch2d: 5/7 elements along x at level 0
+    slave, master = sc["contact"][0]["slave"], sc["contact"][0]["master"]
+    h = patch.L / sc["mesh"]["params"]["n_upper"]
+
+    def evaluate(summary, out_dir):
+        m = patch.evaluate(summary, out_dir, 2, slave, master)
+        p = cm.final_csv(out_dir, slave)["p_N"]
+        return {
+            "l2_rel_error": float(np.linalg.norm(p - patch.P0) / (patch.P0 * math.sqrt(len(p)))),
+            "max_rel_error": m["p_err"],
+            "slave_nodes": m["slave_nodes"],
+            "newton_iterations": int(sum(m["newton_iterations"])),
+            "uzawa_rounds": int(sum(m["uzawa_rounds"])),
+            "newton_order": cm.newton_orders(summary)[-1],
+            "residual_norms": [st["residual_norms"] for st in summary["steps"]],
+        }
+
+    return sc, h, evaluate
+
+
+def run_one(mods, name: str, level: int, integration: str, out_dir: Path, comm, h0=None):
+    """Run one benchmark level (collective). Returns (CSV row, last-step residual norms)."""
+    from mpi4py import MPI
+
+    cm = mods[0]
+    sc, h, evaluate = _scene(mods, name, level, integration, h0)
+    summary, wall = cm.run_scene(sc, out_dir, comm)
+    m = cm.on_root(evaluate, summary, out_dir, comm=comm)
+    timings = summary.get("timings", {})
+    row = {
+        "benchmark": name,
+        "level": level,
+        "recovery": RECOVERY,
+        "integration": integration,
+        "h": h,
+        "dofs": int(summary["dofs"]),
+        "slave_nodes": int(m["slave_nodes"]),
+        "ranks": comm.size,
+        "l2_rel_error": float(m["l2_rel_error"]),
+        "max_rel_error": float(m["max_rel_error"]),
+        "newton_iterations": m["newton_iterations"],
+        "uzawa_rounds": m["uzawa_rounds"],
+        "newton_order": float(m["newton_order"]),
+    }
+    for col, key in _TIMING_COLUMNS.items():
+        row[col] = comm.allreduce(float(timings.get(key, 0.0)), op=MPI.MAX)
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    row["peak_memory_mb"] = comm.allreduce(rss, op=MPI.MAX)
+    last = m["residual_norms"][-1] if m["residual_norms"] else []
+    history = [float(x) for rnd in last for x in rnd]
+    return row, history
+
+
+def run_bench(
+    name: str,
+    levels: int,
+    out_dir,
+    integrations=INTEGRATIONS,
+    comm=None,
+    h0=None,
+    plots: bool = True,
+) -> list[dict]:
+    """Run benchmark ``name`` (or "all") at levels 0 .. ``levels``-1 (collective).
+
+    ``h0``: level-0 contact element size of the Hertz benchmarks (a float, or a dict
+    by benchmark name; None: the demos' defaults). Writes ``out_dir/bench.csv`` and,
+    with ``plots``, the PNGs (rank 0). Returns the rows (on every rank).
+    Raises SceneError for an unknown name, integration or a level count < 1.
+    """
+    if comm is None:
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+    names = _names(name)
+    integrations = tuple(integrations)
+    bad = [i for i in integrations if i not in INTEGRATIONS]
+    if bad or not integrations:
+        raise SceneError("--integration", f"must be element, segment or both, got {bad}")
+    if int(levels) < 1:
+        raise SceneError("--levels", f"must be >= 1, got {levels}")
+    mods = _import_demos()
+    out_dir = Path(out_dir).resolve()
+    if comm.rank == 0:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    rows, histories = [], []
+    for bname in names:
+        for integration in integrations:
+            for level in range(int(levels)):
+                run_dir = out_dir / f"{bname}_L{level}_{integration}"
+                row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0)
+                rows.append(row)
+                histories.append(hist)
+                if comm.rank == 0:
+                    print(
+                        f"[bench] {bname} L{level} {integration}: dofs={row['dofs']}, "
+                        f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
+                        f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
+                        f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s, "
+                        f"mem={row['peak_memory_mb']:.0f} MB",
+                        flush=True,
+                    )
+                if comm.rank == 0:  # rewritten after every run: a partial sweep keeps its rows
+                    write_csv(rows, out_dir / "bench.csv")
+    if comm.rank == 0 and plots:
+        plot(rows, histories, out_dir)
+    comm.barrier()
+    return rows
+
+
+def write_csv(rows: list[dict], path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k]) for k in COLUMNS})
+
+
+def _curves(rows: list[dict]) -> dict[tuple, list[int]]:
+    """Row indices per (benchmark, recovery, integration), in level order."""
+    out: dict[tuple, list[int]] = {}
+    for i, r in enumerate(rows):
+        out.setdefault((r["benchmark"], r["recovery"], r["integration"]), []).append(i)
+    return out
+
+
+def fitted_rate(h, err) -> float:
+    """Slope of log(err) against log(h) (least squares; nan with < 2 usable points)."""
+    h, err = np.asarray(h, dtype=float), np.asarray(err, dtype=float)
+    ok = (h > 0) & (err > 0) & np.isfinite(err)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(h[ok]), np.log(err[ok]), 1)[0])
+
+
+def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
+    """Write work_precision.png, error_vs_h.png and newton_history.png (rank 0)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    floor = 1e-16  # round-off errors (patch test, segment integration) on a log axis
+    curves = _curves(rows)
+
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for (b, rec, integ), idx in curves.items():
+        t = [rows[i]["wall_time"] for i in idx]
+        e = [max(rows[i]["l2_rel_error"], floor) for i in idx]
+        ax.loglog(t, e, "o-", label=f"{b} {rec} {integ}")
+    ax.set_xlabel("wall time (s)")
+    ax.set_ylabel("L2 relative pressure error")
+    ax.set_title("work-precision")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out_dir / "work_precision.png", dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for (b, rec, integ), idx in curves.items():
+        h = [rows[i]["h"] for i in idx]
+        e = [rows[i]["l2_rel_error"] for i in idx]
+        q = fitted_rate(h, e)
+        rate = f"rate {q:.2f}" if math.isfinite(q) else "rate n/a"
+        ax.loglog(h, [max(x, floor) for x in e], "o-", label=f"{b} {rec} {integ} ({rate})")
+    ax.set_xlabel("contact element size h")
+    ax.set_ylabel("L2 relative pressure error")
+    ax.set_title("error against h (fitted rate in the legend)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out_dir / "error_vs_h.png", dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for r, hist in zip(rows, histories, strict=True):
+        hist = [x for x in hist if x > 0]
+        if hist:
+            ax.semilogy(
+                range(len(hist)),
+                hist,
+                ".-",
+                label=f"{r['benchmark']} L{r['level']} {r['integration']}",
+            )
+    ax.set_xlabel("Newton iteration of the last load step (all Uzawa rounds)")
+    ax.set_ylabel("residual norm")
+    ax.set_title("Newton residual histories")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out_dir / "newton_history.png", dpi=120)
+    plt.close(fig)

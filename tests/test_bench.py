@@ -1,0 +1,108 @@
+"""``dolfinx-mortar bench``: tiny sweeps of hertz2d and patch2d, the CSV, the plots, the CLI.
+
+Serial, in-process (``MPI.COMM_SELF``): not marked mpi. The Hertz levels are coarse
+(h_contact 0.4 and 0.2) so that the module runs in seconds; the numbers are checked
+for shape (columns, finiteness, monotonicity), not for accuracy (test_demos does that).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import pytest
+from mpi4py import MPI
+
+from dolfinx_mortar import cli
+from dolfinx_mortar.bench import COLUMNS, fitted_rate, run_bench
+
+REQUIRED = (
+    "benchmark",
+    "level",
+    "recovery",
+    "integration",
+    "dofs",
+    "slave_nodes",
+    "ranks",
+    "l2_rel_error",
+    "max_rel_error",
+    "newton_iterations",
+    "uzawa_rounds",
+    "wall_time",
+    "search_time",
+    "contact_assembly_time",
+    "bulk_assembly_time",
+    "solve_time",
+    "peak_memory_mb",
+)
+NUMERIC = [c for c in REQUIRED if c not in ("benchmark", "recovery", "integration")] + ["h"]
+PNGS = ("work_precision.png", "error_vs_h.png", "newton_history.png")
+
+
+def _read(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture(scope="module")
+def hertz2d(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench_hertz2d")
+    run_bench("hertz2d", 2, out, comm=MPI.COMM_SELF, h0={"hertz2d": 0.4})
+    return out
+
+
+@pytest.fixture(scope="module")
+def patch2d(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench_patch2d")
+    run_bench("patch2d", 2, out, comm=MPI.COMM_SELF)
+    return out
+
+
+@pytest.mark.parametrize("name", ["hertz2d", "patch2d"])
+def test_csv_and_plots(request, name):
+    out = request.getfixturevalue(name)
+    rows = _read(out / "bench.csv")
+    assert tuple(rows[0].keys()) == COLUMNS
+    assert set(REQUIRED) <= set(COLUMNS)
+    assert len(rows) == 4  # 2 levels x 2 integrations
+    assert {r["integration"] for r in rows} == {"element", "segment"}
+    for r in rows:
+        assert r["benchmark"] == name and r["recovery"] == "lumped"
+        for c in NUMERIC:
+            assert math.isfinite(float(r[c])), (c, r[c])
+        assert int(r["ranks"]) == 1 and int(r["newton_iterations"]) >= 1
+        assert float(r["peak_memory_mb"]) > 0 and float(r["wall_time"]) > 0
+        assert (out / f"{name}_L{r['level']}_{r['integration']}" / "summary.json").is_file()
+    for integ in ("element", "segment"):
+        by_level = sorted((int(r["level"]), r) for r in rows if r["integration"] == integ)
+        dofs = [int(r["dofs"]) for _, r in by_level]
+        h = [float(r["h"]) for _, r in by_level]
+        assert dofs[1] > dofs[0] and h[1] == pytest.approx(h[0] / 2, rel=1e-4)
+        if name == "hertz2d":
+            l2 = [float(r["l2_rel_error"]) for _, r in by_level]
+            assert l2[1] < l2[0]
+    if name == "patch2d":  # exact pressure with segment integration
+        assert all(float(r["max_rel_error"]) < 1e-8 for r in rows if r["integration"] == "segment")
+    for png in PNGS:
+        assert (out / png).stat().st_size > 1000
+
+
+def test_fitted_rate():
+    assert fitted_rate([0.4, 0.2, 0.1], [0.16, 0.04, 0.01]) == pytest.approx(2.0)
+    assert math.isnan(fitted_rate([0.4], [0.1]))
+
+
+def test_cli_bench_ok(tmp_path, capsys):
+    out = tmp_path / "b"
+    args = ["bench", "patch2d", "--levels", "1", "--integration", "segment", "--out", str(out)]
+    assert cli.main(args) == 0
+    assert "[bench] patch2d L0 segment: dofs=" in capsys.readouterr().out
+    assert len(_read(out / "bench.csv")) == 1
+
+
+def test_cli_bench_unknown_name(tmp_path, capsys):
+    assert cli.main(["bench", "NOPE", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith("dolfinx-mortar: error: bench: unknown benchmark 'NOPE'")
+    assert not (tmp_path / "x").exists()
