@@ -42,9 +42,10 @@ def parser(description: str, out: str, integration: bool = True) -> argparse.Arg
     if integration:
         ap.add_argument(
             "--integration",
-            choices=("element", "segment"),
+            choices=("element", "segment", "node"),
             default="element",
-            help="mortar integration: slave quadrature or exact segments [element]",
+            help="mortar integration: slave quadrature, exact segments, or the node-to-segment "
+            "baseline [element]",
         )
     return ap
 

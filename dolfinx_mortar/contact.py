@@ -37,12 +37,12 @@ from .kernels import mortar as kmortar
 from .kernels.shape import QUAD1, QUAD2, TRIANGLE1, TRIANGLE2
 from .layout import FacetArrays
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
-from .surface import extract_facets, mixed_nodes, quadrature
+from .surface import extract_facets, mixed_nodes, nodal_rule, quadrature
 
 log = logging.getLogger(__name__)
 
 RECOVERIES = ("lumped",)
-INTEGRATIONS = ("element", "segment")
+INTEGRATIONS = ("element", "segment", "node")
 #: Default slave-facet quadrature degree per facet type (INTERVAL1, INTERVAL2, TRIANGLE1,
 #: TRIANGLE2, QUAD1, QUAD2): Gauss rules WITHOUT a point at the facet centre. On structured
 #: non-matching meshes a centre point can sit exactly on a master edge, where the
@@ -68,7 +68,7 @@ class MortarContact:
     problem: the :class:`~dolfinx_mortar.problem.ContactProblem`.
     slave, master: facet group names.
     penalty: ε_N (stress per length) or "auto" (see :data:`AUTO_PENALTY_FACTOR`).
-    recovery, integration: see METHOD.md §3 and §7.
+    recovery, integration: see METHOD.md §3 and §7 ("node" = node-to-segment baseline).
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
@@ -137,7 +137,12 @@ class MortarContact:
         # quadrature: the element rule on every slave facet, or the rule per segment
         qdeg = quadrature_degree or DEFAULT_QUADRATURE_DEGREE[self.ftype]
         self.rule = quadrature(self.ftype, qdeg)
-        if integration == "element":
+        if integration == "node":
+            try:
+                self.qp_xi, self.qp_w = nodal_rule(self.ftype, self.slave.X)
+            except ValueError as exc:
+                raise SceneError(f"{key}.integration", str(exc)) from None
+        elif integration == "element":
             nq = self.rule[1].size
             self.qp_xi = np.zeros((nsf, nq, self.rule[0].shape[1]))
             self.qp_w = np.zeros((nsf, nq))
@@ -329,13 +334,13 @@ class MortarContact:
         if self.integration == "segment":
             self._segment_points()
         nq = self.qp_w.shape[1]
-        if self.integration == "element":
+        if self.integration != "segment":
             self.qp_m = np.full((nsf, nq), -1, np.int64)
         self.qp_zeta = np.zeros((nsf, nq, km))
         self.qp_g = np.zeros((nsf, nq))
         if not nsf:
             return
-        if self.integration == "element":
+        if self.integration != "segment":
             kmortar.pair_points(
                 self.ftype,
                 self.master.ftype,

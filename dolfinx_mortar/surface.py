@@ -173,3 +173,41 @@ def quadrature(ftype: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
         cell = basix.CellType.quadrilateral
     pts, wts = basix.make_quadrature(cell, degree)
     return np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(wts, dtype=float)
+
+
+def nodal_rule(ftype: int, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Node-to-segment "quadrature": one point per facet node, weight ∫_f N_a dA₀.
+
+    X (nf, nn, d) reference facet coordinates. Returns qp_xi (nf, nn, k) (the reference
+    nodes) and qp_w (nf, nn) with w_{f,a} = Σ_q w_q N_a(ξ_q) J₀_f(ξ_q) from a Gauss rule
+    exact for the facet's own polynomials. With these weights A^I = Σ_f w_{f,I} and
+    G^I = A^I g(x_I): the mixed gap of a slave node is the gap at the node itself, the
+    classical node-to-segment penalty baseline. Undefined on 6-node triangles, where the
+    vertex functions integrate to zero (raises ValueError).
+    """
+    from .kernels.mortar import reference_weights
+    from .kernels.shape import shape
+
+    if ftype == TRIANGLE2:
+        raise ValueError(
+            "node-to-segment integration needs positive nodal weights, "
+            "which 6-node triangles do not have"
+        )
+    nodes = REFERENCE_NODES[ftype]
+    nf, nn = X.shape[0], nodes.shape[0]
+    k = nodes.shape[1]
+    pts, wts = quadrature(ftype, 8)
+    gw_xi = np.zeros((nf, wts.size, k))
+    gw = np.zeros((nf, wts.size))
+    if nf:
+        reference_weights(ftype, X, pts, wts, gw_xi, gw)
+    N = np.empty((wts.size, 9))
+    dN = np.empty((9, k))
+    ddN = np.empty((9, k, k))
+    row = np.empty(9)
+    for q in range(wts.size):
+        shape(ftype, np.ascontiguousarray(pts[q]), row, dN, ddN)
+        N[q] = row
+    qp_w = gw @ N[:, :nn]
+    qp_xi = np.broadcast_to(nodes, (nf, nn, k)).copy()
+    return qp_xi, qp_w

@@ -70,6 +70,7 @@ CASES = {
 
 
 def _problem(case, integration="element"):
+    """The contact problem of CASES[case] with the given integration (collective)."""
     gen, params, slave, master, bodies, gdim = CASES[case]
     data = {
         "kinematics": "finite",
@@ -136,10 +137,18 @@ def _residual(problem, term, vec_u):
     return b
 
 
+PARAMS = [(case, "element") for case in CASES] + [
+    ("hertz2d-P1", "node"),
+    ("hertz2d-Q1", "node"),
+    ("hertz3d-P1", "node"),
+    ("patch3d-Q1", "node"),
+]
+
+
 @pytest.mark.mpi
-@pytest.mark.parametrize("case", list(CASES))
-def test_contact_tangent_matches_finite_differences(case):
-    problem = _problem(case)
+@pytest.mark.parametrize("case, integration", PARAMS)
+def test_contact_tangent_matches_finite_differences(case, integration):
+    problem = _problem(case, integration)
     term = problem.contacts[0]
     depth = {2: 0.05, 3: 0.04}[problem.gdim]
     _set_state(problem, depth, CASES[case][4][0])
