@@ -1,0 +1,76 @@
+"""Uzawa cost against the auto-penalty factor and the Aitken relaxation, on any scene.
+
+For each penalty factor k (``penalty = "auto"`` gives ε^I = k E*/h_I) and with or
+without the Irons–Tuck relaxation, the scene is run once and the Newton iterations,
+Uzawa rounds, cutbacks, wall time and the multiplier change per round of the last
+step are printed. Run from the repository root, e.g. on the peers' problem A:
+
+    /usr/bin/python3 bench/bench_uzawa.py ../shared/peers/scenes/hertz_A_L2.toml \\
+        --factors 100 1000 10000 --aitken both
+
+(the peers' meshes are written by ``../shared/peers/export_scenes.py``; or use a scene
+built on a generator, e.g. the one that ``demos/demo_hertz2d.py`` runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+
+from mpi4py import MPI
+
+import dolfinx_mortar.contact as contact
+from dolfinx_mortar.runner import run
+from dolfinx_mortar.scene import load_scene
+
+
+def one(scene_path: str, factor: float, aitken: bool) -> dict:
+    """Run the scene with the given auto-penalty factor and relaxation (collective)."""
+    contact.AUTO_PENALTY_FACTOR = factor
+    original = contact.MortarContact.__init__
+
+    def init(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        self.aitken = aitken
+
+    contact.MortarContact.__init__ = init
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = MPI.COMM_WORLD.bcast(tmp, root=0)
+            s = run(load_scene(scene_path), MPI.COMM_WORLD, out_dir=out)
+    finally:
+        contact.MortarContact.__init__ = original
+    st = s["steps"]
+    changes = [next(iter(r.values()))["multiplier_change"] for r in st[-1]["uzawa"]] if st else []
+    return {
+        "factor": factor,
+        "aitken": aitken,
+        "status": s["status"],
+        "newton": [sum(x["newton_iterations"]) for x in st],
+        "uzawa": [x["uzawa_rounds"] for x in st],
+        "cutbacks": sum(x["cutbacks"] for x in st),
+        "wall": round(sum(x["wall_time"] for x in st), 2),
+        "changes": [f"{c:.1e}" for c in changes],
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene")
+    ap.add_argument("--factors", type=float, nargs="+", default=[100.0])
+    ap.add_argument("--aitken", choices=["on", "off", "both"], default="both")
+    args = ap.parse_args(argv)
+    modes = {"on": [True], "off": [False], "both": [False, True]}[args.aitken]
+    rows = []
+    for factor in args.factors:
+        for aitken in modes:
+            row = one(args.scene, factor, aitken)
+            rows.append(row)
+            if MPI.COMM_WORLD.rank == 0:
+                print(row, flush=True)
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
