@@ -453,6 +453,15 @@ def _build_hertz2d(R, gap0, W, H, c_zone, h_contact, h_far, grading, order, quad
     return _meta(g, bodies, [("cylinder_surface", "block_top")])
 
 
+def _zone_params(c_zone: float, h_contact: float, h_far: float) -> dict:
+    """The refined-zone parameters shared by the Hertz-type generators, with their defaults."""
+    return {
+        "c_zone": (float, c_zone, "half-width of the refined box around the origin"),
+        "h_contact": (float, h_contact, "element size in the contact zone"),
+        "h_far": (float, h_far, "element size far from the contact"),
+    }
+
+
 _register(
     Generator(
         name="hertz2d",
@@ -462,9 +471,7 @@ _register(
             "gap0": (float, 0.0, "initial gap between cylinder and block"),
             "W": (float, 20.0, "block width (the half model is W/2 wide)"),
             "H": (float, 20.0, "block height"),
-            "c_zone": (float, 2.0, "half-width of the refined box around the origin"),
-            "h_contact": (float, 0.1, "element size in the contact zone"),
-            "h_far": (float, 2.0, "element size far from the contact"),
+            **_zone_params(c_zone=2.0, h_contact=0.1, h_far=2.0),
             "grading": _GRADING,
             "order": _ORDER,
             "quads": (bool, False, "recombine into quadrilaterals"),
@@ -540,9 +547,7 @@ _register(
             "gap0": (float, 0.0, "initial gap between sphere and block"),
             "W": (float, 20.0, "block width (the quarter model is W/2 x W/2)"),
             "H": (float, 20.0, "block height"),
-            "c_zone": (float, 1.5, "half-width of the refined box around the origin"),
-            "h_contact": (float, 0.2, "element size in the contact zone"),
-            "h_far": (float, 3.0, "element size far from the contact"),
+            **_zone_params(c_zone=1.5, h_contact=0.2, h_far=3.0),
             "grading": (float, 0.3, _GRADING[2]),
             "order": _ORDER,
             "quads": (bool, False, "hexahedra: not available for hertz3d (must be false)"),
@@ -764,9 +769,7 @@ _register(
         params={
             "R": (float, 8.0, "radius of both half-cylinders"),
             "gap0": (float, 0.0, "initial gap (the upper body is lifted by gap0)"),
-            "c_zone": (float, 2.0, "half-width of the refined box around the origin"),
-            "h_contact": (float, 0.1, "element size in the contact zone"),
-            "h_far": (float, 2.0, "element size far from the contact"),
+            **_zone_params(c_zone=2.0, h_contact=0.1, h_far=2.0),
             "grading": _GRADING,
             "order": _ORDER,
             "quads": (bool, False, "recombine into quadrilaterals"),
