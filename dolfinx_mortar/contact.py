@@ -34,7 +34,7 @@ from petsc4py import PETSc
 
 from .errors import SceneError
 from .kernels import mortar as kmortar
-from .kernels.shape import QUAD1, QUAD2, TRIANGLE1, TRIANGLE2
+from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
 from .surface import extract_facets, mixed_nodes, nodal_rule, quadrature
@@ -151,10 +151,8 @@ class MortarContact:
                     self.ftype, self.slave.X, *self.rule, self.qp_xi, self.qp_w
                 )
         else:
-            from .kernels.shape import tdim
-
-            seg_cell = "interval" if tdim(self.ftype) == 1 else "triangle"
-            self.seg_rule = quadrature(0 if seg_cell == "interval" else TRIANGLE1, qdeg)
+            # segments are sub-intervals (2D) or triangles of the clipped polygons (3D)
+            self.seg_rule = quadrature(INTERVAL1 if tdim(self.ftype) == 1 else TRIANGLE1, qdeg)
             self.seg_capacity = 8 * self.seg_rule[1].size
 
         # owned slave nodes (mixed-field nodes) and one facet-local occurrence of each
