@@ -103,10 +103,16 @@ def main(argv=None) -> int:
     if args.command == "generators":
         from .generators import GENERATORS
 
+        lines = []
         for g in GENERATORS.values():
-            print(f"{g.name}: {g.description}")
+            lines.append(f"{g.name}: {g.description}")
             for name, (typ, default, doc) in g.params.items():
-                print(f"    {name} ({typ.__name__}, default {default!r}): {doc}")
+                lines.append(f"    {name} ({typ.__name__}, default {default!r}): {doc}")
+        try:
+            sys.stdout.write("\n".join(lines) + "\n")
+            sys.stdout.flush()
+        except BrokenPipeError:  # e.g. `dolfinx-mortar generators | head`
+            sys.stdout = None
         return 0
 
     from mpi4py import MPI
