@@ -101,11 +101,14 @@ class NewtonSolver:
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
 
-    def solve(self) -> tuple[int, list[float]]:
+    def solve(self, rtol: float | None = None) -> tuple[int, list[float]]:
         """Solve R(u) = 0 from the problem's current ``u`` (collective).
 
-        Returns (iterations, residual norms per iteration). Raises ConvergenceError.
+        ``rtol`` overrides the relative tolerance for this solve only (inexact Uzawa
+        rounds). Returns (iterations, residual norms per iteration). Raises ConvergenceError.
         """
+        s = self.settings
+        self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=s.atol)
         p = self.problem
         p.update_contact(p.u.vector)
         if p.pattern_outdated():
@@ -174,21 +177,33 @@ class StepResult:
 
 
 def solve_step(
-    problem, newton: NewtonSolver, uzawa_max: int
+    problem, newton: NewtonSolver, uzawa_max: int, inexact: bool = True
 ) -> tuple[list[int], list[list[float]], list[dict]]:
     """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle.
 
-    ``uzawa_max`` bounds the number of Newton solves. Raises ConvergenceError.
+    With ``inexact`` (default), the rounds after the first solve Newton only to
+    rtol_k = max(rtol, min(1e-3, 1e-2 · c_{k−1})), c the relative multiplier change of the
+    previous round: there is no point in a 1e-9 solve for multipliers that still move by
+    1e-4. When the multipliers have settled after an inexact solve, one more solve at the
+    full tolerance (same multipliers) makes the accepted state fully converged.
+    ``uzawa_max`` bounds the number of Uzawa rounds. Raises ConvergenceError.
     """
     its_all, norms_all, info_all = [], [], []
+    rtol = None
     for _ in range(max(uzawa_max, 1)):
-        its, norms = newton.solve()
+        its, norms = newton.solve(rtol)
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()
         info_all.append(info)
         if done:
+            if rtol is not None:
+                its, norms = newton.solve()
+                its_all.append(its)
+                norms_all.append(norms)
             return its_all, norms_all, info_all
+        change = max((i.get("multiplier_change", 0.0) for i in info.values()), default=0.0)
+        rtol = min(1e-3, 1e-2 * change) if inexact else None
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
     )
@@ -270,7 +285,7 @@ class LoadStepper:
             timings = {k: p.timings[k] - tim0[k] for k in p.timings}
             timings["linear_solve"] = self.newton.timings["linear_solve"] - ls0
             timings["total"] = perf_counter() - wall0
-            res = StepResult(t, its, norms, len(its), cutbacks, timings["total"], timings, info)
+            res = StepResult(t, its, norms, len(info), cutbacks, timings["total"], timings, info)
             self.results.append(res)
             cutbacks = 0
             if self.on_step is not None:
