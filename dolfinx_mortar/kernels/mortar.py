@@ -288,6 +288,31 @@ def _local_derivatives(
 
 
 @numba.njit(cache=True)
+def _workspace(ftype_s, ns, nm, d, want_hess):
+    """Work arrays of the point loops: slave shape functions (N, dN, ddN), mixed shape
+    functions (Phi, dP, ddP; up to 9 nodes), the slave point x1, the gap derivatives with
+    respect to y = [x1, xm] (dg, d2g) and to the local dofs (dg_loc, d2g_loc; 1×1 when
+    no Hessian is wanted)."""
+    ks = tdim(ftype_s)
+    nloc = (ns + nm) * d
+    ny = d * (1 + nm)
+    h = nloc if want_hess else 1
+    return (
+        np.empty(ns),
+        np.empty((ns, ks)),
+        np.empty((ns, ks, ks)),
+        np.empty(9),
+        np.empty((9, ks)),
+        np.empty((9, ks, ks)),
+        np.empty(d),
+        np.empty(ny),
+        np.empty((ny, ny)),
+        np.empty(nloc),
+        np.empty((h, h)),
+    )
+
+
+@numba.njit(cache=True)
 def contact_terms(
     ftype_s,
     ftype_m,
@@ -325,20 +350,8 @@ def contact_terms(
     nq = qp_xi.shape[1]
     nm = xm.shape[1]
     nphi = node_of.shape[1]
-    ks = tdim(ftype_s)
     nloc = (ns + nm) * d
-    N = np.empty(ns)
-    dN = np.empty((ns, ks))
-    ddN = np.empty((ns, ks, ks))
-    Phi = np.empty(9)
-    dP = np.empty((9, ks))
-    ddP = np.empty((9, ks, ks))
-    x1 = np.empty(d)
-    ny = d * (1 + nm)
-    dg = np.empty(ny)
-    d2g = np.empty((ny, ny))
-    dg_loc = np.empty(nloc)
-    d2g_loc = np.empty((nloc, nloc))
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, True)
     for f in range(nsf):
         for q in range(nq):
             row = f * nq + q
@@ -415,20 +428,8 @@ def node_rows(
     nq = qp_xi.shape[1]
     nm = xm.shape[1]
     nphi = node_of.shape[1]
-    ks = tdim(ftype_s)
     nloc = (ns + nm) * d
-    N = np.empty(ns)
-    dN = np.empty((ns, ks))
-    ddN = np.empty((ns, ks, ks))
-    Phi = np.empty(9)
-    dP = np.empty((9, ks))
-    ddP = np.empty((9, ks, ks))
-    x1 = np.empty(d)
-    ny = d * (1 + nm)
-    dg = np.empty(ny)
-    d2g = np.empty((ny, ny))
-    dg_loc = np.empty(nloc)
-    d2g_loc = np.empty((1, 1))
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, False)
     fill = b_off[:-1].copy()
     for f in range(nsf):
         for q in range(nq):
