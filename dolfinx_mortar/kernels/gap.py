@@ -283,11 +283,9 @@ def project(x1, xm, ftype, zeta0, zeta_out, tol, maxit):
 
 
 @numba.njit(cache=True)
-def unit_normal(xm, ftype, sign, zeta, nu):
-    """Unit normal nu(zeta) (written to ``nu``, (d,)); returns the surface Jacobian |n|.
-
-    ``sign`` (+1 or -1) selects the orientation, see the module docstring.
-    """
+def _surface_at(xm, ftype, zeta):
+    """Check xm's shape, then allocate and fill (N, dN, ddN, S, A, SS) at ``zeta`` (see
+    :func:`_surface` for the shapes)."""
     _check_dims(xm, ftype)
     n = num_nodes(ftype)
     k = tdim(ftype)
@@ -299,6 +297,17 @@ def unit_normal(xm, ftype, sign, zeta, nu):
     A = np.empty((k, d))
     SS = np.empty((k, k, d))
     _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS)
+    return N, dN, ddN, S, A, SS
+
+
+@numba.njit(cache=True)
+def unit_normal(xm, ftype, sign, zeta, nu):
+    """Unit normal nu(zeta) (written to ``nu``, (d,)); returns the surface Jacobian |n|.
+
+    ``sign`` (+1 or -1) selects the orientation, see the module docstring.
+    """
+    d = xm.shape[1]
+    N, dN, ddN, S, A, SS = _surface_at(xm, ftype, zeta)
     jn = _normal(A, sign, nu)
     for i in range(d):
         nu[i] /= jn
@@ -311,18 +320,9 @@ def gap_only(x1, xm, ftype, sign, zeta):
 
     Parameters as in :func:`gap_and_derivatives`; no derivatives are computed.
     """
-    _check_dims(xm, ftype)
-    n = num_nodes(ftype)
-    k = tdim(ftype)
     d = xm.shape[1]
-    N = np.empty(n)
-    dN = np.empty((n, k))
-    ddN = np.empty((n, k, k))
-    S = np.empty(d)
-    A = np.empty((k, d))
-    SS = np.empty((k, k, d))
     nv = np.empty(d)
-    _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS)
+    N, dN, ddN, S, A, SS = _surface_at(xm, ftype, zeta)
     jn = _normal(A, sign, nv)
     g = 0.0
     for i in range(d):
@@ -569,21 +569,14 @@ def projection_derivative(x1, xm, ftype, zeta, dzeta):
 
     ``zeta`` must be the converged projection; H and r_y as in :func:`gap_and_derivatives`.
     """
-    _check_dims(xm, ftype)
     n = num_nodes(ftype)
     k = tdim(ftype)
     d = xm.shape[1]
     ny = d * (1 + n)
-    N = np.empty(n)
-    dN = np.empty((n, k))
-    ddN = np.empty((n, k, k))
-    S = np.empty(d)
-    A = np.empty((k, d))
-    SS = np.empty((k, k, d))
+    N, dN, ddN, S, A, SS = _surface_at(xm, ftype, zeta)
     H = np.empty((k, k))
     Hi = np.empty((k, k))
     R = np.empty((k, ny))
-    _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS)
     for al in range(k):
         for be in range(k):
             s = 0.0
