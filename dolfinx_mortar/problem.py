@@ -123,6 +123,7 @@ class ContactProblem:
             gdofs[np.asarray(bc.dof_indices()[0])] = -1
         self.global_dofs = gdofs
         self.contacts: list = []
+        self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
         self.t = 0.0
@@ -159,6 +160,17 @@ class ContactProblem:
         self._set_state(x)
         for term in self.contacts:
             term.update(self.u)
+        self._contact_x = x.array_r.copy() if self.contacts else None
+
+    def ensure_contact_at(self, x: PETSc.Vec) -> None:
+        """Update the contact terms unless their state already belongs to ``x`` and to the
+        current multipliers (collective: every rank takes the same decision)."""
+        if not self.contacts:
+            self._set_state(x)
+            return
+        same = self._contact_x is not None and np.array_equal(self._contact_x, x.array_r)
+        if not self.comm.allreduce(int(same), op=MPI.MIN):
+            self.update_contact(x)
 
     def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
         """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
@@ -224,6 +236,7 @@ class ContactProblem:
     # ---------------------------------------------------------------- steps
     def uzawa_update(self) -> tuple[bool, dict]:
         """Update the multipliers of every contact term; True when all have converged (collective)."""
+        self._contact_x = None  # the multipliers change: the contact state is stale
         done, info = True, {}
         for term in self.contacts:
             ok, i = term.uzawa_update()
@@ -233,6 +246,7 @@ class ContactProblem:
 
     def begin_step(self) -> None:
         """Start a load step (contact terms reset their per-step counters)."""
+        self._contact_x = None
         for term in self.contacts:
             term.begin_step()
 
@@ -243,6 +257,7 @@ class ContactProblem:
 
     def restore_step(self) -> None:
         """Undo a failed step: contact multipliers and history go back to the last commit."""
+        self._contact_x = None
         for term in self.contacts:
             term.restore_step()
 

@@ -94,10 +94,11 @@ class NewtonSolver:
         self.problem.residual(x, b)
 
     def _J(self, snes, x, A, P):
-        # The line search may have evaluated F last at a trial point other than x:
-        # the contact pairing and nodal state must be those of x for a consistent tangent.
+        # The line search may have evaluated F last at a trial point other than x: the
+        # contact pairing and nodal state must be those of x for a consistent tangent
+        # (re-computed only when they are not).
         t0 = perf_counter()
-        self.problem.update_contact(x)
+        self.problem.ensure_contact_at(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
 
