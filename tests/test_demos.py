@@ -47,7 +47,7 @@ def test_hertz2d_accuracy(hertz2d):
 
 # Newton on hertz2d (h = 0.1, 4 steps, 1-3 ranks). Observed orders of the main solve of
 # each step, with the round-off floor estimated from the run (2 x the smallest residual):
-# 2.23, 2.14, 1.86, 1.43 serially. Step 4 stops on rtol at 4.1e-8 (0.26 -> 4.1e-4 -> 4.1e-8)
+# 2.23, 2.16, 1.86, 1.43 serially. Step 4 stops on rtol at 4.1e-8 (0.26 -> 4.1e-4 -> 4.1e-8)
 # before the asymptotic regime; its contraction still accelerates (1.6e-3 then 1e-4). The
 # full Jacobian (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a
 # mid-Uzawa state. The order estimate from three residuals is fragile near round-off (on
