@@ -32,7 +32,9 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from . import friction as fr
 from .errors import SceneError
+from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
 from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
@@ -54,6 +56,12 @@ DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
 AUTO_PENALTY_FACTOR = 100.0
 #: Upper bound of the Aitken relaxation of the Uzawa update.
 OMEGA_MAX = 10.0
+#: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
+#: are frozen; they are re-checked when the solve has converged (another solve if any changed).
+FREEZE_AFTER = 8
+#: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
+#: SLIP_TOL h_I): below, the slip direction would be round-off.
+SLIP_TOL = 1e-10
 
 
 def _plane_modulus(E: float, nu: float) -> float:
@@ -72,9 +80,10 @@ class MortarContact:
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
+    friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
+    penalty_tangential: ε_T (stress per length), "auto" (the rule of ``penalty``) or None
+        (= ``penalty``).
     """
-
-    frictional = False
 
     def __init__(
         self,
@@ -88,6 +97,8 @@ class MortarContact:
         uzawa_max=20,
         quadrature_degree=None,
         key="contact",
+        friction=0.0,
+        penalty_tangential=None,
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -197,6 +208,10 @@ class MortarContact:
             comm.allreduce(float(self.eps.min(initial=np.inf)), op=MPI.MIN),
             comm.allreduce(float(self.eps.max(initial=0.0)), op=MPI.MAX),
         )
+        self.mu = float(friction)
+        self.frictional = self.mu > 0.0
+        if self.frictional:
+            self._init_friction(penalty if penalty_tangential is None else penalty_tangential)
 
         # multipliers and nodal state
         self.aitken = True
@@ -214,6 +229,7 @@ class MortarContact:
         self._fetch_cand = None
         self.master = None
         self._u_exchange = None
+        self._exchanges = 0
         log.info(
             "contact %s: %d slave nodes, penalty %s in [%.4g, %.4g] (E* = %.4g), %s recovery, %s integration",
             self.name,
@@ -228,11 +244,6 @@ class MortarContact:
     @classmethod
     def from_pair(cls, problem, pair, key="contact"):
         """Build from a :class:`dolfinx_mortar.scene.ContactPair`."""
-        if pair.friction > 0.0:
-            raise SceneError(
-                f"{key}.friction",
-                "Coulomb friction (friction > 0) is not available yet; use friction = 0",
-            )
         return cls(
             problem,
             pair.slave,
@@ -243,7 +254,40 @@ class MortarContact:
             pair.uzawa_tol,
             pair.uzawa_max,
             key=key,
+            friction=pair.friction,
+            penalty_tangential=pair.penalty_tangential,
         )
+
+    # ------------------------------------------------------------------ friction set-up
+    def _init_friction(self, penalty_t) -> None:
+        """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
+        n, d = self.node_blocks.size, self.gdim
+        if penalty_t == "auto":
+            self.eps_t = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+            self.penalty_t_description = f"auto: {AUTO_PENALTY_FACTOR:g} E*/h_I"
+        else:
+            self.eps_t = np.full(n, float(penalty_t))
+            self.penalty_t_description = float(penalty_t)
+        self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
+        self.frames = fr.NodalFrames(
+            self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
+        )
+        self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
+        self.lmbda_t_committed = np.zeros((n, d - 1))
+        self.tau = np.zeros((n, d - 1))
+        self.gamma_t = np.zeros((n, d - 1))
+        self.fstate = np.zeros(n, np.int64)
+        self.slip_length = np.zeros(n)  # accumulated |γ_T| over converged steps
+        self.slip_length_committed = np.zeros(n)
+        self.dissipation = 0.0
+        self.t_vec = np.zeros((n, d))
+        self.frozen = None  # imposed stick/slip states (chattering control)
+        self.freeze_after = FREEZE_AFTER
+        self._jacobians = 0
+        self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
+        self._u_n_version = 0
+        self._history_key = None
+        self._pending = None  # (u, τ) of a committed step, applied by the next begin_step
 
     # ------------------------------------------------------------------ helpers
     def _all_dofs(self, fa: FacetArrays) -> np.ndarray:
@@ -275,14 +319,24 @@ class MortarContact:
         return {
             "slave": self.slave_name,
             "master": self.master_name,
-            "friction": 0.0,
-            "tangential_fields": False,
+            "friction": self.mu,
+            "tangential_fields": self.frictional,
             "recovery": self.recovery,
             "integration": self.integration,
             "penalty": self.penalty_description,
             "penalty_range": list(self.penalty_range),
             "uzawa_tol": self.uzawa_tol,
             "slave_nodes": self.n_global_nodes,
+            **(
+                {
+                    "penalty_tangential": self.penalty_t_description,
+                    "frame": "convected orthonormal slave frame (a_ab = identity)",
+                    "chattering_control": f"stick/slip states frozen after {self.freeze_after} "
+                    "Newton iterations, re-checked at convergence",
+                }
+                if self.frictional
+                else {}
+            ),
         }
 
     # ------------------------------------------------------------------ per iteration
@@ -307,6 +361,7 @@ class MortarContact:
                 self._fetch_cand.destroy()
             self._fetch_cand = Fetcher(vec, self._all_dofs(self.master))
             self._u_exchange = (us.copy(), um.copy())
+            self._exchanges += 1
         self.xm = self.master.X + self._fetch_cand(vec).reshape(self.master.X.shape)
         off, idx = candidates(self.xs, self.xm, 0.5 * self.h_facet)
         self.cand_off, self.cand = off, idx
@@ -324,6 +379,8 @@ class MortarContact:
                 self.A,
                 self.G,
             )
+        if self.frictional:
+            self._friction_integrals()
         self._recover()
 
     def _pair(self) -> None:
@@ -369,6 +426,85 @@ class MortarContact:
                 self.qp_g,
             )
 
+    def _friction_integrals(self) -> None:
+        """Pairing at t_n, A_T, S and the S-weights per node, and the nodal frames.
+
+        The t_n pairing depends only on u_n, the quadrature points and the master ghost
+        layer: it is recomputed when one of them changed (every update for segments).
+        """
+        nsf, nq = self.qp_w.shape
+        n, d, km = self.node_blocks.size, self.gdim, self.gdim - 1
+        key = (self._exchanges, self._u_n_version)
+        if self.integration == "segment" or key != self._history_key:
+            un = self._u_n
+            xs_n = self.slave.X + self._fetch_slave(un).reshape(self.slave.X.shape)
+            xm_n = self.master.X + self._fetch_cand(un).reshape(self.master.X.shape)
+            off, idx = candidates(xs_n, xm_n, 2.0 * self.h_facet)
+            self.hist_cand = (off, idx)
+            self.qp_mn = np.full((nsf, nq), -1, np.int64)
+            self.qp_zn = np.zeros((nsf, nq, km))
+            if nsf:
+                kmortar.pair_points(
+                    self.ftype,
+                    self.master.ftype,
+                    xs_n,
+                    self.slave.sign,
+                    self.qp_xi,
+                    self.qp_w,
+                    xm_n,
+                    self.master.sign,
+                    off,
+                    idx,
+                    2.0 * self.h_facet,
+                    2.0 * self.h_facet,
+                    self.qp_mn,
+                    self.qp_zn,
+                    np.zeros((nsf, nq)),
+                )
+            self._history_key = key
+        ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
+        cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
+        e_node = np.empty(cap, np.int64)
+        e_key = np.empty(cap, np.int64)
+        e_dof = np.empty((cap, d), np.int64)
+        e_w = np.empty(cap)
+        self.AT, self.S = np.zeros(n), np.zeros((n, d))
+        ne = 0
+        if nsf:
+            ne = kfriction.slip_integrals(
+                self.ftype,
+                self.master.ftype,
+                self.ftype_phi,
+                self.xs,
+                self.xm,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+                self.qp_mn,
+                self.qp_zn,
+                self.node_of,
+                self.slave.blocks,
+                self.slave.dofs,
+                self.master.blocks,
+                self.master.dofs,
+                self.AT,
+                self.S,
+                e_node,
+                e_key,
+                e_dof,
+                e_w,
+            )
+        # merge the entries of each (node, block): S^I = Σ_k W_k x_k
+        order = np.lexsort((e_key[:ne], e_node[:ne]))
+        en, ek = e_node[order], e_key[order]
+        start = np.ones(ne, bool)
+        start[1:] = (en[1:] != en[:-1]) | (ek[1:] != ek[:-1])
+        first = np.flatnonzero(start)
+        self.s_node, self.s_key, self.s_dof = en[first], ek[first], e_dof[order][first]
+        self.s_w = np.add.reduceat(e_w[order], first) if ne else np.empty(0)
+        self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
+        self.frame_a, self.frame_n, self.frame_dA = self.frames.compute(self.xs)
+
     def _segment_points(self) -> None:
         from .kernels.segment import segment_points
 
@@ -409,6 +545,7 @@ class MortarContact:
         active = has & (trial >= 0.0)
         self.gamma, self.has_area = gamma, has
         self.p = np.where(active, trial, 0.0)
+        self.active = active
         self.kcoef = np.where(active, eps / safe_A, 0.0)
         self.predictor_nodes = 0
         if self.comm.allreduce(int(active.sum())) == 0:
@@ -421,6 +558,30 @@ class MortarContact:
             near = has & (gamma <= gmin + 1e-3 * self.h_mean) & (gamma < self.h_node)
             self.kcoef = np.where(near, eps / safe_A, 0.0)
             self.predictor_nodes = int(near.sum())
+            self.active = np.zeros_like(active)
+        if self.frictional:
+            self._recover_tangential()
+
+    def _recover_tangential(self, frozen="current"):
+        """Lumped tangential recovery γ = a·S/A_T and the return mapping (local).
+
+        With ``frozen = None`` the states are computed free and only returned.
+        """
+        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        safe = np.where(hasT, self.AT, 1.0)
+        gam = np.einsum("nac,nc->na", self.frame_a, self.S) / safe[:, None]
+        gam[~hasT] = 0.0
+        p = np.where(hasT, self.p, 0.0)
+        imposed = self.frozen if frozen == "current" else frozen
+        active = hasT & self.active
+        tau, state, D, Pd = fr.return_mapping(
+            self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._slip_tol
+        )
+        if frozen is None:
+            return state
+        self.gamma_t, self.tau, self.fstate, self._D, self._Pd = gam, tau, state, D, Pd
+        self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
+        return state
 
     # ------------------------------------------------------------------ assembly
     def _terms(self, want_jac: bool, masked: bool = True):
@@ -477,6 +638,18 @@ class MortarContact:
         b.setValues(
             res_idx[keep].astype(PETSc.IntType), res_val[keep], addv=PETSc.InsertMode.ADD_VALUES
         )
+        if self.frictional:
+            # R_T = Σ_I (∂S^I/∂u)ᵀ t^I
+            act = self.fstate[self.s_node] > 0
+            vals = self.t_vec[self.s_node[act]] * self.s_w[act, None]
+            if masked:
+                idx = self.s_dof[act]
+            else:
+                idx = self.s_key[act, None] * self.bs + np.arange(self.gdim)
+            keep = idx >= 0
+            b.setValues(
+                idx[keep].astype(PETSc.IntType), vals[keep], addv=PETSc.InsertMode.ADD_VALUES
+            )
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
@@ -508,6 +681,47 @@ class MortarContact:
                 idx = c_idx[s:e].astype(PETSc.IntType)
                 v = c_val[s:e]
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
+        if self.frictional:
+            self._add_tangential_jacobian(A, c_off, c_idx, c_val)
+
+    def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
+        """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
+        self._jacobians += 1
+        if self.frozen is None and self._jacobians >= self.freeze_after:
+            self.frozen = self.fstate.copy()
+        d, m = self.gdim, self.gdim - 1
+        fo, pf_all = self.frames.pair_off, self.frames.pair_f
+        # predictor nodes (nothing in contact yet: tangent-only normal stiffness) get the
+        # stick stiffness too, or a body held only by contact would be free tangentially
+        predictor = (self.fstate == fr.OPEN) & (self.kcoef > 0.0) & (self.predictor_nodes > 0)
+        D_stick = self.eps_t[:, None, None] * np.eye(m)
+        for node in np.flatnonzero((self.fstate > 0) | predictor):
+            D, Pd = (
+                (D_stick[node], 0.0 * self._Pd[node])
+                if predictor[node]
+                else (self._D[node], self._Pd[node])
+            )
+            s, e = self.s_off[node], self.s_off[node + 1]
+            ps, pe = fo[node], fo[node + 1]
+            pf = pf_all[ps:pe]
+            U, K = fr.node_tangent(
+                self.frame_a[node],
+                self.S[node],
+                self.AT[node],
+                self.tau[node],
+                D,
+                Pd,
+                self.kcoef[node],
+                self.s_dof[s:e],
+                self.s_w[s:e],
+                self.slave.dofs[pf].reshape(-1, d),
+                self.frame_dA[ps:pe].reshape(-1, m, d, d),
+                c_idx[c_off[node] : c_off[node + 1]],
+                c_val[c_off[node] : c_off[node + 1]],
+            )
+            if U.size:
+                idx = U.astype(PETSc.IntType)
+                A.setValues(idx, idx, K, addv=PETSc.InsertMode.ADD_VALUES)
 
     # ------------------------------------------------------------------ sparsity
     def block_couplings(self) -> tuple[np.ndarray, np.ndarray]:
@@ -519,14 +733,17 @@ class MortarContact:
         if nsf == 0 or self.node_blocks.size == 0:
             return np.empty(0, np.int64), np.empty(0, np.int64)
         # blocks seen by each slave facet: its own nodes and its candidates' nodes
-        counts = np.diff(self.cand_off)
-        fac = np.concatenate(
-            [
-                np.repeat(np.arange(nsf), self.slave.nodes_per_facet),
-                np.repeat(np.repeat(np.arange(nsf), counts), self.master.nodes_per_facet),
-            ]
-        )
-        blk = np.concatenate([self.slave.blocks.ravel(), self.master.blocks[self.cand].ravel()])
+        cand_sets = [(self.cand_off, self.cand)]
+        if self.frictional:
+            cand_sets.append(self.hist_cand)  # the t_n masters of the slip
+        fac = [np.repeat(np.arange(nsf), self.slave.nodes_per_facet)]
+        blk = [self.slave.blocks.ravel()]
+        for off, cand in cand_sets:
+            fac.append(
+                np.repeat(np.repeat(np.arange(nsf), np.diff(off)), self.master.nodes_per_facet)
+            )
+            blk.append(self.master.blocks[cand].ravel())
+        fac, blk = np.concatenate(fac), np.concatenate(blk)
         # (node, block) incidence through the facets around each owned node
         fi, ii = np.nonzero(self.node_of >= 0)
         node_of_f = self.node_of[fi, ii]
@@ -557,71 +774,173 @@ class MortarContact:
         edge), so the step is relaxed with the Irons–Tuck (vector Aitken) factor
         ω_k = −ω_{k−1} d_{k−1}·(d_k − d_{k−1}) / |d_k − d_{k−1}|², clamped to
         [1, OMEGA_MAX]: λ ← max(λ + ω d, 0). The first round of a step uses ω = 1.
+        With friction, the tangential multipliers take the traction, λ_T ← τ (plain),
+        the change counts max |τ − λ_T| too, and a solve that ended with frozen
+        stick/slip states (chattering control) is not accepted when the free states
+        differ: another solve follows with the states free.
         """
+        comm = self.comm
         d = self.p - self.lmbda
-        pmax = self.comm.allreduce(self.p.max(initial=0.0), op=MPI.MAX)
-        change = self.comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
+        pmax = comm.allreduce(self.p.max(initial=0.0), op=MPI.MAX)
+        change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
         rel = change / pmax if pmax > 0 else 0.0
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
-        if self.uzawa_tol == 0.0 or rel <= self.uzawa_tol:
-            return True, info
+        rel_t, changed = 0.0, 0
+        if self.frictional:
+            dt = np.linalg.norm(self.tau - self.lmbda_t, axis=1).max(initial=0.0)
+            rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
+            info["tangential_change"] = rel_t
+            if self.frozen is not None:
+                free = self._recover_tangential(frozen=None)
+                changed = comm.allreduce(int(np.count_nonzero(free != self.fstate)))
+                info["unfrozen_states"] = changed
+                self.frozen = None
+        if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
+            return changed == 0, info
         omega = 1.0
         if self.aitken and self._d_prev is not None:
             dd = d - self._d_prev
-            num = self.comm.allreduce(float(self._d_prev @ dd))
-            den = self.comm.allreduce(float(dd @ dd))
+            num = comm.allreduce(float(self._d_prev @ dd))
+            den = comm.allreduce(float(dd @ dd))
             if den > 0.0:
                 omega = float(np.clip(-self._omega * num / den, 1.0, OMEGA_MAX))
         info["relaxation"] = omega
         self._d_prev, self._omega = d, omega
         self.lmbda = np.maximum(self.lmbda + omega * d, 0.0)
+        if self.frictional:
+            self.lmbda_t = self.tau.copy()
         return False, info
+
+    def begin_solve(self) -> None:
+        """A Newton solve starts: the stick/slip states are free again."""
+        if self.frictional:
+            self._jacobians = 0
+            self.frozen = None
 
     def _max_penetration(self) -> float:
         active = self.p > 0
         return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
 
     def begin_step(self) -> None:
-        """Reset the Aitken history (multipliers carry over from the last step)."""
+        """Reset the Aitken history (multipliers carry over from the last step); with
+        friction, the last committed state becomes the slip reference t_n."""
         self._d_prev, self._omega = None, 1.0
+        if self.frictional:
+            if self._pending is not None:
+                u_n, tau = self._pending
+                u_n.copy(self._u_n)
+                u_n.destroy()
+                self._u_n_version += 1
+                self.lmbda_t = tau.copy()
+                self.lmbda_t_committed = tau.copy()
+                self._pending = None
+            self.frozen = None
 
     def commit_step(self) -> None:
+        """Accept the converged step. With friction: accumulate slip and dissipation, and
+        keep (u, τ) as the history of the next step (the state itself is still that of
+        this step until :meth:`begin_step`, so outputs report this step)."""
         self.lmbda_committed = self.lmbda.copy()
+        if self.frictional:
+            act = self.fstate > 0
+            self.slip_length_committed = self.slip_length_committed + np.where(
+                act, np.linalg.norm(self.gamma_t, axis=1), 0.0
+            )
+            slip = self.fstate == fr.SLIP
+            local = float(
+                np.sum(self.AT[slip] * np.einsum("na,na->n", self.tau, self.gamma_t)[slip])
+            )
+            self.dissipation = self.comm.allreduce(local)
+            if self._pending is not None:
+                self._pending[0].destroy()
+            self._pending = (self.problem.u.vector.copy(), np.where(act[:, None], self.tau, 0.0))
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()
         self._d_prev, self._omega = None, 1.0
+        if self.frictional:
+            self.lmbda_t = self.lmbda_t_committed.copy()
+            self.frozen = None
+
+    def destroy(self) -> None:
+        """Free the PETSc objects this term owns."""
+        for obj in (self._fetch_slave, self._fetch_mlocal, self._fetch_cand):
+            if obj is not None:
+                obj.destroy()
+        if self.frictional:
+            self._u_n.destroy()
+            if self._pending is not None:
+                self._pending[0].destroy()
 
     # ------------------------------------------------------------------ results
     def statistics(self) -> dict:
-        """Force of the master on the slave, penetration and node counts (collective)."""
+        """Force of the master on the slave, penetration, node counts and (with friction)
+        the frictional dissipation of the last committed step (collective)."""
         force = self._terms(False)[4]
-        nact = int(self.comm.allreduce(int((self.p > 0).sum())))
-        return {
-            "force": [float(v) for v in self.comm.allreduce(force)],
-            "max_penetration": self._max_penetration(),
-            "active_nodes": nact,
-            "stick_nodes": 0,
-            "slip_nodes": nact,
-        }
+        active = self.p > 0
+        out = {"max_penetration": self._max_penetration()}
+        if self.frictional:
+            # the master pushes the slave with −t^I per unit reference area
+            force = force - np.einsum("n,nc->c", self.AT, self.t_vec)
+            stick = int(np.count_nonzero(self.fstate == fr.STICK))
+            slip = int(np.count_nonzero(self.fstate == fr.SLIP))
+            out["dissipation"] = self.dissipation
+        else:
+            stick, slip = 0, int(active.sum())
+        counts = self.comm.allreduce(np.array([int(active.sum()), stick, slip]))
+        out.update(
+            force=[float(v) for v in self.comm.allreduce(force)],
+            active_nodes=int(counts[0]),
+            stick_nodes=int(counts[1]),
+            slip_nodes=int(counts[2]),
+        )
+        return out
+
+    def _output_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """Outward unit normals (n, d) and the SCENES.md output tangents (n, d−1, d)."""
+        n = self.node_blocks.size
+        if self.frictional:
+            nrm = self.frame_n
+        else:
+            nrm = np.zeros((n, self.gdim))
+        if self.gdim == 2:
+            return nrm, np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)[:, None, :]
+        ax = np.zeros((n, 3))
+        near_x = np.abs(nrm[:, 0]) > np.cos(np.radians(10.0))
+        ax[~near_x, 0] = 1.0
+        ax[near_x, 1] = 1.0
+        t0 = ax - np.einsum("nc,nc->n", ax, nrm)[:, None] * nrm
+        t0 /= np.maximum(np.linalg.norm(t0, axis=1), 1e-300)[:, None]
+        return nrm, np.stack([t0, np.cross(nrm, t0)], axis=1)
+
+    def _tangential_output(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """p_T (n, d−1) in the output frame (traction of the master on the slave), the
+        accumulated slip length (n,) and the state (n,) (0 open, 1 stick, 2 slip)."""
+        n, d = self.node_blocks.size, self.gdim
+        if not self.frictional:
+            return np.zeros((n, d - 1)), np.zeros(n), np.where(self.p > 0, 2, 0)
+        _, tang = self._output_frame()
+        p_t = -np.einsum("nac,nc->na", tang, self.t_vec)
+        return p_t, self.slip_length_committed, self.fstate
 
     def node_table(self) -> np.ndarray | None:
         """Rows x, y(, z), X, Y(, Z), p_N, p_T0(, p_T1), gap, slip, state of every slave node, on rank 0.
 
         Frictionless active nodes are reported as sliding (state 2); ``gap`` is the mixed
-        nodal gap γ^I (NaN where the node sees no master).
+        nodal gap γ^I (NaN where the node sees no master); p_T are the components of the
+        tangential traction of the master on the slave in the SCENES.md output frame.
         """
         f, i = self._node_at
         n, d = self.node_blocks.size, self.gdim
         gap = np.where(self.has_area, self.gamma, np.nan)
-        state = np.where(self.p > 0, 2, 0)
+        p_t, slip, state = self._tangential_output()
         cols = [
             self.slave.X[f, i],
             self.xs[f, i],
             self.p[:, None],
-            np.zeros((n, d - 1)),
+            p_t,
             gap[:, None],
-            np.zeros((n, 1)),
+            slip[:, None],
             state[:, None],
         ]
         table = np.hstack(cols) if n else np.empty((0, 3 * d + 3))
@@ -631,10 +950,13 @@ class MortarContact:
     def fill_fields(self, functions: dict) -> None:
         """Write nodal contact fields into scalar P_k functions (owned slave nodes only)."""
         local = (self.node_blocks - self.ranges[self.comm.rank]).astype(np.int64)
+        p_t, slip, state = self._tangential_output()
         vals = {
             "contact_pressure": self.p,
             "gap": np.where(self.has_area, self.gamma, 0.0),
-            "contact_state": np.where(self.p > 0, 2.0, 0.0),
+            "contact_state": state.astype(float),
+            "tangential_traction": np.linalg.norm(p_t, axis=1),
+            "slip": slip,
         }
         for key, v in vals.items():
             if key in functions:

@@ -26,8 +26,9 @@ gives the quadratic Lagrange elements (6-node triangles, 9-node quadrilaterals,
 Mesh size: the unstructured generators take ``h_contact`` inside a box of
 half-width ``c_zone`` around the initial contact point (or footprint) and let
 the size grow linearly, with slope ``grading`` (dh/dx), to ``h_far`` outside it
-(a gmsh ``Box`` field with a transition layer). The patch generators are
-structured (transfinite) and take element counts instead.
+(a gmsh ``Box`` field with a transition layer). The patch generators and
+tiedcurved2d are structured (transfinite) and take element counts instead; the
+ironing dies are structured with element size ``h_die``.
 
 Generators (defaults in brackets; lengths in the scene's units)
 ---------------------------------------------------------------
@@ -57,10 +58,13 @@ Generators (defaults in brackets; lengths in the scene's units)
     elements along x and n_y [3] through each thickness (non-matching interface);
     quads [true]; order [1]. ``h_contact`` > 0 [0 = off] overrides the counts
     along x: n_lower = round(L/h_contact), n_upper scaled by n_upper/n_lower;
-    ``h_far`` > 0 [0 = off] overrides n_y = round(H/h_far).
+    ``h_far`` > 0 [0 = off] overrides n_y = round(H/h_far). ``margin`` [0]
+    extends the lower block by that much beyond [0, L] on every side (room to
+    slide: the frictional patch test).
     Cells: ``lower``, ``upper``. Facets: ``lower_top`` (master),
     ``upper_bottom`` (slave), ``lower_bottom``, ``upper_top``, ``lower_left``,
-    ``upper_left`` (x = 0), ``lower_right``, ``upper_right`` (x = L).
+    ``upper_left`` (x = 0; x = -margin for ``lower_left``), ``lower_right``,
+    ``upper_right`` (x = L; L + margin).
 ``patch3d``
     The same in 3D: [0, L]^2 x [-H, 0] and [0, L]^2 x [gap0, gap0 + H],
     n_lower [4], n_upper [5] elements along x and y, n_y [3] through the
@@ -85,9 +89,64 @@ Generators (defaults in brackets; lengths in the scene's units)
     Cells: ``block``, ``wedge``. Facets: ``block_bottom`` (slave),
     ``wedge_top`` (master), ``block_top``, ``block_left``, ``block_right``,
     ``wedge_bottom``, ``wedge_left``, ``wedge_right``. Default mesh: about 1.6k triangles.
+``ironing2d``
+    Plane-strain ironing: a die, the lower half of the ring r_in [2.8] <= r <=
+    r_out [3] centred at (x_die, r_out + gap0) [x_die = 0, gap0 = 0: its lowest
+    point touches the slab at (x_die, 0)], on the slab
+    [x_left, x_left + L] x [-H, 0] [x_left = -2, L = 9, H = 3]. The die is
+    structured with size h_die [0.1] and at least 2 elements through its
+    thickness; the slab takes h_contact [0.1] within c_zone [1] of the sliding
+    path (x_die - c_zone <= x <= x_die + slide + c_zone [slide = 4],
+    -c_zone <= y <= c_zone + gap0), h_far [0.5], grading [0.2]; order [1];
+    quads [false].
+    Cells: ``die``, ``slab``. Facets: ``die_surface`` (outer arc, slave),
+    ``die_top`` (the two flat ends at y = r_out + gap0, where the die is
+    driven), ``die_inner`` (inner arc), ``slab_top`` (y = 0, master),
+    ``slab_bottom`` (y = -H), ``slab_left`` (x = x_left), ``slab_right``
+    (x = x_left + L). Default mesh: about 2.8k triangles (384 in the die;
+    1.4k quadrilaterals with quads).
+``ironing3d``
+    The Puso-Laursen ironing problem: the slab [x_left, x_left + L] x [0, W] x
+    [-H, 0] [x_left = -2, L = 9, W = 4, H = 3] and a die, the lower half of a
+    cylindrical shell with axis along y, outer radius r_out [3] and thickness
+    t [0.2], width w_die [5.2] centred on the slab (overhanging it on both
+    sides), its lowest line at z = gap0 [0], x = x_die [0]. The die is
+    structured (extruded along y) with size h_die [0.2] and at least 1 element
+    through its thickness; the slab takes h_contact [0.4] within c_zone [1] of
+    the sliding path (as ironing2d, slide [4], all y), h_far [1],
+    grading [0.3]; order [1]. Tetrahedra only (``quads = true`` is rejected).
+    Cells: ``die``, ``slab``. Facets: ``die_surface`` (outer cylindrical face,
+    slave), ``die_top`` (the flat faces at z = r_out + gap0), ``die_inner``,
+    ``slab_top`` (z = 0, master), ``slab_bottom`` (z = -H), ``slab_sides``
+    (the four vertical faces); the die's end faces are untagged. Default mesh:
+    about 11k tetrahedra (7.5k in the die).
+``twist3d``
+    Full (not quarter: twisting is not reflection-symmetric) lower hemisphere of
+    radius R [8] centred at (0, 0, R + gap0) [0] on the block
+    [-W/2, W/2]^2 x [-H, 0] [W = H = 20]. Size: h_contact [0.3] within
+    c_zone [1.5] of the origin (box), h_far [4], grading [0.3]; order [1].
+    Tetrahedra only (``quads = true`` is rejected). Cells: ``sphere``,
+    ``block``. Facets: ``sphere_surface`` (slave), ``sphere_top``
+    (z = R + gap0), ``block_top`` (z = 0, master), ``block_bottom`` (z = -H);
+    the block's sides are untagged. Default mesh: about 16k tetrahedra.
+``tiedcurved2d``
+    Curved patch test: two annular sectors centred at the origin for
+    theta0 [0] <= theta <= theta1 [pi/2] (theta1 - theta0 < pi), ``inner``
+    r0 [1] <= r <= r1 [1.5] and ``outer`` r1 <= r <= r2 [2], touching along
+    the arc r = r1. Structured, with n_inner [6] and n_outer [9] elements along
+    the arcs (non-matching interface) and n_r [3] radially in each body;
+    quads [true] (false: triangles); order [1]. ``h_contact`` > 0 [0 = off]
+    overrides n_inner = round(r1 (theta1 - theta0)/h_contact), n_outer scaled
+    by n_outer/n_inner; ``h_far`` > 0 [0 = off] overrides
+    n_r = round(max(r1 - r0, r2 - r1)/h_far). Facets: ``inner_surface``
+    (r = r1 on the inner body, master), ``outer_surface`` (r = r1 on the outer
+    body, slave), ``inner_boundary`` (r = r0 and the inner body's radial
+    sides), ``outer_boundary`` (r = r2 and the outer body's radial sides).
+    Default mesh: 45 quadrilaterals.
 
 Metadata returned by :func:`build`: ``generator``, ``gdim``, every parameter
-value (after defaults), ``groups`` (name -> (dim, tag)), ``bodies`` (cell group
+value (after defaults; the structured generators add their effective element
+counts, e.g. ``n_lower``, ``n_inner``, ``n_die_arc``), ``groups`` (name -> (dim, tag)), ``bodies`` (cell group
 -> facet groups on it), ``contact`` (list of ``(slave, master)`` suggestions),
 ``cell_type`` (gmsh element name), ``num_cells``, ``num_nodes`` and
 ``cells_per_body``.
@@ -577,11 +636,12 @@ def _patch_counts(L, H, n_lower, n_upper, n_y, h_contact, h_far):
     return n_lower, n_upper, n_y
 
 
-def _build_patch2d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, order, quads):
+def _build_patch2d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, margin, order, quads):
     gmsh = _gmsh()
     occ = gmsh.model.occ
     n_lower, n_upper, n_y = _patch_counts(L, H, n_lower, n_upper, n_y, h_contact, h_far)
-    low, (lb, lr, lt, ll) = _polygon(occ, [(0, -H), (L, -H), (L, 0), (0, 0)])
+    m = margin
+    low, (lb, lr, lt, ll) = _polygon(occ, [(-m, -H), (L + m, -H), (L + m, 0), (-m, 0)])
     y0, y1 = gap0, gap0 + H
     up, (ub, ur, ut, ul) = _polygon(occ, [(0, y0), (L, y0), (L, y1), (0, y1)])
     occ.synchronize()
@@ -613,11 +673,11 @@ def _build_patch2d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, order, q
     return meta
 
 
-def _build_patch3d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, order, quads):
+def _build_patch3d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, margin, order, quads):
     gmsh = _gmsh()
     occ = gmsh.model.occ
     n_lower, n_upper, n_y = _patch_counts(L, H, n_lower, n_upper, n_y, h_contact, h_far)
-    low = occ.addBox(0.0, 0.0, -H, L, L, H)
+    low = occ.addBox(-margin, -margin, -H, L + 2 * margin, L + 2 * margin, H)
     up = occ.addBox(0.0, 0.0, gap0, L, L, H)
     occ.synchronize()
 
@@ -627,9 +687,9 @@ def _build_patch3d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, order, q
     g.add(3, [low], "lower")
     g.add(3, [up], "upper")
     bodies = {}
-    for body, vol, n, z0, z1 in (
-        ("lower", low, n_lower, -H, 0.0),
-        ("upper", up, n_upper, gap0, gap0 + H),
+    for body, vol, n, z0, z1, lo, hi in (
+        ("lower", low, n_lower, -H, 0.0, -margin, L + margin),
+        ("upper", up, n_upper, gap0, gap0 + H, 0.0, L),
     ):
         faces = _faces_of(gmsh, vol)
         curves = {
@@ -656,10 +716,10 @@ def _build_patch3d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, order, q
             [
                 ("bottom", 2, z0),
                 ("top", 2, z1),
-                ("left", 0, 0.0),
-                ("right", 0, L),
-                ("front", 1, 0.0),
-                ("back", 1, L),
+                ("left", 0, lo),
+                ("right", 0, hi),
+                ("front", 1, lo),
+                ("back", 1, hi),
             ],
             tol,
         )
@@ -687,6 +747,12 @@ def _patch_params(n_lower: int, n_upper: int) -> dict:
             "n_upper scaled by n_upper/n_lower",
         ),
         "h_far": (float, 0.0, "if > 0: size through the thickness, n_y = round(H/h_far)"),
+        "margin": (
+            float,
+            0.0,
+            "the lower block overhangs the upper one by this much on every side "
+            "(n_lower elements over its whole length)",
+        ),
         "order": _ORDER,
         "quads": (bool, True, "quadrilaterals/hexahedra (else triangles/tetrahedra)"),
     }
@@ -697,7 +763,9 @@ _PATCH_CHECKS = (
     + tuple(
         (k, (lambda p, k=k: p[k] >= 1), "must be at least 1") for k in ("n_lower", "n_upper", "n_y")
     )
-    + tuple((k, (lambda p, k=k: p[k] >= 0.0), "must be >= 0") for k in ("h_contact", "h_far"))
+    + tuple(
+        (k, (lambda p, k=k: p[k] >= 0.0), "must be >= 0") for k in ("h_contact", "h_far", "margin")
+    )
     + (("gap0", lambda p: -p["H"] < p["gap0"] < p["H"], "must lie in (-H, H)"),)
     + _ORDER_CHECK
 )
@@ -860,6 +928,439 @@ _register(
                 "must exceed b |tan_alpha| / 2",
             ),
         )
+        + _ORDER_CHECK,
+    )
+)
+
+
+# ---------------------------------------------------------------------------
+# ironing2d / ironing3d
+# ---------------------------------------------------------------------------
+
+
+def _half_ring(occ, point, r_in, r_out):
+    """Lower half of the ring ``r_in <= r <= r_out`` around the origin of a (u, v) plane.
+
+    ``point(u, v)`` adds an OCC point and returns its tag. Returns the surface,
+    the outer arcs, the flat ends (v = 0), the inner arcs and the corners
+    (outer left, outer right, inner right, inner left) for a transfinite mesh.
+    """
+    c = point(0.0, 0.0)
+    ol, ob, o_r = point(-r_out, 0.0), point(0.0, -r_out), point(r_out, 0.0)
+    il, ib, i_r = point(-r_in, 0.0), point(0.0, -r_in), point(r_in, 0.0)
+    outer = [occ.addCircleArc(ol, c, ob), occ.addCircleArc(ob, c, o_r)]
+    right = occ.addLine(o_r, i_r)
+    inner = [occ.addCircleArc(i_r, c, ib), occ.addCircleArc(ib, c, il)]
+    left = occ.addLine(il, ol)
+    surf = occ.addPlaneSurface([occ.addCurveLoop([*outer, right, *inner, left])])
+    occ.remove([(0, c)])  # the centre is no part of the ring
+    return surf, outer, [right, left], inner, [ol, o_r, i_r, il]
+
+
+def _ring_counts(r_out: float, thickness: float, h_die: float, n_thick_min: int):
+    """Elements per quarter arc and through the thickness of a ring of size ``h_die``."""
+    n_arc = max(2, math.ceil(0.5 * math.pi * r_out / h_die - 1e-9))
+    n_thick = max(n_thick_min, math.ceil(thickness / h_die - 1e-9))
+    return n_arc, n_thick
+
+
+def _structured_ring(gmsh, surf, outer, ends, inner, corners, n_arc, n_thick) -> None:
+    mesh = gmsh.model.mesh
+    for c in outer + inner:
+        mesh.setTransfiniteCurve(c, n_arc + 1)
+    for c in ends:
+        mesh.setTransfiniteCurve(c, n_thick + 1)
+    mesh.setTransfiniteSurface(surf, "Left", corners)
+
+
+def _build_ironing2d(
+    r_in,
+    r_out,
+    x_die,
+    gap0,
+    L,
+    H,
+    x_left,
+    slide,
+    c_zone,
+    h_contact,
+    h_far,
+    h_die,
+    grading,
+    order,
+    quads,
+):
+    gmsh = _gmsh()
+    occ = gmsh.model.occ
+    yc = r_out + gap0
+    die, outer, ends, inner, corners = _half_ring(
+        occ, lambda u, v: occ.addPoint(x_die + u, yc + v, 0.0), r_in, r_out
+    )
+    x_right = x_left + L
+    slab, (bot, right, top, left) = _polygon(
+        occ, [(x_left, -H), (x_right, -H), (x_right, 0.0), (x_left, 0.0)]
+    )
+    occ.synchronize()
+
+    g = _Groups(gmsh)
+    g.add(2, [die], "die")
+    g.add(2, [slab], "slab")
+    g.add(1, outer, "die_surface")
+    g.add(1, ends, "die_top")
+    g.add(1, inner, "die_inner")
+    g.add(1, [top], "slab_top")
+    g.add(1, [bot], "slab_bottom")
+    g.add(1, [left], "slab_left")
+    g.add(1, [right], "slab_right")
+
+    n_arc, n_thick = _ring_counts(r_out, r_out - r_in, h_die, 2)
+    _structured_ring(gmsh, die, outer, ends, inner, corners, n_arc, n_thick)
+    lo = (x_die - c_zone, -c_zone)
+    hi = (x_die + slide + c_zone, c_zone + max(gap0, 0.0))
+    _box_field(gmsh, h_contact, h_far, lo, hi, grading)
+    if quads:
+        for s in (die, slab):
+            gmsh.model.mesh.setRecombine(2, s)
+    bodies = {
+        "die": ["die_surface", "die_top", "die_inner"],
+        "slab": ["slab_top", "slab_bottom", "slab_left", "slab_right"],
+    }
+    meta = _meta(g, bodies, [("die_surface", "slab_top")])
+    meta.update(n_die_arc=2 * n_arc, n_die_thickness=n_thick)
+    return meta
+
+
+def _build_ironing3d(
+    r_out,
+    t,
+    w_die,
+    x_die,
+    gap0,
+    L,
+    W,
+    H,
+    x_left,
+    slide,
+    c_zone,
+    h_contact,
+    h_far,
+    h_die,
+    grading,
+    order,
+    quads,
+):
+    gmsh = _gmsh()
+    occ = gmsh.model.occ
+    zc = r_out + gap0
+    r_in = r_out - t
+    y0 = 0.5 * (W - w_die)
+    ring, outer, ends, inner, corners = _half_ring(
+        occ, lambda u, v: occ.addPoint(x_die + u, y0, zc + v), r_in, r_out
+    )
+    n_arc, n_thick = _ring_counts(r_out, t, h_die, 1)
+    n_w = max(1, math.ceil(w_die / h_die - 1e-9))
+    out = occ.extrude([(2, ring)], 0.0, w_die, 0.0, numElements=[n_w], recombine=False)
+    die = next(tag for dim, tag in out if dim == 3)
+    slab = occ.addBox(x_left, 0.0, -H, L, W, H)
+    occ.synchronize()
+    _structured_ring(gmsh, ring, outer, ends, inner, corners, n_arc, n_thick)
+
+    tol = 1e-6 * max(r_out, L, W, H)
+    fd = _classify(
+        gmsh,
+        2,
+        _faces_of(gmsh, die),
+        [("die_top", 2, zc), (None, 1, y0), (None, 1, y0 + w_die), ("curved", None, None)],
+        tol,
+    )
+    for f in fd.pop("curved"):
+        lo, hi = gmsh.model.getParametrizationBounds(2, f)
+        x, _, z = gmsh.model.getValue(2, f, [0.5 * (a + b) for a, b in zip(lo, hi, strict=True)])
+        r = math.hypot(x - x_die, z - zc)  # the mid-point's distance to the axis
+        name = "die_surface" if abs(r - r_out) < abs(r - r_in) else "die_inner"
+        fd.setdefault(name, []).append(f)
+    fs = _classify(
+        gmsh,
+        2,
+        _faces_of(gmsh, slab),
+        [("slab_top", 2, 0.0), ("slab_bottom", 2, -H), ("slab_sides", None, None)],
+        tol,
+    )
+    g = _Groups(gmsh)
+    g.add(3, [die], "die")
+    g.add(3, [slab], "slab")
+    for name in ("die_surface", "die_top", "die_inner"):
+        g.add(2, fd[name], name)
+    for name in ("slab_top", "slab_bottom", "slab_sides"):
+        g.add(2, fs[name], name)
+
+    lo = (x_die - c_zone, -c_zone, -c_zone)
+    hi = (x_die + slide + c_zone, W + c_zone, c_zone + max(gap0, 0.0))
+    _box_field(gmsh, h_contact, h_far, lo, hi, grading)
+    bodies = {
+        "die": ["die_surface", "die_top", "die_inner"],
+        "slab": ["slab_top", "slab_bottom", "slab_sides"],
+    }
+    meta = _meta(g, bodies, [("die_surface", "slab_top")])
+    meta.update(n_die_arc=2 * n_arc, n_die_thickness=n_thick, n_die_width=n_w)
+    return meta
+
+
+def _ironing_common(gdim: int, h_contact: float, h_far: float, h_die: float) -> dict:
+    """The parameters shared by the ironing generators, with their defaults."""
+    width = {"W": (float, 4.0, "slab width (y)")} if gdim == 3 else {}
+    return {
+        "x_die": (float, 0.0, "x of the die's centre (and lowest point)"),
+        "gap0": (float, 0.0, "initial gap between the die's lowest point and the slab"),
+        "L": (float, 9.0, "slab length (x)"),
+        **width,
+        "H": (float, 3.0, "slab height"),
+        "x_left": (float, -2.0, "x of the slab's left end"),
+        "slide": (float, 4.0, "length of the sliding path (+x) inside the refined zone"),
+        "c_zone": (float, 1.0, "margin of the refined box around the sliding path"),
+        "h_contact": (float, h_contact, "element size of the slab along the sliding path"),
+        "h_far": (float, h_far, "element size far from the sliding path"),
+        "h_die": (float, h_die, "element size of the die (structured)"),
+    }
+
+
+_IRONING_CHECKS = (
+    ("x_die", lambda p: p["x_left"] <= p["x_die"] <= p["x_left"] + p["L"], "die off the slab"),
+    (
+        "slide",
+        lambda p: p["slide"] >= 0.0 and p["x_die"] + p["slide"] <= p["x_left"] + p["L"],
+        "sliding path off the slab",
+    ),
+)
+
+_register(
+    Generator(
+        name="ironing2d",
+        description="a half-ring die sliding on a slab (plane strain)",
+        params={
+            "r_in": (float, 2.8, "inner radius of the die"),
+            "r_out": (float, 3.0, "outer radius of the die"),
+            **_ironing_common(2, h_contact=0.1, h_far=0.5, h_die=0.1),
+            "grading": _GRADING,
+            "order": _ORDER,
+            "quads": (bool, False, "recombine into quadrilaterals"),
+        },
+        build=_build_ironing2d,
+        gdim=2,
+        checks=_positive("r_in", "r_out", "L", "H", "c_zone", "h_contact", "h_far", "h_die")
+        + _positive("grading")
+        + (
+            ("r_in", lambda p: p["r_in"] < p["r_out"], "must be less than r_out"),
+            (
+                "gap0",
+                lambda p: p["r_in"] - p["r_out"] < p["gap0"] < p["H"],
+                "must lie in (r_in - r_out, H)",
+            ),
+        )
+        + _IRONING_CHECKS
+        + _ORDER_CHECK,
+    )
+)
+
+_register(
+    Generator(
+        name="ironing3d",
+        description="a cylindrical-shell die sliding on a slab (Puso-Laursen), tetrahedra",
+        params={
+            "r_out": (float, 3.0, "outer radius of the die"),
+            "t": (float, 0.2, "wall thickness of the die (inner radius r_out - t)"),
+            "w_die": (float, 5.2, "die width along y, centred on the slab"),
+            **_ironing_common(3, h_contact=0.4, h_far=1.0, h_die=0.2),
+            "grading": (float, 0.3, _GRADING[2]),
+            "order": _ORDER,
+            "quads": (bool, False, "hexahedra: not available for ironing3d (must be false)"),
+        },
+        build=_build_ironing3d,
+        gdim=3,
+        checks=_positive("r_out", "t", "w_die", "L", "W", "H", "c_zone", "h_contact", "h_far")
+        + _positive("h_die", "grading")
+        + (
+            ("t", lambda p: p["t"] < p["r_out"], "must be less than r_out"),
+            ("gap0", lambda p: -p["t"] < p["gap0"] < p["H"], "must lie in (-t, H)"),
+        )
+        + _IRONING_CHECKS
+        + _ORDER_CHECK
+        + (("quads", lambda p: not p["quads"], "hexahedra are not available for ironing3d"),),
+    )
+)
+
+
+# ---------------------------------------------------------------------------
+# twist3d
+# ---------------------------------------------------------------------------
+
+
+def _build_twist3d(R, gap0, W, H, c_zone, h_contact, h_far, grading, order, quads):
+    gmsh = _gmsh()
+    occ = gmsh.model.occ
+    zc = R + gap0
+    ball = occ.addSphere(0.0, 0.0, zc, R)
+    cut = occ.addBox(-2.0 * R, -2.0 * R, zc - 2.0 * R, 4.0 * R, 4.0 * R, 2.0 * R)
+    out, _ = occ.intersect([(3, ball)], [(3, cut)])
+    sph = out[0][1]
+    blk = occ.addBox(-W / 2, -W / 2, -H, W, W, H)
+    occ.synchronize()
+
+    tol = 1e-6 * max(R, W, H)
+    fs = _classify(
+        gmsh, 2, _faces_of(gmsh, sph), [("sphere_top", 2, zc), ("sphere_surface", None, None)], tol
+    )
+    fb = _classify(
+        gmsh,
+        2,
+        _faces_of(gmsh, blk),
+        [("block_top", 2, 0.0), ("block_bottom", 2, -H), (None, None, None)],
+        tol,
+    )
+    g = _Groups(gmsh)
+    g.add(3, [sph], "sphere")
+    g.add(3, [blk], "block")
+    g.add(2, fs["sphere_surface"], "sphere_surface")
+    g.add(2, fs["sphere_top"], "sphere_top")
+    g.add(2, fb["block_top"], "block_top")
+    g.add(2, fb["block_bottom"], "block_bottom")
+
+    lo = (-c_zone, -c_zone, -c_zone)
+    hi = (c_zone, c_zone, c_zone + gap0)
+    _box_field(gmsh, h_contact, h_far, lo, hi, grading)
+    bodies = {
+        "sphere": ["sphere_surface", "sphere_top"],
+        "block": ["block_top", "block_bottom"],
+    }
+    return _meta(g, bodies, [("sphere_surface", "block_top")])
+
+
+_register(
+    Generator(
+        name="twist3d",
+        description="full lower hemisphere on a block (for twisting), tetrahedra",
+        params={
+            "R": (float, 8.0, "sphere radius"),
+            "gap0": (float, 0.0, "initial gap between sphere and block"),
+            "W": (float, 20.0, "block width (x and y)"),
+            "H": (float, 20.0, "block height"),
+            **_zone_params(c_zone=1.5, h_contact=0.3, h_far=4.0),
+            "grading": (float, 0.3, _GRADING[2]),
+            "order": _ORDER,
+            "quads": (bool, False, "hexahedra: not available for twist3d (must be false)"),
+        },
+        build=_build_twist3d,
+        gdim=3,
+        checks=_positive("R", "W", "H", "c_zone", "h_contact", "h_far", "grading")
+        + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
+        + _ORDER_CHECK
+        + (("quads", lambda p: not p["quads"], "hexahedra are not available for twist3d"),),
+    )
+)
+
+
+# ---------------------------------------------------------------------------
+# tiedcurved2d
+# ---------------------------------------------------------------------------
+
+
+def _build_tiedcurved2d(
+    r0, r1, r2, theta0, theta1, n_inner, n_outer, n_r, h_contact, h_far, order, quads
+):
+    gmsh = _gmsh()
+    occ = gmsh.model.occ
+    if h_contact > 0.0:
+        ni = max(1, round(r1 * (theta1 - theta0) / h_contact))
+        n_outer = max(1, round(ni * n_outer / n_inner))
+        n_inner = ni
+    if h_far > 0.0:
+        n_r = max(1, round(max(r1 - r0, r2 - r1) / h_far))
+
+    def point(r, theta):
+        return occ.addPoint(r * math.cos(theta), r * math.sin(theta), 0.0)
+
+    c = occ.addPoint(0.0, 0.0, 0.0)
+    sectors = {}
+    for body, ra, rb in (("inner", r0, r1), ("outer", r1, r2)):
+        a0, b0, b1, a1 = point(ra, theta0), point(rb, theta0), point(rb, theta1), point(ra, theta1)
+        side0 = occ.addLine(a0, b0)
+        arc_b = occ.addCircleArc(b0, c, b1)
+        side1 = occ.addLine(b1, a1)
+        arc_a = occ.addCircleArc(a1, c, a0)
+        surf = occ.addPlaneSurface([occ.addCurveLoop([side0, arc_b, side1, arc_a])])
+        sectors[body] = (surf, arc_a, arc_b, [side0, side1])
+    occ.remove([(0, c)])
+    occ.synchronize()
+
+    mesh = gmsh.model.mesh
+    g = _Groups(gmsh)
+    for body, n in (("inner", n_inner), ("outer", n_outer)):
+        surf, arc_a, arc_b, sides = sectors[body]
+        for arc in (arc_a, arc_b):
+            mesh.setTransfiniteCurve(arc, n + 1)
+        for side in sides:
+            mesh.setTransfiniteCurve(side, n_r + 1)
+        mesh.setTransfiniteSurface(surf)
+        if quads:
+            mesh.setRecombine(2, surf)
+        g.add(2, [surf], body)
+    (s_in, a_in, b_in, sides_in), (s_out, a_out, b_out, sides_out) = sectors.values()
+    g.add(1, [b_in], "inner_surface")
+    g.add(1, [a_out], "outer_surface")
+    g.add(1, [a_in, *sides_in], "inner_boundary")
+    g.add(1, [b_out, *sides_out], "outer_boundary")
+    bodies = {
+        "inner": ["inner_surface", "inner_boundary"],
+        "outer": ["outer_surface", "outer_boundary"],
+    }
+    meta = _meta(g, bodies, [("outer_surface", "inner_surface")])
+    meta.update(n_inner=n_inner, n_outer=n_outer, n_r=n_r)
+    return meta
+
+
+_register(
+    Generator(
+        name="tiedcurved2d",
+        description="two annular sectors with a non-matching circular-arc interface (2D)",
+        params={
+            "r0": (float, 1.0, "inner radius of the inner body"),
+            "r1": (float, 1.5, "radius of the interface"),
+            "r2": (float, 2.0, "outer radius of the outer body"),
+            "theta0": (float, 0.0, "start angle of both sectors (radians)"),
+            "theta1": (float, 0.5 * math.pi, "end angle of both sectors (radians)"),
+            "n_inner": (int, 6, "elements of the inner body along its arcs"),
+            "n_outer": (int, 9, "elements of the outer body along its arcs"),
+            "n_r": (int, 3, "elements through each body's radial thickness"),
+            "h_contact": (
+                float,
+                0.0,
+                "if > 0: interface size of the inner body, "
+                "n_inner = round(r1 (theta1 - theta0)/h_contact), n_outer scaled",
+            ),
+            "h_far": (
+                float,
+                0.0,
+                "if > 0: radial size, n_r = round(max(r1 - r0, r2 - r1)/h_far)",
+            ),
+            "order": _ORDER,
+            "quads": (bool, True, "quadrilaterals (else triangles)"),
+        },
+        build=_build_tiedcurved2d,
+        gdim=2,
+        checks=_positive("r0")
+        + (
+            ("r1", lambda p: p["r0"] < p["r1"] < p["r2"], "must lie in (r0, r2)"),
+            (
+                "theta1",
+                lambda p: 0.0 < p["theta1"] - p["theta0"] < math.pi,
+                "theta1 - theta0 must lie in (0, pi)",
+            ),
+        )
+        + tuple(
+            (k, (lambda p, k=k: p[k] >= 1), "must be at least 1")
+            for k in ("n_inner", "n_outer", "n_r")
+        )
+        + tuple((k, (lambda p, k=k: p[k] >= 0.0), "must be >= 0") for k in ("h_contact", "h_far"))
         + _ORDER_CHECK,
     )
 )

@@ -244,6 +244,12 @@ class ContactProblem:
             info[term.name] = i
         return done, info
 
+    def begin_solve(self) -> None:
+        """A Newton solve starts (contact terms reset their per-solve state)."""
+        for term in self.contacts:
+            if hasattr(term, "begin_solve"):
+                term.begin_solve()
+
     def begin_step(self) -> None:
         """Start a load step (contact terms reset their per-step counters)."""
         self._contact_x = None

@@ -128,7 +128,8 @@ KNOWN_GENERATORS: set[str] = {
     "wedge2d",
     "ironing2d",
     "ironing3d",
-    "tied_curved2d",
+    "tiedcurved2d",
+    "twist3d",
 }
 
 #: Allowed values of ``kinematics``.

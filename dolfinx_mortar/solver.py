@@ -111,6 +111,7 @@ class NewtonSolver:
         s = self.settings
         self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=s.atol)
         p = self.problem
+        p.begin_solve()
         p.update_contact(p.u.vector)
         if p.pattern_outdated():
             self._A.destroy()

@@ -24,6 +24,10 @@ COARSE = {
     "patch3d": {"n_lower": 2, "n_upper": 3, "n_y": 2},
     "cattaneo2d": {"h_contact": 0.5, "h_far": 4.0},
     "wedge2d": {"h_contact": 0.2, "h_far": 0.5},
+    "ironing2d": {"h_contact": 0.25, "h_far": 1.0, "h_die": 0.2},
+    "ironing3d": {"h_contact": 0.8, "h_far": 2.0, "h_die": 0.5},
+    "twist3d": {"h_contact": 1.0, "h_far": 5.0, "W": 12.0, "H": 8.0},
+    "tiedcurved2d": {},
 }
 
 # name -> (cell groups, facet groups, contact surfaces (slave, master))
@@ -71,7 +75,37 @@ GROUPS = {
         ],
         ("block_bottom", "wedge_top"),
     ),
+    "ironing2d": (
+        ["die", "slab"],
+        [
+            "die_surface",
+            "die_top",
+            "die_inner",
+            "slab_top",
+            "slab_bottom",
+            "slab_left",
+            "slab_right",
+        ],
+        ("die_surface", "slab_top"),
+    ),
+    "ironing3d": (
+        ["die", "slab"],
+        ["die_surface", "die_top", "die_inner", "slab_top", "slab_bottom", "slab_sides"],
+        ("die_surface", "slab_top"),
+    ),
+    "twist3d": (
+        ["sphere", "block"],
+        ["sphere_surface", "sphere_top", "block_top", "block_bottom"],
+        ("sphere_surface", "block_top"),
+    ),
+    "tiedcurved2d": (
+        ["inner", "outer"],
+        ["inner_surface", "outer_surface", "inner_boundary", "outer_boundary"],
+        ("outer_surface", "inner_surface"),
+    ),
 }
+
+NEW = ["ironing2d", "ironing3d", "twist3d", "tiedcurved2d"]
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +191,9 @@ def test_generator_groups_and_conversion(model, name):
     convert(name, meta)
 
 
-@pytest.mark.parametrize("name", ["hertz2d", "cattaneo2d", "wedge2d", "patch2d", "patch3d"])
+@pytest.mark.parametrize(
+    "name", ["hertz2d", "cattaneo2d", "wedge2d", "patch2d", "patch3d", "ironing2d", "tiedcurved2d"]
+)
 def test_quads(model, name):
     meta = G.build(name, dict(COARSE[name], quads=True))
     assert meta["cell_type"].startswith("Quadrilateral" if meta["gdim"] == 2 else "Hexahedron")
@@ -182,7 +218,11 @@ def test_quad_fallback(model, monkeypatch):
     convert("hertz2d", meta)
 
 
-@pytest.mark.parametrize("name", ["hertz2d", "hertz3d", "patch2d", "patch3d", "cattaneo2d"])
+@pytest.mark.parametrize(
+    "name",
+    ["hertz2d", "hertz3d", "patch2d", "patch3d", "cattaneo2d", "ironing2d", "ironing3d"]
+    + ["twist3d", "tiedcurved2d"],
+)
 def test_second_order(model, name):
     meta = G.build(name, dict(COARSE[name], order=2))
     assert meta["cell_type"].split()[-1] in ("6", "9", "10", "27")
@@ -309,6 +349,7 @@ def test_wedge2d_geometry(model):
 def test_default_sizes_documented():
     for name, gen in G.GENERATORS.items():
         assert gen.description
+        assert f"``{name}``\n" in G.__doc__, name
         for key in ("h_contact", "h_far", "order"):
             assert key in gen.params, (name, key)
         for key, (typ, default, doc) in gen.params.items():
@@ -339,6 +380,25 @@ def test_validation_defaults():
         ("patch2d", {"n_lower": 0}, "mesh.params.n_lower"),
         ("patch3d", {"n_y": 2.5}, "mesh.params.n_y"),
         ("wedge2d", {"x0": 3.5}, "mesh.params.x0"),
+        ("ironing2d", {"r_in": 3.0}, "mesh.params.r_in"),
+        ("ironing2d", {"r_in": 3.5}, "mesh.params.r_in"),
+        ("ironing2d", {"h_die": 0.0}, "mesh.params.h_die"),
+        ("ironing2d", {"gap0": -0.5}, "mesh.params.gap0"),
+        ("ironing2d", {"x_die": 8.0}, "mesh.params.x_die"),
+        ("ironing2d", {"x_die": 4.0}, "mesh.params.slide"),
+        ("ironing2d", {"W": 4.0}, "mesh.params.W"),
+        ("ironing3d", {"t": 3.0}, "mesh.params.t"),
+        ("ironing3d", {"w_die": -1.0}, "mesh.params.w_die"),
+        ("ironing3d", {"quads": True}, "mesh.params.quads"),
+        ("twist3d", {"quads": True}, "mesh.params.quads"),
+        ("twist3d", {"gap0": -8.0}, "mesh.params.gap0"),
+        ("tiedcurved2d", {"r1": 2.0}, "mesh.params.r1"),
+        ("tiedcurved2d", {"r1": 0.5}, "mesh.params.r1"),
+        ("tiedcurved2d", {"r0": 0.0}, "mesh.params.r0"),
+        ("tiedcurved2d", {"theta1": 3.2}, "mesh.params.theta1"),
+        ("tiedcurved2d", {"theta0": 1.0, "theta1": 1.0}, "mesh.params.theta1"),
+        ("tiedcurved2d", {"n_outer": 0}, "mesh.params.n_outer"),
+        ("tiedcurved2d", {"h_far": -1.0}, "mesh.params.h_far"),
         ("nope", {}, "mesh.generator"),
     ],
 )
@@ -353,3 +413,183 @@ def test_params_must_be_table():
     with pytest.raises(SceneError) as err:
         G.validate_params("hertz2d", [("R", 1.0)])
     assert err.value.key == "mesh.params"
+
+
+# --------------------------------------------------------------------------- new generators
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_new_defaults(model, name):
+    """The default meshes: small, one cell type, separate bodies, dolfinx import."""
+    meta = G.build(name, None)
+    expected = {"ironing2d": "Triangle 3", "tiedcurved2d": "Quadrilateral 4"}
+    assert meta["cell_type"] == expected.get(name, "Tetrahedron 4")
+    assert 0 < meta["num_cells"] <= (4000 if meta["gdim"] == 2 else 17000)
+    assert all(n > 0 for n in meta["cells_per_body"].values())
+    check_model(name, meta)
+    convert(name, meta)
+
+
+def radius(x, centre, axes=(0, 1)):
+    return np.hypot(x[:, axes[0]] - centre[0], x[:, axes[1]] - centre[1])
+
+
+@pytest.mark.parametrize(
+    "params",
+    [{}, {"x_die": 1.0, "gap0": 0.1, "r_in": 2.5, "slide": 3.0, "quads": True, "order": 2}],
+)
+def test_ironing2d_geometry(model, params):
+    meta = G.build("ironing2d", params)
+    r_in, r_out, x_die, gap0 = meta["r_in"], meta["r_out"], meta["x_die"], meta["gap0"]
+    x_left, L, H = meta["x_left"], meta["L"], meta["H"]
+    yc = r_out + gap0
+    s = group_nodes("die_surface", meta)
+    assert np.all(np.abs(radius(s, (x_die, yc)) - r_out) < 1e-6)
+    assert np.all(s[:, 1] <= yc + 1e-9)
+    assert np.allclose(s[np.argmin(s[:, 1])][:2], [x_die, gap0], rtol=0, atol=1e-9)
+    assert np.isclose(s[:, 0].min(), x_die - r_out) and np.isclose(s[:, 0].max(), x_die + r_out)
+    assert np.all(np.abs(radius(group_nodes("die_inner", meta), (x_die, yc)) - r_in) < 1e-6)
+    top = group_nodes("die_top", meta)
+    assert np.allclose(top[:, 1], yc)
+    assert np.all(
+        (np.abs(top[:, 0] - x_die) >= r_in - 1e-9) & (np.abs(top[:, 0] - x_die) <= r_out + 1e-9)
+    )
+    # at least 2 elements through the ring's thickness
+    assert meta["n_die_thickness"] >= 2
+    assert len(top) == 2 * (meta["order"] * meta["n_die_thickness"] + 1)
+    die = group_nodes("die", meta)
+    r = radius(die, (x_die, yc))
+    assert np.all((r >= r_in - 1e-6) & (r <= r_out + 1e-6)) and np.all(die[:, 1] <= yc + 1e-9)
+    st = group_nodes("slab_top", meta)
+    assert np.all(st[:, 1] == 0.0)
+    assert np.isclose(st[:, 0].min(), x_left) and np.isclose(st[:, 0].max(), x_left + L)
+    assert np.allclose(group_nodes("slab_bottom", meta)[:, 1], -H)
+    assert np.allclose(group_nodes("slab_left", meta)[:, 0], x_left)
+    assert np.allclose(group_nodes("slab_right", meta)[:, 0], x_left + L)
+    # refined along the sliding path: slab_top nodes about h_contact apart there
+    path = np.sort(st[(st[:, 0] >= x_die) & (st[:, 0] <= x_die + meta["slide"]), 0])
+    assert np.diff(path).max() <= 1.5 * meta["h_contact"]
+    assert meta["cell_type"].startswith("Quadrilateral" if meta["quads"] else "Triangle")
+    check_model("ironing2d", meta)
+    convert("ironing2d", meta)
+
+
+@pytest.mark.parametrize("params", [{}, {"x_die": 1.0, "gap0": 0.05, "t": 0.3, "w_die": 3.0}])
+def test_ironing3d_geometry(model, params):
+    meta = G.build("ironing3d", dict(COARSE["ironing3d"], **params))
+    r_out, t, w_die, x_die = meta["r_out"], meta["t"], meta["w_die"], meta["x_die"]
+    x_left, L, W, H = meta["x_left"], meta["L"], meta["W"], meta["H"]
+    zc = r_out + meta["gap0"]
+    y0, y1 = 0.5 * (W - w_die), 0.5 * (W + w_die)
+    s = group_nodes("die_surface", meta)
+    assert np.all(np.abs(radius(s, (x_die, zc), (0, 2)) - r_out) < 1e-6)
+    assert np.isclose(s[:, 1].min(), y0) and np.isclose(s[:, 1].max(), y1)
+    assert np.isclose(s[:, 2].min(), meta["gap0"]) and np.all(s[:, 2] <= zc + 1e-9)
+    low = s[np.abs(s[:, 2] - meta["gap0"]) < 1e-9]
+    assert np.allclose(low[:, 0], x_die) and len(low) == meta["n_die_width"] + 1
+    inner = group_nodes("die_inner", meta)
+    assert np.all(np.abs(radius(inner, (x_die, zc), (0, 2)) - (r_out - t)) < 1e-6)
+    assert np.allclose(group_nodes("die_top", meta)[:, 2], zc)
+    die = group_nodes("die", meta)
+    r = radius(die, (x_die, zc), (0, 2))
+    assert np.all((r >= r_out - t - 1e-6) & (r <= r_out + 1e-6))
+    assert meta["n_die_thickness"] >= 1
+    st = group_nodes("slab_top", meta)
+    assert np.allclose(st[:, 2], 0.0, atol=1e-14)
+    assert np.isclose(st[:, 0].min(), x_left) and np.isclose(st[:, 0].max(), x_left + L)
+    assert np.isclose(st[:, 1].min(), 0.0) and np.isclose(st[:, 1].max(), W)
+    if w_die > W:  # the die overhangs the slab on both sides
+        assert s[:, 1].min() < 0.0 and s[:, 1].max() > W
+    assert np.allclose(group_nodes("slab_bottom", meta)[:, 2], -H)
+    sides = group_nodes("slab_sides", meta)
+    on_side = np.isclose(sides[:, 0], x_left) | np.isclose(sides[:, 0], x_left + L)
+    on_side |= np.isclose(sides[:, 1], 0.0) | np.isclose(sides[:, 1], W)
+    assert np.all(on_side)
+    for x, axis in ((x_left, 0), (x_left + L, 0), (0.0, 1), (W, 1)):
+        assert np.any(np.all(np.isclose(sides[:, [axis]], x), axis=1))
+    check_model("ironing3d", meta)
+    convert("ironing3d", meta)
+
+
+def test_twist3d_geometry(model):
+    meta = G.build("twist3d", dict(COARSE["twist3d"], gap0=0.2))
+    R, W, H, gap0 = meta["R"], meta["W"], meta["H"], 0.2
+    zc = R + gap0
+    s = group_nodes("sphere_surface", meta)
+    assert np.all(np.abs(np.linalg.norm(s - [0.0, 0.0, zc], axis=1) - R) < 1e-6)
+    assert np.allclose(s[np.argmin(s[:, 2])], [0.0, 0.0, gap0], rtol=0, atol=1e-9)
+    # the full hemisphere, not a quarter
+    for axis in (0, 1):
+        assert s[:, axis].min() < -0.9 * R and s[:, axis].max() > 0.9 * R
+    equator = s[np.isclose(s[:, 2], zc)]
+    assert len(equator) > 8 and np.allclose(np.hypot(equator[:, 0], equator[:, 1]), R)
+    assert np.all(s[:, 2] <= zc + 1e-9)
+    assert np.allclose(group_nodes("sphere_top", meta)[:, 2], zc)
+    bt = group_nodes("block_top", meta)
+    assert np.allclose(bt[:, 2], 0.0, atol=1e-14)
+    for axis in (0, 1):
+        assert np.isclose(bt[:, axis].min(), -W / 2) and np.isclose(bt[:, axis].max(), W / 2)
+    assert np.allclose(group_nodes("block_bottom", meta)[:, 2], -H)
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        {},
+        {"r0": 0.5, "r1": 0.8, "r2": 1.6, "theta0": 0.3, "theta1": 2.5, "n_r": 2},
+        {"quads": False, "order": 2, "n_inner": 4, "n_outer": 7},
+    ],
+)
+def test_tiedcurved2d_geometry(model, params):
+    meta = G.build("tiedcurved2d", params)
+    r0, r1, r2 = meta["r0"], meta["r1"], meta["r2"]
+    t0, t1, order = meta["theta0"], meta["theta1"], meta["order"]
+    ni, no, nr = meta["n_inner"], meta["n_outer"], meta["n_r"]
+    assert (ni, no, nr) == (
+        params.get("n_inner", 6),
+        params.get("n_outer", 9),
+        params.get("n_r", 3),
+    )
+    per_quad = 1 if meta["quads"] else 2
+    assert meta["cells_per_body"] == {"inner": per_quad * ni * nr, "outer": per_quad * no * nr}
+    assert meta["cell_type"].startswith("Quadrilateral" if meta["quads"] else "Triangle")
+    for name, n in (("inner_surface", ni), ("outer_surface", no)):
+        x = group_nodes(name, meta)
+        assert np.all(np.abs(radius(x, (0.0, 0.0)) - r1) < 1e-6), name
+        assert len(x) == order * n + 1
+        theta = np.sort(np.arctan2(x[:, 1], x[:, 0]))
+        assert np.allclose(theta, np.linspace(t0, t1, order * n + 1), rtol=0, atol=1e-9)
+    # non-matching: the two sides of the interface have different nodes
+    assert len(group_nodes("inner_surface", meta)) != len(group_nodes("outer_surface", meta))
+    for body, r_a, r_b in (("inner", r0, r1), ("outer", r1, r2)):
+        x = group_nodes(body, meta)
+        r, theta = radius(x, (0.0, 0.0)), np.arctan2(x[:, 1], x[:, 0])
+        assert np.all((r >= r_a - 1e-9) & (r <= r_b + 1e-9))
+        assert np.all((theta >= t0 - 1e-9) & (theta <= t1 + 1e-9))
+        b = group_nodes(f"{body}_boundary", meta)
+        rb, tb = radius(b, (0.0, 0.0)), np.arctan2(b[:, 1], b[:, 0])
+        r_free = r0 if body == "inner" else r2
+        on = np.isclose(rb, r_free) | np.isclose(tb, t0) | np.isclose(tb, t1)
+        assert np.all(on), body
+        assert np.sum(np.isclose(rb, r_free)) == order * (ni if body == "inner" else no) + 1
+        # the interface nodes are not on the boundary group except at its two ends
+        assert np.sum(np.isclose(rb, r1)) == 2
+    check_model("tiedcurved2d", meta)
+    convert("tiedcurved2d", meta)
+
+
+def test_tiedcurved2d_h_overrides(model):
+    meta = G.build("tiedcurved2d", {"h_contact": 0.25, "h_far": 0.25})
+    n = round(1.5 * 0.5 * np.pi / 0.25)
+    assert (meta["n_inner"], meta["n_outer"], meta["n_r"]) == (n, round(n * 9 / 6), 2)
+
+
+def test_cli_lists_generators(capsys):
+    from dolfinx_mortar import cli
+
+    assert cli.main(["generators"]) == 0
+    out = capsys.readouterr().out
+    for name in G.GENERATORS:
+        assert f"\n{name}: " in "\n" + out, name
+    for name in NEW:
+        assert name in G.describe()

@@ -307,10 +307,10 @@ def test_dataclasses_are_frozen():
 
 def test_known_generators_can_be_replaced(monkeypatch):
     data = minimal()
-    data["mesh"]["generator"] = "twist3d"
-    raises(data, "mesh.generator", "unknown generator 'twist3d'")
-    monkeypatch.setattr(scene_mod, "KNOWN_GENERATORS", {"twist3d"})
-    assert parse_scene(data, BASE).mesh.generator == "twist3d"
+    data["mesh"]["generator"] = "spiral9d"
+    raises(data, "mesh.generator", "unknown generator 'spiral9d'")
+    monkeypatch.setattr(scene_mod, "KNOWN_GENERATORS", {"spiral9d"})
+    assert parse_scene(data, BASE).mesh.generator == "spiral9d"
 
 
 def test_module_does_not_import_dolfinx():

@@ -1,0 +1,234 @@
+"""Coulomb friction at the slave nodes: convected nodal frames, return mapping, nodal tangent.
+
+Node-level part of the tangential three-field formulation (METHOD.md §1, §2, §4)
+with lumped recovery; the point integrals are in
+:mod:`dolfinx_mortar.kernels.friction`. With m = d − 1 tangential directions:
+
+- **Nodal frame** (:class:`NodalFrames`): an orthonormal basis a_α^I (α < m) of
+  the tangent plane of the slave surface at node I, convected with the slave
+  surface, so a superposed rigid motion rotates it (incremental objectivity).
+  In 2D a_1 = t̃/|t̃|, t̃ = Σ_f s_f ∂x/∂ξ|_f(ξ_I) (the oriented facet tangents at
+  the node, t̃ turned by −90° is the outward normal). In 3D the normal is
+  n = ñ/|ñ|, ñ = Σ_f s_f (∂x/∂ξ¹ × ∂x/∂ξ²)|_f(ξ_I), a_1 is the unit tangential
+  part of the convected vector e = Σ_f F_f E (F_f the surface deformation
+  gradient of facet f at the node, E a fixed reference tangent: the global x
+  axis, or y when x is within 10° of the reference normal), and a_2 = n × a_1.
+  The metric of the frame is the identity, so covariant and contravariant
+  components coincide (a_αβ = δ_αβ).
+- **Recovery** (lumped): γ_α^I = a_α^I · S^I / A_T^I, the tangential components
+  of the nodal average slip since t_n.
+- **Return mapping** (:func:`return_mapping`): trial τ^tr = λ_T + ε_T γ,
+  Φ = |τ^tr| − μ p_N; stick (Φ ≤ 0) τ = τ^tr, slip τ = μ p_N τ^tr/|τ^tr|; open
+  nodes (p_N = 0) τ = 0. λ_T is the tangential multiplier: the traction of the
+  last converged step, then the Uzawa iterates.
+- **Residual** R_T = Σ_I (∂S^I/∂u)ᵀ t^I with t^I = τ_α a_α^I (the traction resisting
+  slip; the master pushes the slave with −t^I per unit reference area). The
+  variation of the frame is not part of the weak form (as the paper omits the
+  variation of a_αβ); it IS part of the tangent, through t^I(u).
+- **Tangent** (:func:`node_tangent`): K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u, with
+  ∂t = a_αᵀ ∂τ_α + τ_α ∂a_α, ∂τ = D ∂γ + P ∂p_N, ∂γ_β = (a_β·∂S + S·∂a_β)/A_T,
+  ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kernels.shape import REFERENCE_NODES, shape, tdim
+
+#: states written to the CSV / XDMF ``contact_state``
+OPEN, STICK, SLIP = 0, 1, 2
+
+
+def _cross_matrix(w: np.ndarray) -> np.ndarray:
+    """[w]× with [w]× v = w × v, for w (..., 3): shape (..., 3, 3)."""
+    z = np.zeros(w.shape[:-1])
+    return np.stack(
+        [
+            np.stack([z, -w[..., 2], w[..., 1]], -1),
+            np.stack([w[..., 2], z, -w[..., 0]], -1),
+            np.stack([-w[..., 1], w[..., 0], z], -1),
+        ],
+        -2,
+    )
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    nv = np.linalg.norm(v, axis=-1)
+    return v / np.maximum(nv, 1e-300)[..., None], nv
+
+
+class NodalFrames:
+    """Convected orthonormal tangent frames at the owned slave nodes (see module docstring).
+
+    Parameters: ftype (slave facet type), X (nsf, ns, d) reference coordinates,
+    sign (nsf,) orientation (+1/−1: outward normal), node_of (nsf, nphi) owned-node
+    index of the mixed nodes (−1: not owned), mixed (nphi,) their facet-local
+    numbers, n_nodes. The frame of node I uses every slave facet around it, so
+    the frames do not depend on the partition.
+
+    Occurrences p = (facet f_p, mixed node of I): ``pair_f`` (P,), ``pair_node`` (P,),
+    sorted by node, with ``pair_off`` (n+1,) the offsets of each node.
+    """
+
+    def __init__(self, ftype, X, sign, node_of, mixed, n_nodes):
+        d = X.shape[2] if X.ndim == 3 else 2
+        self.d, self.m, self.n = d, d - 1, n_nodes
+        k = tdim(ftype)
+        ns = REFERENCE_NODES[ftype].shape[0]
+        f_idx, i_idx = np.nonzero(node_of >= 0)
+        node = node_of[f_idx, i_idx]
+        order = np.argsort(node, kind="stable")
+        self.pair_f, self.pair_node = f_idx[order], node[order]
+        self.pair_off = np.searchsorted(self.pair_node, np.arange(n_nodes + 1))
+        loc = np.asarray(mixed)[i_idx[order]]
+        # dN_b at the reference position of every facet node l: table (ns, ns, k)
+        table = np.empty((ns, ns, k))
+        N, dN, ddN = np.empty(9), np.empty((9, k)), np.empty((9, k, k))
+        for l_ in range(ns):
+            shape(ftype, np.ascontiguousarray(REFERENCE_NODES[ftype][l_]), N, dN, ddN)
+            table[l_] = dN[:ns]
+        self.dN = table[loc]  # (P, ns, k)
+        self.sign = np.asarray(sign, float)[self.pair_f]
+        self.coef = None
+        if d == 3 and self.pair_f.size:
+            A0 = np.einsum("pbk,pbc->pkc", self.dN, X[self.pair_f])
+            n0 = np.zeros((n_nodes, 3))
+            np.add.at(n0, self.pair_node, self.sign[:, None] * np.cross(A0[:, 0], A0[:, 1]))
+            n0, _ = _unit(n0)
+            E = np.zeros((n_nodes, 3))
+            near_x = np.abs(n0[:, 0]) > np.cos(np.radians(10.0))
+            E[~near_x, 0] = 1.0
+            E[near_x, 1] = 1.0
+            G = np.einsum("pkc,plc->pkl", A0, A0)
+            contra = np.linalg.solve(G, A0)  # (P, k, d): A0^α
+            proj = np.einsum("pkc,pc->pk", contra, E[self.pair_node])
+            self.coef = np.einsum("pbk,pk->pb", self.dN, proj)  # e = Σ_p Σ_b coef x_b
+
+    def compute(self, xs: np.ndarray):
+        """Frames at the current slave coordinates xs (nsf, ns, d).
+
+        Returns a (n, m, d) tangent vectors, nrm (n, d) outward unit normals and the
+        derivatives dA (P, ns, m, d, d): ∂a_α,c / ∂x_{f_p, b, c'} (zero rows for nodes
+        without facets).
+        """
+        d, m, n = self.d, self.m, self.n
+        P, ns = self.dN.shape[0], self.dN.shape[1]
+        a = np.zeros((n, m, d))
+        nrm = np.zeros((n, d))
+        dA = np.zeros((P, ns, m, d, d))
+        if P == 0:
+            return a, nrm, dA
+        x = xs[self.pair_f]  # (P, ns, d)
+        A = np.einsum("pbk,pbc->pkc", self.dN, x)  # covariant tangents at the node, (P, k, d)
+        eye = np.eye(d)
+        if d == 2:
+            tt = np.zeros((n, 2))
+            np.add.at(tt, self.pair_node, self.sign[:, None] * A[:, 0])
+            a1, lt = _unit(tt)
+            a[:, 0] = a1
+            nrm[:, 0], nrm[:, 1] = a1[:, 1], -a1[:, 0]
+            Q = (eye - np.einsum("ni,nj->nij", a1, a1)) / np.maximum(lt, 1e-300)[:, None, None]
+            dA[:, :, 0] = (self.sign[:, None] * self.dN[:, :, 0])[:, :, None, None] * Q[
+                self.pair_node
+            ][:, None]
+            return a, nrm, dA
+        nt = np.zeros((n, 3))
+        np.add.at(nt, self.pair_node, self.sign[:, None] * np.cross(A[:, 0], A[:, 1]))
+        nv, ln = _unit(nt)
+        e = np.zeros((n, 3))
+        np.add.at(e, self.pair_node, np.einsum("pb,pbc->pc", self.coef, x))
+        en = np.einsum("nc,nc->n", e, nv)
+        v = e - en[:, None] * nv
+        a1, lv = _unit(v)
+        a2 = np.cross(nv, a1)
+        a[:, 0], a[:, 1], nrm[:] = a1, a2, nv
+        # derivatives per occurrence p and facet node b
+        q = self.pair_node
+        Pn = (eye - np.einsum("ni,nj->nij", nv, nv)) / np.maximum(ln, 1e-300)[:, None, None]
+        Qa = (eye - np.einsum("ni,nj->nij", a1, a1)) / np.maximum(lv, 1e-300)[:, None, None]
+        cA0, cA1 = _cross_matrix(A[:, 0]), _cross_matrix(A[:, 1])  # (P, 3, 3)
+        dnt = self.sign[:, None, None, None] * (
+            -self.dN[:, :, 0, None, None] * cA1[:, None]
+            + self.dN[:, :, 1, None, None] * cA0[:, None]
+        )  # (P, ns, 3, 3)
+        Jn = np.einsum("pij,pbjk->pbik", Pn[q], dnt)
+        Je = self.coef[:, :, None, None] * eye
+        Mv = np.einsum("pi,pj->pij", nv[q], e[q]) + en[q][:, None, None] * eye
+        Jv = np.einsum(
+            "pij,pbjk->pbik", (eye - np.einsum("ni,nj->nij", nv, nv))[q], Je
+        ) - np.einsum("pij,pbjk->pbik", Mv, Jn)
+        Ja1 = np.einsum("pij,pbjk->pbik", Qa[q], Jv)
+        Ja2 = -np.einsum("pij,pbjk->pbik", _cross_matrix(a1)[q], Jn) + np.einsum(
+            "pij,pbjk->pbik", _cross_matrix(nv)[q], Ja1
+        )
+        dA[:, :, 0], dA[:, :, 1] = Ja1, Ja2
+        return a, nrm, dA
+
+
+def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
+    """Nodal Coulomb return mapping (METHOD.md §4) in an orthonormal frame.
+
+    lam, gamma (n, m) tangential multiplier and mixed slip; p (n,) normal pressure;
+    active (n,) the normal active set (a node touching with p = 0 is active: it sticks
+    when τ^tr = 0 and otherwise slips with τ = 0 and ∂τ/∂p = μ s);
+    mu friction coefficient; eps_t (n,) tangential penalty (stress per length);
+    frozen (n,) states to impose (−1: free), see the chattering control in
+    :class:`~dolfinx_mortar.contact.MortarContact`; tol (n,) a node slips only when
+    Φ > tol (round-off in a touching node's slip must not select a slip direction).
+
+    Returns tau (n, m), state (n,) (OPEN/STICK/SLIP), D (n, m, m) = ∂τ/∂γ and
+    Pd (n, m) = ∂τ/∂p_N; state is the one used (frozen where imposed).
+    """
+    n, m = gamma.shape
+    trial = lam + eps_t[:, None] * gamma
+    norm = np.linalg.norm(trial, axis=1)
+    slip = active & (norm - mu * p > (0.0 if tol is None else tol))
+    if frozen is not None:
+        slip = np.where(active & (frozen >= 0), frozen == SLIP, slip)
+        slip &= norm > 0.0
+    stick = active & ~slip
+    s = trial / np.maximum(norm, 1e-300)[:, None]
+    tau = np.where(stick[:, None], trial, 0.0) + np.where(slip[:, None], mu * p[:, None] * s, 0.0)
+    eye = np.eye(m)
+    D = np.where(stick[:, None, None], eps_t[:, None, None] * eye, 0.0)
+    Dslip = (mu * p * eps_t / np.maximum(norm, 1e-300))[:, None, None] * (
+        eye - np.einsum("ni,nj->nij", s, s)
+    )
+    D = np.where(slip[:, None, None], Dslip, D)
+    Pd = np.where(slip[:, None], mu * s, 0.0)
+    state = np.where(slip, SLIP, np.where(stick, STICK, OPEN))
+    return tau, state, D, Pd
+
+
+def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val):
+    """K_I = (∂S/∂u)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring).
+
+    a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
+    :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs (E, d), s_w (E,) the
+    S-weights; f_dofs (F, d), f_dA (F, m, d, d) the frame derivatives per facet node
+    (dofs of its d components); b_idx, b_val the row B^I. Dofs < 0 are dropped.
+    Returns (dofs (U,), K (U, U)).
+    """
+    m, d = a.shape
+    U = np.unique(np.concatenate([s_dofs.ravel(), f_dofs.ravel(), b_idx]))
+    U = U[U >= 0]
+    nu = U.size
+    Srow = np.zeros((d, nu + 1))  # last column collects the dropped dofs
+    Frow = np.zeros((m, d, nu + 1))
+    Brow = np.zeros(nu + 1)
+
+    def pos(idx):
+        j = np.searchsorted(U, idx)
+        return np.where(idx >= 0, np.minimum(j, nu), nu)
+
+    for c in range(d):
+        np.add.at(Srow[c], pos(s_dofs[:, c]), s_w)
+        for c2 in range(d):
+            np.add.at(Frow[:, c].T, pos(f_dofs[:, c2]), f_dA[:, :, c, c2])
+    np.add.at(Brow, pos(b_idx), b_val)
+    dgam = (a @ Srow.reshape(d, -1) + np.einsum("c,acu->au", S, Frow)) / AT
+    dtau = D @ dgam - np.outer(Pd, kN * Brow)
+    dt = a.T @ dtau + np.einsum("a,acu->cu", tau, Frow)
+    K = Srow[:, :nu].T @ dt[:, :nu]
+    return U, K

@@ -1,0 +1,282 @@
+"""Coulomb friction: kernels against references, the tangent against finite differences,
+incremental objectivity, and "model only what the scene needs".
+
+The contact configurations are those of ``test_contact_jacobian`` (partial contact, a
+deformed master, the slave shifted sideways); the slip history u_n is a scaled-down
+version of the current state, and the tangential multipliers are chosen so that
+stick and slip nodes coexist.
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
+from test_contact_jacobian import CASES, _residual, _set_state
+
+from dolfinx_mortar import friction as fr
+from dolfinx_mortar.kernels.friction import slip_integrals_reference
+from dolfinx_mortar.runner import prepare
+from dolfinx_mortar.scene import parse_scene
+
+MU = 0.3
+
+
+def _problem(case, integration="element", mu=MU, penalty_t=1.0):
+    gen, params, slave, master, bodies, _ = CASES[case]
+    contact = {
+        "slave": slave,
+        "master": master,
+        "penalty": 1.0e3,
+        "uzawa_tol": 0.0,
+        "integration": integration,
+        "friction": mu,
+    }
+    if mu > 0:
+        contact["penalty_tangential"] = penalty_t
+    data = {
+        "kinematics": "finite",
+        "mesh": {"generator": gen, "params": params},
+        "material": [{"region": b, "model": "neo-hookean", "E": 200.0, "nu": 0.3} for b in bodies],
+        "contact": [contact],
+        "output": {"dir": "unused"},
+    }
+    problem, _ = prepare(parse_scene(data, pathlib.Path(".")), MPI.COMM_WORLD)
+    return problem
+
+
+def _frictional_state(problem, case):
+    """History u_n (a scaled-down state), current state, multipliers with stick and slip."""
+    term = problem.contacts[0]
+    depth = {2: 0.05, 3: 0.04}[problem.gdim]
+    body = CASES[case][4][0]
+    _set_state(problem, 0.5 * depth, body)
+    problem.u.x.array[:] *= 0.7
+    problem.u.vector.copy(term._u_n)
+    term._u_n_version += 1
+    _set_state(problem, depth, body)
+    term.update(problem.u)
+    # multipliers from the reference node positions: the same state on any partition
+    f, i = term._node_at
+    X = term.slave.X[f, i]
+    n, m = term.lmbda_t.shape
+    phase = X @ np.array([37.0, 11.0, 5.0])[: problem.gdim]
+    term.lmbda = np.where(np.sin(phase) > 0, 0.1 * (1 + np.cos(3 * phase)), 0.0)
+    term.update(problem.u)
+    # tangential multipliers in varied directions, of size 1.5 μ p_N (slip) at the nodes
+    # with more than the median pressure and 0.5 μ p_N (stick) at the others
+    angle = 2.0 * phase
+    direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)[:, :m]
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    p_all = np.concatenate(MPI.COMM_WORLD.allgather(term.p[term.p > 0]))
+    median = np.median(p_all) if p_all.size else 0.0
+    scale = np.where(term.p > median, 1.5, 0.5) * MU * np.maximum(term.p, 1e-3)
+    term.lmbda_t = direction * scale[:, None] - term.eps_t[:, None] * term.gamma_t
+    term.update(problem.u)
+    return term
+
+
+# ---------------------------------------------------------------- node-level pieces
+@pytest.mark.parametrize("d", [2, 3])
+def test_return_mapping_derivatives(d):
+    rng = np.random.default_rng(3)
+    n, m = 40, d - 1
+    lam = rng.normal(size=(n, m))
+    gam = rng.normal(size=(n, m))
+    p = rng.random(n) * 4
+    eps = 1.0 + rng.random(n)
+    active = rng.random(n) < 0.9
+    tau, state, D, Pd = fr.return_mapping(lam, gam, p, active, MU, eps)
+    assert set(np.unique(state[active])) == {fr.STICK, fr.SLIP}
+    assert np.all(state[~active] == fr.OPEN) and np.all(tau[~active] == 0.0)
+    norm = np.linalg.norm(tau, axis=1)
+    assert np.all(norm[state == fr.SLIP] == pytest.approx(MU * p[state == fr.SLIP]))
+    assert np.all(norm[state == fr.STICK] <= MU * p[state == fr.STICK] + 1e-12)
+    h = 1e-7
+    for j in range(m):
+        e = np.zeros(m)
+        e[j] = h
+        tp = fr.return_mapping(lam, gam + e, p, active, MU, eps, frozen=state)[0]
+        tm = fr.return_mapping(lam, gam - e, p, active, MU, eps, frozen=state)[0]
+        assert np.allclose((tp - tm) / (2 * h), D[:, :, j], atol=1e-6)
+    tp = fr.return_mapping(lam, gam, p + h, active, MU, eps, frozen=state)[0]
+    tm = fr.return_mapping(lam, gam, p - h, active, MU, eps, frozen=state)[0]
+    assert np.allclose((tp - tm) / (2 * h), Pd, atol=1e-6)
+
+
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz2d-P2", "hertz3d-P1", "patch3d-Q1"])
+def test_nodal_frames(case):
+    problem = _problem(case)
+    term = problem.contacts[0]
+    frames = term.frames
+    xs = term.slave.X + 0.01 * np.sin(3 * term.slave.X)
+    a, nrm, dA = frames.compute(xs)
+    d = problem.gdim
+    has = np.diff(frames.pair_off) > 0
+    # orthonormal, tangent, outward normal (the reference normal of the slave facets)
+    gram = np.einsum("nac,nbc->nab", a[has], a[has])
+    assert np.allclose(gram, np.eye(d - 1), atol=1e-12)
+    assert np.allclose(np.einsum("nac,nc->na", a[has], nrm[has]), 0.0, atol=1e-12)
+    if d == 3:
+        assert np.allclose(np.cross(nrm[has], a[has, 0]), a[has, 1], atol=1e-12)
+    # derivatives against central differences, one facet-node coordinate at a time
+    rng = np.random.default_rng(0)
+    P = frames.pair_f.size
+    for p in rng.choice(P, size=min(P, 6), replace=False):
+        f, node = frames.pair_f[p], frames.pair_node[p]
+        for b in range(xs.shape[1]):
+            for c in range(d):
+                h = 1e-7
+                xp, xm = xs.copy(), xs.copy()
+                xp[f, b, c] += h
+                xm[f, b, c] -= h
+                fd = (frames.compute(xp)[0][node] - frames.compute(xm)[0][node]) / (2 * h)
+                # every occurrence of (f, b) around this node contributes
+                mine = np.flatnonzero((frames.pair_f == f) & (frames.pair_node == node))
+                ana = sum(dA[q, b, :, :, c] for q in mine)
+                assert np.allclose(fd, ana, atol=1e-6), (p, b, c)
+
+
+def test_frames_rotate_with_the_surface():
+    problem = _problem("hertz3d-P1")
+    term = problem.contacts[0]
+    xs = term.slave.X + 0.01 * np.cos(2 * term.slave.X)
+    Q = _rotation(3, 0.7)
+    a, nrm, _ = term.frames.compute(xs)
+    a2, nrm2, _ = term.frames.compute(xs @ Q.T + 1.5)
+    assert np.allclose(a2, a @ Q.T, atol=1e-12)
+    assert np.allclose(nrm2, nrm @ Q.T, atol=1e-12)
+
+
+@pytest.mark.parametrize("case", ["hertz2d-P2", "hertz3d-P1"])
+def test_slip_integrals_match_reference(case):
+    problem = _problem(case)
+    term = _frictional_state(problem, case)
+    AT, S, W = slip_integrals_reference(
+        term.ftype,
+        term.master.ftype,
+        term.ftype_phi,
+        term.xs,
+        term.xm,
+        term.qp_xi,
+        term.qp_w,
+        term.qp_m,
+        term.qp_mn,
+        term.qp_zn,
+        term.node_of,
+        term.node_blocks.size,
+    )
+    assert np.allclose(term.AT, AT, rtol=1e-13, atol=1e-15)
+    assert np.allclose(term.S, S, rtol=1e-12, atol=1e-15)
+    assert (term.AT > 0).sum() >= 3
+    # S = Σ_k W_k x_k with the merged weights
+    coords = {}
+    for f in range(term.slave.num_facets):
+        for a in range(term.slave.nodes_per_facet):
+            coords[term.slave.blocks[f, a]] = term.xs[f, a]
+    for f in range(term.master.num_facets):
+        for b in range(term.master.nodes_per_facet):
+            coords[term.master.blocks[f, b]] = term.xm[f, b]
+    S_w = np.zeros_like(S)
+    np.add.at(S_w, term.s_node, term.s_w[:, None] * np.array([coords[k] for k in term.s_key]))
+    assert np.allclose(S_w, S, atol=1e-12)
+
+
+# ---------------------------------------------------------------- the tangent
+FD_CASES = [
+    ("hertz2d-P1", "element"),
+    ("hertz2d-P2", "element"),
+    ("hertz2d-Q1", "element"),
+    ("hertz3d-P1", "element"),
+    ("hertz3d-P2", "element"),
+    ("patch3d-Q1", "element"),
+    ("hertz2d-P1", "node"),
+    ("hertz3d-P1", "node"),
+]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case, integration", FD_CASES)
+def test_frictional_tangent_matches_finite_differences(case, integration):
+    problem = _problem(case, integration)
+    term = _frictional_state(problem, case)
+    comm = MPI.COMM_WORLD
+    counts = comm.allreduce(np.bincount(term.fstate, minlength=3))
+    assert counts[fr.STICK] >= 1 and counts[fr.SLIP] >= 1, counts
+    u0 = problem.u.vector.copy()
+    A = problem.create_matrix()
+    A.zeroEntries()
+    term.add_jacobian(A)
+    A.assemble()
+    frozen = term.fstate.copy()
+    errs = []
+    for _ in range(3):
+        v = u0.copy()
+        v.setRandom(PETSc.Random().create(comm))
+        v.scale(1e-2)
+        h = 1e-6
+        up = u0.copy()
+        up.axpy(h, v)
+        um = u0.copy()
+        um.axpy(-h, v)
+        fd = _residual(problem, term, up)
+        assert np.array_equal(term.fstate, frozen), "a state changed within the FD step"
+        fd.axpy(-1.0, _residual(problem, term, um))
+        fd.scale(0.5 / h)
+        Jv = u0.copy()
+        A.mult(v, Jv)
+        diff = Jv.copy()
+        diff.axpy(-1.0, fd)
+        errs.append(diff.norm() / max(fd.norm(), 1e-300))
+    assert max(errs) < 1e-5, errs
+
+
+# ---------------------------------------------------------------- objectivity
+def _rotation(d, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    if d == 2:
+        return np.array([[c, -s], [s, c]])
+    axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + s * K + (1 - c) * K @ K
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_incremental_objectivity(case):
+    """A rigid rotation superposed on the configuration at t_{n+1} leaves the nodal
+    pressures, the tangential traction components and the stick/slip states unchanged,
+    and rotates the traction vectors."""
+    problem = _problem(case)
+    term = _frictional_state(problem, case)
+    p, tau, state, t = term.p.copy(), term.tau.copy(), term.fstate.copy(), term.t_vec.copy()
+    comm = MPI.COMM_WORLD
+    assert comm.allreduce(int((state > 0).sum())) >= 3
+    d = problem.gdim
+    Q = _rotation(d, 0.6)
+    V = problem.V
+    X = V.tabulate_dof_coordinates()[:, :d]
+    u = problem.u.x.array.reshape(-1, d)
+    x = X + u
+    problem.u.x.array[:] = (x @ Q.T + 0.3 - X).ravel()
+    problem.u.x.scatter_forward()
+    term.update(problem.u)
+    assert np.allclose(term.p, p, rtol=1e-9, atol=1e-9 * p.max(initial=1.0))
+    assert np.array_equal(term.fstate, state)
+    assert np.allclose(term.tau, tau, rtol=1e-8, atol=1e-9)
+    assert np.allclose(term.t_vec, t @ Q.T, rtol=1e-8, atol=1e-9)
+
+
+# ---------------------------------------------------------------- model only what is needed
+def test_frictionless_pairs_create_no_tangential_data():
+    problem = _problem("hertz2d-P1", mu=0.0)
+    term = problem.contacts[0]
+    assert not term.frictional
+    for name in ("frames", "lmbda_t", "tau", "_u_n", "eps_t"):
+        assert not hasattr(term, name), name
+    assert term.describe()["tangential_fields"] is False
+    assert term.describe()["friction"] == 0.0
+    frictional = _problem("hertz2d-P1").contacts[0]
+    assert frictional.describe()["tangential_fields"] is True
+    assert frictional.describe()["friction"] == MU
