@@ -137,6 +137,7 @@ def evaluate(summary: dict, out_dir, dim: int, mode: str) -> dict:
         "force_tangential_err": abs(-F[0] / (q * area) - 1.0),
         "dissipation": [float(s.get("dissipation", 0.0)) for s in summary["steps"]],
         "newton_iterations": cm.newton_iterations(summary),
+        "max_newton_per_solve": max(max(s["newton_iterations"]) for s in summary["steps"]),
         "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
         "modelled": summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"],
     }

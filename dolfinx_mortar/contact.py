@@ -54,14 +54,25 @@ DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
 #: ``penalty = "auto"``: ε_N^I = AUTO_PENALTY_FACTOR · E* / h_I (h_I: mean size of the
 #: slave facets around node I, E* the plane-strain effective modulus of the two bodies).
 AUTO_PENALTY_FACTOR = 100.0
+#: ``penalty_tangential = "auto"``: ε_T^I = AUTO_PENALTY_T_FACTOR · E* / h_I. Ten times softer
+#: than the normal rule: with 100 E*/h, Newton cycles between stick and slip at the
+#: nodes whose trial traction sits near the Coulomb cone (Cattaneo–Mindlin first
+#: contact); the Uzawa rounds remove the elastic stick slip that the softer penalty allows.
+AUTO_PENALTY_T_FACTOR = 10.0
 #: Upper bound of the Aitken relaxation of the Uzawa update.
 OMEGA_MAX = 10.0
 #: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
-#: are frozen; they are re-checked when the solve has converged (another solve if any changed).
+#: and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
+#: they are re-checked when the solve has converged: another solve follows, with the states
+#: free, if a state changed or a slip direction moved by more than FROZEN_DIRECTION_TOL.
 FREEZE_AFTER = 8
+FROZEN_DIRECTION_TOL = 1e-6
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
 SLIP_TOL = 1e-10
+#: A slave node takes part in the friction of a step only when it touched at t_n: mixed
+#: gap γ_n ≤ HISTORY_GAP_TOL h_I. A node closing during the step enters frictionless.
+HISTORY_GAP_TOL = 1e-6
 
 
 def _plane_modulus(E: float, nu: float) -> float:
@@ -263,8 +274,8 @@ class MortarContact:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
         if penalty_t == "auto":
-            self.eps_t = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
-            self.penalty_t_description = f"auto: {AUTO_PENALTY_FACTOR:g} E*/h_I"
+            self.eps_t = AUTO_PENALTY_T_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+            self.penalty_t_description = f"auto: {AUTO_PENALTY_T_FACTOR:g} E*/h_I"
         else:
             self.eps_t = np.full(n, float(penalty_t))
             self.penalty_t_description = float(penalty_t)
@@ -443,6 +454,7 @@ class MortarContact:
             self.hist_cand = (off, idx)
             self.qp_mn = np.full((nsf, nq), -1, np.int64)
             self.qp_zn = np.zeros((nsf, nq, km))
+            gn = np.zeros((nsf, nq))
             if nsf:
                 kmortar.pair_points(
                     self.ftype,
@@ -459,8 +471,19 @@ class MortarContact:
                     2.0 * self.h_facet,
                     self.qp_mn,
                     self.qp_zn,
-                    np.zeros((nsf, nq)),
+                    gn,
                 )
+            # nodes still open at t_n (mixed gap γ_n > 0) have no material point to stick to:
+            # their closing motion seen from the t_n projection would be a spurious slip of
+            # order γ_n × (normal rotation); they enter frictionless and join the next step
+            An, Gn = np.zeros(n), np.zeros(n)
+            if nsf:
+                kmortar.nodal_integrals(
+                    self.ftype_phi, self.qp_xi, self.qp_w, self.qp_mn, gn, self.node_of, An, Gn
+                )
+            has = An > 1e-12 * self.h_node ** (self.gdim - 1)
+            gamma_n = np.where(has, Gn / np.where(has, An, 1.0), np.inf)
+            self.node_touching = gamma_n <= HISTORY_GAP_TOL * self.h_node
             self._history_key = key
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
@@ -483,6 +506,7 @@ class MortarContact:
                 self.qp_mn,
                 self.qp_zn,
                 self.node_of,
+                self.node_touching,
                 self.slave.blocks,
                 self.slave.dofs,
                 self.master.blocks,
@@ -578,10 +602,11 @@ class MortarContact:
             self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._slip_tol
         )
         if frozen is None:
-            return state
+            norm = np.linalg.norm(tau, axis=1)
+            return state, tau / np.maximum(norm, 1e-300)[:, None]
         self.gamma_t, self.tau, self.fstate, self._D, self._Pd = gam, tau, state, D, Pd
         self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
-        return state
+        return state, None
 
     # ------------------------------------------------------------------ assembly
     def _terms(self, want_jac: bool, masked: bool = True):
@@ -688,12 +713,16 @@ class MortarContact:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
         self._jacobians += 1
         if self.frozen is None and self._jacobians >= self.freeze_after:
-            self.frozen = self.fstate.copy()
+            norm = np.linalg.norm(self.tau, axis=1)
+            self.frozen = (self.fstate.copy(), self.tau / np.maximum(norm, 1e-300)[:, None])
         d, m = self.gdim, self.gdim - 1
         fo, pf_all = self.frames.pair_off, self.frames.pair_f
         # predictor nodes (nothing in contact yet: tangent-only normal stiffness) get the
         # stick stiffness too, or a body held only by contact would be free tangentially
-        predictor = (self.fstate == fr.OPEN) & (self.kcoef > 0.0) & (self.predictor_nodes > 0)
+        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        predictor = (
+            (self.fstate == fr.OPEN) & (self.kcoef > 0.0) & (self.predictor_nodes > 0) & hasT
+        )
         D_stick = self.eps_t[:, None, None] * np.eye(m)
         for node in np.flatnonzero((self.fstate > 0) | predictor):
             D, Pd = (
@@ -774,8 +803,8 @@ class MortarContact:
         edge), so the step is relaxed with the Irons–Tuck (vector Aitken) factor
         ω_k = −ω_{k−1} d_{k−1}·(d_k − d_{k−1}) / |d_k − d_{k−1}|², clamped to
         [1, OMEGA_MAX]: λ ← max(λ + ω d, 0). The first round of a step uses ω = 1.
-        With friction, the tangential multipliers take the traction, λ_T ← τ (plain),
-        the change counts max |τ − λ_T| too, and a solve that ended with frozen
+        With friction, the tangential multipliers move the same way, λ_T ← λ_T + ω(τ − λ_T)
+        (ω from the stacked change [d_N, d_T]), the change counts max |τ − λ_T| too, and a solve that ended with frozen
         stick/slip states (chattering control) is not accepted when the free states
         differ: another solve follows with the states free.
         """
@@ -791,24 +820,30 @@ class MortarContact:
             rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
             info["tangential_change"] = rel_t
             if self.frozen is not None:
-                free = self._recover_tangential(frozen=None)
-                changed = comm.allreduce(int(np.count_nonzero(free != self.fstate)))
+                free, s_free = self._recover_tangential(frozen=None)
+                moved = (self.fstate == fr.SLIP) & (
+                    np.linalg.norm(s_free - self.frozen[1], axis=1) > FROZEN_DIRECTION_TOL
+                )
+                local = np.count_nonzero(free != self.fstate) + np.count_nonzero(moved)
+                changed = comm.allreduce(int(local))
                 info["unfrozen_states"] = changed
                 self.frozen = None
         if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
             return changed == 0, info
+        # one relaxation factor for the stacked change [d_N, d_T]
+        dv = np.concatenate([d, (self.tau - self.lmbda_t).ravel()]) if self.frictional else d
         omega = 1.0
         if self.aitken and self._d_prev is not None:
-            dd = d - self._d_prev
+            dd = dv - self._d_prev
             num = comm.allreduce(float(self._d_prev @ dd))
             den = comm.allreduce(float(dd @ dd))
             if den > 0.0:
                 omega = float(np.clip(-self._omega * num / den, 1.0, OMEGA_MAX))
         info["relaxation"] = omega
-        self._d_prev, self._omega = d, omega
+        self._d_prev, self._omega = dv, omega
         self.lmbda = np.maximum(self.lmbda + omega * d, 0.0)
         if self.frictional:
-            self.lmbda_t = self.tau.copy()
+            self.lmbda_t = self.lmbda_t + omega * (self.tau - self.lmbda_t)
         return False, info
 
     def begin_solve(self) -> None:

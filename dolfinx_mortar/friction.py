@@ -173,9 +173,11 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     active (n,) the normal active set (a node touching with p = 0 is active: it sticks
     when τ^tr = 0 and otherwise slips with τ = 0 and ∂τ/∂p = μ s);
     mu friction coefficient; eps_t (n,) tangential penalty (stress per length);
-    frozen (n,) states to impose (−1: free), see the chattering control in
-    :class:`~dolfinx_mortar.contact.MortarContact`; tol (n,) a node slips only when
-    Φ > tol (round-off in a touching node's slip must not select a slip direction).
+    frozen: None or (states (n,), directions (n, m)) to impose where states ≥ 0 (the
+    chattering control of :class:`~dolfinx_mortar.contact.MortarContact`): a frozen
+    slip node keeps its slip direction s, so τ = μ p_N s is smooth in u; tol (n,) a node
+    slips only when Φ > tol (round-off in a touching node's slip must not select a
+    slip direction).
 
     Returns tau (n, m), state (n,) (OPEN/STICK/SLIP), D (n, m, m) = ∂τ/∂γ and
     Pd (n, m) = ∂τ/∂p_N; state is the one used (frozen where imposed).
@@ -184,18 +186,22 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     trial = lam + eps_t[:, None] * gamma
     norm = np.linalg.norm(trial, axis=1)
     slip = active & (norm - mu * p > (0.0 if tol is None else tol))
-    if frozen is not None:
-        slip = np.where(active & (frozen >= 0), frozen == SLIP, slip)
-        slip &= norm > 0.0
-    stick = active & ~slip
     s = trial / np.maximum(norm, 1e-300)[:, None]
+    fixed = np.zeros(n, bool)
+    if frozen is not None:
+        states, directions = frozen
+        imposed = active & (states >= 0)
+        slip = np.where(imposed, states == SLIP, slip)
+        fixed = imposed & slip
+        s = np.where(fixed[:, None], directions, s)
+    stick = active & ~slip
     tau = np.where(stick[:, None], trial, 0.0) + np.where(slip[:, None], mu * p[:, None] * s, 0.0)
     eye = np.eye(m)
     D = np.where(stick[:, None, None], eps_t[:, None, None] * eye, 0.0)
     Dslip = (mu * p * eps_t / np.maximum(norm, 1e-300))[:, None, None] * (
         eye - np.einsum("ni,nj->nij", s, s)
     )
-    D = np.where(slip[:, None, None], Dslip, D)
+    D = np.where((slip & ~fixed)[:, None, None], Dslip, D)
     Pd = np.where(slip[:, None], mu * s, 0.0)
     state = np.where(slip, SLIP, np.where(stick, STICK, OPEN))
     return tau, state, D, Pd

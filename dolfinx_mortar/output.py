@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -81,9 +82,16 @@ class OutputWriter:
         self._contact_functions = {}
 
     def start(self) -> None:
-        """Create the directory and write the initial state (step 0)."""
+        """Create the directory, remove the contact CSV files a previous run of the same
+        pairs left there (a shorter run would otherwise leave stale later steps), and
+        write the initial state (step 0)."""
         if self.comm.rank == 0:
             self.out_dir.mkdir(parents=True, exist_ok=True)
+            for term in self.problem.contacts:
+                pattern = re.compile(rf"contact_{re.escape(term.slave_name)}_\d+\.csv$")
+                for f in self.out_dir.glob(f"contact_{term.slave_name}_*.csv"):
+                    if pattern.match(f.name):
+                        f.unlink()
         self.comm.barrier()
         p = self.problem
         self._xdmf = io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "w")

@@ -47,12 +47,13 @@ def _problem(case, integration="element", mu=MU, penalty_t=1.0):
 
 
 def _frictional_state(problem, case):
-    """History u_n (a scaled-down state), current state, multipliers with stick and slip."""
+    """History u_n (0.85 × the current state, most nodes touching), current state,
+    multipliers with stick and slip."""
     term = problem.contacts[0]
     depth = {2: 0.05, 3: 0.04}[problem.gdim]
     body = CASES[case][4][0]
-    _set_state(problem, 0.5 * depth, body)
-    problem.u.x.array[:] *= 0.7
+    _set_state(problem, depth, body)
+    problem.u.x.array[:] *= 0.85
     problem.u.vector.copy(term._u_n)
     term._u_n_version += 1
     _set_state(problem, depth, body)
@@ -97,12 +98,22 @@ def test_return_mapping_derivatives(d):
     for j in range(m):
         e = np.zeros(m)
         e[j] = h
-        tp = fr.return_mapping(lam, gam + e, p, active, MU, eps, frozen=state)[0]
-        tm = fr.return_mapping(lam, gam - e, p, active, MU, eps, frozen=state)[0]
+        tp = fr.return_mapping(lam, gam + e, p, active, MU, eps)[0]
+        tm = fr.return_mapping(lam, gam - e, p, active, MU, eps)[0]
         assert np.allclose((tp - tm) / (2 * h), D[:, :, j], atol=1e-6)
-    tp = fr.return_mapping(lam, gam, p + h, active, MU, eps, frozen=state)[0]
-    tm = fr.return_mapping(lam, gam, p - h, active, MU, eps, frozen=state)[0]
+    tp = fr.return_mapping(lam, gam, p + h, active, MU, eps)[0]
+    tm = fr.return_mapping(lam, gam, p - h, active, MU, eps)[0]
     assert np.allclose((tp - tm) / (2 * h), Pd, atol=1e-6)
+    # frozen states and directions: a frozen slip node keeps s, so τ = μ p s is smooth
+    s_dir = tau / np.maximum(np.linalg.norm(tau, axis=1), 1e-300)[:, None]
+    flipped = np.where(state == fr.SLIP, fr.STICK, np.where(state == fr.STICK, fr.SLIP, -1))
+    tau_f, state_f, D_f, Pd_f = fr.return_mapping(
+        lam, gam, p, active, MU, eps, frozen=(flipped, -s_dir)
+    )
+    assert np.array_equal(state_f[active], flipped[active])
+    slip = state_f == fr.SLIP
+    assert np.allclose(tau_f[slip], -MU * p[slip, None] * s_dir[slip])
+    assert np.all(D_f[slip] == 0.0)
 
 
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz2d-P2", "hertz3d-P1", "patch3d-Q1"])
@@ -165,7 +176,7 @@ def test_slip_integrals_match_reference(case):
         term.qp_mn,
         term.qp_zn,
         term.node_of,
-        term.node_blocks.size,
+        term.node_touching,
     )
     assert np.allclose(term.AT, AT, rtol=1e-13, atol=1e-15)
     assert np.allclose(term.S, S, rtol=1e-12, atol=1e-15)

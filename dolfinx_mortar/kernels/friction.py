@@ -14,7 +14,8 @@ convected frame are incrementally objective), and it needs no special rule
 when the projection moves to another master facet. Its normal component is
 discarded by the nodal frame (:mod:`dolfinx_mortar.friction`).
 
-Nodal integrals over the owned mixed-field nodes I (points paired now AND at t_n):
+Nodal integrals over the owned mixed-field nodes I that touched at t_n (``node_ok``;
+points paired now AND at t_n):
 
     A_T^I = Σ_q w_q J₀ Φ_I(ξ_q),    S^I = Σ_q w_q J₀ Φ_I(ξ_q) Δg(ξ_q)   (d-vector),
 
@@ -45,6 +46,7 @@ def slip_integrals(
     qp_mn,
     qp_zn,
     node_of,
+    node_ok,
     skeys,
     sdofs,
     mkeys,
@@ -60,7 +62,8 @@ def slip_integrals(
 
     xs (nsf, ns, d), xm (nmf, nm, d) current coordinates; qp_xi (nsf, nq, ks), qp_w
     (nsf, nq) weights with J₀; qp_m (nsf, nq) current pairing (−1: none), qp_mn, qp_zn
-    (nsf, nq), (nsf, nq, km) the pairing at t_n; node_of (nsf, nphi); skeys (nsf, ns),
+    (nsf, nq), (nsf, nq, km) the pairing at t_n; node_of (nsf, nphi); node_ok (n,) the nodes
+    that take part (touching at t_n, see MortarContact); skeys (nsf, ns),
     mkeys (nmf, nm) global blocks; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs.
     Entry arrays must hold nsf·nq·nphi·(ns + nm) rows (e_dof: (…, d)).
     """
@@ -100,7 +103,7 @@ def slip_integrals(
                 dg[c] = s
             for i in range(nphi):
                 node = node_of[f, i]
-                if node < 0:
+                if node < 0 or not node_ok[node]:
                     continue
                 wphi = qp_w[f, q] * Phi[i]
                 AT[node] += wphi
@@ -124,13 +127,14 @@ def slip_integrals(
 
 
 def slip_integrals_reference(
-    ftype_s, ftype_m, ftype_phi, xs, xm, qp_xi, qp_w, qp_m, qp_mn, qp_zn, node_of, n_nodes
+    ftype_s, ftype_m, ftype_phi, xs, xm, qp_xi, qp_w, qp_m, qp_mn, qp_zn, node_of, node_ok
 ):
     """NumPy reference of :func:`slip_integrals`: returns (A_T, S, W) with W a dict
     {(node, slave|master, facet, local node): weight} (for tests)."""
     from .shape import REFERENCE_NODES
 
     d = xs.shape[2]
+    n_nodes = node_ok.size
     AT = np.zeros(n_nodes)
     S = np.zeros((n_nodes, d))
     W = {}
@@ -152,7 +156,7 @@ def slip_integrals_reference(
             Phi = sh(ftype_phi, qp_xi[f, q])
             dg = N @ xs[f] - Nm @ xm[mn]
             for i, node in enumerate(node_of[f]):
-                if node < 0:
+                if node < 0 or not node_ok[node]:
                     continue
                 wphi = qp_w[f, q] * Phi[i]
                 AT[node] += wphi

@@ -1,0 +1,198 @@
+"""Cattaneo–Mindlin in 2D: two cylinders pressed together, then sheared below gross slip.
+
+Full model (generator ``cattaneo2d``): the half-cylinders ``upper`` and ``lower``
+(R = 8 each, R* = 4), linear elastic E = 200, ν = 0.3 both, plane strain, small
+kinematics, Coulomb friction μ = 0.2 (slave ``upper_surface``, master
+``lower_surface``). ``lower_bottom`` is clamped; ``upper_top`` is a bonded rigid
+platen: u_y goes to −DEPTH over t ∈ [0, 1] (normal load P ≈ 10), then u_x goes to
+SHIFT over t ∈ [1, 2] while u_y is held (tangential load Q ≈ 0.5 μP). As in the
+peers' harness (BENCHMARKS.md), the references use the run's MEASURED platen
+reactions P and Q: Hertz's a = 2√(P R*/(π E*)), p0 = 2P/(π a); the stick zone
+|x| ≤ c with c/a = √(1 − Q/(μP)); the tangential traction
+q(x) = μ p0 [√(1 − x²/a²) − (c/a) √(1 − x²/c²)] for |x| ≤ c, μ p(x) for c ≤ |x| ≤ a.
+
+Metrics: the stick-zone half-width (half the extent of the stick nodes, centred on
+the contact), its error against c in slave-element sizes, the L2 error of the nodal
+tangential traction against q(x), the L2 error of the pressure, Newton iterations.
+
+Run::
+
+    mpirun -n 2 python3 demos/demo_cattaneo2d.py [--refine K] [--integration segment]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as cm  # noqa: E402
+import numpy as np  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+R, E, NU, MU = 8.0, 200.0, 0.3, 0.2
+R_STAR = R / 2.0
+E_STAR = E / (2.0 * (1.0 - NU**2))
+DEPTH = 0.1774  # platen approach giving P ≈ 10 (h_contact = 0.05)
+SHIFT = 0.029  # tangential platen displacement giving Q/(μP) ≈ 0.5
+H_CONTACT = 0.05
+SLAVE, MASTER = "upper_surface", "lower_surface"
+
+
+def scene(refine: int = 0, integration: str = "element", n_press: int = 2, n_shear: int = 4):
+    """The scene dict (SCENES.md) at refinement level ``refine``."""
+    return {
+        "title": f"cattaneo2d, refine {refine}, {integration}",
+        "kinematics": "small",
+        "mesh": {
+            "generator": "cattaneo2d",
+            "params": {"R": R, "h_contact": H_CONTACT / 2**refine, "c_zone": 1.5},
+        },
+        "material": [
+            {"region": "upper", "model": "linear-elastic", "E": E, "nu": NU},
+            {"region": "lower", "model": "linear-elastic", "E": E, "nu": NU},
+        ],
+        "contact": [
+            {
+                "slave": SLAVE,
+                "master": MASTER,
+                "friction": MU,
+                "integration": integration,
+                "penalty": "auto",
+                "uzawa_tol": 1e-6,
+                "uzawa_max": 40,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "components": [0, 1], "path": [[0, 0, 0], [2, 0, 0]]},
+            {
+                "boundary": "upper_top",
+                "components": [0, 1],
+                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -DEPTH], [2.0, SHIFT, -DEPTH]],
+            },
+        ],
+        "steps": {
+            "t_end": 2.0,
+            "n": 2,
+            "output_times": [k / n_press for k in range(1, n_press)]
+            + [1.0 + k / n_shear for k in range(1, n_shear)],
+        },
+        "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
+    }
+
+
+def evaluate(summary: dict, out_dir, h: float) -> dict:
+    """Metrics of the final step (rank 0: reads the final CSV)."""
+    reac = np.asarray(summary["steps"][-1]["reactions"]["upper_top"], float)
+    P, Q = -reac[1], reac[0]
+    a = 2.0 * math.sqrt(P * R_STAR / (math.pi * E_STAR))
+    p0 = 2.0 * P / (math.pi * a)
+    c = a * math.sqrt(max(1.0 - Q / (MU * P), 0.0))
+    d = cm.final_csv(out_dir, SLAVE)
+    o = np.argsort(d["X"])
+    x, p, q, state = d["X"][o], d["p_N"][o], -d["p_T0"][o], d["state"][o]
+    xc = float(np.sum(x * p) / np.sum(p))  # pressure centroid
+    x = x - xc
+    stick = x[state == 1]
+    c_h = 0.5 * float(stick.max() - stick.min()) if stick.size else 0.0
+    pm = cm.profile_metrics(x, p, a, p0)
+
+    def q_exact(s):
+        s = np.asarray(s)
+        full = MU * p0 * np.sqrt(np.clip(1.0 - (s / a) ** 2, 0.0, None))
+        inner = MU * p0 * (c / a) * np.sqrt(np.clip(1.0 - (s / c) ** 2, 0.0, None))
+        return np.where(np.abs(s) <= c, full - inner, full)
+
+    L = 1.25 * a
+    xs = np.unique(np.concatenate([np.linspace(-L, L, 40 * len(x) + 1), x[np.abs(x) <= L]]))
+    qh = np.interp(xs, x, q, left=0.0, right=0.0)
+    qe = q_exact(xs)
+    l2q = math.sqrt(cm._trapz((qh - qe) ** 2, xs) / cm._trapz(qe**2, xs))
+    return {
+        "P": P,
+        "Q": Q,
+        "Q_ratio": Q / (MU * P),
+        "a": a,
+        "c": c,
+        "c_measured": c_h,
+        "c_err_elements": (c_h - c) / h,
+        "c_err": c_h / c - 1.0 if c > 0 else float("nan"),
+        "l2_q": l2q,
+        "l2_p": pm["l2"],
+        "p_max_err": pm["p_max_err"],
+        "stick_nodes": int(np.sum(state == 1)),
+        "slip_nodes": int(np.sum(state == 2)),
+        "negative": pm["negative"],
+        "newton_iterations": cm.newton_iterations(summary),
+        "max_newton_per_solve": max(max(s["newton_iterations"]) for s in summary["steps"]),
+        "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
+        "cutbacks": sum(int(s["cutbacks"]) for s in summary["steps"]),
+        "dissipation": [float(s.get("dissipation", 0.0)) for s in summary["steps"]],
+        "dofs": summary.get("dofs"),
+        "ranks": summary.get("ranks"),
+        "x": x.tolist(),
+        "q": q.tolist(),
+    }
+
+
+def main(argv=None) -> dict:
+    ap = cm.parser("Cattaneo–Mindlin 2D (two cylinders, partial slip)", "results/demo_cattaneo2d")
+    ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
+    args = ap.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    h = H_CONTACT / 2**args.refine
+    summary, wall = cm.run_scene(scene(args.refine, args.integration), args.out, comm)
+    m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
+    m["wall_time"] = wall
+    if args.plot and comm.rank == 0:
+        m["png"] = plot(m, Path(args.out) / "cattaneo2d_q.png")
+    cm.report(
+        f"cattaneo2d: {args.integration}, h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
+        [
+            ("measured P, Q/(μP)", f"{m['P']:.4f}, {m['Q_ratio']:.4f}"),
+            ("a, c (analytic)", f"{m['a']:.4f}, {m['c']:.4f}"),
+            ("stick half-width", f"{m['c_measured']:.4f} ({m['c_err_elements']:+.2f} elements)"),
+            ("L2 error of q", f"{100 * m['l2_q']:.2f} %"),
+            ("L2 error of p", f"{100 * m['l2_p']:.2f} %"),
+            ("stick / slip nodes", f"{m['stick_nodes']} / {m['slip_nodes']}"),
+            ("Newton iterations per step", str(m["newton_iterations"])),
+            ("max Newton per solve", str(m["max_newton_per_solve"])),
+            ("Uzawa rounds", str(m["uzawa_rounds"])),
+            ("wall time", f"{wall:.2f} s"),
+        ],
+        comm,
+    )
+    return m
+
+
+def plot(m: dict, path: Path) -> str:
+    """q(x) of the run against the Cattaneo–Mindlin curve (matplotlib, Agg)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    a, c = m["a"], m["c"]
+    p0 = 2.0 * m["P"] / (math.pi * a)
+    s = np.linspace(-1.2 * a, 1.2 * a, 801)
+    full = MU * p0 * np.sqrt(np.clip(1 - (s / a) ** 2, 0, None))
+    inner = MU * p0 * (c / a) * np.sqrt(np.clip(1 - (s / c) ** 2, 0, None))
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(s, np.where(np.abs(s) <= c, full - inner, full), "k-", label="Cattaneo–Mindlin")
+    ax.plot(s, full, "k:", lw=0.8, label="μ p(x)")
+    ax.plot(m["x"], m["q"], "o", ms=3, label="dolfinx_mortar (nodal)")
+    ax.set_xlabel("x")
+    ax.set_ylabel("tangential traction q")
+    ax.set_xlim(-1.3 * a, 1.3 * a)
+    ax.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path)
+
+
+if __name__ == "__main__":
+    cm.script(main, "demo_cattaneo2d")
