@@ -71,8 +71,9 @@ FROZEN_DIRECTION_TOL = 1e-6
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
 SLIP_TOL = 1e-10
 #: A slave node takes part in the friction of a step only when it touched at t_n: mixed
-#: gap γ_n ≤ HISTORY_GAP_TOL h_I. A node closing during the step enters frictionless.
-HISTORY_GAP_TOL = 1e-6
+#: gap γ_n ≤ HISTORY_GAP_TOL h_I (a node closing from farther enters frictionless: its slip
+#: from the t_n projection would be spurious, of order γ_n × the rotation of the normal).
+HISTORY_GAP_TOL = 1e-2
 
 
 def _plane_modulus(E: float, nu: float) -> float:

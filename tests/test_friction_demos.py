@@ -16,6 +16,7 @@ sys.path.insert(0, str(DEMOS))
 
 import demo_cattaneo2d  # noqa: E402
 import demo_friction_patch  # noqa: E402
+import demo_wedge  # noqa: E402
 
 
 @pytest.mark.mpi
@@ -63,3 +64,15 @@ def test_cattaneo2d(shared_tmp):
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("mu,integration", [(0.3, "element"), (0.5, "segment")])
+def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
+    out = str(shared_tmp / f"wedge-{mu}-{integration}")
+    m = demo_wedge.main(["--mu", str(mu), "--integration", integration, "--out", out])
+    assert abs(m["ratio_err"]) <= 0.01, m
+    assert m["stick_nodes"] == 0 and m["slip_nodes"] > 0
+    assert m["gross_slip_step"] is not None
+    assert m["max_newton_per_solve"] <= 25
+    assert all(d >= -1e-12 for d in m["dissipation"])
