@@ -50,8 +50,10 @@ def parser(description: str, out: str, integration: bool = True) -> argparse.Arg
     return ap
 
 
-def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD) -> tuple[dict, float]:
+def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD, **hooks) -> tuple[dict, float]:
     """Parse and run a scene dict (collective). Returns (summary, wall time in s).
+
+    ``hooks`` (``progress``, ``setup``) go to :func:`dolfinx_mortar.runner.run`.
 
     Raises RuntimeError on every rank when the run did not finish (status != "ok").
     """
@@ -64,7 +66,7 @@ def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD) -> tuple[dict, float]:
     parsed = parse_scene(scene, out_dir.parent, source=f"<{scene.get('title', 'demo')}>")
     comm.barrier()
     t0 = perf_counter()
-    summary = run(parsed, comm, out_dir)
+    summary = run(parsed, comm, out_dir, **hooks)
     wall = comm.allreduce(perf_counter() - t0, op=MPI.MAX)
     if summary.get("status") != "ok":
         raise RuntimeError(f"run failed: {summary.get('error')}")
@@ -255,6 +257,24 @@ def newton_iterations(summary: dict) -> list[int]:
         its = st.get("newton_iterations", 0)
         out.append(int(sum(its)) if isinstance(its, list | tuple) else int(its))
     return out
+
+
+def solver_stats(summary: dict) -> dict:
+    """Newton iterations per step (summed over Uzawa rounds), the most in one Newton solve,
+    Uzawa rounds per step, cutbacks in all and the frictional dissipation per step."""
+    steps = summary["steps"]
+    return {
+        "newton_iterations": newton_iterations(summary),
+        "max_newton_per_solve": max((max(s["newton_iterations"]) for s in steps), default=0),
+        "uzawa_rounds": [int(s["uzawa_rounds"]) for s in steps],
+        "cutbacks": sum(int(s["cutbacks"]) for s in steps),
+        "dissipation": [float(s.get("dissipation", 0.0)) for s in steps],
+    }
+
+
+def elastic(regions, E: float, nu: float, model: str = "linear-elastic") -> list[dict]:
+    """``[[material]]`` entries: the same law for every region."""
+    return [{"region": r, "model": model, "E": E, "nu": nu} for r in regions]
 
 
 def contact_force(summary: dict, pair: str, step: int = -1) -> np.ndarray:

@@ -50,10 +50,7 @@ def scene(refine: int = 0, integration: str = "element", n_press: int = 2, n_she
             "generator": "cattaneo2d",
             "params": {"R": R, "h_contact": H_CONTACT / 2**refine, "c_zone": 1.5},
         },
-        "material": [
-            {"region": "upper", "model": "linear-elastic", "E": E, "nu": NU},
-            {"region": "lower", "model": "linear-elastic", "E": E, "nu": NU},
-        ],
+        "material": cm.elastic(("upper", "lower"), E, NU),
         "contact": [
             {
                 "slave": SLAVE,
@@ -125,11 +122,7 @@ def evaluate(summary: dict, out_dir, h: float) -> dict:
         "stick_nodes": int(np.sum(state == 1)),
         "slip_nodes": int(np.sum(state == 2)),
         "negative": pm["negative"],
-        "newton_iterations": cm.newton_iterations(summary),
-        "max_newton_per_solve": max(max(s["newton_iterations"]) for s in summary["steps"]),
-        "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
-        "cutbacks": sum(int(s["cutbacks"]) for s in summary["steps"]),
-        "dissipation": [float(s.get("dissipation", 0.0)) for s in summary["steps"]],
+        **cm.solver_stats(summary),
         "dofs": summary.get("dofs"),
         "ranks": summary.get("ranks"),
         "x": x.tolist(),

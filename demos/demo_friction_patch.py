@@ -97,10 +97,7 @@ def scene(dim: int, mode: str, integration: str, refine: int = 0, quads: bool = 
                 "quads": quads,
             },
         },
-        "material": [
-            {"region": "lower", "model": "linear-elastic", "E": E, "nu": NU},
-            {"region": "upper", "model": "linear-elastic", "E": E, "nu": NU},
-        ],
+        "material": cm.elastic(("lower", "upper"), E, NU),
         "contact": [
             {
                 "slave": "upper_bottom",
@@ -135,10 +132,7 @@ def evaluate(summary: dict, out_dir, dim: int, mode: str) -> dict:
         "slave_nodes": len(pt),
         "force_normal_err": abs(F[dim - 1] / (P0 * area) - 1.0),
         "force_tangential_err": abs(-F[0] / (q * area) - 1.0),
-        "dissipation": [float(s.get("dissipation", 0.0)) for s in summary["steps"]],
-        "newton_iterations": cm.newton_iterations(summary),
-        "max_newton_per_solve": max(max(s["newton_iterations"]) for s in summary["steps"]),
-        "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
+        **cm.solver_stats(summary),
         "modelled": summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"],
     }
 

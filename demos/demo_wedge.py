@@ -48,10 +48,7 @@ def scene(mu: float, refine: int = 0, integration: str = "element", n_push: int 
             "generator": "wedge2d",
             "params": {"tan_alpha": TAN_ALPHA, "h_contact": 0.1 / 2**refine, "h_far": 0.25},
         },
-        "material": [
-            {"region": "block", "model": "linear-elastic", "E": E, "nu": NU},
-            {"region": "wedge", "model": "linear-elastic", "E": E, "nu": NU},
-        ],
+        "material": cm.elastic(("block", "wedge"), E, NU),
         "contact": [
             {
                 "slave": SLAVE,
@@ -105,11 +102,7 @@ def evaluate(summary: dict, mu: float) -> dict:
         "ratios": [fx_ / 1.0 for fx_ in ratios],
         "slip_nodes": summary["steps"][-1]["slip_nodes"],
         "stick_nodes": summary["steps"][-1]["stick_nodes"],
-        "newton_iterations": cm.newton_iterations(summary),
-        "max_newton_per_solve": max(max(s["newton_iterations"]) for s in summary["steps"]),
-        "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
-        "cutbacks": sum(int(s["cutbacks"]) for s in summary["steps"]),
-        "dissipation": [float(s.get("dissipation", 0.0)) for s in summary["steps"]],
+        **cm.solver_stats(summary),
     }
 
 

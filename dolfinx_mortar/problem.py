@@ -114,14 +114,9 @@ class ContactProblem:
             self._dirichlet.append(
                 _Dirichlet(name, comps, np.asarray(path, float), consts, bcs, by_comp)
             )
-        self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
-        # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
-        # negative indices, so contact terms never touch constrained rows or columns)
+        self._fields = []  # (function, field, components) of add_dirichlet_field
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
-        gdofs = self.global_dofs_all.copy()
-        for bc in self.bcs:
-            gdofs[np.asarray(bc.dof_indices()[0])] = -1
-        self.global_dofs = gdofs
+        self._collect_bcs()
         self.contacts: list = []
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
@@ -129,7 +124,52 @@ class ContactProblem:
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
 
+    def _collect_bcs(self) -> None:
+        self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
+        # negative indices, so contact terms never touch constrained rows or columns)
+        gdofs = self.global_dofs_all.copy()
+        for bc in self.bcs:
+            gdofs[np.asarray(bc.dof_indices()[0])] = -1
+        self.global_dofs = gdofs
+
     # ---------------------------------------------------------------- set-up
+    def add_dirichlet_field(self, name: str, field, components=None) -> None:
+        """Prescribe a displacement FIELD on the facet group ``name`` (collective).
+
+        ``field(t, x)`` returns the displacement (gdim, npts) at the points x (3, npts)
+        (reference coordinates) at time t; ``components`` (default: all) selects the
+        constrained components. Use it for what a uniform ``[[dirichlet]]`` path cannot
+        express (a rigid rotation of a face, say). Call it before adding contact terms
+        (they record which dofs are constrained). The boundary's reaction appears in
+        :meth:`reactions` under ``name``.
+        """
+        if self.contacts:
+            raise RuntimeError("add_dirichlet_field must be called before add_contact")
+        mesh, md, gdim = self.mesh, self.mesh_data, self.gdim
+        fdim = mesh.topology.dim - 1
+        facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
+        comps = tuple(range(gdim)) if components is None else tuple(components)
+        bcs = []
+        for c in comps:
+            Vc, _ = self.V.sub(c).collapse()
+            dofs = fem.locate_dofs_topological((self.V.sub(c), Vc), fdim, facets)
+            gc = fem.Function(Vc)
+            bcs.append(fem.dirichletbc(gc, dofs, self.V.sub(c)))
+            self._fields.append((gc, field, c))
+        nowned = compat.owned_dof_count(self.V)
+        by_comp = []
+        for c in range(gdim):
+            dofs = np.asarray(fem.locate_dofs_topological(self.V.sub(c), fdim, facets))
+            by_comp.append(dofs[dofs < nowned])
+        self._dirichlet.append(_Dirichlet(name, comps, np.zeros((1, 1)), [], bcs, by_comp))
+        self._collect_bcs()
+        self._set_fields(getattr(self, "t", 0.0))
+
+    def _set_fields(self, t: float) -> None:
+        for gc, field, c in self._fields:
+            gc.interpolate(lambda x, field=field, c=c: field(t, x)[c])
+
     def add_contact(self, term) -> None:
         """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`)."""
         self.contacts.append(term)
@@ -142,9 +182,12 @@ class ContactProblem:
         """Set the Dirichlet values and tractions of time ``t`` (local, no communication)."""
         self.t = t
         for d in self._dirichlet:
+            if not d.constants:
+                continue  # a field: see _set_fields
             vals = interpolate_path(d.path, t)
             for const, val in zip(d.constants, vals, strict=True):
                 const.value = val
+        self._set_fields(t)
         for _, path, const in self._tractions:
             const.value = interpolate_path(path, t)
 
@@ -229,6 +272,8 @@ class ContactProblem:
         preallocate (collective)."""
         if not self.contacts:
             return False
+        if self._pattern_keys is None:
+            return True
         _, _, keys = self._contact_couplings()
         local = not np.isin(keys, self._pattern_keys, assume_unique=True).all()
         return bool(self.comm.allreduce(int(local), op=MPI.MAX))
@@ -262,8 +307,11 @@ class ContactProblem:
             term.commit_step()
 
     def restore_step(self) -> None:
-        """Undo a failed step: contact multipliers and history go back to the last commit."""
+        """Undo a failed step: contact multipliers and history go back to the last commit.
+        The next solve rebuilds the Jacobian pattern (a diverged attempt may have grown it
+        far beyond what the converged state needs)."""
         self._contact_x = None
+        self._pattern_keys = None
         for term in self.contacts:
             term.restore_step()
 

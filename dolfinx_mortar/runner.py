@@ -20,9 +20,11 @@ from .scene import Scene, check_components, check_groups
 log = logging.getLogger(__name__)
 
 
-def prepare(scene: Scene, comm):
+def prepare(scene: Scene, comm, setup=None):
     """Load the mesh and build the problem with its contact terms; validates everything (collective).
 
+    ``setup(problem)``, if given, is called before the contact terms are added (e.g. to
+    :meth:`~dolfinx_mortar.problem.ContactProblem.add_dirichlet_field`).
     Returns ``(problem, mesh_data)``. Raises SceneError on every rank for bad input.
     """
     m = scene.mesh
@@ -53,6 +55,8 @@ def prepare(scene: Scene, comm):
         [(d.boundary, d.components, d.path) for d in scene.dirichlet],
         [(t.boundary, t.path) for t in scene.tractions],
     )
+    if setup is not None:
+        setup(problem)
     if scene.contacts:
         from .contact import MortarContact
 
@@ -74,17 +78,18 @@ def modelled(scene: Scene, problem) -> dict:
     }
 
 
-def run(scene: Scene, comm, out_dir: Path | None = None, progress=None) -> dict:
+def run(scene: Scene, comm, out_dir: Path | None = None, progress=None, setup=None) -> dict:
     """Run ``scene`` (collective). Returns the summary dictionary (also written to summary.json).
 
-    ``progress(step, record)`` is called on every rank after each converged step.
+    ``progress(step, record)`` is called on every rank after each converged step (the
+    problem holds the converged state); ``setup(problem)`` see :func:`prepare`.
     Raises SceneError before writing anything when the input is bad.
     """
     from .output import OutputWriter
     from .solver import LoadStepper, NewtonSolver, SolverSettings
 
     t_setup = perf_counter()
-    problem, _ = prepare(scene, comm)
+    problem, _ = prepare(scene, comm, setup)
     out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
     so = scene.solver
     settings = SolverSettings(

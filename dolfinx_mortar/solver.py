@@ -51,6 +51,10 @@ class SolverSettings:
     prefix: str = "dm_"
 
 
+#: SNES divergence tolerance (relative growth of the residual norm that aborts a solve).
+DIVERGENCE_TOLERANCE = 1e2
+
+
 class NewtonSolver:
     """PETSc SNES (newtonls) on a :class:`~dolfinx_mortar.problem.ContactProblem` (collective).
 
@@ -69,6 +73,10 @@ class NewtonSolver:
             "snes_type": "newtonls",
             "snes_linesearch_type": settings.line_search,
             "snes_error_if_not_converged": False,
+            # stop a diverging Newton early (‖F‖ > 1e2 ‖F_0‖): from a far-off start the
+            # contact candidates, hence the Jacobian pattern, grow and each iteration gets
+            # expensive; the step is retried from the converged state or cut back
+            "snes_divergence_tolerance": DIVERGENCE_TOLERANCE,
             **_LINEAR[settings.linear],
             **settings.petsc,
         }
@@ -214,9 +222,10 @@ def solve_step(
 class LoadStepper:
     """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective).
 
-    A step that raises ConvergenceError is retried from the last converged state
-    with half the time increment, at most ``max_cutbacks`` times in a row; then
-    the ConvergenceError propagates (every finished step has been passed to
+    A step that raises ConvergenceError from the extrapolated predictor is first
+    retried from the last converged state; then it is retried with half the time
+    increment, at most ``max_cutbacks`` times in a row; then the ConvergenceError
+    propagates (every finished step has been passed to
     ``on_step`` already). ``on_step(step_index, result)`` is called after each
     converged step, with the problem holding the converged state.
     """
@@ -251,12 +260,14 @@ class LoadStepper:
         saved = p.u.x.array.copy()
         previous = None  # (u, t) of the step before the last converged one
         cutbacks = 0
+        use_predictor = True
         while pending:
             t_new = pending[0]
             wall0 = perf_counter()
             tim0 = dict(p.timings)
             ls0 = self.newton.timings["linear_solve"]
-            if self.predictor and previous is not None:
+            predicted = self.predictor and use_predictor and previous is not None
+            if predicted:
                 # linear extrapolation of the last increment: u = u_n + (Δt/Δt_n)(u_n − u_{n−1})
                 u_prev, t_prev = previous
                 p.u.x.array[:] = saved + (t_new - t) / (t - t_prev) * (saved - u_prev)
@@ -268,6 +279,14 @@ class LoadStepper:
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
+                if predicted:
+                    # an extrapolated start can be far off (e.g. deep penetration with
+                    # friction): retry the same step from the last converged state first
+                    log.warning(
+                        "step to t = %g failed from the predictor (%s); retrying", t_new, exc
+                    )
+                    use_predictor = False
+                    continue
                 if cutbacks >= self.max_cutbacks:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}"
@@ -279,6 +298,7 @@ class LoadStepper:
                 )
                 continue
             pending.pop(0)
+            use_predictor = True
             p.commit_step()
             step += 1
             previous = (saved, t)

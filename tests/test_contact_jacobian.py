@@ -137,6 +137,32 @@ def _residual(problem, term, vec_u):
     return b
 
 
+def fd_errors(problem, term, A, u0, n=3, h=1e-6, check=None):
+    """Relative errors ‖K v − (R(u0 + h v) − R(u0 − h v))/2h‖ / ‖FD‖ for ``n`` random v
+    (collective); ``check(term)`` runs after each perturbed residual."""
+    errs = []
+    for _ in range(n):
+        v = u0.copy()
+        v.setRandom(PETSc.Random().create(MPI.COMM_WORLD))
+        v.scale(1e-2)
+        up = u0.copy()
+        up.axpy(h, v)
+        um = u0.copy()
+        um.axpy(-h, v)
+        fd = _residual(problem, term, up)
+        if check is not None:
+            check(term)
+        fd.axpy(-1.0, _residual(problem, term, um))
+        fd.scale(0.5 / h)
+        assert fd.norm() > 0.0
+        Jv = u0.copy()
+        A.mult(v, Jv)
+        diff = Jv.copy()
+        diff.axpy(-1.0, fd)
+        errs.append(diff.norm() / max(fd.norm(), 1e-300))
+    return errs
+
+
 PARAMS = [(case, "element") for case in CASES] + [
     ("hertz2d-P1", "node"),
     ("hertz2d-Q1", "node"),
@@ -165,23 +191,5 @@ def test_contact_tangent_matches_finite_differences(case, integration):
     A.zeroEntries()
     term.add_jacobian(A)
     A.assemble()
-    errs = []
-    for _ in range(3):
-        v = u0.copy()
-        v.setRandom(PETSc.Random().create(MPI.COMM_WORLD))
-        v.scale(1e-2)
-        h = 1e-6
-        up = u0.copy()
-        up.axpy(h, v)
-        um = u0.copy()
-        um.axpy(-h, v)
-        fd = _residual(problem, term, up)
-        fd.axpy(-1.0, _residual(problem, term, um))
-        fd.scale(0.5 / h)
-        Jv = u0.copy()
-        A.mult(v, Jv)
-        diff = Jv.copy()
-        diff.axpy(-1.0, fd)
-        errs.append(diff.norm() / max(fd.norm(), 1e-300))
-        assert fd.norm() > 0.0
+    errs = fd_errors(problem, term, A, u0)
     assert max(errs) < 1e-5, errs
