@@ -6,6 +6,7 @@ metrics (the same on every rank); the ``mpi`` tests also run under mpirun.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -16,6 +17,7 @@ sys.path.insert(0, str(DEMOS))
 
 import demo_cattaneo2d  # noqa: E402
 import demo_friction_patch  # noqa: E402
+import demo_ironing2d  # noqa: E402
 import demo_wedge  # noqa: E402
 
 
@@ -76,3 +78,23 @@ def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
     assert m["gross_slip_step"] is not None
     assert m["max_newton_per_solve"] <= 25
     assert all(d >= -1e-12 for d in m["dissipation"])
+
+
+def test_ironing2d_short(shared_tmp):
+    """Ironing, short path: press 1.4 in 5 steps, slide 1.4 in 14 steps (0.1 per step,
+    one slab element), default mesh, slab as slave, ε_T = E*/h (the demo's defaults).
+    Measured (serial, ~31 s): 4 cutbacks (press), max Newton per solve 18, F_y 1.95–2.05;
+    F_x/F_y 0.087 → 0.312 while the slab shears under a sticking die (u_x ≤ 1), then
+    0.334, 0.342, 0.340, 0.337 with 0 stick / 44 slip nodes at the end (gross slip)."""
+    mu = 0.3
+    out = str(shared_tmp / "ironing2d-short")
+    argv = ["--press-steps", "5", "--slide-steps", "14", "--slide", "1.4", "--out", out]
+    m = demo_ironing2d.main(argv)
+    assert m["status"] == "ok" and m["t_reached"] == pytest.approx(2.0)
+    assert all(math.isfinite(f) for f in m["F_x"] + m["F_y"])
+    assert min(m["F_y"]) > 0.0 and m["F_y_press_end"] == pytest.approx(1.95, rel=0.02)
+    assert m["force_balance"] <= 1e-8
+    late = [r for r, u in zip(m["ratio"], m["u_x"], strict=True) if u >= 1.0 - 1e-9]
+    assert len(late) >= 5 and min(late) >= 0.9 * mu, late
+    assert m["slip_nodes"][-1] > 10 * m["stick_nodes"][-1]  # gross slip at the end
+    assert m["max_newton_per_solve"] <= 25
