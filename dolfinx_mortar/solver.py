@@ -51,8 +51,12 @@ class SolverSettings:
     prefix: str = "dm_"
 
 
-#: SNES divergence tolerance (relative growth of the residual norm that aborts a solve).
-DIVERGENCE_TOLERANCE = 1e2
+#: SNES divergence tolerance of a solve started from the extrapolated predictor: the
+#: relative growth of the residual norm that aborts it (the step is then retried from
+#: the converged state). From a far-off start the contact candidates, hence the Jacobian
+#: pattern, grow and every iteration gets expensive. Other solves keep PETSc's 1e4: a
+#: first contact can grow the residual 20-fold before converging.
+PREDICTOR_DIVERGENCE_TOLERANCE = 1e2
 
 
 class NewtonSolver:
@@ -73,10 +77,6 @@ class NewtonSolver:
             "snes_type": "newtonls",
             "snes_linesearch_type": settings.line_search,
             "snes_error_if_not_converged": False,
-            # stop a diverging Newton early (‖F‖ > 1e2 ‖F_0‖): from a far-off start the
-            # contact candidates, hence the Jacobian pattern, grow and each iteration gets
-            # expensive; the step is retried from the converged state or cut back
-            "snes_divergence_tolerance": DIVERGENCE_TOLERANCE,
             **_LINEAR[settings.linear],
             **settings.petsc,
         }
@@ -94,6 +94,7 @@ class NewtonSolver:
         self.snes.getKSP().setFromOptions()
         self.timings = {"linear_solve": 0.0}
         self._n_solves = 0
+        self._dtol = None
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -110,13 +111,23 @@ class NewtonSolver:
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
 
-    def solve(self, rtol: float | None = None) -> tuple[int, list[float]]:
+    def solve(
+        self, rtol: float | None = None, dtol: float | None = None
+    ) -> tuple[int, list[float]]:
         """Solve R(u) = 0 from the problem's current ``u`` (collective).
 
         ``rtol`` overrides the relative tolerance for this solve only (inexact Uzawa
-        rounds). Returns (iterations, residual norms per iteration). Raises ConvergenceError.
+        rounds); ``dtol`` the divergence tolerance (None: PETSc's default 1e4, or the user's
+        ``snes_divergence_tolerance``). Returns (iterations, residual norms per
+        iteration). Raises ConvergenceError.
         """
         s = self.settings
+        if dtol != self._dtol:
+            key = s.prefix + "snes_divergence_tolerance"
+            opts = PETSc.Options()
+            opts[key] = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
+            self.snes.setFromOptions()
+            self._dtol = dtol
         self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=s.atol)
         p = self.problem
         p.begin_solve()
@@ -187,7 +198,7 @@ class StepResult:
 
 
 def solve_step(
-    problem, newton: NewtonSolver, uzawa_max: int, inexact: bool = True
+    problem, newton: NewtonSolver, uzawa_max: int, inexact: bool = True, dtol=None
 ) -> tuple[list[int], list[list[float]], list[dict]]:
     """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle.
 
@@ -196,12 +207,13 @@ def solve_step(
     previous round: there is no point in a 1e-9 solve for multipliers that still move by
     1e-4. When the multipliers have settled after an inexact solve, one more solve at the
     full tolerance (same multipliers) makes the accepted state fully converged.
-    ``uzawa_max`` bounds the number of Uzawa rounds. Raises ConvergenceError.
+    ``uzawa_max`` bounds the number of Uzawa rounds; ``dtol`` goes to the first solve
+    (see :data:`PREDICTOR_DIVERGENCE_TOLERANCE`). Raises ConvergenceError.
     """
     its_all, norms_all, info_all = [], [], []
     rtol = None
-    for _ in range(max(uzawa_max, 1)):
-        its, norms = newton.solve(rtol)
+    for k in range(max(uzawa_max, 1)):
+        its, norms = newton.solve(rtol, dtol if k == 0 else None)
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()
@@ -274,7 +286,12 @@ class LoadStepper:
             p.set_time(t_new)
             p.begin_step()
             try:
-                its, norms, info = solve_step(p, self.newton, self.uzawa_max)
+                its, norms, info = solve_step(
+                    p,
+                    self.newton,
+                    self.uzawa_max,
+                    dtol=PREDICTOR_DIVERGENCE_TOLERANCE if predicted else None,
+                )
             except ConvergenceError as exc:
                 p.u.x.array[:] = saved
                 p.set_time(t)
