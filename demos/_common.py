@@ -272,6 +272,16 @@ def solver_stats(summary: dict) -> dict:
     }
 
 
+def solver_rows(m: dict, wall: float) -> list[tuple[str, str]]:
+    """The report rows of :func:`solver_stats` metrics and the wall time."""
+    return [
+        ("Newton iterations per step", str(m["newton_iterations"])),
+        ("max Newton per solve", str(m["max_newton_per_solve"])),
+        ("Uzawa rounds", str(m["uzawa_rounds"])),
+        ("wall time", f"{wall:.2f} s"),
+    ]
+
+
 def elastic(regions, E: float, nu: float, model: str = "linear-elastic") -> list[dict]:
     """``[[material]]`` entries: the same law for every region."""
     return [{"region": r, "model": model, "E": E, "nu": nu} for r in regions]

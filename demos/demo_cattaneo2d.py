@@ -150,10 +150,7 @@ def main(argv=None) -> dict:
             ("L2 error of q", f"{100 * m['l2_q']:.2f} %"),
             ("L2 error of p", f"{100 * m['l2_p']:.2f} %"),
             ("stick / slip nodes", f"{m['stick_nodes']} / {m['slip_nodes']}"),
-            ("Newton iterations per step", str(m["newton_iterations"])),
-            ("max Newton per solve", str(m["max_newton_per_solve"])),
-            ("Uzawa rounds", str(m["uzawa_rounds"])),
-            ("wall time", f"{wall:.2f} s"),
+            *cm.solver_rows(m, wall),
         ],
         comm,
     )

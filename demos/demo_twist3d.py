@@ -171,10 +171,7 @@ def main(argv=None) -> dict:
             ("torque history (t:M)", hist),
             ("normal load P", f"{m['P_measured']:.4f} (contact force {m['P_contact']:.4f})"),
             ("stick / slip nodes", f"{m['stick_nodes']} / {m['slip_nodes']}"),
-            ("Newton iterations per step", str(m["newton_iterations"])),
-            ("max Newton per solve", str(m["max_newton_per_solve"])),
-            ("Uzawa rounds", str(m["uzawa_rounds"])),
-            ("wall time", f"{wall:.2f} s"),
+            *cm.solver_rows(m, wall),
         ],
         comm,
     )

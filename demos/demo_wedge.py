@@ -123,10 +123,7 @@ def main(argv=None) -> dict:
             ),
             ("gross slip from t", str(m["t_gross_slip"])),
             ("stick / slip nodes (end)", f"{m['stick_nodes']} / {m['slip_nodes']}"),
-            ("Newton iterations per step", str(m["newton_iterations"])),
-            ("max Newton per solve", str(m["max_newton_per_solve"])),
-            ("Uzawa rounds", str(m["uzawa_rounds"])),
-            ("wall time", f"{wall:.2f} s"),
+            *cm.solver_rows(m, wall),
         ],
         comm,
     )

@@ -549,6 +549,29 @@ _register(
 # ---------------------------------------------------------------------------
 
 
+def _hemisphere_params(w_doc: str, h_contact: float, h_far: float, name: str) -> dict:
+    """Parameters shared by the hemisphere-on-a-block generators (hertz3d, twist3d)."""
+    return {
+        "R": (float, 8.0, "sphere radius"),
+        "gap0": (float, 0.0, "initial gap between sphere and block"),
+        "W": (float, 20.0, w_doc),
+        "H": (float, 20.0, "block height"),
+        **_zone_params(c_zone=1.5, h_contact=h_contact, h_far=h_far),
+        "grading": (float, 0.3, _GRADING[2]),
+        "order": _ORDER,
+        "quads": (bool, False, f"hexahedra: not available for {name} (must be false)"),
+    }
+
+
+def _hemisphere_checks(name: str) -> tuple:
+    return (
+        _positive("R", "W", "H", "c_zone", "h_contact", "h_far", "grading")
+        + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
+        + _ORDER_CHECK
+        + (("quads", lambda p: not p["quads"], f"hexahedra are not available for {name}"),)
+    )
+
+
 def _build_hertz3d(R, gap0, W, H, c_zone, h_contact, h_far, grading, order, quads):
     gmsh = _gmsh()
     occ = gmsh.model.occ
@@ -601,22 +624,12 @@ _register(
     Generator(
         name="hertz3d",
         description="quarter hemisphere on a block (x >= 0, y >= 0), tetrahedra",
-        params={
-            "R": (float, 8.0, "sphere radius"),
-            "gap0": (float, 0.0, "initial gap between sphere and block"),
-            "W": (float, 20.0, "block width (the quarter model is W/2 x W/2)"),
-            "H": (float, 20.0, "block height"),
-            **_zone_params(c_zone=1.5, h_contact=0.2, h_far=3.0),
-            "grading": (float, 0.3, _GRADING[2]),
-            "order": _ORDER,
-            "quads": (bool, False, "hexahedra: not available for hertz3d (must be false)"),
-        },
+        params=_hemisphere_params(
+            "block width (the quarter model is W/2 x W/2)", 0.2, 3.0, "hertz3d"
+        ),
         build=_build_hertz3d,
         gdim=3,
-        checks=_positive("R", "W", "H", "c_zone", "h_contact", "h_far", "grading")
-        + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
-        + _ORDER_CHECK
-        + (("quads", lambda p: not p["quads"], "hexahedra are not available for hertz3d"),),
+        checks=_hemisphere_checks("hertz3d"),
     )
 )
 
@@ -1239,22 +1252,10 @@ _register(
     Generator(
         name="twist3d",
         description="full lower hemisphere on a block (for twisting), tetrahedra",
-        params={
-            "R": (float, 8.0, "sphere radius"),
-            "gap0": (float, 0.0, "initial gap between sphere and block"),
-            "W": (float, 20.0, "block width (x and y)"),
-            "H": (float, 20.0, "block height"),
-            **_zone_params(c_zone=1.5, h_contact=0.3, h_far=4.0),
-            "grading": (float, 0.3, _GRADING[2]),
-            "order": _ORDER,
-            "quads": (bool, False, "hexahedra: not available for twist3d (must be false)"),
-        },
+        params=_hemisphere_params("block width (x and y)", 0.3, 4.0, "twist3d"),
         build=_build_twist3d,
         gdim=3,
-        checks=_positive("R", "W", "H", "c_zone", "h_contact", "h_far", "grading")
-        + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
-        + _ORDER_CHECK
-        + (("quads", lambda p: not p["quads"], "hexahedra are not available for twist3d"),),
+        checks=_hemisphere_checks("twist3d"),
     )
 )
 
