@@ -1,4 +1,4 @@
-"""MortarContact: one slave/master pair of the three-field mixed formulation (frictionless part).
+"""MortarContact: one slave/master pair of the three-field mixed formulation, with Coulomb friction.
 
 Per Newton iteration (``update``): fetch the current displacements of the
 slave facets and master candidates, refresh the master ghost layer when the
@@ -22,6 +22,13 @@ do not depend on the number of ranks.
 
 Integrals are over the reference slave surface: p^I is a nominal pressure
 (force per unit reference area), as the CSV output reports it.
+
+With ``friction > 0`` the tangential part (METHOD.md §1, §2, §4; the node-level
+formulas in :mod:`dolfinx_mortar.friction`, the point integrals in
+:mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (∂S^I/∂u)ᵀ t^I and its exact
+non-symmetric tangent, tangential multipliers to the Uzawa rounds, a slip history
+(u_n, λ_T = τ_n) committed per step and the chattering control of FREEZE_AFTER. With
+``friction = 0`` none of it is created.
 """
 
 from __future__ import annotations
@@ -81,7 +88,7 @@ def _plane_modulus(E: float, nu: float) -> float:
 
 
 class MortarContact:
-    """Frictionless mortar contact between two facet groups (collective construction).
+    """Mortar contact (frictionless or Coulomb) between two facet groups (collective construction).
 
     Parameters
     ----------
