@@ -1,4 +1,5 @@
-"""Parallel runs against serial ones: the same nodal pressures and contact forces on 1, 2, 3 ranks.
+"""Parallel runs against serial ones: the same nodal pressures, tangential tractions, slip
+and stick/slip states, and contact forces on 1, 2, 3 ranks.
 
 Under ``mpirun -n N`` each test runs the scene on COMM_WORLD (N ranks) and, on
 rank 0, the same scene on COMM_SELF (serial); the CSV tables (sorted by
@@ -58,6 +59,34 @@ HERTZ3D = {
     "steps": {"n": 1},
 }
 
+CATTANEO2D = {
+    "kinematics": "small",
+    "mesh": {
+        "generator": "cattaneo2d",
+        "params": {"h_contact": 0.1, "c_zone": 1.0, "h_far": 3.0},
+    },
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3} for r in ("upper", "lower")
+    ],
+    "contact": [
+        {
+            "slave": "upper_surface",
+            "master": "lower_surface",
+            "friction": 0.2,
+            "uzawa_tol": 1e-9,
+            "uzawa_max": 60,
+        }
+    ],
+    "dirichlet": [
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+        {
+            "boundary": "upper_top",
+            "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.15], [2.0, 0.025, -0.15]],
+        },
+    ],
+    "steps": {"t_end": 2.0, "n": 4},
+}
+
 
 def _run(data, out, comm):
     d = dict(data, output={"dir": str(out), "fields": ["displacement", "contact_pressure"]})
@@ -67,7 +96,11 @@ def _run(data, out, comm):
 @pytest.mark.mpi
 @pytest.mark.parametrize(
     "name, data, slave",
-    [("hertz2d", HERTZ2D, "cylinder_surface"), ("hertz3d", HERTZ3D, "sphere_surface")],
+    [
+        ("hertz2d", HERTZ2D, "cylinder_surface"),
+        ("hertz3d", HERTZ3D, "sphere_surface"),
+        ("cattaneo2d-friction", CATTANEO2D, "upper_surface"),
+    ],
 )
 def test_parallel_equals_serial(shared_tmp, name, data, slave):
     comm = MPI.COMM_WORLD
@@ -90,6 +123,10 @@ def test_parallel_equals_serial(shared_tmp, name, data, slave):
         scale = ts[:, pcol].max()
         np.testing.assert_allclose(tp[:, pcol], ts[:, pcol], rtol=0, atol=1e-8 * scale)
         np.testing.assert_allclose(tp[:, :pcol], ts[:, :pcol], rtol=0, atol=1e-10)
+        # tangential traction, gap, slip and state (friction: stick and slip both present)
+        np.testing.assert_allclose(tp[:, pcol + 1 :], ts[:, pcol + 1 :], rtol=0, atol=1e-8 * scale)
+        if "friction" in name:
+            assert set(np.unique(ts[:, -1])) >= {1.0, 2.0}
         fp = np.array(
             par["steps"][-1]["contact_force"][next(iter(par["steps"][-1]["contact_force"]))]
         )
