@@ -1,0 +1,260 @@
+"""Hard-case stability sweep: each scene of ``bench/scenes`` through the command line.
+
+Every case is one scene file run as a user runs it, in its own process::
+
+    OMP_NUM_THREADS=1 /usr/bin/python3 -m dolfinx_mortar run SCENE --out OUT/runs/CASE
+
+(serially, one process at a time), and its ``summary.json`` is read back. Cases
+(``--cases``, default all; ``--quick``: the hertz2d gap and penetration and the four patch
+cases, which take seconds each):
+
+- ``hertz2d_auto``: the demo's scene (penalty "auto", Uzawa 1e-6): the reference row;
+- ``hertz2d_gap``: initial gap 0.01 under force control (the cylinder is held by
+  contact only);
+- ``hertz2d_penetration``: initial penetration 0.02 under force control;
+- ``hertz2d_penalty_low`` / ``_high``: penalty 1e-2 × and 1e3 × the auto-equivalent
+  (ε h/E* = 1 and 1e5), Uzawa at the default tolerance;
+- ``patch2d_ratio4_*`` / ``patch2d_ratio1_4_*``: the contact patch test with
+  h_master/h_slave = 4 (5 master, 20 slave elements) and 1/4 (20 master, 5 slave), element and
+  segment integration;
+- ``slide_cattaneo2d``: large frictionless sliding (press 0.05, slide 1.0 in 20 steps).
+
+Recorded per case: completed (exit status 0 and ``status = "ok"``), converged steps,
+cutbacks (those of a step that finally failed included, from the error message), total
+Newton iterations and the largest per step (all Uzawa rounds of the step; failed attempts
+are not in summary.json, so not counted), Uzawa rounds, the process's wall time (start-up,
+mesh and JIT included) and the load stepping's own time (summary ``timings.total``), and
+the final error where there is an analytic reference: hertz2d (force control, so the
+initial gap or penetration does not change the final state): the L2 pressure error and the
+peak error against Hertz with the measured load (``demos/demo_hertz2d.evaluate``); patch2d:
+max |p/p0 − 1| over the slave nodes. Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
+
+    OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from time import perf_counter
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "bench" / "scenes"
+for _p in (str(ROOT / "demos"), str(ROOT)):
+    if _p not in sys.path:
+        sys.path.insert(0, _p)
+
+#: case -> (scene file stem, reference: "hertz2d" | "patch2d" | None, what it tests)
+CASES = {
+    "hertz2d_auto": ("hertz2d_auto", "hertz2d", "reference: demo scene, penalty auto, Uzawa"),
+    "hertz2d_gap": ("hertz2d_gap", "hertz2d", "initial gap 0.01, force control"),
+    "hertz2d_penetration": ("hertz2d_penetration", "hertz2d", "initial penetration 0.02"),
+    "hertz2d_penalty_low": ("hertz2d_penalty_low", "hertz2d", "penalty 1e-2 × auto, Uzawa"),
+    "hertz2d_penalty_high": ("hertz2d_penalty_high", "hertz2d", "penalty 1e3 × auto, Uzawa"),
+    "patch2d_ratio4_element": ("patch2d_ratio4_element", "patch2d", "h_m/h_s = 4, element"),
+    "patch2d_ratio4_segment": ("patch2d_ratio4_segment", "patch2d", "h_m/h_s = 4, segment"),
+    "patch2d_ratio1_4_element": ("patch2d_ratio1_4_element", "patch2d", "h_m/h_s = 1/4, element"),
+    "patch2d_ratio1_4_segment": ("patch2d_ratio1_4_segment", "patch2d", "h_m/h_s = 1/4, segment"),
+    "slide_cattaneo2d": ("slide_cattaneo2d", None, "frictionless sliding 1.0 in 20 steps"),
+}
+QUICK = (
+    "hertz2d_gap",
+    "hertz2d_penetration",
+    "patch2d_ratio4_element",
+    "patch2d_ratio4_segment",
+    "patch2d_ratio1_4_element",
+    "patch2d_ratio1_4_segment",
+)
+
+COLUMNS = (
+    "case",
+    "scene",
+    "what",
+    "completed",
+    "exit_code",
+    "steps",
+    "cutbacks",
+    "newton_total",
+    "newton_max_step",
+    "uzawa_rounds",
+    "wall",
+    "solve_time",
+    "l2_err",
+    "p_max_err",
+    "max_dev",
+    "max_penetration",
+    "error",
+)
+
+
+def run_cli(scene: Path, out_dir: Path, timeout: float) -> tuple[int, float, str]:
+    """Run the scene through ``python3 -m dolfinx_mortar run`` (one process, serial)."""
+    env = dict(os.environ)
+    env["OMP_NUM_THREADS"] = "1"
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", str(scene), "--out", str(out_dir)]
+    t0 = perf_counter()
+    try:
+        proc = subprocess.run(
+            cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout, check=False
+        )
+        rc, stdout, stderr = proc.returncode, proc.stdout or "", proc.stderr or ""
+    except subprocess.TimeoutExpired as exc:
+        rc, stdout = 124, exc.stdout or ""
+        stderr = f"{exc.stderr or ''}\ntimed out after {timeout:g} s"
+        stdout = stdout.decode() if isinstance(stdout, bytes) else stdout
+        stderr = stderr.decode() if isinstance(stderr, bytes) else stderr
+    wall = perf_counter() - t0
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "cli.log").write_text(" ".join(cmd) + "\n" + stdout + stderr)
+    tail = stderr.strip().splitlines()[-1:]
+    return rc, wall, tail[0] if tail else ""
+
+
+def failed_cutbacks(error: str) -> int:
+    m = re.search(r"failed after (\d+) cutbacks", error or "")
+    return int(m.group(1)) if m else 0
+
+
+def evaluate(reference: str | None, summary: dict, out_dir: Path) -> dict:
+    """Final error against the analytic reference (completed runs only)."""
+    import numpy as np
+
+    if reference == "hertz2d":
+        import demo_hertz2d as hz
+
+        m = hz.evaluate(summary, out_dir)
+        return {"l2_err": m["l2"], "p_max_err": m["p_max_err"]}
+    if reference == "patch2d":
+        import _common as cm
+
+        p = cm.final_csv(out_dir, "upper_bottom")["p_N"]
+        return {"max_dev": float(np.max(np.abs(p / 2.0 - 1.0)))}
+    return {}
+
+
+def run_case(case: str, out: Path, timeout: float) -> dict:
+    stem, reference, what = CASES[case]
+    scene = SCENES / f"{stem}.toml"
+    out_dir = out / "runs" / case
+    rc, wall, tail = run_cli(scene, out_dir, timeout)
+    row = {"case": case, "scene": f"bench/scenes/{stem}.toml", "what": what, "exit_code": rc}
+    row["wall"] = wall
+    summary = {}
+    try:
+        summary = json.loads((out_dir / "summary.json").read_text())
+    except (OSError, ValueError):
+        pass
+    steps = summary.get("steps", [])
+    per_step = [
+        int(sum(s["newton_iterations"]))
+        if isinstance(s["newton_iterations"], list)
+        else int(s["newton_iterations"])
+        for s in steps
+    ]
+    error = summary.get("error") or ("" if rc == 0 else tail)
+    row.update(
+        completed=rc == 0 and summary.get("status") == "ok",
+        steps=len(steps),
+        cutbacks=int(sum(int(s.get("cutbacks", 0)) for s in steps)) + failed_cutbacks(error),
+        newton_total=sum(per_step),
+        newton_max_step=max(per_step, default=0),
+        uzawa_rounds=int(sum(int(s.get("uzawa_rounds", 0)) for s in steps)),
+        solve_time=float(summary.get("timings", {}).get("total", float("nan"))),
+        max_penetration=float(steps[-1]["max_penetration"]) if steps else float("nan"),
+        error=(error or "")[:200],
+    )
+    if row["completed"]:
+        row.update(evaluate(reference, summary, out_dir))
+    return row
+
+
+def _fmt(v):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return "" if math.isnan(v) else f"{v:.6g}"
+    return v
+
+
+def write_csv(rows, path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _fmt(r.get(k)) for k in COLUMNS})
+
+
+def _err(r, md: bool = True) -> str:
+    if not r["completed"]:
+        return "–"
+    if r.get("l2_err") is not None:
+        return f"L2 {100 * r['l2_err']:.2f} %, p_max {100 * r['p_max_err']:+.2f} %"
+    if r.get("max_dev") is not None:
+        bar = "\\|" if md else "|"
+        return f"max {bar}p/p0 − 1{bar} {r['max_dev']:.1e}"
+    return "no analytic reference"
+
+
+def write_markdown(rows, path, command: str) -> None:
+    lines = [
+        "# Hard-case stability sweep",
+        "",
+        f"    {command}",
+        "",
+        "| case | what | completed | steps | cutbacks | Newton total | max Newton/step "
+        "| Uzawa rounds | wall (s) | solve (s) | final error |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['case']} | {r['what']} | {'yes' if r['completed'] else 'no'} | {r['steps']} "
+            f"| {r['cutbacks']} | {r['newton_total']} | {r['newton_max_step']} "
+            f"| {r['uzawa_rounds']} | {r['wall']:.1f} | {_fmt(round(r['solve_time'], 2))} "
+            f"| {_err(r)} |"
+        )
+    failed = [r for r in rows if not r["completed"]]
+    if failed:
+        lines += ["", "Cases that did not complete:", ""]
+        lines += [f"- {r['case']} (exit {r['exit_code']}): {r['error']}" for r in failed]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def main(argv=None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="bench/out/hard_cases", help="output directory")
+    ap.add_argument("--cases", nargs="+", choices=list(CASES), default=None)
+    ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
+    ap.add_argument("--timeout", type=float, default=1800.0, help="per case, seconds [1800]")
+    args = ap.parse_args(argv)
+    cases = args.cases or (list(QUICK) if args.quick else list(CASES))
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    command = "OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py " + " ".join(
+        argv if argv is not None else sys.argv[1:]
+    )
+    rows = []
+    for case in cases:
+        row = run_case(case, out, args.timeout)
+        rows.append(row)
+        print(
+            f"[hard] {case}: completed={row['completed']}, steps={row['steps']}, "
+            f"cutbacks={row['cutbacks']}, newton={row['newton_total']} "
+            f"(max {row['newton_max_step']}/step), uzawa={row['uzawa_rounds']}, "
+            f"wall={row['wall']:.1f} s, error={_err(row, md=False)}",
+            flush=True,
+        )
+        write_csv(rows, out / "hard_cases.csv")
+    write_markdown(rows, out / "hard_cases.md", command)
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
