@@ -77,11 +77,15 @@ class NewtonSolver:
             "snes_type": "newtonls",
             "snes_linesearch_type": settings.line_search,
             "snes_error_if_not_converged": False,
+            "snes_divergence_tolerance": 1e4,
             **_LINEAR[settings.linear],
             **settings.petsc,
         }
-        for k, v in defaults.items():
-            opts[settings.prefix + k] = v
+        # Written to the global database for setFromOptions, removed again by destroy(): a
+        # later solver with the same prefix must not inherit this one's settings.
+        self._option_keys = [settings.prefix + k for k in defaults]
+        for key, v in zip(self._option_keys, defaults.values(), strict=True):
+            opts[key] = v
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
         self.snes.setFunction(self._F, self._b)
@@ -157,6 +161,10 @@ class NewtonSolver:
         return its, norms
 
     def destroy(self) -> None:
+        opts = PETSc.Options()
+        for key in self._option_keys:
+            opts.delValue(key)
+        self._option_keys = []
         self.snes.destroy()
         self._A.destroy()
         self._b.destroy()

@@ -117,3 +117,23 @@ def test_p2_every_cell_type(block_msh, shared_tmp, dim, quads):
     assert s["modelled"]["displacement_degree"] == 2
     Eeff = E / (1 - NU**2) if dim == 2 else E
     assert _reaction_right(s) == pytest.approx(Eeff * delta / L, rel=1e-8)
+
+
+def test_solver_leaves_no_petsc_options(block_msh, shared_tmp):
+    """A run removes the options its solver wrote to PETSc's global database, so a later
+    run in the same process (benchmarks, tests) starts from the documented defaults, not
+    from the last solver's divergence tolerance or line search."""
+    from petsc4py import PETSc
+
+    from dolfinx_mortar.solver import SolverSettings
+
+    prefix = SolverSettings().prefix
+    opts = PETSc.Options()
+    before = {k for k in opts.getAll() if k.startswith(prefix)}
+    msh = block_msh(2, n=2)
+    s = run(
+        _scene(msh, 2, "linear-elastic", "small", 1e-3, shared_tmp / "out_opts"), MPI.COMM_WORLD
+    )
+    assert s["status"] == "ok"
+    after = {k for k in opts.getAll() if k.startswith(prefix)}
+    assert after == before
