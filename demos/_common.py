@@ -29,8 +29,11 @@ from mpi4py import MPI
 ACTIVE_TOL = 0.01
 
 
-def parser(description: str, out: str, integration: bool = True) -> argparse.ArgumentParser:
-    """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``."""
+def parser(
+    description: str, out: str, integration: bool = True, recovery: bool = False
+) -> argparse.ArgumentParser:
+    """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``
+    and ``--recovery``."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument(
         "--refine",
@@ -46,6 +49,13 @@ def parser(description: str, out: str, integration: bool = True) -> argparse.Arg
             default="element",
             help="mortar integration: slave quadrature, exact segments, or the node-to-segment "
             "baseline [element]",
+        )
+    if recovery:
+        ap.add_argument(
+            "--recovery",
+            choices=("lumped", "unconstrained", "constrained"),
+            default="lumped",
+            help="recovery of the nodal mixed gap and pressure (METHOD.md §3) [lumped]",
         )
     return ap
 

@@ -11,7 +11,7 @@ interface pressure is p0 at every slave node.
 
 Contact: slave ``upper_bottom`` (the finer side), master ``lower_top``; with
 ``--swap`` slave ``lower_top`` (the coarser side), master ``upper_bottom``.
-Lumped recovery, penalty "auto", Uzawa to 1e-8, one load step.
+Lumped recovery (``--recovery``), penalty "auto", Uzawa to 1e-8, one load step.
 
 Metrics: max |p/p0 - 1| over all slave nodes, the normal contact force against
 p0 × area, the number of slave nodes not in contact. Expected: round-off with
@@ -29,7 +29,14 @@ P0 = 2.0
 L = 1.0
 
 
-def scene(dim: int, refine: int = 0, integration: str = "element", swap: bool = False, quads=True):
+def scene(
+    dim: int,
+    refine: int = 0,
+    integration: str = "element",
+    swap: bool = False,
+    quads=True,
+    recovery: str = "lumped",
+):
     """Scene dict of the patch test in ``dim`` = 2 or 3 dimensions."""
     n_lower, n_upper = (5, 7) if dim == 2 else (4, 5)
     k = 2**refine
@@ -67,7 +74,7 @@ def scene(dim: int, refine: int = 0, integration: str = "element", swap: bool = 
             {
                 "slave": slave,
                 "master": master,
-                "recovery": "lumped",
+                "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
                 "uzawa_tol": 1e-8,
@@ -106,7 +113,7 @@ def evaluate(summary: dict, out_dir, dim: int, slave: str, master: str) -> dict:
 
 
 def main(dim: int, argv=None) -> dict:
-    ap = cm.parser(f"Contact patch test, {dim}D", f"results/demo_patch{dim}d")
+    ap = cm.parser(f"Contact patch test, {dim}D", f"results/demo_patch{dim}d", recovery=True)
     ap.add_argument(
         "--swap", action="store_true", help="slave = lower_top (the coarser side), master = upper"
     )
@@ -115,16 +122,17 @@ def main(dim: int, argv=None) -> dict:
     )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    sc = scene(dim, args.refine, args.integration, args.swap, quads=not args.tri)
+    sc = scene(dim, args.refine, args.integration, args.swap, not args.tri, args.recovery)
     slave, master = sc["contact"][0]["slave"], sc["contact"][0]["master"]
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, dim, slave, master, comm=comm)
     m["wall_time"] = wall
     m["integration"] = args.integration
+    m["recovery"] = args.recovery
     m["slave"] = slave
     cm.report(
         f"patch{dim}d: slave {slave} ({'coarser' if args.swap else 'finer'}), master {master}, "
-        f"{args.integration}, refine {args.refine}, {m['ranks']} rank(s), {m['dofs']} dofs, "
+        f"{args.integration}, {args.recovery}, refine {args.refine}, {m['ranks']} rank(s), {m['dofs']} dofs, "
         f"{m['slave_nodes']} slave nodes",
         [
             ("max |p/p0 - 1|", f"{m['p_err']:.3e} (p in [{m['p_min']:.6f}, {m['p_max']:.6f}])"),

@@ -4,7 +4,7 @@ Half model (generator ``hertz2d``, x >= 0): the quarter disc carries half the lo
 P/2 = 5 per unit length, as the uniform traction -P/(2R) on its flat top
 ``cylinder_top`` (length R); ``block_bottom`` is clamped, ``symmetry`` has u_x = 0.
 Both bodies linear-elastic (E = 200, nu = 0.3), small kinematics; contact slave
-``cylinder_surface``, master ``block_top``, lumped recovery, penalty "auto",
+``cylinder_surface``, master ``block_top``, lumped recovery (``--recovery``), penalty "auto",
 Uzawa to 1e-6, 4 load steps.
 
 The nodal pressures of the final step are mirrored onto x < 0 and compared with
@@ -38,11 +38,16 @@ SLAVE, MASTER = "cylinder_surface", "block_top"
 
 
 def scene(
-    refine: int = 0, order: int = 1, integration: str = "element", steps: int = 4, quads=False
+    refine: int = 0,
+    order: int = 1,
+    integration: str = "element",
+    steps: int = 4,
+    quads=False,
+    recovery: str = "lumped",
 ) -> dict:
     """The scene dict (SCENES.md) of the half model at refinement level ``refine``."""
     return {
-        "title": f"hertz2d half model, refine {refine}, order {order}, {integration}",
+        "title": f"hertz2d half model, refine {refine}, order {order}, {integration}, {recovery}",
         "kinematics": "small",
         "mesh": {
             "generator": "hertz2d",
@@ -62,7 +67,7 @@ def scene(
                 "slave": SLAVE,
                 "master": MASTER,
                 "friction": 0.0,
-                "recovery": "lumped",
+                "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
                 "uzawa_tol": 1e-6,
@@ -111,18 +116,19 @@ def evaluate(summary: dict, out_dir) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz2d")
+    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz2d", recovery=True)
     ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
     ap.add_argument("--steps", type=int, default=4, help="load steps [4]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    sc = scene(args.refine, args.order, args.integration, args.steps)
+    sc = scene(args.refine, args.order, args.integration, args.steps, recovery=args.recovery)
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall
     h = H_CONTACT / 2**args.refine
     cm.report(
         f"hertz2d (half model): h_contact = {h:g}, P{args.order}, {args.integration}, "
+        f"{args.recovery}, "
         f"{m['ranks']} rank(s), {m['dofs']} dofs, {m['slave_nodes']} slave nodes",
         [
             ("measured load P = 2 Fy", f"{m['P_measured']:.6f} (applied {P:g})"),

@@ -5,7 +5,7 @@ carries P/4 of the total load P = 10, as the uniform traction -P/(pi R²) on its
 flat top ``sphere_top`` (area pi R²/4); ``block_bottom`` is clamped,
 ``symmetry_x`` has u_x = 0 and ``symmetry_y`` u_y = 0. Both bodies linear-elastic
 (E = 200, nu = 0.3), small kinematics; contact slave ``sphere_surface``, master
-``block_top``, lumped recovery, penalty "auto", Uzawa to 1e-6, 2 load steps.
+``block_top``, lumped recovery (``--recovery``), penalty "auto", Uzawa to 1e-6, 2 load steps.
 
 Reference: a = (3 P R*/(4 E*))^(1/3), p0 = 3P/(2 pi a²) with R* = R, E* = E/(2(1 - nu²))
 and the MEASURED load P = 4 × the z-component of the contact force (the faceted top
@@ -52,11 +52,17 @@ H_CONTACT = 0.25
 SLAVE, MASTER = "sphere_surface", "block_top"
 
 
-def scene(refine: int = 0, integration: str = "element", W: float = 10.0, steps: int = 2) -> dict:
+def scene(
+    refine: int = 0,
+    integration: str = "element",
+    W: float = 10.0,
+    steps: int = 2,
+    recovery: str = "lumped",
+) -> dict:
     """The scene dict of the quarter model at refinement level ``refine``."""
     h = H_CONTACT / 2**refine
     return {
-        "title": f"hertz3d quarter model, refine {refine}, {integration}",
+        "title": f"hertz3d quarter model, refine {refine}, {integration}, {recovery}",
         "kinematics": "small",
         "mesh": {
             "generator": "hertz3d",
@@ -78,7 +84,7 @@ def scene(refine: int = 0, integration: str = "element", W: float = 10.0, steps:
             {
                 "slave": SLAVE,
                 "master": MASTER,
-                "recovery": "lumped",
+                "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
                 "uzawa_tol": 1e-6,
@@ -193,16 +199,18 @@ def evaluate(summary: dict, out_dir) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz3d")
+    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz3d", recovery=True)
     ap.add_argument("--W", type=float, default=10.0, help="block width and height [10]")
     ap.add_argument("--steps", type=int, default=2, help="load steps [2]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    summary, wall = cm.run_scene(scene(args.refine, args.integration, args.W, args.steps), args.out)
+    sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery)
+    summary, wall = cm.run_scene(sc, args.out)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall
     cm.report(
         f"hertz3d (quarter model): h_contact = {H_CONTACT / 2**args.refine:g}, {args.integration}, "
+        f"{args.recovery}, "
         f"{m['ranks']} rank(s), {m['dofs']} dofs, {m['slave_nodes']} slave nodes",
         [
             ("measured load P = 4 Fz", f"{m['P_measured']:.5f} (applied {P:g})"),

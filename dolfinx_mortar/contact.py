@@ -14,6 +14,10 @@ lumped. The contact residual and its exact tangent are
     R_c = −Σ_I p^I B^I,
     K_c = Σ_I (ε^I H^I / A^I) B^I ⊗ B^I − Σ_I p^I ∂²G^I/∂u²,   H^I = [λ^I − ε^I γ^I ≥ 0].
 
+The unconstrained and constrained recoveries keep the consistent mortar matrix M
+(:mod:`dolfinx_mortar.recovery`, which also gives their tangent Σ_I d_I a^I ⊗ c^I); the
+slave-surface system, one value per node, is gathered on every rank for them.
+
 Uzawa augmentation (METHOD.md §5): after a converged Newton solve λ^I ← p^I
 until max_I |p^I − λ^I| ≤ uzawa_tol · max_I p^I; ``uzawa_tol = 0`` is pure
 penalty. Each rank computes the nodes it owns (it receives every slave facet
@@ -36,10 +40,12 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+import scipy.sparse as sp
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import friction as fr
+from . import recovery as rc
 from .errors import SceneError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
@@ -50,7 +56,7 @@ from .surface import extract_facets, mixed_nodes, nodal_rule, quadrature
 
 log = logging.getLogger(__name__)
 
-RECOVERIES = ("lumped",)
+RECOVERIES = rc.RECOVERIES
 INTEGRATIONS = ("element", "segment", "node")
 #: Default slave-facet quadrature degree per facet type (INTERVAL1, INTERVAL2, TRIANGLE1,
 #: TRIANGLE2, QUAD1, QUAD2): Gauss rules WITHOUT a point at the facet centre. On structured
@@ -66,6 +72,9 @@ AUTO_PENALTY_FACTOR = 100.0
 #: nodes whose trial traction sits near the Coulomb cone (Cattaneo–Mindlin first
 #: contact); the Uzawa rounds remove the elastic stick slip that the softer penalty allows.
 AUTO_PENALTY_T_FACTOR = 10.0
+#: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
+#: × its area enters the mortar mass matrix lumped.
+PARTIAL_FACET_TOL = 1e-9
 #: Upper bound of the Aitken relaxation of the Uzawa update.
 OMEGA_MAX = 10.0
 #: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
@@ -229,6 +238,13 @@ class MortarContact:
         )
         self.mu = float(friction)
         self.frictional = self.mu > 0.0
+        if self.frictional and recovery != "lumped":
+            raise SceneError(
+                f"{key}.recovery",
+                f"friction is implemented with the lumped recovery only (got {recovery!r})",
+            )
+        if recovery != "lumped":
+            self._init_mixed_numbering()
         if self.frictional:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential)
 
@@ -238,7 +254,11 @@ class MortarContact:
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)
         self.p = np.zeros(n)
+        self.p_hat = np.zeros(n)
+        self.active = np.zeros(n, bool)
         self.kcoef = np.zeros(n)
+        self._recovered = None
+        self._learned = np.empty(0, np.int64)
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
@@ -567,25 +587,54 @@ class MortarContact:
                 return
             self.seg_capacity = int(2 * max(-count.min(), cap))
 
+    def _init_mixed_numbering(self) -> None:
+        """Global slave-node numbers for the unconstrained and constrained recoveries.
+
+        Node g = (rank offset) + (index among the rank's owned nodes), so that the owned
+        arrays of all ranks, concatenated in rank order, are in g order. ``facet_gid``
+        (nsf, nphi) numbers every mixed node of the local slave facets (collective)."""
+        comm = self.comm
+        nsf = self.slave.num_facets
+        nq = self.rule[1].size
+        xi, w = np.zeros((nsf, nq, self.rule[0].shape[1])), np.zeros((nsf, nq))
+        if nsf:
+            kmortar.reference_weights(self.ftype, self.slave.X, *self.rule, xi, w)
+        self.facet_area = w.sum(axis=1)
+        counts = comm.allgather(self.node_blocks.size)
+        self.gid_offset = int(sum(counts[: comm.rank]))
+        blocks = np.concatenate(comm.allgather(self.node_blocks))
+        order = np.argsort(blocks, kind="stable")
+        mb = self.slave.blocks[:, self.mixed]
+        self.facet_gid = order[np.searchsorted(blocks[order], mb)].astype(np.int64)
+
     def _recover(self) -> None:
-        """Lumped recovery: γ = G/A, p = ⟨λ − ε γ⟩, tangent coefficient ε H / A (collective)."""
+        """Nodal recovery (:mod:`dolfinx_mortar.recovery`): γ, p̂ = ⟨λ − εγ⟩, p and the
+        tangent data (collective)."""
         eps = self.eps
         has = self.A > 1e-12 * self.h_node ** (self.gdim - 1)
         safe_A = np.where(has, self.A, 1.0)
-        gamma = np.where(has, self.G / safe_A, 0.0)
-        trial = self.lmbda - eps * gamma
-        active = has & (trial >= 0.0)
-        self.gamma, self.has_area = gamma, has
-        self.p = np.where(active, trial, 0.0)
+        self.has_area = has
+        if self.recovery == "lumped":
+            # node-local: γ = G/A, p = ⟨λ − ε γ⟩, tangent coefficient ε H / A
+            gamma = np.where(has, self.G / safe_A, 0.0)
+            trial = self.lmbda - eps * gamma
+            active = has & (trial >= 0.0)
+            self.gamma = gamma
+            self.p = self.p_hat = np.where(active, trial, 0.0)
+            self.kcoef = np.where(active, eps / safe_A, 0.0)
+        else:
+            self._recover_mixed(has)
+            active = self.p_hat > 0.0
+            self.kcoef = np.zeros_like(eps)
         self.active = active
-        self.kcoef = np.where(active, eps / safe_A, 0.0)
         self.predictor_nodes = 0
         if self.comm.allreduce(int(active.sum())) == 0:
             # Nothing in contact: a body held only by contact would have a singular Jacobian.
             # The nodes closest to contact (within 1e-3 h of the smallest gap, and closer than
-            # one facet size) get the penalty stiffness in the TANGENT only (the residual stays
-            # exact), so the first Newton step brings the bodies into contact. Switched off as
-            # soon as one node is active, where the tangent is exact again.
+            # one facet size) get the lumped penalty stiffness in the TANGENT only (the
+            # residual stays exact), so the first Newton step brings the bodies into contact.
+            # Switched off as soon as one node is active, where the tangent is exact again.
+            gamma = self.gamma
             gmin = self.comm.allreduce(float(gamma[has].min(initial=np.inf)), op=MPI.MIN)
             near = has & (gamma <= gmin + 1e-3 * self.h_mean) & (gamma < self.h_node)
             self.kcoef = np.where(near, eps / safe_A, 0.0)
@@ -593,6 +642,39 @@ class MortarContact:
             self.active = np.zeros_like(active)
         if self.frictional:
             self._recover_tangential()
+
+    def _recover_mixed(self, has) -> None:
+        """Unconstrained or constrained recovery on the gathered slave-surface system: the
+        mortar mass matrix (rows of the owned nodes from each rank) and the nodal vectors
+        are gathered on every rank, which solves the same system (collective)."""
+        comm = self.comm
+        nsf, nphi = self.node_of.shape
+        Mf = np.zeros((nsf, nphi, nphi))
+        if nsf:
+            kmortar.facet_mass(self.ftype_phi, self.qp_xi, self.qp_w, self.qp_m, Mf)
+            # A facet paired over part of its area only (the edge of the paired region, a
+            # slave facet beyond the master's edge) enters lumped: with few paired points
+            # its consistent block is rank deficient. The row sums, M·1 = A, are kept.
+            paired = np.where(self.qp_m >= 0, self.qp_w, 0.0).sum(axis=1)
+            partial = np.flatnonzero(paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
+            sums = Mf[partial].sum(axis=2)
+            Mf[partial] = 0.0
+            Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
+        fi, ii = np.nonzero(self.node_of >= 0)
+        rows = np.repeat(self.facet_gid[fi, ii], nphi)
+        cols = self.facet_gid[fi].ravel()
+        vals = Mf[fi, ii].ravel()
+        n = self.node_blocks.size
+        local = np.concatenate([self.A, self.G, self.lmbda, self.eps, has.astype(float)])
+        parts = comm.allgather((rows, cols, vals, local.reshape(5, n)))
+        rows, cols, vals = (np.concatenate([q[k] for q in parts]) for k in range(3))
+        A, G, lam, eps, has_all = np.concatenate([q[3] for q in parts], axis=1)
+        N = A.size
+        M = sp.csr_matrix((vals, (rows, cols)), shape=(N, N))
+        rec = rc.recover(self.recovery, M, A, G, lam, eps, has_all > 0.5)
+        own = slice(self.gid_offset, self.gid_offset + n)
+        self.gamma, self.p_hat, self.p = rec.gamma[own], rec.p_hat[own], rec.p[own]
+        self._recovered = rec
 
     def _recover_tangential(self, frozen="current"):
         """Lumped tangential recovery γ = a·S/A_T and the return mapping (local).
@@ -692,30 +774,91 @@ class MortarContact:
             idx = res_idx[r].astype(PETSc.IntType)
             A.setValues(idx, idx, hess_val[r], addv=ADD)
         # B^I ⊗ B^I of the nodes with a tangent coefficient
-        b_off = np.zeros(b_count.size + 1, np.int64)
-        np.cumsum(b_count, out=b_off[1:])
-        b_idx = np.empty(b_off[-1], np.int64)
-        b_val = np.empty(b_off[-1])
-        if self.slave.num_facets:
-            kmortar.node_rows(
-                *self._point_args(sdofs, mdofs),
-                self.kcoef,
-                b_off,
-                b_idx,
-                b_val,
-            )
-        c_off = np.zeros_like(b_off)
-        c_idx = np.empty_like(b_idx)
-        c_val = np.empty_like(b_val)
-        kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+        c_off, c_idx, c_val = self._b_rows(self.kcoef, sdofs, mdofs, b_count)
         for node in np.flatnonzero(self.kcoef > 0.0):
             s, e = c_off[node], c_off[node + 1]
             if e > s:
                 idx = c_idx[s:e].astype(PETSc.IntType)
                 v = c_val[s:e]
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
+        if self._recovered is not None and self.recovery != "lumped":
+            self._add_mixed_jacobian(A, sdofs, mdofs)
         if self.frictional:
             self._add_tangential_jacobian(A, c_off, c_idx, c_val)
+
+    def _b_rows(self, mask, sdofs, mdofs, b_count=None):
+        """Rows B^I = ∂G^I/∂u of the owned nodes with mask > 0, as CSR (c_off, c_idx, c_val)
+        with sorted global dofs (constrained dofs dropped)."""
+        if b_count is None:
+            nloc = (self.slave.nodes_per_facet + self.master.nodes_per_facet) * self.gdim
+            paired = np.count_nonzero(self.qp_m >= 0, axis=1)
+            fi, ii = np.nonzero(self.node_of >= 0)
+            nodes = self.node_of[fi, ii]
+            sel = mask[nodes] > 0.0
+            b_count = np.zeros(self.node_blocks.size, np.int64)
+            np.add.at(b_count, nodes[sel], nloc * paired[fi[sel]])
+        b_off = np.zeros(b_count.size + 1, np.int64)
+        np.cumsum(b_count, out=b_off[1:])
+        b_idx = np.empty(b_off[-1], np.int64)
+        b_val = np.empty(b_off[-1])
+        if self.slave.num_facets:
+            kmortar.node_rows(*self._point_args(sdofs, mdofs), mask, b_off, b_idx, b_val)
+        c_off = np.zeros_like(b_off)
+        c_idx = np.empty_like(b_idx)
+        c_val = np.empty_like(b_val)
+        kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+        return c_off, c_idx, c_val
+
+    def _add_mixed_jacobian(self, A, sdofs, mdofs) -> None:
+        """Σ_I d_I a^I ⊗ c^I, a^I = Σ_J L_IJ B^J, c^I = Σ_K R_IK B^K
+        (:mod:`dolfinx_mortar.recovery`) for the owned tangent nodes I. The rows B^J of
+        every node in the supports of L and R are gathered (collective)."""
+        rec, comm = self._recovered, self.comm
+        n = self.node_blocks.size
+        lo = self.gid_offset
+        need = np.unique(np.concatenate([rec.left.indices, rec.right.indices]))
+        mine = need[(need >= lo) & (need < lo + n)] - lo
+        mask = np.zeros(n)
+        mask[mine] = 1.0
+        c_off, c_idx, c_val = self._b_rows(mask, sdofs, mdofs)
+        parts = comm.allgather(
+            (
+                mine + lo,
+                c_off[mine + 1] - c_off[mine],
+                np.concatenate([c_idx[c_off[i] : c_off[i + 1]] for i in mine] or [c_idx[:0]]),
+                np.concatenate([c_val[c_off[i] : c_off[i + 1]] for i in mine] or [c_val[:0]]),
+            )
+        )
+        # ranks hold consecutive gids and send them sorted: the gather is in gid order
+        gids = np.concatenate([q[0] for q in parts])
+        lengths = np.zeros(rec.p.size, np.int64)
+        lengths[gids] = np.concatenate([q[1] for q in parts])
+        indptr = np.zeros(rec.p.size + 1, np.int64)
+        np.cumsum(lengths, out=indptr[1:])
+        row_idx = np.concatenate([q[2] for q in parts])
+        row_val = np.concatenate([q[3] for q in parts])
+        ndof = int(self.ranges[-1]) * self.bs
+        Bm = sp.csr_matrix((row_val, row_idx, indptr), shape=(rec.p.size, ndof))
+        t = rec.tangent_nodes
+        sel = np.flatnonzero((t >= lo) & (t < lo + n))
+        Lm = (rec.left[sel] @ Bm).tocsr()
+        Rm = (rec.right[sel] @ Bm).tocsr()
+        keys = []
+        nb = int(self.ranges[-1])
+        for r, dI in enumerate(rec.d[sel]):
+            a = slice(Lm.indptr[r], Lm.indptr[r + 1])
+            c = slice(Rm.indptr[r], Rm.indptr[r + 1])
+            ai, ci = Lm.indices[a], Rm.indices[c]
+            if ai.size and ci.size:
+                A.setValues(
+                    ai.astype(PETSc.IntType),
+                    ci.astype(PETSc.IntType),
+                    dI * np.outer(Lm.data[a], Rm.data[c]),
+                    addv=PETSc.InsertMode.ADD_VALUES,
+                )
+                ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
+                keys.append((ab[:, None] * nb + cb[None, :]).ravel())
+        self._learned = np.unique(np.concatenate(keys)) if keys else np.empty(0, np.int64)
 
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
@@ -800,13 +943,20 @@ class MortarContact:
             sset = blocks[a:b]
             rows.append(np.repeat(sset, sset.size))
             cols.append(np.tile(sset, sset.size))
+        if self._learned.size:
+            # the unconstrained/constrained tangent couples nodes a few rings apart: the
+            # couplings of the last assembled tangent
+            nb = int(self.ranges[-1])
+            rows.append(self._learned // nb)
+            cols.append(self._learned % nb)
         return np.concatenate(rows), np.concatenate(cols)
 
     # ------------------------------------------------------------------ Uzawa, steps
     def uzawa_update(self) -> tuple[bool, dict]:
         """Augment the multipliers unless converged (collective). Returns (converged, info).
 
-        Plain Uzawa is λ ← p, i.e. λ ← λ + d with d = p − λ. The change contracts by a
+        Plain Uzawa is λ ← p̂ (the nodal penalty pressure ⟨λ − εγ⟩, = p when lumped), i.e.
+        λ ← λ + d with d = p̂ − λ. The change contracts by a
         steady factor per round (one slow mode, dominated by the nodes at the contact
         edge), so the step is relaxed with the Irons–Tuck (vector Aitken) factor
         ω_k = −ω_{k−1} d_{k−1}·(d_k − d_{k−1}) / |d_k − d_{k−1}|², clamped to
@@ -817,8 +967,8 @@ class MortarContact:
         differ: another solve follows with the states free.
         """
         comm = self.comm
-        d = self.p - self.lmbda
-        pmax = comm.allreduce(self.p.max(initial=0.0), op=MPI.MAX)
+        d = self.p_hat - self.lmbda
+        pmax = comm.allreduce(self.p_hat.max(initial=0.0), op=MPI.MAX)
         change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
         rel = change / pmax if pmax > 0 else 0.0
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
@@ -861,7 +1011,7 @@ class MortarContact:
             self.frozen = None
 
     def _max_penetration(self) -> float:
-        active = self.p > 0
+        active = self.p_hat > 0
         return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
 
     def begin_step(self) -> None:
@@ -920,7 +1070,7 @@ class MortarContact:
         """Force of the master on the slave, penetration, node counts and (with friction)
         the frictional dissipation of the last committed step (collective)."""
         force = self._terms(False)[4]
-        active = self.p > 0
+        active = self.p_hat > 0
         out = {"max_penetration": self._max_penetration()}
         if self.frictional:
             # the master pushes the slave with −t^I per unit reference area
@@ -961,7 +1111,7 @@ class MortarContact:
         accumulated slip length (n,) and the state (n,) (0 open, 1 stick, 2 slip)."""
         n, d = self.node_blocks.size, self.gdim
         if not self.frictional:
-            return np.zeros((n, d - 1)), np.zeros(n), np.where(self.p > 0, 2, 0)
+            return np.zeros((n, d - 1)), np.zeros(n), np.where(self.p_hat > 0, 2, 0)
         _, tang = self._output_frame()
         p_t = -np.einsum("nac,nc->na", tang, self.t_vec)
         return p_t, self.slip_length_committed, self.fstate

@@ -69,8 +69,8 @@ CASES = {
 }
 
 
-def _problem(case, integration="element"):
-    """The contact problem of CASES[case] with the given integration (collective)."""
+def _problem(case, integration="element", recovery="lumped"):
+    """The contact problem of CASES[case] with the given integration and recovery (collective)."""
     gen, params, slave, master, bodies, gdim = CASES[case]
     data = {
         "kinematics": "finite",
@@ -83,6 +83,7 @@ def _problem(case, integration="element"):
                 "penalty": 1.0e3,
                 "uzawa_tol": 0.0,
                 "integration": integration,
+                "recovery": recovery,
             }
         ],
         "output": {"dir": "unused"},
@@ -163,18 +164,26 @@ def fd_errors(problem, term, A, u0, n=3, h=1e-6, check=None):
     return errs
 
 
-PARAMS = [(case, "element") for case in CASES] + [
-    ("hertz2d-P1", "node"),
-    ("hertz2d-Q1", "node"),
-    ("hertz3d-P1", "node"),
-    ("patch3d-Q1", "node"),
-]
+PARAMS = (
+    [(case, "element", "lumped") for case in CASES]
+    + [
+        ("hertz2d-P1", "node", "lumped"),
+        ("hertz2d-Q1", "node", "lumped"),
+        ("hertz3d-P1", "node", "lumped"),
+        ("patch3d-Q1", "node", "lumped"),
+    ]
+    + [
+        (case, "element", recovery)
+        for case in ("hertz2d-P1", "hertz2d-P2", "hertz2d-Q1", "hertz3d-P1", "hertz3d-P2")
+        for recovery in ("unconstrained", "constrained")
+    ]
+)
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("case, integration", PARAMS)
-def test_contact_tangent_matches_finite_differences(case, integration):
-    problem = _problem(case, integration)
+@pytest.mark.parametrize("case, integration, recovery", PARAMS)
+def test_contact_tangent_matches_finite_differences(case, integration, recovery):
+    problem = _problem(case, integration, recovery)
     term = problem.contacts[0]
     depth = {2: 0.05, 3: 0.04}[problem.gdim]
     _set_state(problem, depth, CASES[case][4][0])
@@ -187,6 +196,11 @@ def test_contact_tangent_matches_finite_differences(case, integration):
     nact = MPI.COMM_WORLD.allreduce(int((term.p > 0).sum()))
     assert nact >= 3, f"configuration should have several active nodes (got {nact})"
     assert term.predictor_nodes == 0
+    if recovery != "lumped":
+        # the tangent couples nodes through M⁻¹, not only node by node
+        rec = term._recovered
+        assert rec.tangent_nodes.size >= 3
+        assert rec.right.nnz > 3 * rec.tangent_nodes.size
     A = problem.create_matrix()
     A.zeroEntries()
     term.add_jacobian(A)

@@ -88,6 +88,10 @@ CATTANEO2D = {
 }
 
 
+def _with_recovery(data, recovery):
+    return dict(data, contact=[dict(data["contact"][0], recovery=recovery)])
+
+
 def _run(data, out, comm):
     d = dict(data, output={"dir": str(out), "fields": ["displacement", "contact_pressure"]})
     return run(parse_scene(d, pathlib.Path(".")), comm)
@@ -100,6 +104,9 @@ def _run(data, out, comm):
         ("hertz2d", HERTZ2D, "cylinder_surface"),
         ("hertz3d", HERTZ3D, "sphere_surface"),
         ("cattaneo2d-friction", CATTANEO2D, "upper_surface"),
+        ("hertz2d-unconstrained", _with_recovery(HERTZ2D, "unconstrained"), "cylinder_surface"),
+        ("hertz2d-constrained", _with_recovery(HERTZ2D, "constrained"), "cylinder_surface"),
+        ("hertz3d-constrained", _with_recovery(HERTZ3D, "constrained"), "sphere_surface"),
     ],
 )
 def test_parallel_equals_serial(shared_tmp, name, data, slave):

@@ -276,3 +276,25 @@ def test_frictionless_pairs_create_no_tangential_data():
     frictional = _problem("hertz2d-P1").contacts[0]
     assert frictional.describe()["tangential_fields"] is True
     assert frictional.describe()["friction"] == MU
+
+
+def test_friction_with_other_recoveries_is_refused():
+    """Friction is implemented with the lumped recovery only: a clear scene error, not a
+    silently lumped tangential part."""
+    from dolfinx_mortar.errors import SceneError
+
+    gen, params, slave, master, bodies, _ = CASES["hertz2d-P1"]
+    data = {
+        "kinematics": "small",
+        "mesh": {"generator": gen, "params": params},
+        "material": [
+            {"region": b, "model": "linear-elastic", "E": 200.0, "nu": 0.3} for b in bodies
+        ],
+        "contact": [
+            {"slave": slave, "master": master, "friction": 0.3, "recovery": "unconstrained"}
+        ],
+        "output": {"dir": "unused"},
+    }
+    with pytest.raises(SceneError, match="lumped") as err:
+        prepare(parse_scene(data, pathlib.Path(".")), MPI.COMM_WORLD)
+    assert err.value.key == "contact[0].recovery"

@@ -239,6 +239,30 @@ def nodal_integrals(ftype_phi, qp_xi, qp_w, qp_m, qp_g, node_of, A, G):
 
 
 @numba.njit(cache=True)
+def facet_mass(ftype_phi, qp_xi, qp_w, qp_m, Mf):
+    """Mortar mass matrix per slave facet, M_f[i, j] = Σ_q w J₀ Φ_i Φ_j [q paired].
+
+    Mf (nsf, nphi, nphi) is overwritten. Summed over the facets, M_IJ = ∫ Φ_I Φ_J dA₀ over
+    the paired part of the slave surface, so that Σ_J M_IJ = A^I (:func:`nodal_integrals`).
+    """
+    nsf, nq, k = qp_xi.shape
+    nphi = Mf.shape[1]
+    Phi = np.empty(9)
+    dP = np.empty((9, k))
+    ddP = np.empty((9, k, k))
+    Mf[:] = 0.0
+    for f in range(nsf):
+        for q in range(nq):
+            if qp_m[f, q] < 0:
+                continue
+            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            for i in range(nphi):
+                wi = qp_w[f, q] * Phi[i]
+                for j in range(nphi):
+                    Mf[f, i, j] += wi * Phi[j]
+
+
+@numba.njit(cache=True)
 def _local_derivatives(
     ftype_s,
     ftype_m,

@@ -316,3 +316,16 @@ def gap_derivatives(x1, xm, ftype, sign, zeta):
     t = f_yz @ zeta_y
     d2g = f_yy + t + t.T + zeta_y.T @ f_zz @ zeta_y + np.einsum("a,aij->ij", f_z, zeta_yy)
     return f.v, dg, d2g
+
+
+def facet_mass(ftype_phi, qp_xi, qp_w, qp_m):
+    """NumPy version of :func:`dolfinx_mortar.kernels.mortar.facet_mass`: (nsf, nphi, nphi)."""
+    nsf, nq, _ = qp_xi.shape
+    nphi = len(shape(ftype_phi, qp_xi[0, 0])[0]) if nsf else 0
+    out = np.zeros((nsf, nphi, nphi))
+    for f in range(nsf):
+        for q in range(nq):
+            if qp_m[f, q] >= 0:
+                phi = shape(ftype_phi, qp_xi[f, q])[0]
+                out[f] += qp_w[f, q] * np.outer(phi, phi)
+    return out

@@ -1,0 +1,127 @@
+"""The nodal recoveries of :mod:`dolfinx_mortar.recovery` on small synthetic slave surfaces.
+
+Independent references: the bound-constrained QP against scipy's NNLS on the Cholesky
+factor; the tangent operator against finite differences of p(G); the per-facet mortar
+mass matrix (numba) against its NumPy reference.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.optimize import nnls
+
+from dolfinx_mortar.kernels import mortar as kmortar
+from dolfinx_mortar.kernels import reference as kref
+from dolfinx_mortar.kernels.shape import INTERVAL1, INTERVAL2, QUAD1, TRIANGLE1
+from dolfinx_mortar.recovery import RECOVERIES, nonnegative_qp, recover
+
+
+def _mass_1d(n, rng, degree=1):
+    """Mass matrix (n, n) of P1 (or P2 with n odd) on a random 1D mesh, and its row sums."""
+    M = np.zeros((n, n))
+    if degree == 1:
+        h = rng.uniform(0.5, 1.5, n - 1)
+        for e in range(n - 1):
+            M[e : e + 2, e : e + 2] += h[e] / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
+    else:
+        local = np.array([[4.0, -1.0, 2.0], [-1.0, 4.0, 2.0], [2.0, 2.0, 16.0]]) / 30.0
+        for e in range((n - 1) // 2):
+            i = [2 * e, 2 * e + 2, 2 * e + 1]
+            M[np.ix_(i, i)] += rng.uniform(0.5, 1.5) * local
+    return M, M.sum(axis=1)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_nonnegative_qp_matches_nnls(seed):
+    rng = np.random.default_rng(seed)
+    M, _ = _mass_1d(25, rng)
+    F = rng.normal(size=25) * (rng.random(25) < 0.7)
+    p, free, _, its = nonnegative_qp(sp.csr_matrix(M), F)
+    L = np.linalg.cholesky(M)
+    ref, _ = nnls(L.T, np.linalg.solve(L, F))  # min |Lᵀp − L⁻¹F|² = 2 (½pᵀMp − pᵀF) + c
+    np.testing.assert_allclose(p, ref, atol=1e-10 * max(np.abs(ref).max(), 1.0))
+    assert np.all(p >= 0.0) and its >= 1
+    mu = M @ p - F
+    assert np.all(mu[~free] >= -1e-12) and np.allclose(mu[free], 0.0, atol=1e-12)
+
+
+def _random_state(n, rng, degree=1):
+    M, A = _mass_1d(n, rng, degree)
+    x = np.linspace(-1.0, 1.0, n)
+    G = A * (0.3 * x**2 - 0.05 + 0.01 * rng.normal(size=n))  # contact near the middle
+    lam = np.where(rng.random(n) < 0.4, 0.5 * rng.random(n), 0.0)
+    eps = rng.uniform(50.0, 150.0, n)
+    return sp.csr_matrix(M), A, G, lam, eps
+
+
+@pytest.mark.parametrize("method", RECOVERIES)
+def test_recovery_equations_and_constants(method):
+    rng = np.random.default_rng(3)
+    M, A, G, lam, eps = _random_state(31, rng)
+    has = np.ones(A.size, bool)
+    r = recover(method, M, A, G, lam, eps, has)
+    F = A * r.p_hat
+    np.testing.assert_allclose(r.p_hat, np.maximum(lam - eps * r.gamma, 0.0), atol=1e-12)
+    if method == "lumped":
+        np.testing.assert_allclose(r.gamma, G / A)
+        np.testing.assert_allclose(r.p, r.p_hat)
+    else:
+        np.testing.assert_allclose(M @ r.gamma, G, atol=1e-12)
+    if method == "unconstrained":
+        np.testing.assert_allclose(M @ r.p, F, atol=1e-12)
+        assert r.p.min() < 0.0  # the contact edge oscillates
+    if method == "constrained":
+        assert r.p.min() >= 0.0 and r.qp_iterations >= 1
+        mu = M @ r.p - F
+        assert np.all(mu[r.p == 0.0] >= -1e-12)
+        np.testing.assert_allclose(mu[r.p > 0.0], 0.0, atol=1e-12)
+    # constants: a uniform gap and multiplier give a uniform pressure (M·1 = A)
+    c = recover(method, M, A, -0.01 * A, np.full(A.size, 0.2), np.full(A.size, 100.0), has)
+    np.testing.assert_allclose(c.gamma, -0.01, rtol=1e-12)
+    np.testing.assert_allclose(c.p, 1.2, rtol=1e-12)
+
+
+@pytest.mark.parametrize("method", RECOVERIES)
+@pytest.mark.parametrize("degree", [1, 2])
+def test_recovery_tangent_matches_finite_differences(method, degree):
+    """∂p^J/∂G^K = −Σ_I L_IJ d_I R_IK (the operator the contact tangent assembles)."""
+    rng = np.random.default_rng(7 + degree)
+    M, A, G, lam, eps = _random_state(31, rng, degree)
+    has = A > 0.0
+    r = recover(method, M, A, G, lam, eps, has)
+    dpdG = -(r.left.T @ sp.diags(r.d) @ r.right).toarray()
+    h = 1e-7 * np.abs(G).max()
+    fd = np.zeros_like(dpdG)
+    for k in range(G.size):
+        e = np.zeros(G.size)
+        e[k] = h
+        fd[:, k] = (
+            recover(method, M, A, G + e, lam, eps, has).p
+            - recover(method, M, A, G - e, lam, eps, has).p
+        ) / (2 * h)
+    np.testing.assert_allclose(dpdG, fd, atol=1e-6 * np.abs(fd).max())
+    assert np.abs(fd).max() > 0.0
+
+
+@pytest.mark.parametrize(
+    "ftype, degree", [(INTERVAL1, 3), (INTERVAL2, 5), (TRIANGLE1, 3), (QUAD1, 3)]
+)
+def test_facet_mass_kernel_matches_reference(ftype, degree):
+    from dolfinx_mortar.surface import quadrature
+
+    rng = np.random.default_rng(0)
+    qpts, qw = quadrature(ftype, degree)
+    nsf, nq = 4, qw.size
+    qp_xi = np.broadcast_to(qpts, (nsf, nq, qpts.shape[1])).copy()
+    qp_w = qw[None, :] * rng.uniform(0.5, 2.0, (nsf, 1))
+    qp_m = np.where(rng.random((nsf, nq)) < 0.7, 0, -1)
+    nphi = kref.shape(ftype, qpts[0])[0].size
+    Mf = np.zeros((nsf, nphi, nphi))
+    kmortar.facet_mass(ftype, qp_xi, qp_w, qp_m, Mf)
+    np.testing.assert_allclose(Mf, kref.facet_mass(ftype, qp_xi, qp_w, qp_m), atol=1e-14)
+    # row sums are the nodal areas A^I of nodal_integrals
+    A = np.zeros(nsf * nphi)
+    G = np.zeros(nsf * nphi)
+    node_of = np.arange(nsf * nphi).reshape(nsf, nphi)
+    kmortar.nodal_integrals(ftype, qp_xi, qp_w, qp_m, np.ones((nsf, nq)), node_of, A, G)
+    np.testing.assert_allclose(Mf.sum(axis=2).ravel(), A, atol=1e-14)
