@@ -51,6 +51,8 @@ class SolverSettings:
     prefix: str = "dm_"
 
 
+#: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
+MIN_STEP_FRACTION = 1e-9
 #: SNES divergence tolerance of a solve started from the extrapolated predictor: the
 #: relative growth of the residual norm that aborts it (the step is then retried from
 #: the converged state). From a far-off start the contact candidates, hence the Jacobian
@@ -264,6 +266,7 @@ class LoadStepper:
     ):
         self.problem = problem
         self.newton = newton
+        self.t_end = float(t_end)
         grid = set(np.linspace(0.0, t_end, n + 1)[1:].tolist()) | {float(t) for t in output_times}
         self.targets = sorted(t for t in grid if 0.0 < t <= t_end * (1 + 1e-12))
         self.max_cutbacks = max_cutbacks
@@ -286,7 +289,9 @@ class LoadStepper:
             wall0 = perf_counter()
             tim0 = dict(p.timings)
             ls0 = self.newton.timings["linear_solve"]
-            predicted = self.predictor and use_predictor and previous is not None
+            predicted = (
+                self.predictor and use_predictor and previous is not None and t > previous[1]
+            )
             if predicted:
                 # linear extrapolation of the last increment: u = u_n + (Δt/Δt_n)(u_n − u_{n−1})
                 u_prev, t_prev = previous
@@ -317,7 +322,14 @@ class LoadStepper:
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}"
                     ) from exc
                 cutbacks += 1
-                pending.insert(0, 0.5 * (t + t_new))
+                mid = 0.5 * (t + t_new)
+                if mid - t <= MIN_STEP_FRACTION * self.t_end:
+                    # repeated cutbacks over several steps can shrink the step without bound
+                    raise ConvergenceError(
+                        f"step to t = {t_new:g} failed and the step size {t_new - t:.3g} "
+                        f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): {exc}"
+                    ) from exc
+                pending.insert(0, mid)
                 log.warning(
                     "step to t = %g failed (%s); cutting back to t = %g", t_new, exc, pending[0]
                 )
