@@ -2,9 +2,10 @@
 
 For each benchmark (``hertz2d``, ``hertz3d``, ``patch2d`` or ``all``), each level
 k = 0 .. K-1 (the contact-zone element size of the demo's default mesh halved k
-times) and each integration ("element", "segment"; the recovery is always
-"lumped", the only one implemented) the scene of the corresponding demo is run in
-its own directory ``OUT/<name>_L<k>_<integration>``, evaluated with the demo's own
+times), each integration ("element", "segment") and each recovery (``recoveries``:
+"lumped" by default, any of "unconstrained", "constrained") the scene of the
+corresponding demo is run in its own directory ``OUT/<name>_L<k>_<integration>``
+(``_<recovery>`` appended for the non-lumped recoveries), evaluated with the demo's own
 metrics (``demos/_common.py``: pressure profile errors, observed Newton order), and
 written as one row of ``OUT/bench.csv``. A progress line per run is printed on rank 0.
 Then rank 0 draws ``work_precision.png`` (L2 pressure error against wall time,
@@ -46,7 +47,7 @@ from .errors import SceneError
 
 BENCHMARKS = ("hertz2d", "hertz3d", "patch2d")
 INTEGRATIONS = ("element", "segment")
-RECOVERY = "lumped"
+RECOVERIES = ("lumped", "unconstrained", "constrained")
 
 #: Level-0 contact element sizes of ``--tiny`` (quick smoke runs; the patch test is
 #: already coarse at its default level 0).
@@ -121,12 +122,12 @@ def _h0(name: str, h0) -> float | None:
     return float(h0)
 
 
-def _scene(mods, name: str, level: int, integration: str, h0):
+def _scene(mods, name: str, level: int, integration: str, h0, recovery="lumped"):
     """(scene dict, h, evaluate(summary, out_dir) -> metrics on rank 0) of one run."""
     cm, hz2, hz3, patch = mods
     if name in ("hertz2d", "hertz3d"):
         demo = hz2 if name == "hertz2d" else hz3
-        sc = demo.scene(level, integration=integration)
+        sc = demo.scene(level, integration=integration, recovery=recovery)
         h = (_h0(name, h0) or demo.H_CONTACT) / 2**level
         sc["mesh"]["params"]["h_contact"] = h
 
@@ -151,7 +152,9 @@ def _scene(mods, name: str, level: int, integration: str, h0):
 
         return sc, h, evaluate
 
-    sc = patch.scene(2, level, integration)  # patch2d: 5/7 elements along x at level 0
+    sc = patch.scene(
+        2, level, integration, recovery=recovery
+    )  # patch2d: 5/7 elements along x at level 0
     slave, master = sc["contact"][0]["slave"], sc["contact"][0]["master"]
     h = patch.L / sc["mesh"]["params"]["n_upper"]
 
@@ -171,19 +174,21 @@ def _scene(mods, name: str, level: int, integration: str, h0):
     return sc, h, evaluate
 
 
-def run_one(mods, name: str, level: int, integration: str, out_dir: Path, comm, h0=None):
+def run_one(
+    mods, name: str, level: int, integration: str, out_dir: Path, comm, h0=None, recovery="lumped"
+):
     """Run one benchmark level (collective). Returns (CSV row, last-step residual norms)."""
     from mpi4py import MPI
 
     cm = mods[0]
-    sc, h, evaluate = _scene(mods, name, level, integration, h0)
+    sc, h, evaluate = _scene(mods, name, level, integration, h0, recovery)
     summary, wall = cm.run_scene(sc, out_dir, comm)
     m = cm.on_root(evaluate, summary, out_dir, comm=comm)
     timings = summary.get("timings", {})
     row = {
         "benchmark": name,
         "level": level,
-        "recovery": RECOVERY,
+        "recovery": recovery,
         "integration": integration,
         "h": h,
         "dofs": int(summary["dofs"]),
@@ -212,13 +217,15 @@ def run_bench(
     comm=None,
     h0=None,
     plots: bool = True,
+    recoveries=("lumped",),
 ) -> list[dict]:
     """Run benchmark ``name`` (or "all") at levels 0 .. ``levels``-1 (collective).
 
     ``h0``: level-0 contact element size of the Hertz benchmarks (a float, or a dict
     by benchmark name; None: the demos' defaults). Writes ``out_dir/bench.csv`` and,
     with ``plots``, the PNGs (rank 0). Returns the rows (on every rank).
-    Raises SceneError for an unknown name, integration or a level count < 1.
+    ``recoveries``: the recoveries to run (each a curve of the plots).
+    Raises SceneError for an unknown name, integration, recovery or a level count < 1.
     """
     if comm is None:
         from mpi4py import MPI
@@ -229,6 +236,10 @@ def run_bench(
     bad = [i for i in integrations if i not in INTEGRATIONS]
     if bad or not integrations:
         raise SceneError("--integration", f"must be element, segment or both, got {bad}")
+    recoveries = tuple(recoveries)
+    bad = [r for r in recoveries if r not in RECOVERIES]
+    if bad or not recoveries:
+        raise SceneError("--recovery", f"must be one of {', '.join(RECOVERIES)} or all, got {bad}")
     if int(levels) < 1:
         raise SceneError("--levels", f"must be >= 1, got {levels}")
     mods = _import_demos()
@@ -238,15 +249,16 @@ def run_bench(
     comm.barrier()
     rows, histories = [], []
     for bname in names:
-        for integration in integrations:
+        for integration, recovery in ((i, r) for r in recoveries for i in integrations):
             for level in range(int(levels)):
-                run_dir = out_dir / f"{bname}_L{level}_{integration}"
-                row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0)
+                tag = "" if recovery == "lumped" else f"_{recovery}"
+                run_dir = out_dir / f"{bname}_L{level}_{integration}{tag}"
+                row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0, recovery)
                 rows.append(row)
                 histories.append(hist)
                 if comm.rank == 0:
                     print(
-                        f"[bench] {bname} L{level} {integration}: dofs={row['dofs']}, "
+                        f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
                         f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
                         f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
                         f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s, "
@@ -335,7 +347,7 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
                 range(len(hist)),
                 hist,
                 ".-",
-                label=f"{r['benchmark']} L{r['level']} {r['integration']}",
+                label=f"{r['benchmark']} L{r['level']} {r['integration']} {r['recovery']}",
             )
     ax.set_xlabel("Newton iteration of the last load step (all Uzawa rounds)")
     ax.set_ylabel("residual norm")

@@ -44,6 +44,12 @@ def _parser() -> argparse.ArgumentParser:
         help="mortar integration(s) to run [both]",
     )
     b.add_argument(
+        "--recovery",
+        choices=("lumped", "unconstrained", "constrained", "all"),
+        default="lumped",
+        help="recovery(ies) to run, each a curve of the plots [lumped]",
+    )
+    b.add_argument(
         "--tiny", action="store_true", help="coarse level 0 (h_contact 0.4 in 2D): a smoke run"
     )
     return p
@@ -121,12 +127,13 @@ def main(argv=None) -> int:
     _setup_logging(comm.rank, getattr(args, "verbose", 0))
     try:
         if args.command == "bench":
-            from .bench import INTEGRATIONS, TINY_H0, run_bench
+            from .bench import INTEGRATIONS, RECOVERIES, TINY_H0, run_bench
 
             _check_out_dir(args.out, "--out")
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
-            run_bench(args.name, args.levels, args.out, integ, comm, h0=h0)
+            recs = RECOVERIES if args.recovery == "all" else (args.recovery,)
+            run_bench(args.name, args.levels, args.out, integ, comm, h0=h0, recoveries=recs)
             return 0
         from .scene import load_scene
 

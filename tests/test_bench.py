@@ -14,7 +14,8 @@ import pytest
 from mpi4py import MPI
 
 from dolfinx_mortar import cli
-from dolfinx_mortar.bench import COLUMNS, fitted_rate, run_bench
+from dolfinx_mortar.bench import COLUMNS, RECOVERIES, fitted_rate, run_bench
+from dolfinx_mortar.errors import SceneError
 
 REQUIRED = (
     "benchmark",
@@ -96,8 +97,11 @@ def test_cli_bench_ok(tmp_path, capsys):
     out = tmp_path / "b"
     args = ["bench", "patch2d", "--levels", "1", "--integration", "segment", "--out", str(out)]
     assert cli.main(args) == 0
-    assert "[bench] patch2d L0 segment: dofs=" in capsys.readouterr().out
+    assert "[bench] patch2d L0 segment lumped: dofs=" in capsys.readouterr().out
     assert len(_read(out / "bench.csv")) == 1
+    args += ["--recovery", "all"]
+    assert cli.main(args) == 0
+    assert [r["recovery"] for r in _read(out / "bench.csv")] == list(RECOVERIES)
 
 
 def test_cli_bench_unknown_name(tmp_path, capsys):
@@ -106,3 +110,22 @@ def test_cli_bench_unknown_name(tmp_path, capsys):
     assert len(err) == 1
     assert err[0].startswith("dolfinx-mortar: error: bench: unknown benchmark 'NOPE'")
     assert not (tmp_path / "x").exists()
+
+
+def test_bench_recoveries(tmp_path):
+    """``recoveries``: one row (and plot curve) per recovery; the patch test is exact with
+    segment integration for each of them."""
+    rows = run_bench(
+        "patch2d",
+        1,
+        tmp_path,
+        integrations=("segment",),
+        comm=MPI.COMM_SELF,
+        recoveries=("lumped", "unconstrained", "constrained"),
+        plots=False,
+    )
+    assert [r["recovery"] for r in rows] == ["lumped", "unconstrained", "constrained"]
+    assert all(r["max_rel_error"] < 1e-8 for r in rows)
+    assert (tmp_path / "patch2d_L0_segment_constrained" / "summary.json").is_file()
+    with pytest.raises(SceneError, match="exact"):
+        run_bench("patch2d", 1, tmp_path, comm=MPI.COMM_SELF, recoveries=("exact",))
