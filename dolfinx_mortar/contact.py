@@ -81,6 +81,8 @@ OMEGA_MAX = 10.0
 #: and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
 #: free, if a state changed or a slip direction moved by more than FROZEN_DIRECTION_TOL.
+#: After as many Jacobians the constrained recovery's QP free set can only grow within the
+#: solve (re-checked against the plain QP at convergence).
 FREEZE_AFTER = 8
 FROZEN_DIRECTION_TOL = 1e-6
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
@@ -259,6 +261,9 @@ class MortarContact:
         self.kcoef = np.zeros(n)
         self._recovered = None
         self._learned = np.empty(0, np.int64)
+        self.qp_frozen = None  # constrained recovery: the QP free set, once frozen
+        self._jacobians = 0
+        self.freeze_after = FREEZE_AFTER
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
@@ -321,7 +326,6 @@ class MortarContact:
         self.dissipation = 0.0
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
-        self.freeze_after = FREEZE_AFTER
         self._jacobians = 0
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
@@ -671,7 +675,7 @@ class MortarContact:
         A, G, lam, eps, has_all = np.concatenate([q[3] for q in parts], axis=1)
         N = A.size
         M = sp.csr_matrix((vals, (rows, cols)), shape=(N, N))
-        rec = rc.recover(self.recovery, M, A, G, lam, eps, has_all > 0.5)
+        rec = rc.recover(self.recovery, M, A, G, lam, eps, has_all > 0.5, self.qp_frozen)
         own = slice(self.gid_offset, self.gid_offset + n)
         self.gamma, self.p_hat, self.p = rec.gamma[own], rec.p_hat[own], rec.p[own]
         self._recovered = rec
@@ -783,6 +787,13 @@ class MortarContact:
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
         if self._recovered is not None and self.recovery != "lumped":
             self._add_mixed_jacobian(A, sdofs, mdofs)
+            if self.recovery == "constrained":
+                # chattering control: after FREEZE_AFTER Jacobians the QP's free set can only
+                # grow (no node leaves it within the solve); uzawa_update re-checks it
+                # against the plain QP when the solve has converged
+                self._jacobians += 1
+                if self._jacobians >= self.freeze_after:
+                    self.qp_frozen = self._recovered.free.copy()
         if self.frictional:
             self._add_tangential_jacobian(A, c_off, c_idx, c_val)
 
@@ -986,6 +997,11 @@ class MortarContact:
                 changed = comm.allreduce(int(local))
                 info["unfrozen_states"] = changed
                 self.frozen = None
+        if self.qp_frozen is not None:
+            frozen, self.qp_frozen = self.qp_frozen, None
+            self._recover()
+            changed += int(np.count_nonzero(frozen != self._recovered.free))
+            info["unfrozen_qp_nodes"] = changed
         if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
             return changed == 0, info
         # one relaxation factor for the stacked change [d_N, d_T]
@@ -1005,9 +1021,11 @@ class MortarContact:
         return False, info
 
     def begin_solve(self) -> None:
-        """A Newton solve starts: the stick/slip states are free again."""
+        """A Newton solve starts: the stick/slip states and the constrained recovery's
+        active set are free again."""
+        self._jacobians = 0
+        self.qp_frozen = None
         if self.frictional:
-            self._jacobians = 0
             self.frozen = None
 
     def _max_penetration(self) -> float:

@@ -74,7 +74,8 @@ class Recovered:
     recovered pressure (stress). tangent_nodes: (m,) node indices I with d_I > 0;
     d: (m,) the coefficients d_I = A^I ε^I (force per length); left, right: (m, n) CSR
     rows L_I, R_I of the tangent (module docstring). qp_iterations: active-set iterations
-    (0 unless constrained).
+    (0 unless constrained). free: (n,) bool, the nodes the pressure is solved for (the
+    QP's free set 𝒫 when constrained; the nodes with paired area otherwise).
     """
 
     gamma: np.ndarray
@@ -85,6 +86,7 @@ class Recovered:
     left: sp.csr_matrix
     right: sp.csr_matrix
     qp_iterations: int = 0
+    free: np.ndarray = None
 
 
 def _truncated_columns(X: np.ndarray, rows: np.ndarray, n: int) -> sp.csr_matrix:
@@ -158,12 +160,17 @@ def recover(
     lam: np.ndarray,
     eps: np.ndarray,
     has: np.ndarray,
+    free: np.ndarray | None = None,
 ) -> Recovered:
     """Recover γ, p̂, p and the tangent operator (module docstring) on n slave nodes.
 
     M (n, n) sparse mortar mass matrix; A, G, lam, eps (n,) nodal area (length^{d−1}),
     weighted gap, multiplier and penalty; has (n,) bool: nodes with paired area (the
-    others get γ = p = 0 and no tangent). Serial, deterministic.
+    others get γ = p = 0 and no tangent). ``free`` (constrained only): nodes that stay in
+    the free set: the QP's free set 𝒫 is replaced by 𝒫 ∪ ``free`` when it lacks some of
+    them (p is then M_𝒫𝒫⁻¹F_𝒫 on the union, 0 elsewhere, not necessarily ≥ 0). The
+    contact term's chattering control uses it so that the set can only grow within a
+    Newton solve. Serial, deterministic.
     """
     n = A.size
     idx = np.flatnonzero(has)
@@ -186,20 +193,28 @@ def recover(
         rows = sp.csr_matrix(
             (1.0 / A[tnodes], (np.arange(tnodes.size), tnodes)), shape=(tnodes.size, n)
         )
-        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], rows, rows)
+        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], rows, rows, free=has)
     if not idx.size:
-        return Recovered(gamma, p_hat, p, tnodes[:0], np.zeros(0), empty, empty)
+        return Recovered(gamma, p_hat, p, tnodes[:0], np.zeros(0), empty, empty, free=has)
     pos = np.full(n, -1, np.int64)
     pos[idx] = np.arange(idx.size)
     if method == "unconstrained":
         p[idx] = lu.solve(F[idx])
         right = _truncated_columns(_columns_of_inverse(lu, pos[tnodes], idx.size), idx, n)
-        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], right, right)
+        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], right, right, free=has)
     if method != "constrained":
         raise ValueError(f"unknown recovery {method!r}")
-    ph, free, lu_free, its = nonnegative_qp(Mh, F[idx])
+    ph, fmask, lu_free, its = nonnegative_qp(Mh, F[idx])
+    if free is not None and not np.all(fmask[free[idx]]):
+        fmask = fmask | free[idx]
+        sub = np.flatnonzero(fmask)
+        ph = np.zeros(idx.size)
+        lu_free = _factor(sp.csr_matrix(Mh)[sub][:, sub])
+        ph[sub] = lu_free.solve(F[idx][sub])
     p[idx] = ph
-    fidx = idx[free]
+    fidx = idx[fmask]
+    free_all = np.zeros(n, bool)
+    free_all[fidx] = True
     tnodes = tnodes[np.isin(tnodes, fidx)]
     right = _truncated_columns(_columns_of_inverse(lu, pos[tnodes], idx.size), idx, n)
     if lu_free is None:
@@ -208,4 +223,4 @@ def recover(
         fpos = np.full(n, -1, np.int64)
         fpos[fidx] = np.arange(fidx.size)
         left = _truncated_columns(_columns_of_inverse(lu_free, fpos[tnodes], fidx.size), fidx, n)
-    return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], left, right, its)
+    return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], left, right, its, free_all)
