@@ -26,6 +26,9 @@ Metrics per benchmark:
   ``max_rel_error`` = |max p_i / p0 − 1| (the peak nodal pressure error);
 - ``patch2d``: exact pressure p0 everywhere: ``l2_rel_error`` = ‖p − p0‖/‖p0‖ over
   the slave nodes, ``max_rel_error`` = max |p_i/p0 − 1|.
+- ``cattaneo2d`` (friction, lumped recovery only): ``l2_rel_error`` = the L2 error of the
+  tangential traction q against Cattaneo–Mindlin over ±1.25 a, ``max_rel_error`` =
+  max over slave nodes |q_i − q(x_i)|/(μ p0); level 0 has h = 0.1 (≈ a/6.5).
 
 Timings are those of the run's summary.json (``timings``: search, contact assembly,
 bulk assembly, linear solve, total), max-reduced over ranks; ``wall_time`` is the
@@ -45,13 +48,17 @@ import numpy as np
 
 from .errors import SceneError
 
-BENCHMARKS = ("hertz2d", "hertz3d", "patch2d")
+BENCHMARKS = ("hertz2d", "hertz3d", "patch2d", "cattaneo2d")
+#: Benchmarks with friction: they run with the lumped recovery only (the others skip).
+FRICTIONAL = ("cattaneo2d",)
 INTEGRATIONS = ("element", "segment")
 RECOVERIES = ("lumped", "unconstrained", "constrained")
 
 #: Level-0 contact element sizes of ``--tiny`` (quick smoke runs; the patch test is
 #: already coarse at its default level 0).
-TINY_H0 = {"hertz2d": 0.4, "hertz3d": 0.5}
+TINY_H0 = {"hertz2d": 0.4, "hertz3d": 0.5, "cattaneo2d": 0.14}
+#: Level-0 contact element size of cattaneo2d (≈ a/6.5; the demo's default 0.05 is level 1).
+CATTANEO_H0 = 0.1
 
 COLUMNS = (
     "benchmark",
@@ -98,10 +105,11 @@ def _import_demos():
         sys.path.insert(0, d)
     import _common as cm  # noqa: PLC0415 - from demos/, on sys.path only while benching
     import _patch  # noqa: PLC0415
+    import demo_cattaneo2d  # noqa: PLC0415
     import demo_hertz2d  # noqa: PLC0415
     import demo_hertz3d  # noqa: PLC0415
 
-    return cm, demo_hertz2d, demo_hertz3d, _patch
+    return cm, demo_hertz2d, demo_hertz3d, _patch, demo_cattaneo2d
 
 
 def _names(name: str) -> tuple[str, ...]:
@@ -124,7 +132,31 @@ def _h0(name: str, h0) -> float | None:
 
 def _scene(mods, name: str, level: int, integration: str, h0, recovery="lumped"):
     """(scene dict, h, evaluate(summary, out_dir) -> metrics on rank 0) of one run."""
-    cm, hz2, hz3, patch = mods
+    cm, hz2, hz3, patch, catt = mods
+    if name == "cattaneo2d":
+        sc = catt.scene(level, integration)
+        h = (_h0(name, h0) or CATTANEO_H0) / 2**level
+        sc["mesh"]["params"]["h_contact"] = h
+
+        def evaluate(summary, out_dir):
+            m = catt.evaluate(summary, out_dir, h)
+            x, q = np.asarray(m["x"]), np.asarray(m["q"])
+            a, c = m["a"], m["c"]
+            p0 = 2.0 * m["P"] / (math.pi * a)
+            full = catt.MU * p0 * np.sqrt(np.clip(1.0 - (x / a) ** 2, 0.0, None))
+            inner = catt.MU * p0 * (c / a) * np.sqrt(np.clip(1.0 - (x / c) ** 2, 0.0, None))
+            qe = np.where(np.abs(x) <= c, full - inner, full)
+            return {
+                "l2_rel_error": m["l2_q"],
+                "max_rel_error": float(np.max(np.abs(q - qe)) / (catt.MU * p0)),
+                "slave_nodes": len(x),
+                "newton_iterations": int(sum(m["newton_iterations"])),
+                "uzawa_rounds": int(sum(m["uzawa_rounds"])),
+                "newton_order": cm.newton_orders(summary)[-1],
+                "residual_norms": [st["residual_norms"] for st in summary["steps"]],
+            }
+
+        return sc, h, evaluate
     if name in ("hertz2d", "hertz3d"):
         demo = hz2 if name == "hertz2d" else hz3
         sc = demo.scene(level, integration=integration, recovery=recovery)
@@ -250,6 +282,10 @@ def run_bench(
     rows, histories = [], []
     for bname in names:
         for integration, recovery in ((i, r) for r in recoveries for i in integrations):
+            if bname in FRICTIONAL and recovery != "lumped":
+                if comm.rank == 0:
+                    print(f"[bench] {bname} {recovery}: skipped (friction needs lumped)")
+                continue
             for level in range(int(levels)):
                 tag = "" if recovery == "lumped" else f"_{recovery}"
                 run_dir = out_dir / f"{bname}_L{level}_{integration}{tag}"

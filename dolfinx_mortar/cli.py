@@ -34,7 +34,7 @@ def _parser() -> argparse.ArgumentParser:
     b = sub.add_parser(
         "bench", help="mesh-level sweep of an analytic benchmark: CSV row per run and PNG plots"
     )
-    b.add_argument("name", help="hertz2d, hertz3d, patch2d or all")
+    b.add_argument("name", help="hertz2d, hertz3d, patch2d, cattaneo2d or all")
     b.add_argument("--levels", type=int, default=3, help="mesh levels 0 .. K-1 [3]")
     b.add_argument("--out", type=Path, default=Path("bench/out"), help="output dir [bench/out]")
     b.add_argument(

@@ -129,3 +129,27 @@ def test_bench_recoveries(tmp_path):
     assert (tmp_path / "patch2d_L0_segment_constrained" / "summary.json").is_file()
     with pytest.raises(SceneError, match="exact"):
         run_bench("patch2d", 1, tmp_path, comm=MPI.COMM_SELF, recoveries=("exact",))
+
+
+def test_bench_cattaneo2d_tiny(tmp_path, capsys):
+    """The frictional benchmark: the L2 error of the tangential traction per level; the
+    non-lumped recoveries are skipped with a message (friction needs lumped)."""
+    from dolfinx_mortar.bench import TINY_H0
+
+    rows = run_bench(
+        "cattaneo2d",
+        1,
+        tmp_path,
+        integrations=("element",),
+        comm=MPI.COMM_SELF,
+        h0=TINY_H0,
+        recoveries=("lumped", "constrained"),
+        plots=False,
+    )
+    assert "cattaneo2d constrained: skipped" in capsys.readouterr().out
+    assert len(rows) == 1 and rows[0]["recovery"] == "lumped"
+    r = rows[0]
+    for c in NUMERIC:
+        assert math.isfinite(float(r[c])), (c, r[c])
+    assert 0.0 < r["l2_rel_error"] < 0.6 and r["slave_nodes"] > 5
+    assert r["h"] == pytest.approx(TINY_H0["cattaneo2d"])
