@@ -42,7 +42,9 @@ def analytic(P_: float) -> dict:
     return {"a": a, "M": 3.0 * math.pi / 16.0 * MU * P_ * a}
 
 
-def scene(refine: int = 0, integration: str = "element", n_twist: int = 6) -> dict:
+def scene(
+    refine: int = 0, integration: str = "element", n_twist: int = 6, h_contact: float = H_CONTACT
+) -> dict:
     return {
         "title": f"twist3d, refine {refine}, {integration}",
         "kinematics": "small",
@@ -50,7 +52,7 @@ def scene(refine: int = 0, integration: str = "element", n_twist: int = 6) -> di
             "generator": "twist3d",
             "params": {
                 "R": R,
-                "h_contact": H_CONTACT / 2**refine,
+                "h_contact": h_contact / 2**refine,
                 "c_zone": 1.8,
                 "h_far": 4.0,
             },
@@ -147,11 +149,17 @@ def evaluate(summary: dict, history) -> dict:
 
 def main(argv=None) -> dict:
     ap = cm.parser("Twisting a Hertz contact (torque plateau)", "results/demo_twist3d")
+    ap.add_argument(
+        "--h-contact",
+        type=float,
+        default=H_CONTACT,
+        help=f"contact-zone element size at refine 0 [{H_CONTACT}]",
+    )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     meter = TorqueMeter()
     summary, wall = cm.run_scene(
-        scene(args.refine, args.integration),
+        scene(args.refine, args.integration, h_contact=args.h_contact),
         args.out,
         comm,
         setup=meter.setup,
@@ -161,7 +169,7 @@ def main(argv=None) -> dict:
     m["wall_time"] = wall
     hist = ", ".join(f"{t:.3g}:{M:.4g}" for t, M in m["torque_history"])
     cm.report(
-        f"twist3d: {args.integration}, h = {H_CONTACT / 2**args.refine:g}, {comm.size} rank(s), "
+        f"twist3d: {args.integration}, h = {args.h_contact / 2**args.refine:g}, {comm.size} rank(s), "
         f"{m['dofs']} dofs",
         [
             (
