@@ -41,7 +41,13 @@ H_CONTACT = 0.05
 SLAVE, MASTER = "upper_surface", "lower_surface"
 
 
-def scene(refine: int = 0, integration: str = "element", n_press: int = 2, n_shear: int = 4):
+def scene(
+    refine: int = 0,
+    integration: str = "element",
+    n_press: int = 2,
+    n_shear: int = 4,
+    recovery: str = "lumped",
+):
     """The scene dict (SCENES.md) at refinement level ``refine``."""
     return {
         "title": f"cattaneo2d, refine {refine}, {integration}",
@@ -56,6 +62,7 @@ def scene(refine: int = 0, integration: str = "element", n_press: int = 2, n_she
                 "slave": SLAVE,
                 "master": MASTER,
                 "friction": MU,
+                "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
                 "uzawa_tol": 1e-6,
@@ -131,18 +138,23 @@ def evaluate(summary: dict, out_dir, h: float) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser("Cattaneo–Mindlin 2D (two cylinders, partial slip)", "results/demo_cattaneo2d")
+    ap = cm.parser(
+        "Cattaneo–Mindlin 2D (two cylinders, partial slip)",
+        "results/demo_cattaneo2d",
+        recovery=True,
+    )
     ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
-    summary, wall = cm.run_scene(scene(args.refine, args.integration), args.out, comm)
+    sc = scene(args.refine, args.integration, recovery=args.recovery)
+    summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:
         m["png"] = plot(m, Path(args.out) / "cattaneo2d_q.png")
     cm.report(
-        f"cattaneo2d: {args.integration}, h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
+        f"cattaneo2d: {args.integration}, {args.recovery}, h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
         [
             ("measured P, Q/(μP)", f"{m['P']:.4f}, {m['Q_ratio']:.4f}"),
             ("a, c (analytic)", f"{m['a']:.4f}, {m['c']:.4f}"),

@@ -240,10 +240,11 @@ class MortarContact:
         )
         self.mu = float(friction)
         self.frictional = self.mu > 0.0
-        if self.frictional and recovery != "lumped":
+        if self.frictional and recovery == "unconstrained":
             raise SceneError(
                 f"{key}.recovery",
-                f"friction is implemented with the lumped recovery only (got {recovery!r})",
+                "friction needs non-negative nodal pressures for its Coulomb limit: use "
+                'recovery = "lumped" or "constrained" (got "unconstrained")',
             )
         if recovery != "lumped":
             self._init_mixed_numbering()
@@ -779,6 +780,7 @@ class MortarContact:
             A.setValues(idx, idx, hess_val[r], addv=ADD)
         # B^I ⊗ B^I of the nodes with a tangent coefficient
         c_off, c_idx, c_val = self._b_rows(self.kcoef, sdofs, mdofs, b_count)
+        self._dp_rows = None
         for node in np.flatnonzero(self.kcoef > 0.0):
             s, e = c_off[node], c_off[node + 1]
             if e > s:
@@ -854,6 +856,11 @@ class MortarContact:
         sel = np.flatnonzero((t >= lo) & (t < lo + n))
         Lm = (rec.left[sel] @ Bm).tocsr()
         Rm = (rec.right[sel] @ Bm).tocsr()
+        if self.frictional:
+            # −∂p^J/∂u = Σ_I L_IJ d_I c^I for the owned nodes J (the slip tangent needs it)
+            own = slice(lo, lo + n)
+            LdR = (rec.left.T @ sp.diags(rec.d) @ rec.right).tocsr()[own]
+            self._dp_rows = (LdR @ Bm).tocsr()
         keys = []
         nb = int(self.ranges[-1])
         for r, dI in enumerate(rec.d[sel]):
@@ -895,6 +902,15 @@ class MortarContact:
             s, e = self.s_off[node], self.s_off[node + 1]
             ps, pe = fo[node], fo[node + 1]
             pf = pf_all[ps:pe]
+            # ∂p_N/∂u = −kN × row: the lumped kcoef B^I, or the row of Lᵀ diag(d) R B of the
+            # constrained recovery (kN = 1)
+            if self._dp_rows is not None and not predictor[node]:
+                r = self._dp_rows
+                sl = slice(r.indptr[node], r.indptr[node + 1])
+                kN, b_idx, b_val = 1.0, r.indices[sl].astype(np.int64), r.data[sl]
+            else:
+                sl = slice(c_off[node], c_off[node + 1])
+                kN, b_idx, b_val = self.kcoef[node], c_idx[sl], c_val[sl]
             U, K = fr.node_tangent(
                 self.frame_a[node],
                 self.S[node],
@@ -902,13 +918,13 @@ class MortarContact:
                 self.tau[node],
                 D,
                 Pd,
-                self.kcoef[node],
+                kN,
                 self.s_dof[s:e],
                 self.s_w[s:e],
                 self.slave.dofs[pf].reshape(-1, d),
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
-                c_idx[c_off[node] : c_off[node + 1]],
-                c_val[c_off[node] : c_off[node + 1]],
+                b_idx,
+                b_val,
             )
             if U.size:
                 idx = U.astype(PETSc.IntType)

@@ -107,6 +107,11 @@ def _run(data, out, comm):
         ("hertz2d-unconstrained", _with_recovery(HERTZ2D, "unconstrained"), "cylinder_surface"),
         ("hertz2d-constrained", _with_recovery(HERTZ2D, "constrained"), "cylinder_surface"),
         ("hertz3d-constrained", _with_recovery(HERTZ3D, "constrained"), "sphere_surface"),
+        (
+            "cattaneo2d-friction-constrained",
+            _with_recovery(CATTANEO2D, "constrained"),
+            "upper_surface",
+        ),
     ],
 )
 def test_parallel_equals_serial(shared_tmp, name, data, slave):
