@@ -86,7 +86,7 @@ class Recovered:
     left: sp.csr_matrix
     right: sp.csr_matrix
     qp_iterations: int = 0
-    free: np.ndarray = None
+    free: np.ndarray | None = None
 
 
 def _truncated_columns(X: np.ndarray, rows: np.ndarray, n: int) -> sp.csr_matrix:
