@@ -381,6 +381,17 @@ class MortarContact:
                 if self.frictional
                 else {}
             ),
+            **(
+                {
+                    "mortar_matrix": "consistent, gathered on every rank (scipy SuperLU)",
+                    "qp": "primal-dual active set; the free set may only grow after "
+                    f"{self.freeze_after} Newton iterations, re-checked at convergence",
+                }
+                if self.recovery == "constrained"
+                else {"mortar_matrix": "consistent, gathered on every rank (scipy SuperLU)"}
+                if self.recovery == "unconstrained"
+                else {}
+            ),
         }
 
     # ------------------------------------------------------------------ per iteration
