@@ -716,7 +716,7 @@ class MortarContact:
 
     # ------------------------------------------------------------------ assembly
     def _terms(self, want_jac: bool, masked: bool = True):
-        nsf, nq = self.qp_w.shape
+        nsf = self.qp_w.shape[0]
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
         nloc = (ns + nm) * d
         sdofs = self.slave.dofs if masked else self._all_dofs(self.slave).reshape(nsf, ns * d)
@@ -725,9 +725,10 @@ class MortarContact:
             if masked
             else self._all_dofs(self.master).reshape(self.master.num_facets, nm * d)
         )
-        res_idx = np.full((nsf * nq, nloc), -1, np.int64)
-        res_val = np.zeros((nsf * nq, nloc))
-        hess_val = np.zeros((nsf * nq if want_jac else 1, nloc, nloc))
+        npaired = int(np.count_nonzero(self.qp_m >= 0))
+        res_idx = np.full((npaired, nloc), -1, np.int64)
+        res_val = np.zeros((npaired, nloc))
+        hess_val = np.zeros((npaired if want_jac else 1, nloc, nloc))
         b_count = np.zeros(self.node_blocks.size, np.int64)
         force = np.zeros(d)
         if nsf:

@@ -365,9 +365,11 @@ def contact_terms(
     Inputs: node_of (nsf, nphi) owned-node index or −1; p (n_nodes,) nodal pressures;
     kcoef (n_nodes,) = ε H^I / A^I (0: no B⊗B term); sdofs (nsf, ns·d), mdofs (nmf, nm·d)
     global dofs (−1 = ignored by PETSc).
-    Outputs: res_idx, res_val (nsf·nq, nloc): entries of R_c = −Σ_I p^I B^I per point
-    (row unused: res_idx −1); hess_val (nsf·nq, nloc, nloc): −Σ_I p^I w J₀ Φ_I ∂²g per point
-    when want_jac (indices = res_idx row); b_count (n_nodes,) += entries of B^I;
+    Outputs: res_idx, res_val (n_paired, nloc): entries of R_c = −Σ_I p^I B^I per PAIRED
+    point (qp_m ≥ 0), in (facet, point) order (row unused: res_idx −1); hess_val
+    (n_paired, nloc, nloc): −Σ_I p^I w J₀ Φ_I ∂²g per paired point when want_jac (indices =
+    res_idx row). Rows are per paired point only: segment integration leaves most of the
+    (nsf, nq) slots empty, and a dense Hessian per slot took gigabytes in 3D; b_count (n_nodes,) += entries of B^I;
     force (d,) += Σ_I p^I Σ_q w J₀ Φ_I ν, the force of the master on the slave.
     """
     nsf, ns, d = xs.shape
@@ -376,14 +378,15 @@ def contact_terms(
     nphi = node_of.shape[1]
     nloc = (ns + nm) * d
     N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, True)
+    row = -1
     for f in range(nsf):
         for q in range(nq):
-            row = f * nq + q
-            for j in range(nloc):
-                res_idx[row, j] = -1
             m = qp_m[f, q]
             if m < 0:
                 continue
+            row += 1
+            for j in range(nloc):
+                res_idx[row, j] = -1
             shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
             pw = 0.0
             for i in range(nphi):
