@@ -35,9 +35,7 @@ max |p/p0 − 1| over the slave nodes. Writes ``OUT/hard_cases.csv`` and ``OUT/h
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import math
 import os
 import re
 import subprocess
@@ -47,9 +45,11 @@ from time import perf_counter
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "bench" / "scenes"
-for _p in (str(ROOT / "demos"), str(ROOT)):
+for _p in (str(ROOT / "demos"), str(ROOT), str(ROOT / "bench")):
     if _p not in sys.path:
         sys.path.insert(0, _p)
+
+import _table  # noqa: E402 - bench/
 
 #: case -> (scene file stem, reference: "hertz2d" | "patch2d" | None, what it tests)
 CASES = {
@@ -176,20 +176,11 @@ def run_case(case: str, out: Path, timeout: float) -> dict:
     return row
 
 
-def _fmt(v):
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.6g}"
-    return v
+_fmt = _table.fmt
 
 
 def write_csv(rows, path) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _fmt(r.get(k)) for k in COLUMNS})
+    _table.write_csv(rows, path, COLUMNS)
 
 
 def _err(r, md: bool = True) -> str:

@@ -71,7 +71,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import csv
 import json
 import logging
 import math
@@ -81,12 +80,13 @@ from pathlib import Path
 from time import perf_counter
 
 ROOT = Path(__file__).resolve().parents[1]
-for _p in (str(ROOT / "demos"), str(ROOT)):
+for _p in (str(ROOT / "demos"), str(ROOT), str(ROOT / "bench")):
     if _p not in sys.path:
         sys.path.insert(0, _p)
 
 import _common as cm  # noqa: E402 - demos/
 import _patch  # noqa: E402
+import _table  # noqa: E402 - bench/
 import demo_hertz2d as hz  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
@@ -420,20 +420,11 @@ def run_case(
 # ---------------------------------------------------------------------------- output
 
 
-def _fmt(v):
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.6g}"
-    return v
+_fmt = _table.fmt
 
 
 def write_csv(rows, path) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _fmt(r.get(k)) for k in COLUMNS})
+    _table.write_csv(rows, path, COLUMNS)
 
 
 def _cell(row, key, fmt) -> str:
