@@ -48,7 +48,9 @@ slave-surface system of every rank gathered (one value per slave node, not the f
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -71,22 +73,42 @@ class Recovered:
     """The recovered nodal fields and the tangent operator (all arrays over the n nodes).
 
     gamma, p_hat, p: (n,) mixed gap (length), nodal penalty pressure ⟨λ − εγ⟩ and the
-    recovered pressure (stress). tangent_nodes: (m,) node indices I with d_I > 0;
-    d: (m,) the coefficients d_I = A^I ε^I (force per length); left, right: (m, n) CSR
-    rows L_I, R_I of the tangent (module docstring). qp_iterations: active-set iterations
-    (0 unless constrained). free: (n,) bool, the nodes the pressure is solved for (the
-    QP's free set 𝒫 when constrained; the nodes with paired area otherwise).
+    recovered pressure (stress). free: (n,) bool, the nodes the pressure is solved for
+    (the QP's free set 𝒫 when constrained; the nodes with paired area otherwise).
+    qp_iterations: active-set iterations (0 unless constrained).
+
+    The tangent operator is built on first use only (the residual evaluations of the
+    line search do not need it): tangent_nodes (m,) node indices I with d_I > 0; d (m,)
+    the coefficients d_I = A^I ε^I (force per length); left, right (m, n) CSR rows L_I,
+    R_I (module docstring).
     """
 
     gamma: np.ndarray
     p_hat: np.ndarray
     p: np.ndarray
-    tangent_nodes: np.ndarray
-    d: np.ndarray
-    left: sp.csr_matrix
-    right: sp.csr_matrix
+    free: np.ndarray
+    build_tangent: Callable[[], tuple] = dataclasses.field(repr=False)
     qp_iterations: int = 0
-    free: np.ndarray | None = None
+
+    @functools.cached_property
+    def _tangent(self) -> tuple:
+        return self.build_tangent()
+
+    @property
+    def tangent_nodes(self) -> np.ndarray:
+        return self._tangent[0]
+
+    @property
+    def d(self) -> np.ndarray:
+        return self._tangent[1]
+
+    @property
+    def left(self) -> sp.csr_matrix:
+        return self._tangent[2]
+
+    @property
+    def right(self) -> sp.csr_matrix:
+        return self._tangent[3]
 
 
 def _truncated_columns(X: np.ndarray, rows: np.ndarray, n: int) -> sp.csr_matrix:
@@ -176,7 +198,6 @@ def recover(
     idx = np.flatnonzero(has)
     gamma = np.zeros(n)
     p = np.zeros(n)
-    empty = sp.csr_matrix((0, n))
     if method == "lumped":
         gamma[idx] = G[idx] / A[idx]
     elif idx.size:
@@ -189,19 +210,31 @@ def recover(
     F = A * p_hat
     tnodes = np.flatnonzero(H & (eps > 0.0))
     if method == "lumped":
-        p = p_hat.copy()
-        rows = sp.csr_matrix(
-            (1.0 / A[tnodes], (np.arange(tnodes.size), tnodes)), shape=(tnodes.size, n)
-        )
-        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], rows, rows, free=has)
+
+        def lumped_tangent():
+            rows = sp.csr_matrix(
+                (1.0 / A[tnodes], (np.arange(tnodes.size), tnodes)), shape=(tnodes.size, n)
+            )
+            return tnodes, A[tnodes] * eps[tnodes], rows, rows
+
+        return Recovered(gamma, p_hat, p_hat.copy(), has, lumped_tangent)
     if not idx.size:
-        return Recovered(gamma, p_hat, p, tnodes[:0], np.zeros(0), empty, empty, free=has)
+        empty = sp.csr_matrix((0, n))
+        return Recovered(gamma, p_hat, p, has, lambda: (tnodes[:0], np.zeros(0), empty, empty))
     pos = np.full(n, -1, np.int64)
     pos[idx] = np.arange(idx.size)
+
+    def inverse_rows(nodes):
+        return _truncated_columns(_columns_of_inverse(lu, pos[nodes], idx.size), idx, n)
+
     if method == "unconstrained":
         p[idx] = lu.solve(F[idx])
-        right = _truncated_columns(_columns_of_inverse(lu, pos[tnodes], idx.size), idx, n)
-        return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], right, right, free=has)
+
+        def unconstrained_tangent():
+            right = inverse_rows(tnodes)
+            return tnodes, A[tnodes] * eps[tnodes], right, right
+
+        return Recovered(gamma, p_hat, p, has, unconstrained_tangent)
     if method != "constrained":
         raise ValueError(f"unknown recovery {method!r}")
     ph, fmask, lu_free, its = nonnegative_qp(Mh, F[idx])
@@ -215,12 +248,16 @@ def recover(
     fidx = idx[fmask]
     free_all = np.zeros(n, bool)
     free_all[fidx] = True
-    tnodes = tnodes[np.isin(tnodes, fidx)]
-    right = _truncated_columns(_columns_of_inverse(lu, pos[tnodes], idx.size), idx, n)
-    if lu_free is None:
-        left = sp.csr_matrix((tnodes.size, n))
-    else:
-        fpos = np.full(n, -1, np.int64)
-        fpos[fidx] = np.arange(fidx.size)
-        left = _truncated_columns(_columns_of_inverse(lu_free, fpos[tnodes], fidx.size), fidx, n)
-    return Recovered(gamma, p_hat, p, tnodes, A[tnodes] * eps[tnodes], left, right, its, free_all)
+
+    def constrained_tangent():
+        nodes = tnodes[np.isin(tnodes, fidx)]
+        if lu_free is None:
+            left = sp.csr_matrix((nodes.size, n))
+        else:
+            fpos = np.full(n, -1, np.int64)
+            fpos[fidx] = np.arange(fidx.size)
+            cols = _columns_of_inverse(lu_free, fpos[nodes], fidx.size)
+            left = _truncated_columns(cols, fidx, n)
+        return nodes, A[nodes] * eps[nodes], left, inverse_rows(nodes)
+
+    return Recovered(gamma, p_hat, p, free_all, constrained_tangent, its)
