@@ -8,7 +8,8 @@
   pressures against the exact profile on [-1.25 a, 1.25 a], the peak pressure error
   and the contact half-width, evaluated with the MEASURED load;
 - :func:`newton_orders`: observed order of convergence of the last Newton iterations;
-- :func:`oscillation_index`, :func:`report`.
+- :func:`oscillation_index`, :func:`report`;
+- :func:`press_then_shift`, :func:`elastic`: scene pieces shared by the demos.
 
 Every function that reads files runs on rank 0 only; the demos broadcast their
 metrics so that ``main()`` returns the same dictionary on every rank.
@@ -290,6 +291,29 @@ def solver_rows(m: dict, wall: float) -> list[tuple[str, str]]:
         ("Uzawa rounds", str(m["uzawa_rounds"])),
         ("wall time", f"{wall:.2f} s"),
     ]
+
+
+def press_then_shift(
+    fixed: str, moved: str, depth: float, shift: float, n_press: int, n_shift: int
+) -> tuple[list[dict], dict]:
+    """The 2D "press, then shift" loading (scene ``dirichlet`` list, ``steps`` table):
+    ``fixed`` clamped; ``moved`` goes down by ``depth`` over t ∈ [0, 1], then sideways by
+    ``shift`` over [1, 2]; ``n_press`` and ``n_shift`` steps in each phase."""
+    dirichlet = [
+        {"boundary": fixed, "components": [0, 1], "path": [[0, 0, 0], [2, 0, 0]]},
+        {
+            "boundary": moved,
+            "components": [0, 1],
+            "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -depth], [2.0, shift, -depth]],
+        },
+    ]
+    steps = {
+        "t_end": 2.0,
+        "n": 2,
+        "output_times": [k / n_press for k in range(1, n_press)]
+        + [1.0 + k / n_shift for k in range(1, n_shift)],
+    }
+    return dirichlet, steps
 
 
 def elastic(regions, E: float, nu: float, model: str = "linear-elastic") -> list[dict]:

@@ -49,6 +49,9 @@ def scene(
     recovery: str = "lumped",
 ):
     """The scene dict (SCENES.md) at refinement level ``refine``."""
+    dirichlet, steps = cm.press_then_shift(
+        "lower_bottom", "upper_top", DEPTH, SHIFT, n_press, n_shear
+    )
     return {
         "title": f"cattaneo2d, refine {refine}, {integration}",
         "kinematics": "small",
@@ -69,20 +72,8 @@ def scene(
                 "uzawa_max": 40,
             }
         ],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "components": [0, 1], "path": [[0, 0, 0], [2, 0, 0]]},
-            {
-                "boundary": "upper_top",
-                "components": [0, 1],
-                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -DEPTH], [2.0, SHIFT, -DEPTH]],
-            },
-        ],
-        "steps": {
-            "t_end": 2.0,
-            "n": 2,
-            "output_times": [k / n_press for k in range(1, n_press)]
-            + [1.0 + k / n_shear for k in range(1, n_shear)],
-        },
+        "dirichlet": dirichlet,
+        "steps": steps,
         "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
     }
 

@@ -100,6 +100,7 @@ def scene(
         "uzawa_max": 40,
         "penalty_tangential": penalty_tangential,
     }
+    dirichlet, steps = cm.press_then_shift("slab_bottom", "die_top", press, slide, n_press, n_slide)
     sc = {
         "title": f"ironing2d, mu {mu}, refine {refine}, {integration}, slave {slave}",
         "kinematics": "finite",
@@ -112,21 +113,8 @@ def scene(
             {"region": "slab", "model": "neo-hookean", "E": E_SLAB, "nu": NU},
         ],
         "contact": [contact],
-        "dirichlet": [
-            {"boundary": "slab_bottom", "components": [0, 1], "path": [[0, 0, 0], [2, 0, 0]]},
-            {
-                "boundary": "die_top",
-                "components": [0, 1],
-                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -press], [2.0, slide, -press]],
-            },
-        ],
-        "steps": {
-            "t_end": 2.0,
-            "n": 2,
-            "max_cutbacks": max_cutbacks,
-            "output_times": [k / n_press for k in range(1, n_press)]
-            + [1.0 + k / n_slide for k in range(1, n_slide)],
-        },
+        "dirichlet": dirichlet,
+        "steps": dict(steps, max_cutbacks=max_cutbacks),
         "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
     }
     if solver:
