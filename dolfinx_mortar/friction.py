@@ -1,7 +1,8 @@
 """Coulomb friction at the slave nodes: convected nodal frames, return mapping, nodal tangent.
 
 Node-level part of the tangential three-field formulation (METHOD.md §1, §2, §4)
-with lumped recovery; the point integrals are in
+with lumped tangential recovery (the normal pressure in the Coulomb limit comes from the
+lumped or the constrained normal recovery); the point integrals are in
 :mod:`dolfinx_mortar.kernels.friction`. With m = d − 1 tangential directions:
 
 - **Nodal frame** (:class:`NodalFrames`): an orthonormal basis a_α^I (α < m) of
