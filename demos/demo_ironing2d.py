@@ -138,7 +138,7 @@ def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD) -> tuple[dict, float]:
     return summary, comm.allreduce(perf_counter() - t0, op=MPI.MAX)
 
 
-def _window_stats(s: np.ndarray, y: np.ndarray, h: float) -> dict:
+def window_stats(s: np.ndarray, y: np.ndarray, h: float) -> dict:
     """Oscillation of the signal y(s) (s = die position): relative range, detrended std,
     dominant wavelength of the detrended signal and its amplitude at wavelength h."""
     mean = float(np.mean(y))
@@ -220,8 +220,8 @@ def evaluate(summary: dict, mu: float, press: float, slide: float, h: float) -> 
         m["plateau_ratio"] = float(np.mean(rw))
         m["plateau_ratio_min"] = float(np.min(rw))
         m["plateau_ratio_max"] = float(np.max(rw))
-        m["osc_F_x"] = _window_stats(ux[window], fx[window], h)
-        m["osc_F_y"] = _window_stats(ux[window], fy[window], h)
+        m["osc_F_x"] = window_stats(ux[window], fx[window], h)
+        m["osc_F_y"] = window_stats(ux[window], fy[window], h)
     return m
 
 

@@ -32,9 +32,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("scene", type=Path)
     sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
     b = sub.add_parser(
-        "bench", help="mesh-level sweep of an analytic benchmark: CSV row per run and PNG plots"
+        "bench", help="mesh-level sweep of a benchmark: CSV row per run and PNG plots"
     )
-    b.add_argument("name", help="hertz2d, hertz3d, patch2d, cattaneo2d or all")
+    b.add_argument("name", help="hertz2d, hertz3d, patch2d, cattaneo2d, ironing2d or all")
     b.add_argument("--levels", type=int, default=3, help="mesh levels 0 .. K-1 [3]")
     b.add_argument("--out", type=Path, default=Path("bench/out"), help="output dir [bench/out]")
     b.add_argument(

@@ -153,3 +153,30 @@ def test_bench_cattaneo2d_tiny(tmp_path, capsys):
             assert math.isfinite(float(r[c])), (c, r[c])
         assert 0.0 < r["l2_rel_error"] < 0.6 and r["slave_nodes"] > 5
         assert r["h"] == pytest.approx(TINY_H0["cattaneo2d"])
+
+
+def test_bench_ironing2d_tiny(tmp_path):
+    """Ironing (finite deformation, friction): both tiny levels finish the path, the drag
+    oscillation (the "error" columns) falls with the level, and the mean F_x/F_y in gross
+    slip is within 3 % of μ = 0.3 (the shallow press ploughs little)."""
+    from dolfinx_mortar.bench import ALL_LEVEL_CAPS, TINY_H0
+
+    rows = run_bench(
+        "ironing2d",
+        2,
+        tmp_path,
+        integrations=("element",),
+        comm=MPI.COMM_SELF,
+        h0=TINY_H0,
+        plots=False,
+    )
+    assert [r["level"] for r in rows] == [0, 1]
+    for r in rows:
+        for c in NUMERIC:
+            assert math.isfinite(float(r[c])), (c, r[c])
+        ratio = float(r["note"].split("F_x/F_y ")[1].split(",")[0])
+        assert ratio == pytest.approx(0.3, rel=0.03), r["note"]
+    assert rows[1]["l2_rel_error"] < rows[0]["l2_rel_error"]
+    assert rows[1]["max_rel_error"] < rows[0]["max_rel_error"]
+    assert rows[0]["l2_rel_error"] < 0.05
+    assert ALL_LEVEL_CAPS["ironing2d"] == 2
