@@ -180,3 +180,16 @@ def test_plot_peers(tmp_path):
     out = tmp_path / "wp.png"
     plot_peers.main([str(tmp_path), "--out", str(out)])  # problem B's CSV is missing: noted
     assert out.stat().st_size > 10_000
+
+
+def test_newton_diagnostics_hertz2d(tmp_path):
+    """At every iterate of hertz2d's step-4 main solve (the demo scene itself, Dirichlet
+    rows included), the tangent matches central differences along the Newton step, and
+    the residual left by the last steps is quadratic in the step length t."""
+    log = _load("newton_diagnostics").main(["--step", "4", "--out", str(tmp_path)])
+    assert len(log) >= 5
+    for r, _, fd, _ in log:
+        assert fd < 1e-5, (r, fd)
+    for *_, quad in log[-2:]:  # the quadratic regime
+        assert max(quad) / min(quad) < 1.01, quad
+    assert log[-1][0] < 1e-2 * log[0][0]
