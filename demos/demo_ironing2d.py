@@ -330,22 +330,28 @@ def main(argv=None) -> dict:
         ("max Uzawa rounds", str(max(m["uzawa_rounds"], default=0))),
         ("wall time", f"{wall:.1f} s"),
     ]
-    if m["status"] != "ok":
-        rows.insert(0, ("FAILED", str(m["error"])))
-    cm.report(
+    title = (
         f"ironing2d: μ = {args.mu}, {args.integration}, slave {args.slave}, h = {h:g}, "
         f"ε_T = {pt if isinstance(pt, str) else f'{pt:.4g}'}, {m['ranks']} rank(s), {m['dofs']} dofs, "
-        f"{args.press_steps}+{args.slide_steps} steps",
-        rows,
-        comm,
+        f"{args.press_steps}+{args.slide_steps} steps"
     )
+    return report_run(title, rows, m, comm)
+
+
+def report_run(title: str, rows: list, m: dict, comm) -> dict:
+    """Print the report (rank 0), led by the error of a run that stopped on the way, and
+    raise RuntimeError on every rank after it; else return ``m``. Also ``demo_ironing3d``."""
+    if m["status"] != "ok":
+        rows.insert(0, ("FAILED", str(m["error"])))
+    cm.report(title, rows, comm)
     if m["status"] != "ok":
         raise RuntimeError(f"run failed at t = {m['t_reached']:g}: {m['error']}")
     return m
 
 
-def plot(m: dict, path: Path) -> str:
-    """F_x and F_y against the die position u_x (matplotlib, Agg)."""
+def plot(m: dict, path: Path, normal: str = "F_y", name: str = "ironing2d") -> str:
+    """F_x and the normal force ``m[normal]`` against the die position u_x (matplotlib,
+    Agg); also used by ``demo_ironing3d`` (normal "F_z")."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -355,12 +361,13 @@ def plot(m: dict, path: Path) -> str:
     sl = t >= 1.0 - 1e-12
     ux = np.asarray(m["u_x"])[sl]
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(ux, np.asarray(m["F_y"])[sl], "-", label="F_y (normal)")
+    fn = np.asarray(m[normal])[sl]
+    ax.plot(ux, fn, "-", label=f"{normal} (normal)")
     ax.plot(ux, np.asarray(m["F_x"])[sl], "-", label="F_x (tangential)")
-    ax.plot(ux, m["mu"] * np.asarray(m["F_y"])[sl], "k:", lw=0.8, label="μ F_y")
+    ax.plot(ux, m["mu"] * fn, "k:", lw=0.8, label=f"μ {normal}")
     ax.set_xlabel("die position u_x")
-    ax.set_ylabel("force on the slab (per unit thickness)")
-    ax.set_title(f"ironing2d, μ = {m['mu']}")
+    ax.set_ylabel("force on the slab" + (" (per unit thickness)" if normal == "F_y" else ""))
+    ax.set_title(f"{name}, μ = {m['mu']}")
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
