@@ -799,6 +799,8 @@ class MortarContact:
                 idx = c_idx[s:e].astype(PETSc.IntType)
                 v = c_val[s:e]
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
+        if self.integration == "segment" and self.gdim == 2 and self.slave.num_facets:
+            self._add_segment_jacobian(A, sdofs, mdofs, c_off, c_idx, c_val)
         if self._recovered is not None and self.recovery != "lumped":
             self._add_mixed_jacobian(A, sdofs, mdofs)
             if self.recovery == "constrained":
@@ -810,6 +812,96 @@ class MortarContact:
                     self.qp_frozen = self._recovered.free.copy()
         if self.frictional:
             self._add_tangential_jacobian(A, c_off, c_idx, c_val)
+
+    def _add_segment_jacobian(self, A, sdofs, mdofs, c_off, c_idx, c_val) -> None:
+        """2D segment integration: the terms of the moving segment points (local).
+
+        The points ξ_q and weights w_q of a segment move with its ends, the projections of
+        the master end nodes onto the slave facet (:func:`.kernels.segment.
+        segment_end_derivatives` gives dξ_q, dw_q per paired point). With p held fixed,
+        R_c = −Σ_q (Σ_I p^I Φ_I(ξ_q)) w_q b_q varies by
+
+            −b_q ⊗ [(Σ p Φ') w_q dξ_q + (Σ p Φ) dw_q] − (Σ p Φ) w_q (db_q/dξ) ⊗ dξ_q.
+
+        Lumped recovery: p^I = λ^I − ε^I G^I/A^I also varies through G^I and A^I, adding
+        (ε^I/A^I) B^I ⊗ C^I with C^I = Σ_q Φ_I (g_q − γ^I) dw_q + w_q [Φ_I'(g_q − γ^I)
+        + Φ_I ∂g_q/∂ξ] dξ_q. The unconstrained and constrained recoveries would also need
+        the variation of the mortar matrix M: not implemented (their tangent stays
+        approximate with segments, as does the tangential part of friction)."""
+        from .kernels.segment import segment_end_derivatives
+
+        ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
+        nloc = (ns + nm) * d
+        fr_, qr = np.nonzero(self.qp_m >= 0)
+        n_rows = fr_.size
+        if not n_rows:
+            return
+        mr = self.qp_m[fr_, qr]
+        nphi = self.node_of.shape[1]
+        dxi, dw = np.zeros((n_rows, nloc)), np.zeros((n_rows, nloc))
+        segment_end_derivatives(
+            self.ftype, self.xs, self.slave.X, self.xm, self.qp_xi, self.qp_w, self.qp_m, dxi, dw
+        )
+        b, db = np.zeros((n_rows, nloc)), np.zeros((n_rows, nloc))
+        g, gxi = np.zeros(n_rows), np.zeros(n_rows)
+        phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi))
+        kmortar.point_xi_terms(
+            self.ftype,
+            self.master.ftype,
+            self.ftype_phi,
+            self.xs,
+            self.xm,
+            self.master.sign,
+            self.qp_xi,
+            self.qp_m,
+            self.qp_zeta,
+            b,
+            db,
+            g,
+            gxi,
+            phi,
+            dphi,
+        )
+        w = self.qp_w[fr_, qr]
+        nodes = self.node_of[fr_]  # (n_rows, nphi), −1: not an owned node
+        pn = np.where(nodes >= 0, self.p[np.maximum(nodes, 0)], 0.0)
+        s0 = np.einsum("ri,ri->r", pn, phi)
+        s1 = np.einsum("ri,ri->r", pn, dphi)
+        extra = -np.einsum("ri,rj->rij", b, (s1 * w)[:, None] * dxi + s0[:, None] * dw)
+        extra -= np.einsum("ri,rj->rij", (s0 * w)[:, None] * db, dxi)
+        idx = np.concatenate([sdofs[fr_], mdofs[mr]], axis=1)
+        ADD = PETSc.InsertMode.ADD_VALUES
+        for r in np.flatnonzero(np.abs(extra).max(axis=(1, 2)) > 0.0):
+            ii = idx[r].astype(PETSc.IntType)
+            A.setValues(ii, ii, extra[r], addv=ADD)
+        if self.recovery != "lumped":
+            return
+        # (ε/A) B^I ⊗ C^I of the lumped nodes with a tangent coefficient
+        rr, ii = np.nonzero((nodes >= 0) & (self.kcoef[np.maximum(nodes, 0)] > 0.0))
+        if not rr.size:
+            return
+        node = nodes[rr, ii]
+        gg = g[rr] - self.gamma[node]
+        cvals = (phi[rr, ii] * gg)[:, None] * dw[rr] + (
+            w[rr] * (dphi[rr, ii] * gg + phi[rr, ii] * gxi[rr])
+        )[:, None] * dxi[rr]
+        cols = idx[rr]
+        keep = cols >= 0
+        ndof = int(self.ranges[-1]) * self.bs
+        Cm = sp.csr_matrix(
+            (cvals[keep], (np.broadcast_to(node[:, None], cols.shape)[keep], cols[keep])),
+            shape=(self.node_blocks.size, ndof),
+        )
+        for n_ in np.unique(node):
+            s, e = c_off[n_], c_off[n_ + 1]
+            cs, ce = Cm.indptr[n_], Cm.indptr[n_ + 1]
+            if e > s and ce > cs:
+                A.setValues(
+                    c_idx[s:e].astype(PETSc.IntType),
+                    Cm.indices[cs:ce].astype(PETSc.IntType),
+                    self.kcoef[n_] * np.outer(c_val[s:e], Cm.data[cs:ce]),
+                    addv=ADD,
+                )
 
     def _b_rows(self, mask, sdofs, mdofs, b_count=None):
         """Rows B^I = ∂G^I/∂u of the owned nodes with mask > 0, as CSR (c_off, c_idx, c_val)

@@ -487,3 +487,46 @@ def test_shape_errors():
     xm = np.zeros((1, 3, 3))
     with pytest.raises(ValueError):
         run(INTERVAL1, xs, [1.0], TRIANGLE1, xm, [1.0], interval_rule(2))
+
+
+@pytest.mark.parametrize("ftype_s", [INTERVAL1, INTERVAL2])
+def test_2d_segment_end_derivatives_match_fd(ftype_s):
+    """dξ_q and dw_q of every point (segment_end_derivatives) against central differences
+    of segment_points in each local dof: the slave facet's nodes and the point's master
+    facet's nodes (inclined, curved slave on a kinked master; reference geometry ≠ current)."""
+    from dolfinx_mortar.kernels.segment import segment_end_derivatives
+
+    xs = [[0.0, 0.02], [1.0, 0.09]]
+    if ftype_s == INTERVAL2:
+        xs.append([0.5, 0.09])
+    xs = np.array([xs])
+    ss = [outward_sign(ftype_s, xs[0], np.array([0.0, 1.0]))]
+    xm, ms = master_intervals(np.array([-0.3, 0.05, 0.37, 0.61, 0.9, 1.22]), y=0.08)
+    xm[2, 1, 1] += 0.03  # a kink
+    rule = interval_rule(3)
+    Xs = 1.3 * xs + 0.1
+    count, qp_xi, qp_w, qp_m = run(ftype_s, xs, ss, INTERVAL1, xm, ms, rule, Xs=Xs)
+    n = int(count[0])
+    ns, d = xs.shape[1], 2
+    nloc = (ns + 2) * d
+    dxi, dw = np.zeros((n, nloc)), np.zeros((n, nloc))
+    segment_end_derivatives(ftype_s, xs, Xs, xm, qp_xi[:, :n], qp_w[:, :n], qp_m[:, :n], dxi, dw)
+    h = 1e-6
+    for q in range(n):
+        m = qp_m[0, q]
+        for j in range(nloc):
+            pts = []
+            for sgn in (1.0, -1.0):
+                xs2, xm2 = xs.copy(), xm.copy()
+                if j < ns * d:
+                    xs2[0, j // d, j % d] += sgn * h
+                else:
+                    xm2[m, (j - ns * d) // d, j % d] += sgn * h
+                c2, xi2, w2, m2 = run(ftype_s, xs2, ss, INTERVAL1, xm2, ms, rule, Xs=Xs)
+                assert c2[0] == n and np.array_equal(m2[0, :n], qp_m[0, :n])
+                pts.append((xi2[0, q, 0], w2[0, q]))
+            fd_xi = (pts[0][0] - pts[1][0]) / (2 * h)
+            fd_w = (pts[0][1] - pts[1][1]) / (2 * h)
+            assert dxi[q, j] == pytest.approx(fd_xi, abs=1e-7), (q, j)
+            assert dw[q, j] == pytest.approx(fd_w, abs=1e-7), (q, j)
+    assert np.abs(dxi).max() > 0.1 and np.abs(dw).max() > 0.01  # the ends do move

@@ -527,3 +527,77 @@ def compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val):
                 o += 1
                 last = i
         c_off[r + 1] = o
+
+
+@numba.njit(cache=True)
+def point_xi_terms(
+    ftype_s, ftype_m, ftype_phi, xs, xm, msign, qp_xi, qp_m, qp_zeta, b, db, g, gxi, phi, dphi
+):
+    r"""Per paired point (rows as in :func:`contact_terms`), the gap and its derivatives
+    along the slave parameter ξ (interval slave facets), for the linearisation of moving
+    segment points:
+
+    b = ∂g/∂u (local dofs), db = d(∂g/∂u)/dξ, g, gxi = dg/dξ = ν·x_s'(ξ) (the closest
+    point is stationary), phi = Φ_I(ξ), dphi = Φ_I'(ξ). With y = [x₁, x_m] and the slave
+    point x₁ = Σ_a N_a(ξ) x_a moving by x_s'(ξ) dξ:
+
+        db_(a,c) = N_a'(ξ) ∂g/∂x₁_c + N_a(ξ) Σ_c' ∂²g/∂x₁_c∂x₁_c' x_s'_c',
+        db_(master j) = Σ_c' ∂²g/∂xm_j∂x₁_c' x_s'_c'.
+
+    Outputs: b, db (n_paired, nloc); g, gxi (n_paired,); phi, dphi (n_paired, nphi).
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = phi.shape[1]
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, False)
+    xp = np.empty(d)
+    row = -1
+    for f in range(nsf):
+        for q in range(nq):
+            m = qp_m[f, q]
+            if m < 0:
+                continue
+            row += 1
+            g[row] = _local_derivatives(
+                ftype_s,
+                ftype_m,
+                xs[f],
+                xm[m],
+                msign[m],
+                qp_xi[f, q],
+                qp_zeta[f, q],
+                False,
+                dg_loc,
+                d2g_loc,
+                dg,
+                d2g,
+                x1,
+                N,
+                dN,
+                ddN,
+            )
+            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            for i in range(nphi):
+                phi[row, i] = Phi[i]
+                dphi[row, i] = dP[i, 0]
+            s = 0.0
+            for c in range(d):
+                xp[c] = 0.0
+                for a in range(ns):
+                    xp[c] += dN[a, 0] * xs[f, a, c]
+                s += dg[c] * xp[c]
+            gxi[row] = s
+            for j in range(dg_loc.size):
+                b[row, j] = dg_loc[j]
+            for a in range(ns):
+                for c in range(d):
+                    s = 0.0
+                    for c2 in range(d):
+                        s += d2g[c, c2] * xp[c2]
+                    db[row, a * d + c] = dN[a, 0] * dg[c] + N[a] * s
+            for j in range(nm * d):
+                s = 0.0
+                for c2 in range(d):
+                    s += d2g[d + j, c2] * xp[c2]
+                db[row, ns * d + j] = s

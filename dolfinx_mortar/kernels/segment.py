@@ -676,3 +676,99 @@ def segment_points(
             )
         count[f] = cnt if cnt <= nqmax else -cnt
     return count
+
+
+@numba.njit(cache=True)
+def segment_end_derivatives(ftype_s, xs, Xs, xm, qp_xi, qp_w, qp_m, dxi, dw):
+    r"""2D: derivatives of the segment points ξ_q and weights w_q with respect to the local
+    dofs [slave facet nodes, master facet nodes] (× d) of each paired point.
+
+    Rows are the paired points (qp_m >= 0) in (facet, point) order, as in
+    :func:`dolfinx_mortar.kernels.mortar.contact_terms`. A segment of slave facet f on
+    master facet m is [lo, hi] = [max(min(t₀, t₁), 0), min(max(t₀, t₁), 1)], with t_e the
+    closest-point parameter of the master END node x_e on the slave facet,
+    (x_s(t_e) − x_e)·x_s'(t_e) = 0 (see the module docstring), so that
+
+        dt_e = −[(x_s − x_e)·δx_s'(t_e) + (δx_s(t_e) − δx_e)·x_s'(t_e)]
+               / [x_s'·x_s' + (x_s − x_e)·x_s''],
+
+    both end nodes being dofs of the point's own master facet. A point
+    ξ = lo + r (hi − lo) with weight w = ŵ (hi − lo) J₀(ξ) (J₀ on the reference facet Xs)
+    moves by
+
+        dξ = (1 − r) dlo + r dhi,    dw = w [(dhi − dlo)/(hi − lo) + (J₀'/J₀)(ξ) dξ];
+
+    a clamped end (0 or 1) does not move.
+
+    Inputs: xs, Xs (nsf, ns, d) current / reference slave nodes (interval facets), xm
+    (nmf, nm, d) current master nodes, qp_xi (nsf, nq, 1), qp_w, qp_m (nsf, nq) from
+    :func:`segment_points` at the same xs, xm. Outputs dxi, dw (n_paired, (ns + nm)·d).
+    """
+    nsf, ns, d = xs.shape
+    nm = xm.shape[1]
+    nloc = (ns + nm) * d
+    N = np.empty(ns)
+    dN = np.empty((ns, 1))
+    ddN = np.empty((ns, 1, 1))
+    z0 = np.full(1, np.nan)
+    t = np.empty(1)
+    dt = np.zeros((2, nloc))
+    tt = np.zeros(2)
+    xv = np.empty(d)
+    xp = np.empty(d)
+    xpp = np.empty(d)
+    row = -1
+    for f in range(nsf):
+        for q in range(qp_w.shape[1]):
+            m = qp_m[f, q]
+            if m < 0:
+                continue
+            row += 1
+            for e in range(2):
+                project(xm[m, e], xs[f], ftype_s, z0, t, PROJ_TOL, PROJ_MAXIT)
+                tt[e] = t[0]
+                shape(ftype_s, t, N, dN, ddN)
+                for c in range(d):
+                    xv[c] = 0.0
+                    xp[c] = 0.0
+                    xpp[c] = 0.0
+                    for a in range(ns):
+                        xv[c] += N[a] * xs[f, a, c]
+                        xp[c] += dN[a, 0] * xs[f, a, c]
+                        xpp[c] += ddN[a, 0, 0] * xs[f, a, c]
+                den = 0.0
+                for c in range(d):
+                    den += xp[c] * xp[c] + (xv[c] - xm[m, e, c]) * xpp[c]
+                for j in range(nloc):
+                    dt[e, j] = 0.0
+                for a in range(ns):
+                    for c in range(d):
+                        dt[e, a * d + c] = -((xv[c] - xm[m, e, c]) * dN[a, 0] + N[a] * xp[c]) / den
+                for c in range(d):
+                    dt[e, (ns + e) * d + c] = xp[c] / den
+            ilo = 0 if tt[0] <= tt[1] else 1
+            ihi = 1 - ilo
+            lo, hi = tt[ilo], tt[ihi]
+            lo_moves, hi_moves = lo > 0.0, hi < 1.0
+            lo, hi = max(lo, 0.0), min(hi, 1.0)
+            length = hi - lo
+            r = (qp_xi[f, q, 0] - lo) / length
+            shape(ftype_s, qp_xi[f, q], N, dN, ddN)
+            j0 = 0.0
+            dj0 = 0.0
+            for c in range(d):
+                xp[c] = 0.0
+                xpp[c] = 0.0
+                for a in range(ns):
+                    xp[c] += dN[a, 0] * Xs[f, a, c]
+                    xpp[c] += ddN[a, 0, 0] * Xs[f, a, c]
+                j0 += xp[c] * xp[c]
+                dj0 += xp[c] * xpp[c]
+            j0 = math.sqrt(j0)
+            dj0 /= j0
+            for j in range(nloc):
+                dlo = dt[ilo, j] if lo_moves else 0.0
+                dhi = dt[ihi, j] if hi_moves else 0.0
+                dx = (1.0 - r) * dlo + r * dhi
+                dxi[row, j] = dx
+                dw[row, j] = qp_w[f, q] * ((dhi - dlo) / length + dj0 / j0 * dx)
