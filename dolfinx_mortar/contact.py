@@ -845,23 +845,7 @@ class MortarContact:
         b, db = np.zeros((n_rows, nloc)), np.zeros((n_rows, nloc))
         g, gxi = np.zeros(n_rows), np.zeros(n_rows)
         phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi))
-        kmortar.point_xi_terms(
-            self.ftype,
-            self.master.ftype,
-            self.ftype_phi,
-            self.xs,
-            self.xm,
-            self.master.sign,
-            self.qp_xi,
-            self.qp_m,
-            self.qp_zeta,
-            b,
-            db,
-            g,
-            gxi,
-            phi,
-            dphi,
-        )
+        kmortar.point_xi_terms(*self._point_args(sdofs, mdofs), b, db, g, gxi, phi, dphi)
         w = self.qp_w[fr_, qr]
         nodes = self.node_of[fr_]  # (n_rows, nphi), −1: not an owned node
         pn = np.where(nodes >= 0, self.p[np.maximum(nodes, 0)], 0.0)

@@ -531,7 +531,25 @@ def compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val):
 
 @numba.njit(cache=True)
 def point_xi_terms(
-    ftype_s, ftype_m, ftype_phi, xs, xm, msign, qp_xi, qp_m, qp_zeta, b, db, g, gxi, phi, dphi
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    b,
+    db,
+    g,
+    gxi,
+    phi,
+    dphi,
 ):
     r"""Per paired point (rows as in :func:`contact_terms`), the gap and its derivatives
     along the slave parameter ξ (interval slave facets), for the linearisation of moving
@@ -544,7 +562,9 @@ def point_xi_terms(
         db_(a,c) = N_a'(ξ) ∂g/∂x₁_c + N_a(ξ) Σ_c' ∂²g/∂x₁_c∂x₁_c' x_s'_c',
         db_(master j) = Σ_c' ∂²g/∂xm_j∂x₁_c' x_s'_c'.
 
-    Outputs: b, db (n_paired, nloc); g, gxi (n_paired,); phi, dphi (n_paired, nphi).
+    The leading arguments are those of :func:`contact_terms` (qp_w, sdofs, mdofs and
+    node_of unused). Outputs: b, db (n_paired, nloc); g, gxi (n_paired,); phi, dphi
+    (n_paired, nphi).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
