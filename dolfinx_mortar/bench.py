@@ -358,7 +358,7 @@ def run_bench(
     for bname in names:
         for integration, recovery in ((i, r) for r in recoveries for i in integrations):
             if bname in FRICTIONAL and recovery == "unconstrained":
-                if comm.rank == 0:
+                if comm.rank == 0 and integration == integrations[0]:
                     print(f"[bench] {bname} {recovery}: skipped (friction needs p >= 0)")
                 continue
             nlev = min(int(levels), caps.get(bname, int(levels)))

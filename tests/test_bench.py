@@ -180,3 +180,12 @@ def test_bench_ironing2d_tiny(tmp_path):
     assert rows[1]["max_rel_error"] < rows[0]["max_rel_error"]
     assert rows[0]["l2_rel_error"] < 0.05
     assert ALL_LEVEL_CAPS["ironing2d"] == 2
+
+
+def test_bench_nothing_to_run(tmp_path, capsys):
+    """Options that leave no run (friction refuses the unconstrained recovery): one clear
+    error, the skip said once, no CSV."""
+    with pytest.raises(SceneError, match="nothing to run for 'cattaneo2d'"):
+        run_bench("cattaneo2d", 1, tmp_path, comm=MPI.COMM_SELF, recoveries=("unconstrained",))
+    assert capsys.readouterr().out.count("skipped") == 1
+    assert not (tmp_path / "bench.csv").exists()
