@@ -43,7 +43,11 @@ def analytic(P_: float) -> dict:
 
 
 def scene(
-    refine: int = 0, integration: str = "element", n_twist: int = 6, h_contact: float = H_CONTACT
+    refine: int = 0,
+    integration: str = "element",
+    n_twist: int = 6,
+    h_contact: float = H_CONTACT,
+    uzawa_tol: float = 1e-3,
 ) -> dict:
     return {
         "title": f"twist3d, refine {refine}, {integration}",
@@ -65,7 +69,7 @@ def scene(
                 "friction": MU,
                 "integration": integration,
                 "penalty": "auto",
-                "uzawa_tol": 1e-3,
+                "uzawa_tol": uzawa_tol,
                 "uzawa_max": 40,
             }
         ],
@@ -155,11 +159,19 @@ def main(argv=None) -> dict:
         default=H_CONTACT,
         help=f"contact-zone element size at refine 0 [{H_CONTACT}]",
     )
+    ap.add_argument("--uzawa-tol", type=float, default=1e-3, help="Uzawa tolerance [1e-3]")
+    ap.add_argument("--twist-steps", type=int, default=6, help="steps of the twist [6]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     meter = TorqueMeter()
     summary, wall = cm.run_scene(
-        scene(args.refine, args.integration, h_contact=args.h_contact),
+        scene(
+            args.refine,
+            args.integration,
+            n_twist=args.twist_steps,
+            h_contact=args.h_contact,
+            uzawa_tol=args.uzawa_tol,
+        ),
         args.out,
         comm,
         setup=meter.setup,
