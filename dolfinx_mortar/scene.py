@@ -72,8 +72,9 @@ Paths (load paths) are piecewise linear in t with constant extrapolation outside
 the listed times; rows must have equal length, finite numbers and strictly
 increasing t.
 
-Public API: :func:`load_scene`, :func:`parse_scene`, :func:`check_groups`,
-:func:`check_components`, :func:`interpolate_path`, the dataclasses, and the
+Public API: :func:`load_scene`, :func:`parse_scene`, :func:`dump_scene`,
+:func:`check_groups`, :func:`check_components`, :func:`interpolate_path`, the
+dataclasses, and the
 module-level :data:`KNOWN_GENERATORS` (which the mesh module may replace).
 """
 
@@ -81,6 +82,7 @@ from __future__ import annotations
 
 import bisect
 import difflib
+import json
 import math
 import re
 import tomllib
@@ -112,6 +114,7 @@ __all__ = [
     "OutputOptions",
     "load_scene",
     "parse_scene",
+    "dump_scene",
     "check_groups",
     "check_components",
     "interpolate_path",
@@ -1123,3 +1126,54 @@ def check_components(scene: Scene, gdim: int) -> None:
                 f"rows must have 1 + {gdim} entries [t, traction vector] for a {gdim}D mesh, "
                 f"got {len(tr.path[0])}",
             )
+
+
+def _toml_value(value: Any, key: str) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        if not math.isfinite(value):
+            raise SceneError(key, f"cannot write the non-finite number {value!r} to TOML")
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a valid TOML basic string
+    if isinstance(value, Sequence):
+        return "[" + ", ".join(_toml_value(v, key) for v in value) + "]"
+    raise SceneError(key, f"cannot write a {_type_name(value)} to TOML")
+
+
+def _toml_table(table: Mapping[str, Any], name: str, out: list[str]) -> None:
+    def is_tables(v):
+        return (
+            isinstance(v, Sequence)
+            and not isinstance(v, str)
+            and v
+            and all(isinstance(x, Mapping) for x in v)
+        )
+
+    for k, v in table.items():
+        if not isinstance(v, Mapping) and not is_tables(v):
+            out.append(f"{k} = {_toml_value(v, _key(name, k))}")
+    for k, v in table.items():
+        sub = f"{name}.{k}" if name else k
+        if isinstance(v, Mapping):
+            out.append(f"\n[{sub}]")
+            _toml_table(v, sub, out)
+        elif is_tables(v):
+            for item in v:
+                out.append(f"\n[[{sub}]]")
+                _toml_table(item, sub, out)
+
+
+def dump_scene(data: Mapping[str, Any]) -> str:
+    """The scene dict ``data`` (the structure :func:`parse_scene` takes) as TOML text, for
+    writing scene files from scripts: ``load_scene`` of the written file gives the scene
+    of ``parse_scene(data)`` (paths relative to the file's directory).
+
+    Writes strings, booleans, finite numbers, arrays, tables and arrays of tables (a
+    table nested in an array of tables is written as a sub-table of its last element).
+    Raises SceneError naming the key of a value TOML cannot hold (None, NaN, objects).
+    """
+    out: list[str] = []
+    _toml_table(data, "", out)
+    return "\n".join(out).lstrip("\n") + "\n"

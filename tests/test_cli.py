@@ -21,6 +21,8 @@ from pathlib import Path
 import pytest
 from conftest import write_block_msh
 
+from dolfinx_mortar.scene import dump_scene
+
 TIMEOUT = 120  # seconds per subprocess
 ERROR_LINE = re.compile(r"^dolfinx-mortar: error: (?P<key>[^:]*): (?P<reason>\S.*)$")
 
@@ -76,35 +78,8 @@ def snapshot(root: Path) -> dict[str, tuple]:
 # --------------------------------------------------------------------------- scenes
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, int | float):
-        return repr(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(v)
-
-
 def to_toml(scene: dict) -> str:
-    """Enough TOML for the scenes here: scalars, arrays, tables and arrays of tables."""
-    lines = [f"{k} = {_toml_value(v)}" for k, v in scene.items() if not isinstance(v, dict | list)]
-    lines += [
-        f"{k} = {_toml_value(v)}"
-        for k, v in scene.items()
-        if isinstance(v, list) and not (v and isinstance(v[0], dict))
-    ]
-    for k, v in scene.items():
-        if isinstance(v, dict):
-            lines.append(f"\n[{k}]")
-            lines += [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
-        elif isinstance(v, list) and v and isinstance(v[0], dict):
-            for item in v:
-                lines.append(f"\n[[{k}]]")
-                lines += [f"{kk} = {_toml_value(vv)}" for kk, vv in item.items()]
-    return "\n".join(lines) + "\n"
+    return dump_scene(scene)
 
 
 def base_scene(mesh: str = "block.msh") -> dict:

@@ -608,3 +608,31 @@ def test_check_components():
     assert "1 + 3 entries for all components" in info.value.reason
     data["dirichlet"][0]["path"] = [[0, 0, 0, 0]]
     check_components(parse_scene(data, BASE), 3)
+
+
+def test_dump_scene_round_trip(tmp_path):
+    """dump_scene writes what load_scene reads back as the same scene: nested tables
+    ([mesh.params]), arrays of tables, paths, strings with quotes, booleans."""
+    import sys
+
+    from dolfinx_mortar.scene import dump_scene
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "demos"))
+    import demo_cattaneo2d
+    import demo_hertz2d
+
+    for data in (demo_hertz2d.scene(0, 1, "segment"), demo_cattaneo2d.scene()):
+        data = dict(data, title='a "quoted" title', solver={"petsc": {"snes_monitor": True}})
+        path = tmp_path / "s.toml"
+        path.write_text(dump_scene(data))
+        back = scene_mod.load_scene(path)
+        assert back == scene_mod.parse_scene(data, tmp_path, source=back.source)
+
+
+@pytest.mark.parametrize("bad, key", [(float("nan"), "steps.t_end"), (None, "steps.t_end")])
+def test_dump_scene_refuses_values_toml_cannot_hold(bad, key):
+    from dolfinx_mortar.scene import dump_scene
+
+    with pytest.raises(SceneError) as exc:
+        dump_scene({"steps": {"t_end": bad}})
+    assert exc.value.key == key
