@@ -17,7 +17,21 @@ cases, which take seconds each):
 - ``patch2d_ratio4_*`` / ``patch2d_ratio1_4_*``: the contact patch test with
   h_master/h_slave = 4 (5 master, 20 slave elements) and 1/4 (20 master, 5 slave), element and
   segment integration;
-- ``slide_cattaneo2d``: large frictionless sliding (press 0.05, slide 1.0 in 20 steps).
+- ``slide_cattaneo2d``: large frictionless sliding (press 0.05, slide 1.0 in 20 steps,
+  over 20 master facets).
+
+Generated cases (scene dicts built from the demos, written to ``OUT/scenes/CASE.toml``
+with :func:`dolfinx_mortar.scene.dump_scene`, then run the same way):
+
+- ``hertz2d_kappa1eK_uzawa`` / ``_penalty`` (K = 0, 2, 4, 6): the penalty
+  ε = κ E*/h with κ = ε h/E* = 10^K (E* = 109.89, h = 0.1; "auto" is κ = 100), with
+  Uzawa to 1e-6 or as pure penalty (``uzawa_tol = 0``);
+- ``hertz2d_nu049_p1`` / ``_p2``: nearly incompressible bulk (ν = 0.49 in both bodies;
+  the Hertz reference with that E*), P1 and P2;
+- ``cattaneo2d_reversal``: stick–slip reversal, the Cattaneo–Mindlin platen shifted to +S,
+  back to 0, then to −S (4 steps each). Reference (Mindlin–Deresiewicz): the hysteresis
+  loop is symmetric, so the final tangential force is −Q(+S); recorded as
+  |Q(−S) + Q(+S)|/|Q(+S)|, and the force left at zero shift, Q(0)/Q(+S).
 
 Recorded per case: completed (exit status 0 and ``status = "ok"``), converged steps,
 cutbacks (those of a step that finally failed included, from the error message), total
@@ -26,8 +40,9 @@ are not in summary.json, so not counted), Uzawa rounds, the process's wall time 
 mesh and JIT included) and the load stepping's own time (summary ``timings.total``), and
 the final error where there is an analytic reference: hertz2d (force control, so the
 initial gap or penetration does not change the final state): the L2 pressure error and the
-peak error against Hertz with the measured load (``demos/demo_hertz2d.evaluate``); patch2d:
-max |p/p0 − 1| over the slave nodes. Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
+peak error against Hertz with the measured load and the pressure oscillation index
+(``demos/demo_hertz2d.evaluate``); patch2d: max |p/p0 − 1| over the slave nodes; the
+largest penetration of the last step (summary ``max_penetration``). Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
 """
@@ -64,6 +79,56 @@ CASES = {
     "patch2d_ratio1_4_segment": ("patch2d_ratio1_4_segment", "patch2d", "h_m/h_s = 1/4, segment"),
     "slide_cattaneo2d": ("slide_cattaneo2d", None, "frictionless sliding 1.0 in 20 steps"),
 }
+#: ε h/E* of hertz2d's "auto" penalty is 100: ε = κ · E*/h with E*/h = 109.89/0.1
+HERTZ2D_E_STAR_OVER_H = 200.0 / (2.0 * (1.0 - 0.3**2)) / 0.1
+KAPPA_EXPONENTS = (0, 2, 4, 6)
+
+
+def _hertz2d(nu: float = 0.3, order: int = 1, **contact) -> dict:
+    import demo_hertz2d as hz
+
+    sc = hz.scene(0, order)
+    sc["contact"][0].update(contact)
+    for mat in sc["material"]:
+        mat["nu"] = nu
+    return sc
+
+
+def _reversal() -> dict:
+    """Cattaneo–Mindlin, then the shift reversed: +S at t = 2, 0 at t = 3, −S at t = 4."""
+    import demo_cattaneo2d as catt
+
+    sc = catt.scene()
+    d, s = catt.DEPTH, catt.SHIFT
+    (moved,) = [b for b in sc["dirichlet"] if b["boundary"] == "upper_top"]
+    moved["path"] = [[0.0, 0.0, 0.0], [1.0, 0.0, -d], [2.0, s, -d], [3.0, 0.0, -d], [4.0, -s, -d]]
+    quarter = [0.25, 0.5, 0.75]
+    sc["steps"] = {
+        "t_end": 4.0,
+        "n": 4,
+        "output_times": [0.5] + [k + f for k in (1, 2, 3) for f in quarter],
+    }
+    return sc
+
+
+#: case -> (scene builder, reference, what)
+GENERATED = {
+    **{
+        f"hertz2d_kappa1e{k}_{mode}": (
+            lambda k=k, mode=mode: _hertz2d(
+                penalty=10.0**k * HERTZ2D_E_STAR_OVER_H, uzawa_tol=1e-6 if mode == "uzawa" else 0.0
+            ),
+            "hertz2d",
+            f"ε h/E* = 1e{k}, " + ("Uzawa 1e-6" if mode == "uzawa" else "pure penalty"),
+        )
+        for k in KAPPA_EXPONENTS
+        for mode in ("uzawa", "penalty")
+    },
+    "hertz2d_nu049_p1": (lambda: _hertz2d(nu=0.49), "hertz2d_nu049", "ν = 0.49, P1"),
+    "hertz2d_nu049_p2": (lambda: _hertz2d(nu=0.49, order=2), "hertz2d_nu049", "ν = 0.49, P2"),
+    "cattaneo2d_reversal": (_reversal, "reversal", "stick–slip reversal: +S, 0, −S"),
+}
+ALL_CASES = list(CASES) + list(GENERATED)
 QUICK = (
     "hertz2d_gap",
     "hertz2d_penetration",
@@ -71,6 +136,7 @@ QUICK = (
     "patch2d_ratio4_segment",
     "patch2d_ratio1_4_element",
     "patch2d_ratio1_4_segment",
+    "hertz2d_kappa1e2_penalty",
 )
 
 COLUMNS = (
@@ -90,6 +156,9 @@ COLUMNS = (
     "p_max_err",
     "max_dev",
     "max_penetration",
+    "oscillation",
+    "reversal_err",
+    "q_residual",
     "error",
 )
 
@@ -127,11 +196,19 @@ def evaluate(reference: str | None, summary: dict, out_dir: Path) -> dict:
     """Final error against the analytic reference (completed runs only)."""
     import numpy as np
 
-    if reference == "hertz2d":
+    if reference in ("hertz2d", "hertz2d_nu049"):
         import demo_hertz2d as hz
 
-        m = hz.evaluate(summary, out_dir)
-        return {"l2_err": m["l2"], "p_max_err": m["p_max_err"]}
+        m = hz.evaluate(summary, out_dir, nu=0.49 if reference == "hertz2d_nu049" else 0.3)
+        return {"l2_err": m["l2"], "p_max_err": m["p_max_err"], "oscillation": m["oscillation"]}
+    if reference == "reversal":
+        q = {
+            round(float(s["t"]), 9): float(s["reactions"]["upper_top"][0]) for s in summary["steps"]
+        }
+        return {
+            "reversal_err": abs(q[4.0] + q[2.0]) / abs(q[2.0]),
+            "q_residual": q[3.0] / q[2.0],
+        }
     if reference == "patch2d":
         import _common as cm
 
@@ -141,11 +218,21 @@ def evaluate(reference: str | None, summary: dict, out_dir: Path) -> dict:
 
 
 def run_case(case: str, out: Path, timeout: float) -> dict:
-    stem, reference, what = CASES[case]
-    scene = SCENES / f"{stem}.toml"
+    if case in GENERATED:
+        from dolfinx_mortar.scene import dump_scene
+
+        build, reference, what = GENERATED[case]
+        scene = out / "scenes" / f"{case}.toml"
+        scene.parent.mkdir(parents=True, exist_ok=True)
+        scene.write_text(dump_scene(build()))
+        shown = f"(generated) scenes/{case}.toml"
+    else:
+        stem, reference, what = CASES[case]
+        scene = SCENES / f"{stem}.toml"
+        shown = f"bench/scenes/{stem}.toml"
     out_dir = out / "runs" / case
     rc, wall, tail = run_cli(scene, out_dir, timeout)
-    row = {"case": case, "scene": f"bench/scenes/{stem}.toml", "what": what, "exit_code": rc}
+    row = {"case": case, "scene": shown, "what": what, "exit_code": rc}
     row["wall"] = wall
     summary = {}
     try:
@@ -187,7 +274,12 @@ def _err(r, md: bool = True) -> str:
     if not r["completed"]:
         return "–"
     if r.get("l2_err") is not None:
-        return f"L2 {100 * r['l2_err']:.2f} %, p_max {100 * r['p_max_err']:+.2f} %"
+        return (
+            f"L2 {100 * r['l2_err']:.2f} %, p_max {100 * r['p_max_err']:+.2f} %, "
+            f"osc. {r['oscillation']:.2f}"
+        )
+    if r.get("reversal_err") is not None:
+        return f"Q(−S)+Q(+S) {100 * r['reversal_err']:.2f} %, Q(0)/Q(+S) {r['q_residual']:+.3f}"
     if r.get("max_dev") is not None:
         bar = "\\|" if md else "|"
         return f"max {bar}p/p0 − 1{bar} {r['max_dev']:.1e}"
@@ -201,14 +293,15 @@ def write_markdown(rows, path, command: str) -> None:
         f"    {command}",
         "",
         "| case | what | completed | steps | cutbacks | Newton total | max Newton/step "
-        "| Uzawa rounds | wall (s) | solve (s) | final error |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| Uzawa rounds | max penetration | wall (s) | solve (s) | final error |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['case']} | {r['what']} | {'yes' if r['completed'] else 'no'} | {r['steps']} "
             f"| {r['cutbacks']} | {r['newton_total']} | {r['newton_max_step']} "
-            f"| {r['uzawa_rounds']} | {r['wall']:.1f} | {_fmt(round(r['solve_time'], 2))} "
+            f"| {r['uzawa_rounds']} | {r['max_penetration']:.2e} | {r['wall']:.1f} "
+            f"| {_fmt(round(r['solve_time'], 2))} "
             f"| {_err(r)} |"
         )
     failed = [r for r in rows if not r["completed"]]
@@ -221,11 +314,11 @@ def write_markdown(rows, path, command: str) -> None:
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="bench/out/hard_cases", help="output directory")
-    ap.add_argument("--cases", nargs="+", choices=list(CASES), default=None)
+    ap.add_argument("--cases", nargs="+", choices=ALL_CASES, default=None)
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
     ap.add_argument("--timeout", type=float, default=1800.0, help="per case, seconds [1800]")
     args = ap.parse_args(argv)
-    cases = args.cases or (list(QUICK) if args.quick else list(CASES))
+    cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     command = "OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py " + " ".join(

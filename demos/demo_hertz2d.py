@@ -85,13 +85,14 @@ def scene(
     }
 
 
-def evaluate(summary: dict, out_dir) -> dict:
-    """Metrics of a finished run (rank 0: reads the final CSV)."""
+def evaluate(summary: dict, out_dir, nu: float = NU) -> dict:
+    """Metrics of a finished run (rank 0: reads the final CSV); ``nu``: Poisson's ratio of
+    both bodies (the reference's E*)."""
     from dolfinx_mortar.analytic import effective_modulus, hertz2d
 
     F = cm.contact_force(summary, f"{SLAVE}:{MASTER}")
     P_meas = 2.0 * float(F[1])
-    ref = hertz2d(P_meas, R, effective_modulus(E, NU))
+    ref = hertz2d(P_meas, R, effective_modulus(E, nu))
     d = cm.final_csv(out_dir, SLAVE)
     x, p = cm.mirror(d["x"], d["p_N"])
     m = cm.profile_metrics(x, p, ref["a"], ref["p0"])
