@@ -42,7 +42,9 @@ the final error where there is an analytic reference: hertz2d (force control, so
 initial gap or penetration does not change the final state): the L2 pressure error and the
 peak error against Hertz with the measured load and the pressure oscillation index
 (``demos/demo_hertz2d.evaluate``); patch2d: max |p/p0 − 1| over the slave nodes; the
-largest penetration of the last step (summary ``max_penetration``). Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
+largest penetration of the last step (summary ``max_penetration``). ``--recovery`` sets the recovery of every contact pair (the scenes are rewritten under
+``OUT/scenes``); friction refuses ``unconstrained``, which then shows as a clean failure.
+Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
 """
@@ -217,19 +219,30 @@ def evaluate(reference: str | None, summary: dict, out_dir: Path) -> dict:
     return {}
 
 
-def run_case(case: str, out: Path, timeout: float) -> dict:
-    if case in GENERATED:
-        from dolfinx_mortar.scene import dump_scene
+def run_case(case: str, out: Path, timeout: float, recovery: str | None = None) -> dict:
+    """Run one case (``recovery``: set on every contact pair, scene rewritten under OUT)."""
+    import tomllib
 
+    from dolfinx_mortar.scene import dump_scene
+
+    if case in GENERATED:
         build, reference, what = GENERATED[case]
-        scene = out / "scenes" / f"{case}.toml"
-        scene.parent.mkdir(parents=True, exist_ok=True)
-        scene.write_text(dump_scene(build()))
-        shown = f"(generated) scenes/{case}.toml"
+        data, shown = build(), f"(generated) scenes/{case}.toml"
     else:
         stem, reference, what = CASES[case]
+        data, shown = None, f"bench/scenes/{stem}.toml"
         scene = SCENES / f"{stem}.toml"
-        shown = f"bench/scenes/{stem}.toml"
+        if recovery is not None:
+            data = tomllib.loads(scene.read_text())
+            data.get("output", {}).pop("dir", None)  # relative to bench/scenes
+            shown = f"{shown} (rewritten)"
+    if recovery is not None:
+        for pair in data.get("contact", []):
+            pair["recovery"] = recovery
+    if data is not None:
+        scene = out / "scenes" / f"{case}.toml"
+        scene.parent.mkdir(parents=True, exist_ok=True)
+        scene.write_text(dump_scene(data))
     out_dir = out / "runs" / case
     rc, wall, tail = run_cli(scene, out_dir, timeout)
     row = {"case": case, "scene": shown, "what": what, "exit_code": rc}
@@ -317,6 +330,12 @@ def main(argv=None) -> list[dict]:
     ap.add_argument("--cases", nargs="+", choices=ALL_CASES, default=None)
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
     ap.add_argument("--timeout", type=float, default=1800.0, help="per case, seconds [1800]")
+    ap.add_argument(
+        "--recovery",
+        choices=("lumped", "unconstrained", "constrained"),
+        default=None,
+        help="set this recovery on every contact pair [the scenes' own: lumped]",
+    )
     args = ap.parse_args(argv)
     cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)
     out = Path(args.out).resolve()
@@ -326,7 +345,7 @@ def main(argv=None) -> list[dict]:
     )
     rows = []
     for case in cases:
-        row = run_case(case, out, args.timeout)
+        row = run_case(case, out, args.timeout, args.recovery)
         rows.append(row)
         print(
             f"[hard] {case}: completed={row['completed']}, steps={row['steps']}, "

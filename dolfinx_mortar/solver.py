@@ -22,7 +22,7 @@ from time import perf_counter
 import numpy as np
 from petsc4py import PETSc
 
-from .errors import ConvergenceError
+from .errors import ConvergenceError, SceneError
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +87,10 @@ class NewtonSolver:
         # later solver with the same prefix must not inherit this one's settings.
         self._option_keys = [settings.prefix + k for k in defaults]
         for key, v in zip(self._option_keys, defaults.values(), strict=True):
-            opts[key] = v
+            # a bare flag (-snes_monitor) is "true" as a scene boolean; PETSc wants no value
+            # (a viewer option reads "true" as a viewer name), which also means true for
+            # its boolean options
+            opts[key] = "" if v is True else v
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
         self.snes.setFunction(self._F, self._b)
@@ -96,8 +99,16 @@ class NewtonSolver:
             rtol=settings.rtol, atol=settings.atol, stol=0.0, max_it=settings.max_it
         )
         self.snes.setConvergenceHistory(length=settings.max_it + 1, reset=True)
-        self.snes.setFromOptions()
-        self.snes.getKSP().setFromOptions()
+        try:
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
+        except PETSc.Error as exc:
+            self.destroy()
+            lines = [ln.split("]", 1)[-1].strip() for ln in str(exc).strip().splitlines()]
+            raise SceneError(
+                "solver.petsc",
+                f"PETSc rejected the options {sorted(settings.petsc)}: {lines[-1]}",
+            ) from None
         self.timings = {"linear_solve": 0.0}
         self._n_solves = 0
         self._dtol = None

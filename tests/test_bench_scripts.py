@@ -159,6 +159,19 @@ def test_hard_cases_quick(hard, tmp_path):
             assert r["max_dev"] <= 2e-2, r
 
 
+def test_hard_cases_with_a_recovery(hard, tmp_path):
+    """``--recovery`` rewrites the scenes with that recovery on every contact pair; the
+    results keep their analytic accuracy (constrained: the patch test exact with
+    segments, Hertz within 3 %)."""
+    cases = ["hertz2d_gap", "patch2d_ratio4_segment"]
+    rows = hard.main(["--cases", *cases, "--recovery", "constrained", "--out", str(tmp_path)])
+    for case in cases:
+        text = (tmp_path / "scenes" / f"{case}.toml").read_text()
+        assert 'recovery = "constrained"' in text
+    assert all(r["completed"] for r in rows), rows
+    assert rows[0]["l2_err"] < 0.03 and rows[1]["max_dev"] < 1e-8, rows
+
+
 def test_plot_peers(tmp_path):
     """bench/plot_peers.py on a synthetic harness directory: Kratos's nominal-traction
     errors are used, our rows of other rank counts are left out, the PNG is written."""

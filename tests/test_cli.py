@@ -474,3 +474,25 @@ def test_run_not_converging(workdir):
     xdmf = (out / "fields.xdmf").read_text()
     assert '<Time Value="0"' in xdmf
     assert (out / "fields.h5").stat().st_size > 0
+
+
+def test_petsc_options_flag_and_rejected_value(workdir):
+    """[solver.petsc]: a boolean true is a bare flag (-dm_snes_monitor works); a value
+    PETSc rejects (a viewer named "true") is one clear error naming solver.petsc, and
+    the earlier output is left as it was."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_monitor": True}}
+    (workdir / "flag.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "flag.toml", "--out", "flag_out")
+    assert res.returncode == 0, res.stderr
+    assert "SNES Function norm" in res.stdout
+    scene["solver"] = {"petsc": {"snes_monitor": "true"}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "bad.toml")
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    (line,) = res.stderr.splitlines()
+    m = ERROR_LINE.match(line)
+    assert m and m.group("key") == "solver.petsc", line
+    assert "snes_monitor" in m.group("reason") and "viewer" in m.group("reason"), line
+    assert snapshot(workdir) == before
