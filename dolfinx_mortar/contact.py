@@ -12,7 +12,12 @@ the stationary point of the mixed functional with the mortar mass matrix
 lumped. The contact residual and its exact tangent are
 
     R_c = −Σ_I p^I B^I,
-    K_c = Σ_I (ε^I H^I / A^I) B^I ⊗ B^I − Σ_I p^I ∂²G^I/∂u²,   H^I = [λ^I − ε^I γ^I ≥ 0].
+    K_c = Σ_I (ε^I H^I / A^I) B^I ⊗ B^I − Σ_I p^I ∂²G^I/∂u²,   H^I = [λ^I − ε^I γ^I ≥ 0]
+
+for fixed integration points (element and node integration). Segment integration moves
+its points with u: in 2D, :meth:`MortarContact._add_segment_jacobian` adds those terms
+(exact with the lumped recovery); in 3D, with the mixed recoveries, and in the friction
+integrals, the motion is not linearised (docs/method-notes.md, "Segment integration").
 
 The unconstrained and constrained recoveries keep the consistent mortar matrix M
 (:mod:`dolfinx_mortar.recovery`, which also gives their tangent Σ_I d_I a^I ⊗ c^I); the
