@@ -23,6 +23,8 @@ cases, which take seconds each):
 Generated cases (scene dicts built from the demos, written to ``OUT/scenes/CASE.toml``
 with :func:`dolfinx_mortar.scene.dump_scene`, then run the same way):
 
+- ``patch2d_ratio2_*`` / ``patch2d_ratio1_2_*``: the patch cases with 15 slave / 7 master
+  and 7 slave / 15 master elements (h_master/h_slave ≈ 2.1 and 0.47), element and segment;
 - ``hertz2d_kappa1eK_uzawa`` / ``_penalty`` (K = 0, 2, 4, 6): the penalty
   ε = κ E*/h with κ = ε h/E* = 10^K (E* = 109.89, h = 0.1; "auto" is κ = 100), with
   Uzawa to 1e-6 or as pure penalty (``uzawa_tol = 0``);
@@ -113,8 +115,30 @@ def _reversal() -> dict:
     return sc
 
 
+def _patch_ratio(n_lower: int, n_upper: int, integration: str) -> dict:
+    """The patch scene of ``bench/scenes/patch2d_ratio4_*`` with other element counts
+    (h_master/h_slave = n_upper/n_lower; slave upper_bottom)."""
+    import tomllib
+
+    data = tomllib.loads((SCENES / "patch2d_ratio4_element.toml").read_text())
+    data["mesh"]["params"].update(n_lower=n_lower, n_upper=n_upper)
+    data["contact"][0]["integration"] = integration
+    data["title"] = f"patch2d, {n_upper} slave / {n_lower} master elements, {integration}"
+    data.get("output", {}).pop("dir", None)
+    return data
+
+
 #: case -> (scene builder, reference, what)
 GENERATED = {
+    **{
+        f"patch2d_ratio{name}_{integ}": (
+            lambda nl=nl, nu=nu, integ=integ: _patch_ratio(nl, nu, integ),
+            "patch2d",
+            f"h_m/h_s = {nu}/{nl}, {integ}",
+        )
+        for name, nl, nu in (("2", 7, 15), ("1_2", 15, 7))
+        for integ in ("element", "segment")
+    },
     **{
         f"hertz2d_kappa1e{k}_{mode}": (
             lambda k=k, mode=mode: _hertz2d(
