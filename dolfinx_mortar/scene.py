@@ -61,6 +61,7 @@ Schema (``*`` = required; defaults in brackets)::
                    ("petsc": use the [solver.petsc] options as given)
       line_search  "basic" | "bt" | "l2" | "cp"               ["l2"]
       [solver.petsc]  table of PETSc options: string / int / float / bool values
+                      (true: a bare flag, e.g. snes_monitor = true)
 
     [output]
       dir          string, relative to the scene file's directory
