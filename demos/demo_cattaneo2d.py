@@ -11,9 +11,11 @@ reactions P and Q: Hertz's a = 2√(P R*/(π E*)), p0 = 2P/(π a); the stick zon
 |x| ≤ c with c/a = √(1 − Q/(μP)); the tangential traction
 q(x) = μ p0 [√(1 − x²/a²) − (c/a) √(1 − x²/c²)] for |x| ≤ c, μ p(x) for c ≤ |x| ≤ a.
 
-Metrics: the stick-zone half-width (half the extent of the stick nodes, centred on
-the contact), its error against c in slave-element sizes, the L2 error of the nodal
-tangential traction against q(x), the L2 error of the pressure, Newton iterations.
+Metrics (over the reference slave coordinate, centred on the pressure centroid): the
+stick-zone half-width (the mean of the bracket [half the extent of the stick nodes, the
+same with their outer neighbours], as the peers' harness), its error against c in
+slave-element sizes, the L2 error of the nodal tangential traction against q(x), the L2
+error of the pressure, Newton iterations.
 
 Run::
 
@@ -78,6 +80,20 @@ def scene(
     }
 
 
+def stick_bracket(x: np.ndarray, state: np.ndarray) -> tuple[float, float]:
+    """Half-widths (lo, hi) that bracket the stick zone of a sorted profile x (n,):
+    lo = half the extent of the stick nodes, hi = half the extent of the stick nodes
+    and their two outer neighbours (as the peers' harness, ``hertz_common._bracket``).
+    The measured half-width is their mean."""
+    idx = np.flatnonzero(state == 1)
+    if not idx.size:
+        return 0.0, 0.0
+    il, ir = idx[0], idx[-1]
+    lo = 0.5 * float(x[ir] - x[il])
+    hi = 0.5 * float(x[min(ir + 1, len(x) - 1)] - x[max(il - 1, 0)])
+    return lo, hi
+
+
 def evaluate(summary: dict, out_dir, h: float) -> dict:
     """Metrics of the final step (rank 0: reads the final CSV)."""
     reac = np.asarray(summary["steps"][-1]["reactions"]["upper_top"], float)
@@ -86,12 +102,14 @@ def evaluate(summary: dict, out_dir, h: float) -> dict:
     p0 = 2.0 * P / (math.pi * a)
     c = a * math.sqrt(max(1.0 - Q / (MU * P), 0.0))
     d = cm.final_csv(out_dir, SLAVE)
-    o = np.argsort(d["X"])
-    x, p, q, state = d["X"][o], d["p_N"][o], -d["p_T0"][o], d["state"][o]
+    # small-strain theory: profiles over the REFERENCE slave coordinate (CSV column x;
+    # X is the current one, which the Poisson expansion of the surface stretches by ~1 %)
+    o = np.argsort(d["x"])
+    x, p, q, state = d["x"][o], d["p_N"][o], -d["p_T0"][o], d["state"][o]
     xc = float(np.sum(x * p) / np.sum(p))  # pressure centroid
     x = x - xc
-    stick = x[state == 1]
-    c_h = 0.5 * float(stick.max() - stick.min()) if stick.size else 0.0
+    c_lo, c_hi = stick_bracket(x, state)
+    c_h = 0.5 * (c_lo + c_hi)
     pm = cm.profile_metrics(x, p, a, p0)
 
     def q_exact(s):
@@ -112,6 +130,7 @@ def evaluate(summary: dict, out_dir, h: float) -> dict:
         "a": a,
         "c": c,
         "c_measured": c_h,
+        "c_bracket": [c_lo, c_hi],
         "c_err_elements": (c_h - c) / h,
         "c_err": c_h / c - 1.0 if c > 0 else float("nan"),
         "l2_q": l2q,
@@ -149,7 +168,11 @@ def main(argv=None) -> dict:
         [
             ("measured P, Q/(μP)", f"{m['P']:.4f}, {m['Q_ratio']:.4f}"),
             ("a, c (analytic)", f"{m['a']:.4f}, {m['c']:.4f}"),
-            ("stick half-width", f"{m['c_measured']:.4f} ({m['c_err_elements']:+.2f} elements)"),
+            (
+                "stick half-width",
+                f"{m['c_measured']:.4f} ({m['c_err_elements']:+.2f} elements; "
+                f"bracket {m['c_bracket'][0]:.4f} .. {m['c_bracket'][1]:.4f})",
+            ),
             ("L2 error of q", f"{100 * m['l2_q']:.2f} %"),
             ("L2 error of p", f"{100 * m['l2_p']:.2f} %"),
             ("stick / slip nodes", f"{m['stick_nodes']} / {m['slip_nodes']}"),

@@ -114,7 +114,7 @@ def interface_errors(out_dir) -> dict:
     end nodes lie on the Dirichlet boundary of both bodies: they cannot close the facet
     gap and stay open)."""
     d = cm.final_csv(out_dir, SLAVE)
-    theta = np.arctan2(d["Y"], d["X"])
+    theta = np.arctan2(d["y"], d["x"])  # reference coordinates (small strain)
     inner = (theta > theta.min() + 1e-9) & (theta < theta.max() - 1e-9)
     n = np.stack([np.cos(theta), np.sin(theta)], axis=1)  # outward from the inner body
     s = exact_stress()

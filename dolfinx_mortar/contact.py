@@ -57,12 +57,15 @@ from .kernels import mortar as kmortar
 from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
-from .surface import extract_facets, mixed_nodes, nodal_rule, quadrature
+from .surface import dual_coefficients, extract_facets, mixed_nodes, nodal_rule, quadrature
 
 log = logging.getLogger(__name__)
 
 RECOVERIES = rc.RECOVERIES
 INTEGRATIONS = ("element", "segment", "node")
+#: Weight functions of the tangential mixed field: the dual (biorthogonal) basis Ψ_I of the
+#: slave facets, or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
+TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Default slave-facet quadrature degree per facet type (INTERVAL1, INTERVAL2, TRIANGLE1,
 #: TRIANGLE2, QUAD1, QUAD2): Gauss rules WITHOUT a point at the facet centre. On structured
 #: non-matching meshes a centre point can sit exactly on a master edge, where the
@@ -134,6 +137,7 @@ class MortarContact:
         key="contact",
         friction=0.0,
         penalty_tangential=None,
+        tangential_weights="dual",
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -145,6 +149,12 @@ class MortarContact:
                 f"{key}.integration",
                 f"integration {integration!r} is not available yet (have: {', '.join(INTEGRATIONS)})",
             )
+        if tangential_weights not in TANGENTIAL_WEIGHTS:
+            raise SceneError(
+                f"{key}.tangential_weights",
+                f"{tangential_weights!r} is not one of {', '.join(TANGENTIAL_WEIGHTS)}",
+            )
+        self.tangential_weights = tangential_weights
         self.problem = problem
         self.comm = comm = problem.comm
         self.slave_name, self.master_name = slave, master
@@ -254,7 +264,7 @@ class MortarContact:
         if recovery != "lumped":
             self._init_mixed_numbering()
         if self.frictional:
-            self._init_friction(penalty if penalty_tangential is None else penalty_tangential)
+            self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
         self.aitken = True
@@ -306,10 +316,11 @@ class MortarContact:
             key=key,
             friction=pair.friction,
             penalty_tangential=pair.penalty_tangential,
+            tangential_weights=pair.tangential_weights,
         )
 
     # ------------------------------------------------------------------ friction set-up
-    def _init_friction(self, penalty_t) -> None:
+    def _init_friction(self, penalty_t, key: str) -> None:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
         if penalty_t == "auto":
@@ -322,6 +333,16 @@ class MortarContact:
         self.frames = fr.NodalFrames(
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
+        # weight functions of the tangential mixed field (docs/method-notes.md, "Dual
+        # tangential weights"); node integration keeps Φ (its points are the nodes)
+        try:
+            self.t_weights, self.facet_area = dual_coefficients(
+                self.ftype, self.ftype_phi, self.slave.X, self.rule
+            )
+        except ValueError as exc:
+            raise SceneError(f"{key}.tangential_weights", str(exc)) from None
+        if self.tangential_weights == "standard" or self.integration == "node":
+            self.t_weights[:] = np.eye(self.node_of.shape[1])
         self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
         self.lmbda_t_committed = np.zeros((n, d - 1))
         self.tau = np.zeros((n, d - 1))
@@ -379,6 +400,9 @@ class MortarContact:
             **(
                 {
                     "penalty_tangential": self.penalty_t_description,
+                    "tangential_weights": "standard (node integration)"
+                    if self.integration == "node"
+                    else self.tangential_weights,
                     "frame": "convected orthonormal slave frame (a_ab = identity)",
                     "chattering_control": f"stick/slip states frozen after {self.freeze_after} "
                     "Newton iterations, re-checked at convergence",
@@ -556,6 +580,8 @@ class MortarContact:
                 self.qp_zn,
                 self.node_of,
                 self.node_touching,
+                self.t_weights,
+                self.facet_area,
                 self.slave.blocks,
                 self.slave.dofs,
                 self.master.blocks,

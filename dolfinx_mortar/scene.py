@@ -35,6 +35,7 @@ Schema (``*`` = required; defaults in brackets)::
       integration "element" | "segment" | "node"             ["element"]
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
+      tangential_weights  "dual" | "standard"                 ["dual"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
 
@@ -144,6 +145,8 @@ MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
 RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).
 INTEGRATIONS = ("element", "segment", "node")
+#: Allowed values of ``contact.tangential_weights`` (docs/method-notes.md).
+TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
 #: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
@@ -226,6 +229,10 @@ class ContactPair:
     penalty_tangential:
         Tangential penalty epsilon_T (stress per length), > 0, ``"auto"``, or
         ``None`` meaning "same as ``penalty``" (see :attr:`penalty_t`).
+    tangential_weights:
+        Weight functions of the tangential mixed field (friction only): ``"dual"``
+        (the biorthogonal basis of the slave facets, default) or ``"standard"`` (the
+        shape functions themselves); docs/method-notes.md, "Dual tangential weights".
     uzawa_tol:
         Relative tolerance on the multiplier change (dimensionless), >= 0;
         0 = pure penalty.
@@ -240,6 +247,7 @@ class ContactPair:
     integration: str = "element"
     penalty: float | str = "auto"
     penalty_tangential: float | str | None = None
+    tangential_weights: str = "dual"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
 
@@ -682,6 +690,7 @@ _CONTACT_KEYS = (
     "integration",
     "penalty",
     "penalty_tangential",
+    "tangential_weights",
     "uzawa_tol",
     "uzawa_max",
 )
@@ -770,6 +779,11 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     penalty_t = table.get("penalty_tangential")
     if penalty_t is not None:
         penalty_t = _penalty(penalty_t, _key(prefix, "penalty_tangential"))
+    weights = _choice(
+        table.get("tangential_weights", "dual"),
+        _key(prefix, "tangential_weights"),
+        TANGENTIAL_WEIGHTS,
+    )
     uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
     uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
     return ContactPair(
@@ -780,6 +794,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         integration=integration,
         penalty=penalty,
         penalty_tangential=penalty_t,
+        tangential_weights=weights,
         uzawa_tol=uzawa_tol,
         uzawa_max=uzawa_max,
     )

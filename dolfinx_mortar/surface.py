@@ -211,3 +211,40 @@ def nodal_rule(ftype: int, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     qp_w = gw @ N[:, :nn]
     qp_xi = np.broadcast_to(nodes, (nf, nn, k)).copy()
     return qp_xi, qp_w
+
+
+def dual_coefficients(
+    ftype: int, ftype_phi: int, X: np.ndarray, rule: tuple[np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Biorthogonal ("dual") weight functions of the mixed field on every slave facet.
+
+    Ψ_i = Σ_j C_ij Φ_j with C = D M⁻¹, M_ij = ∫_f Φ_i Φ_j dA₀, D = diag(∫_f Φ_i dA₀)
+    (Wohlmuth's dual basis), so that ∫_f Ψ_i Φ_j dA₀ = δ_ij ∫_f Φ_j dA₀ and Σ_i Ψ_i = 1.
+
+    X (nf, nn, d) reference facet coordinates; ``rule`` = (points (nq, k), weights (nq,)),
+    a Gauss rule on the reference facet exact for Φ_iΦ_j J₀ (the contact's element rule).
+    Returns C (nf, nphi, nphi) and the facet areas (nf,) = Σ_q w_q J₀(ξ_q). Raises
+    ValueError when a Φ_i has ∫Φ_i ≤ 0 (no dual basis).
+    """
+    from .kernels.mortar import reference_weights
+    from .kernels.shape import shape
+
+    pts, wts = rule
+    nf = X.shape[0]
+    nq, k = pts.shape
+    qp_xi, qp_w = np.zeros((nf, nq, k)), np.zeros((nf, nq))
+    if nf:
+        reference_weights(ftype, X, pts, wts, qp_xi, qp_w)
+    nphi = REFERENCE_NODES[ftype_phi].shape[0]
+    phi = np.empty((nq, nphi))
+    N, dN, ddN = np.empty(9), np.empty((9, k)), np.empty((9, k, k))
+    for q in range(nq):
+        shape(ftype_phi, np.ascontiguousarray(pts[q]), N, dN, ddN)
+        phi[q] = N[:nphi]
+    M = np.einsum("fq,qi,qj->fij", qp_w, phi, phi)
+    D = M.sum(axis=2)
+    if np.any(D <= 0.0):
+        raise ValueError("a mixed-field basis function has ∫Φ ≤ 0: no dual basis")
+    # C = D M⁻¹ = (M⁻¹ D)ᵀ (M symmetric)
+    C = np.transpose(np.linalg.solve(M, D[:, :, None] * np.eye(nphi)), (0, 2, 1))
+    return np.ascontiguousarray(C), qp_w.sum(axis=1)

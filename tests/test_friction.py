@@ -177,6 +177,8 @@ def test_slip_integrals_match_reference(case):
         term.qp_zn,
         term.node_of,
         term.node_touching,
+        term.t_weights,
+        term.facet_area,
     )
     assert np.allclose(term.AT, AT, rtol=1e-13, atol=1e-15)
     assert np.allclose(term.S, S, rtol=1e-12, atol=1e-15)

@@ -59,27 +59,29 @@ def test_friction_patch3d(shared_tmp, mode):
 
 @pytest.mark.mpi
 def test_cattaneo2d(shared_tmp):
-    """Default mesh (h = 0.05 ≈ a/13). Measured: stick half-width −0.94 elements,
-    L2(q) 14.9 %, L2(p) 5.2 %. The issue's 5 % on q is NOT met (see BENCHMARKS.md)."""
+    """Default mesh (h = 0.05 ≈ a/13), dual tangential weights, profiles over the reference
+    coordinate. Measured: stick half-width −0.29 elements, L2(q) 8.8 %, L2(p) 3.75 %
+    (standard weights: L2(q) 11.7 %). The issue's 5 % on q is NOT met (BENCHMARKS.md §8)."""
     m = demo_cattaneo2d.main(["--out", str(shared_tmp / "cattaneo2d")])
     assert 0.4 <= m["Q_ratio"] <= 0.55, m["Q_ratio"]
-    assert abs(m["c_err_elements"]) <= 1.0, m["c_err_elements"]
-    assert m["l2_q"] <= 0.16, m["l2_q"]
-    assert m["l2_p"] <= 0.06, m["l2_p"]
+    assert abs(m["c_err_elements"]) <= 0.5, m["c_err_elements"]
+    assert m["l2_q"] <= 0.095, m["l2_q"]
+    assert m["l2_p"] <= 0.04, m["l2_p"]
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25
 
 
 def test_cattaneo2d_constrained(shared_tmp):
-    """The normal pressure from the constrained recovery (tangential part lumped).
-    Measured: stick half-width −0.95 elements, L2(q) 12.8 %, L2(p) 3.8 % (lumped: 15.0 %
-    and 5.2 %); no negative pressure."""
+    """The normal pressure from the constrained recovery (tangential part lumped, dual
+    weights). Measured: stick half-width −0.30 elements, L2(q) 6.1 %, L2(p) 2.3 %
+    (standard tangential weights: L2(q) 9.8 %); no negative pressure. The interpolation
+    error of the exact q at these nodes is already 4.5 %."""
     out = str(shared_tmp / "cattaneo2d-constrained")
     m = demo_cattaneo2d.main(["--recovery", "constrained", "--out", out])
-    assert abs(m["c_err_elements"]) <= 1.0, m["c_err_elements"]
-    assert m["l2_q"] <= 0.14, m["l2_q"]
-    assert m["l2_p"] <= 0.045, m["l2_p"]
+    assert abs(m["c_err_elements"]) <= 0.5, m["c_err_elements"]
+    assert m["l2_q"] <= 0.07, m["l2_q"]
+    assert m["l2_p"] <= 0.03, m["l2_p"]
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25

@@ -418,6 +418,12 @@ CASES = [
     (("contact", 0, "penalty"), True, "contact[0].penalty", "got boolean"),
     (("contact", 0, "penalty_tangential"), 0.0, "contact[0].penalty_tangential", "> 0"),
     (("contact", 0, "penalty_tangential"), "x", "contact[0].penalty_tangential", '"auto"'),
+    (
+        ("contact", 0, "tangential_weights"),
+        "biorthogonal",
+        "contact[0].tangential_weights",
+        '"dual"',
+    ),
     (("contact", 0, "uzawa_tol"), -1e-6, "contact[0].uzawa_tol", "must be >= 0"),
     (("contact", 0, "uzawa_max"), 0, "contact[0].uzawa_max", "must be >= 1"),
     (("contact", 0, "master"), "cylinder_surface", "contact[0].master", "same group"),

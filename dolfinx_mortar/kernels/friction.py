@@ -32,6 +32,9 @@ import numpy as np
 
 from .shape import shape, tdim
 
+#: relative shortfall of the paired area below which a facet still counts as fully paired
+FULL_COVER_TOL = 1e-6
+
 
 @numba.njit(cache=True)
 def slip_integrals(
@@ -47,6 +50,8 @@ def slip_integrals(
     qp_zn,
     node_of,
     node_ok,
+    dual,
+    area,
     skeys,
     sdofs,
     mkeys,
@@ -63,7 +68,10 @@ def slip_integrals(
     xs (nsf, ns, d), xm (nmf, nm, d) current coordinates; qp_xi (nsf, nq, ks), qp_w
     (nsf, nq) weights with J₀; qp_m (nsf, nq) current pairing (−1: none), qp_mn, qp_zn
     (nsf, nq), (nsf, nq, km) the pairing at t_n; node_of (nsf, nphi); node_ok (n,) the nodes
-    that take part (touching at t_n, see MortarContact); skeys (nsf, ns),
+    that take part (touching at t_n, see MortarContact); dual (nsf, nphi, nphi) the
+    weight functions Ψ_i = Σ_j dual[f, i, j] Φ_j (identity: Ψ = Φ), used on a facet only
+    where its points paired now and at t_n cover its whole area (nsf,) (to 1e-6; elsewhere
+    Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone); skeys (nsf, ns),
     mkeys (nmf, nm) global blocks; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs.
     Entry arrays must hold nsf·nq·nphi·(ns + nm) rows (e_dof: (…, d)).
     """
@@ -80,6 +88,7 @@ def slip_integrals(
     dNm = np.empty((nm, km))
     ddNm = np.empty((nm, km, km))
     Phi = np.empty(9)
+    Psi = np.empty(9)
     dP = np.empty((9, ks))
     ddP = np.empty((9, ks, ks))
     dg = np.empty(d)
@@ -87,6 +96,11 @@ def slip_integrals(
     S[:, :] = 0.0
     e = 0
     for f in range(nsf):
+        covered = 0.0
+        for q in range(nq):
+            if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0:
+                covered += qp_w[f, q]
+        use_dual = covered >= (1.0 - FULL_COVER_TOL) * area[f]
         for q in range(nq):
             mn = qp_mn[f, q]
             if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
@@ -94,6 +108,13 @@ def slip_integrals(
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
             shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+            for i in range(nphi):
+                if use_dual:
+                    Psi[i] = 0.0
+                    for j in range(nphi):
+                        Psi[i] += dual[f, i, j] * Phi[j]
+                else:
+                    Psi[i] = Phi[i]
             for c in range(d):
                 s = 0.0
                 for a in range(ns):
@@ -105,7 +126,7 @@ def slip_integrals(
                 node = node_of[f, i]
                 if node < 0 or not node_ok[node]:
                     continue
-                wphi = qp_w[f, q] * Phi[i]
+                wphi = qp_w[f, q] * Psi[i]
                 AT[node] += wphi
                 for c in range(d):
                     S[node, c] += wphi * dg[c]
@@ -127,7 +148,20 @@ def slip_integrals(
 
 
 def slip_integrals_reference(
-    ftype_s, ftype_m, ftype_phi, xs, xm, qp_xi, qp_w, qp_m, qp_mn, qp_zn, node_of, node_ok
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_mn,
+    qp_zn,
+    node_of,
+    node_ok,
+    dual,
+    area,
 ):
     """NumPy reference of :func:`slip_integrals`: returns (A_T, S, W) with W a dict
     {(node, slave|master, facet, local node): weight} (for tests)."""
@@ -147,13 +181,16 @@ def slip_integrals_reference(
         return out[:n]
 
     for f in range(xs.shape[0]):
+        paired = (qp_m[f] >= 0) & (qp_mn[f] >= 0)
+        full = qp_w[f][paired].sum() >= (1.0 - FULL_COVER_TOL) * area[f]
+        C = dual[f] if full else np.eye(dual.shape[1])
         for q in range(qp_xi.shape[1]):
             mn = qp_mn[f, q]
             if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
                 continue
             N = sh(ftype_s, qp_xi[f, q])
             Nm = sh(ftype_m, qp_zn[f, q])
-            Phi = sh(ftype_phi, qp_xi[f, q])
+            Phi = C @ sh(ftype_phi, qp_xi[f, q])
             dg = N @ xs[f] - Nm @ xm[mn]
             for i, node in enumerate(node_of[f]):
                 if node < 0 or not node_ok[node]:
