@@ -70,6 +70,7 @@ def scene(
                 "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
+                "tangential_weights": "dual",
                 "uzawa_tol": 1e-6,
                 "uzawa_max": 40,
             }
