@@ -137,7 +137,7 @@ class MortarContact:
         key="contact",
         friction=0.0,
         penalty_tangential=None,
-        tangential_weights="standard",
+        tangential_weights="dual",
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -557,6 +557,12 @@ class MortarContact:
             has = An > 1e-12 * self.h_node ** (self.gdim - 1)
             gamma_n = np.where(has, Gn / np.where(has, An, 1.0), np.inf)
             self.node_touching = gamma_n <= HISTORY_GAP_TOL * self.h_node
+            # facets closed over their whole area at t_n (every point paired with a gap
+            # ≤ HISTORY_GAP_TOL h): the dual tangential weights apply only there
+            used = self.qp_w != 0.0
+            ok = (self.qp_mn >= 0) & (gn <= HISTORY_GAP_TOL * self.h_facet[:, None])
+            closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
+            self.dual_area = np.where(closed, self.facet_area, np.inf)
             self._history_key = key
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
@@ -581,7 +587,7 @@ class MortarContact:
                 self.node_of,
                 self.node_touching,
                 self.t_weights,
-                self.facet_area,
+                self.dual_area,
                 self.slave.blocks,
                 self.slave.dofs,
                 self.master.blocks,

@@ -74,7 +74,7 @@ def test_cattaneo2d(shared_tmp):
 
 def test_cattaneo2d_constrained(shared_tmp):
     """The normal pressure from the constrained recovery (tangential part lumped, dual
-    weights). Measured: stick half-width −0.30 elements, L2(q) 6.1 %, L2(p) 2.3 %
+    weights). Measured: stick half-width −0.29 elements, L2(q) 6.2 %, L2(p) 2.3 %
     (standard tangential weights: L2(q) 9.8 %); no negative pressure. The interpolation
     error of the exact q at these nodes is already 4.5 %."""
     out = str(shared_tmp / "cattaneo2d-constrained")

@@ -71,7 +71,8 @@ def slip_integrals(
     that take part (touching at t_n, see MortarContact); dual (nsf, nphi, nphi) the
     weight functions Ψ_i = Σ_j dual[f, i, j] Φ_j (identity: Ψ = Φ), used on a facet only
     where its points paired now and at t_n cover its whole area (nsf,) (to 1e-6; elsewhere
-    Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone); skeys (nsf, ns),
+    Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone; area = inf keeps Φ on
+    that facet); skeys (nsf, ns),
     mkeys (nmf, nm) global blocks; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs.
     Entry arrays must hold nsf·nq·nphi·(ns + nm) rows (e_dof: (…, d)).
     """
