@@ -49,6 +49,7 @@ def scene(
     n_press: int = 2,
     n_shear: int = 4,
     recovery: str = "lumped",
+    tangential_weights: str = "dual",
 ):
     """The scene dict (SCENES.md) at refinement level ``refine``."""
     dirichlet, steps = cm.press_then_shift(
@@ -70,7 +71,7 @@ def scene(
                 "recovery": recovery,
                 "integration": integration,
                 "penalty": "auto",
-                "tangential_weights": "dual",
+                "tangential_weights": tangential_weights,
                 "uzawa_tol": 1e-6,
                 "uzawa_max": 40,
             }
@@ -155,17 +156,29 @@ def main(argv=None) -> dict:
         recovery=True,
     )
     ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
+    ap.add_argument(
+        "--tangential-weights",
+        choices=("dual", "standard"),
+        default="dual",
+        help="weight functions of the tangential mixed field [dual]",
+    )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
-    sc = scene(args.refine, args.integration, recovery=args.recovery)
+    sc = scene(
+        args.refine,
+        args.integration,
+        recovery=args.recovery,
+        tangential_weights=args.tangential_weights,
+    )
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:
         m["png"] = plot(m, Path(args.out) / "cattaneo2d_q.png")
     cm.report(
-        f"cattaneo2d: {args.integration}, {args.recovery}, h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
+        f"cattaneo2d: {args.integration}, {args.recovery}, {args.tangential_weights} weights, "
+        f"h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
         [
             ("measured P, Q/(μP)", f"{m['P']:.4f}, {m['Q_ratio']:.4f}"),
             ("a, c (analytic)", f"{m['a']:.4f}, {m['c']:.4f}"),

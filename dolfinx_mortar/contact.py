@@ -137,7 +137,7 @@ class MortarContact:
         key="contact",
         friction=0.0,
         penalty_tangential=None,
-        tangential_weights="dual",
+        tangential_weights="standard",
     ):
         if recovery not in RECOVERIES:
             raise SceneError(

@@ -35,7 +35,7 @@ Schema (``*`` = required; defaults in brackets)::
       integration "element" | "segment" | "node"             ["element"]
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
-      tangential_weights  "dual" | "standard"                 ["dual"]
+      tangential_weights  "standard" | "dual"                 ["standard"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
 
@@ -230,9 +230,9 @@ class ContactPair:
         Tangential penalty epsilon_T (stress per length), > 0, ``"auto"``, or
         ``None`` meaning "same as ``penalty``" (see :attr:`penalty_t`).
     tangential_weights:
-        Weight functions of the tangential mixed field (friction only): ``"dual"`` (the
-        biorthogonal basis of the slave facets, default) or ``"standard"`` (the shape
-        functions themselves); docs/method-notes.md, "Dual tangential weights".
+        Weight functions of the tangential mixed field (friction only): ``"standard"``
+        (the shape functions themselves, default) or ``"dual"`` (the biorthogonal basis of
+        the slave facets closed at t_n); docs/method-notes.md, "Dual tangential weights".
     uzawa_tol:
         Relative tolerance on the multiplier change (dimensionless), >= 0;
         0 = pure penalty.
@@ -247,7 +247,7 @@ class ContactPair:
     integration: str = "element"
     penalty: float | str = "auto"
     penalty_tangential: float | str | None = None
-    tangential_weights: str = "dual"
+    tangential_weights: str = "standard"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
 
@@ -780,7 +780,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     if penalty_t is not None:
         penalty_t = _penalty(penalty_t, _key(prefix, "penalty_tangential"))
     weights = _choice(
-        table.get("tangential_weights", "dual"),
+        table.get("tangential_weights", "standard"),
         _key(prefix, "tangential_weights"),
         TANGENTIAL_WEIGHTS,
     )

@@ -59,13 +59,15 @@ def test_friction_patch3d(shared_tmp, mode):
 
 @pytest.mark.mpi
 def test_cattaneo2d(shared_tmp):
-    """Default mesh (h = 0.05 ≈ a/13), dual tangential weights, profiles over the reference
-    coordinate. Measured: stick half-width −0.29 elements, L2(q) 8.8 %, L2(p) 3.75 %
-    (standard weights: L2(q) 11.7 %). The issue's 5 % on q is NOT met (BENCHMARKS.md §8)."""
-    m = demo_cattaneo2d.main(["--out", str(shared_tmp / "cattaneo2d")])
+    """Default mesh (h = 0.05 ≈ a/13), the library's default (standard) tangential
+    weights, profiles over the reference coordinate. Measured: stick half-width −0.29
+    elements, L2(q) 11.7 %, L2(p) 3.75 % (dual weights: L2(q) 8.8 %, 30 s instead of
+    14 s). The issue's 5 % on q is NOT met here (BENCHMARKS.md §8)."""
+    out = str(shared_tmp / "cattaneo2d")
+    m = demo_cattaneo2d.main(["--tangential-weights", "standard", "--out", out])
     assert 0.4 <= m["Q_ratio"] <= 0.55, m["Q_ratio"]
     assert abs(m["c_err_elements"]) <= 0.5, m["c_err_elements"]
-    assert m["l2_q"] <= 0.095, m["l2_q"]
+    assert m["l2_q"] <= 0.125, m["l2_q"]
     assert m["l2_p"] <= 0.04, m["l2_p"]
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
