@@ -159,9 +159,11 @@ def _scene(mods, name: str, level: int, integration: str, h0, recovery="lumped")
     """(scene dict, h, evaluate(summary, out_dir) -> metrics on rank 0) of one run."""
     cm, hz2, hz3, patch, catt, iron = mods
     if name == "ironing2d":
-        return _ironing_scene(cm, iron, level, integration, h0)
+        sc, h, evaluate = _ironing_scene(cm, iron, level, integration, h0)
+        sc["contact"][0]["recovery"] = recovery
+        return sc, h, evaluate
     if name == "cattaneo2d":
-        sc = catt.scene(level, integration)
+        sc = catt.scene(level, integration, recovery=recovery)
         h = (_h0(name, h0) or CATTANEO_H0) / 2**level
         sc["mesh"]["params"]["h_contact"] = h
 

@@ -8,6 +8,7 @@ for shape (columns, finiteness, monotonicity), not for accuracy (test_demos does
 from __future__ import annotations
 
 import csv
+import json
 import math
 
 import pytest
@@ -148,6 +149,14 @@ def test_bench_cattaneo2d_tiny(tmp_path, capsys):
     )
     assert "cattaneo2d unconstrained: skipped" in capsys.readouterr().out
     assert [r["recovery"] for r in rows] == ["lumped", "constrained"]
+    # each row ran the recovery it is labelled with (the constrained rows once ran lumped)
+    for tag, recovery in (("", "lumped"), ("_constrained", "constrained")):
+        summary = json.loads(
+            (tmp_path / f"cattaneo2d_L0_element{tag}" / "summary.json").read_text()
+        )
+        (pair,) = summary["modelled"]["contact_pairs"].values()
+        assert pair["recovery"] == recovery
+    assert rows[0]["l2_rel_error"] != rows[1]["l2_rel_error"]
     for r in rows:
         for c in NUMERIC:
             assert math.isfinite(float(r[c])), (c, r[c])
