@@ -333,16 +333,20 @@ class MortarContact:
         self.frames = fr.NodalFrames(
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
-        # weight functions of the tangential mixed field (docs/method-notes.md, "Dual
-        # tangential weights"); node integration keeps Φ (its points are the nodes)
-        try:
-            self.t_weights, self.facet_area = dual_coefficients(
-                self.ftype, self.ftype_phi, self.slave.X, self.rule
-            )
-        except ValueError as exc:
-            raise SceneError(f"{key}.tangential_weights", str(exc)) from None
-        if self.tangential_weights == "standard" or self.integration == "node":
-            self.t_weights[:] = np.eye(self.node_of.shape[1])
+        # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets
+        # of finite facet_area (docs/method-notes.md, "Dual tangential weights"); node
+        # integration keeps Φ (its points are the nodes)
+        nsf, nphi = self.node_of.shape
+        if self.tangential_weights == "dual" and self.integration != "node":
+            try:
+                self.t_weights, self.facet_area = dual_coefficients(
+                    self.ftype, self.ftype_phi, self.slave.X, self.rule
+                )
+            except ValueError as exc:
+                raise SceneError(f"{key}.tangential_weights", str(exc)) from None
+        else:
+            self.t_weights = np.ascontiguousarray(np.broadcast_to(np.eye(nphi), (nsf, nphi, nphi)))
+            self.facet_area = np.full(nsf, np.inf)
         self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
         self.lmbda_t_committed = np.zeros((n, d - 1))
         self.tau = np.zeros((n, d - 1))
