@@ -84,6 +84,7 @@ def scene(
     max_cutbacks: int = 6,
     solver: dict | None = None,
     slave: str = "slab",
+    tangential_weights: str = "standard",
 ) -> dict:
     """The scene dict (SCENES.md); the mesh is the generator default at ``refine = 0``.
 
@@ -99,6 +100,7 @@ def scene(
         "uzawa_tol": uzawa_tol,
         "uzawa_max": 40,
         "penalty_tangential": penalty_tangential,
+        "tangential_weights": tangential_weights,
     }
     dirichlet, steps = cm.press_then_shift("slab_bottom", "die_top", press, slide, n_press, n_slide)
     sc = {
@@ -255,6 +257,12 @@ def main(argv=None) -> dict:
         help="slave surface: slab_top (master die_surface) or die_surface (master slab_top) [slab]",
     )
     ap.add_argument("--plot", action="store_true", help="write F_x, F_y against u_x")
+    ap.add_argument(
+        "--tangential-weights",
+        choices=("standard", "dual"),
+        default="standard",
+        help="weight functions of the tangential mixed field [standard]",
+    )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
@@ -283,6 +291,7 @@ def main(argv=None) -> dict:
         args.max_cutbacks,
         solver,
         args.slave,
+        args.tangential_weights,
     )
     summary, wall = run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.mu, args.press, args.slide, h, comm=comm)
