@@ -15,12 +15,13 @@ when the projection moves to another master facet. Its normal component is
 discarded by the nodal frame (:mod:`dolfinx_mortar.friction`).
 
 Nodal integrals over the owned mixed-field nodes I that touched at t_n (``node_ok``;
-points paired now AND at t_n):
+points paired now AND at t_n), with the weight functions Ψ_I (the mixed basis Φ_I, or its
+dual basis on the facets of finite ``area``: ``tangential_weights``):
 
-    A_T^I = Σ_q w_q J₀ Φ_I(ξ_q),    S^I = Σ_q w_q J₀ Φ_I(ξ_q) Δg(ξ_q)   (d-vector),
+    A_T^I = Σ_q w_q J₀ Ψ_I(ξ_q),    S^I = Σ_q w_q J₀ Ψ_I(ξ_q) Δg(ξ_q)   (d-vector),
 
 and the constant weights W^I_k of S^I = Σ_k W^I_k x_k over the slave facet nodes
-(W = w J₀ Φ_I N_a) and the old master facet nodes (W = −w J₀ Φ_I N^m_b(ζ_n)), one
+(W = w J₀ Ψ_I N_a) and the old master facet nodes (W = −w J₀ Ψ_I N^m_b(ζ_n)), one
 entry per (node I, point, facet node): ``e_node``, ``e_key`` (global block of
 node k), ``e_dof`` (its d global dofs, −1 where constrained), ``e_w``.
 """
