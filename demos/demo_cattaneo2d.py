@@ -34,6 +34,8 @@ import _common as cm  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
+from dolfinx_mortar.scene import TANGENTIAL_WEIGHTS  # noqa: E402
+
 R, E, NU, MU = 8.0, 200.0, 0.3, 0.2
 R_STAR = R / 2.0
 E_STAR = E / (2.0 * (1.0 - NU**2))
@@ -158,7 +160,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
     ap.add_argument(
         "--tangential-weights",
-        choices=("dual", "standard"),
+        choices=TANGENTIAL_WEIGHTS,
         default="dual",
         help="weight functions of the tangential mixed field [dual]",
     )

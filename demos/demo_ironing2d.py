@@ -61,6 +61,8 @@ import _common as cm  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
+from dolfinx_mortar.scene import TANGENTIAL_WEIGHTS  # noqa: E402
+
 E_DIE, E_SLAB, NU = 1000.0, 1.0, 0.3
 PRESS, SLIDE = 1.4, 4.0
 H_CONTACT, H_DIE = 0.1, 0.1  # the generator's defaults
@@ -259,7 +261,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--plot", action="store_true", help="write F_x, F_y against u_x")
     ap.add_argument(
         "--tangential-weights",
-        choices=("standard", "dual"),
+        choices=TANGENTIAL_WEIGHTS,
         default="standard",
         help="weight functions of the tangential mixed field [standard]",
     )

@@ -56,6 +56,7 @@ from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
 from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
+from .scene import TANGENTIAL_WEIGHTS
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
 from .surface import dual_coefficients, extract_facets, mixed_nodes, nodal_rule, quadrature
 
@@ -63,9 +64,6 @@ log = logging.getLogger(__name__)
 
 RECOVERIES = rc.RECOVERIES
 INTEGRATIONS = ("element", "segment", "node")
-#: Weight functions of the tangential mixed field: the dual (biorthogonal) basis Ψ_I of the
-#: slave facets, or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
-TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Default slave-facet quadrature degree per facet type (INTERVAL1, INTERVAL2, TRIANGLE1,
 #: TRIANGLE2, QUAD1, QUAD2): Gauss rules WITHOUT a point at the facet centre. On structured
 #: non-matching meshes a centre point can sit exactly on a master edge, where the

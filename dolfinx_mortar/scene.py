@@ -145,7 +145,8 @@ MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
 RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).
 INTEGRATIONS = ("element", "segment", "node")
-#: Allowed values of ``contact.tangential_weights`` (docs/method-notes.md).
+#: Allowed values of ``contact.tangential_weights``: the dual (biorthogonal) basis Ψ_I of the
+#: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
 TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
