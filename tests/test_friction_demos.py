@@ -157,7 +157,7 @@ def test_ironing3d_short(shared_tmp):
 @pytest.mark.mpi2
 def test_twist3d_torque_plateau(shared_tmp):
     """Twisting a Hertz contact to full slip (coarse mesh h = 0.42, 7056 dofs, Uzawa to
-    1e-2; ~75 s serially and on 2 ranks, so not on 3: marker mpi2): the torque rises monotonically to the plateau (3π/16) μ P a
+    1e-2; ~75 s; on 2 ranks only: marker mpi2): the torque rises monotonically to the plateau (3π/16) μ P a
     of the measured load, within 5 % (measured −3.76 %, the same with Uzawa to 1e-3; at
     h = 0.3, −0.48 %), with all contact nodes but at most one slipping at the end."""
     argv = ["--h-contact", "0.42", "--uzawa-tol", "1e-2"]
