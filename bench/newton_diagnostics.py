@@ -15,7 +15,12 @@ solve (the main one; the later Uzawa rounds start near the solution) this prints
 
 Run (serial)::
 
-    /usr/bin/python3 bench/newton_diagnostics.py [--step 4] [--integration segment]
+    /usr/bin/python3 bench/newton_diagnostics.py [--step 4] [--integration segment] [--tri]
+
+An iterate that the l2 line search placed on a kink of the residual (an active-set or
+pairing switch; the search minimises ‖R‖ along the step, and minima sit at kinks) shows a
+large ``fd`` and a ``quad`` that is not constant: the residual is not differentiable
+there, and the check says nothing about the tangent.
 """
 
 from __future__ import annotations
@@ -86,6 +91,7 @@ def main(argv=None) -> list:
     ap.add_argument("--step", type=int, default=4, help="load step to watch (1-based) [4]")
     ap.add_argument("--integration", default="element", help="[element]")
     ap.add_argument("--recovery", default="lumped", help="[lumped]")
+    ap.add_argument("--tri", action="store_true", help="the demo's --tri mesh (triangles)")
     ap.add_argument("--out", default="/tmp/newton_diagnostics", help="run directory")
     args = ap.parse_args(argv)
     box, log, state = {}, [], {"step": 0, "solve": 0}
@@ -117,7 +123,7 @@ def main(argv=None) -> list:
 
     newton_cls._J, newton_cls.solve = watched_j, counted_solve
     try:
-        sc = demo_hertz2d.scene(0, 1, args.integration, recovery=args.recovery)
+        sc = demo_hertz2d.scene(0, 1, args.integration, quads=not args.tri, recovery=args.recovery)
         run(parse_scene(sc, Path(".")), MPI.COMM_WORLD, Path(args.out), setup=setup)
     finally:
         newton_cls._J, newton_cls.solve = orig_j, orig_solve

@@ -195,14 +195,19 @@ def test_plot_peers(tmp_path):
     assert out.stat().st_size > 10_000
 
 
-def test_newton_diagnostics_hertz2d(tmp_path):
-    """At every iterate of hertz2d's step-4 main solve (the demo scene itself, Dirichlet
-    rows included), the tangent matches central differences along the Newton step, and
-    the residual left by the last steps is quadratic in the step length t."""
-    log = _load("newton_diagnostics").main(["--step", "4", "--out", str(tmp_path)])
+@pytest.mark.parametrize("mesh", [[], ["--tri"]], ids=["quads", "tri"])
+def test_newton_diagnostics_hertz2d(tmp_path, mesh):
+    """At the iterates of hertz2d's step-4 main solve (the demo scene itself, Dirichlet rows
+    included) where the residual is smooth along the Newton step (the remainder quadratic
+    in t), the tangent matches central differences along the step; the last two steps are
+    smooth. On triangles the FD check holds at every iterate. On quadrilaterals the l2 line
+    search stops the second iterate on a kink (lambda = 0.013), where the FD check is void."""
+    log = _load("newton_diagnostics").main(["--step", "4", "--out", str(tmp_path), *mesh])
     assert len(log) >= 5
-    for r, _, fd, _ in log:
-        assert fd < 1e-5, (r, fd)
-    for *_, quad in log[-2:]:  # the quadratic regime
-        assert max(quad) / min(quad) < 1.01, quad
+    smooth = [max(quad) / min(quad) < 1.01 for *_, quad in log]
+    assert smooth[-2:] == [True, True], log  # the quadratic regime
+    assert sum(smooth) >= 3, log
+    for (r, _, fd, _), ok in zip(log, smooth, strict=True):
+        if ok or mesh:  # triangles: at every iterate
+            assert fd < 1e-5, (r, fd)
     assert log[-1][0] < 1e-2 * log[0][0]

@@ -38,18 +38,20 @@ def test_hertz2d_accuracy(hertz2d):
     m = hertz2d
     assert m["ranks"] == MPI.COMM_WORLD.size
     assert abs(m["P_measured"] - demo_hertz2d.P) <= 1e-6 * demo_hertz2d.P
-    assert m["l2"] <= 0.04, m["l2"]
+    # The figures at h ≈ a/10 (lumped, element): L2 and max error <= 3 %; measured
+    # 1.91 % and +0.34 % on the demo's quadrilaterals (P1 triangles: 3.64 %, not met).
+    assert m["l2"] <= 0.03, m["l2"]
     assert abs(m["p_max_err"]) <= 0.03, m["p_max_err"]
     assert m["force_balance"] <= 1e-6, m["force_balance"]
     assert m["negative"] == 0
     assert abs(m["a_err"]) <= 0.10, m["a_err"]  # half-width within one element (h ≈ a/10)
 
 
-# Newton on hertz2d (h = 0.1, 4 steps, 1-3 ranks). Observed orders of the main solve of
-# each step, with the round-off floor estimated from the run (2 x the smallest residual):
-# 2.23, 2.16, 1.86, 1.43 serially. Step 4 stops on rtol at 4.1e-8 (0.26 -> 4.1e-4 -> 4.1e-8)
-# before the asymptotic regime; its contraction still accelerates (1.6e-3 then 1e-4). The
-# full Jacobian (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a
+# Newton on hertz2d (h = 0.1, quadrilaterals, 4 steps, 1-3 ranks). Observed orders of the
+# main solve of each step, with the round-off floor estimated from the run (2 x the smallest
+# residual): 3.46, 1.32, 1.45, 1.43 on 1 to 3 ranks. Steps 2-4 stop on rtol one iterate
+# after the contraction first reaches ~1e-3 (step 2: 9.0e-2 -> 1.5e-4 -> 3.5e-8); their
+# contraction still accelerates (1.7e-3 then 2.3e-4). The full Jacobian (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a
 # mid-Uzawa state. The order estimate from three residuals is fragile near round-off (on
 # 3 ranks the last iterate of step 1 lands on the floor), so the test asserts superlinear
 # convergence on every step: above 10x the smallest residual of the run, the last
@@ -126,7 +128,7 @@ def test_recoveries_demo(shared_tmp):
         assert png.exists() and png.stat().st_size > 10_000
     assert len(r["results"]) == 6
     for key, m in r["results"].items():
-        assert m["l2"] <= 0.04, (key, m["l2"])
+        assert m["l2"] <= 0.03, (key, m["l2"])  # measured 1.9-2.8 % (quadrilaterals)
         assert abs(m["p_max_err"]) <= 0.03, (key, m["p_max_err"])
         assert abs(m["P_measured"] - demo_hertz2d.P) <= 1e-6 * demo_hertz2d.P, key
         assert m["oscillation"] > 0.0
@@ -134,5 +136,6 @@ def test_recoveries_demo(shared_tmp):
             assert m["negative"] > 0 and m["p_min"] < 0.0, key
         else:
             assert m["negative"] == 0 and m["p_min"] >= 0.0, key
-    # measured 2.2 % (element) for the constrained recovery, against 3.6 % lumped
-    assert r["results"]["constrained/element"]["l2"] <= 0.03
+    # quadrilaterals: constrained 1.91 %, lumped 1.91 % (element); on triangles (--tri)
+    # the constrained recovery is the better one: 2.2 % against 3.6 % (BENCHMARKS §11)
+    assert r["results"]["constrained/element"]["l2"] <= 0.025
