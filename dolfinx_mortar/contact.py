@@ -236,6 +236,8 @@ class MortarContact:
         self.h_node = h_node / np.maximum(cnt, 1.0)
         h_all = self._facet_sizes(slave_local.X)
         self.h_mean = comm.allreduce(h_all.sum()) / max(comm.allreduce(h_all.size), 1)
+        #: gap window of the contact predictor (rc.near_contact), length
+        self.predictor_tol = 1e-3 * self.h_mean
         self.h_slave_max = comm.allreduce(h_all.max(initial=0.0), op=MPI.MAX)
         self.margin = 2.0 * self.h_slave_max
         E_s = self._surface_modulus(slave_cells)
@@ -685,14 +687,16 @@ class MortarContact:
         self.predictor_nodes = 0
         if self.comm.allreduce(int(active.sum())) == 0:
             # Nothing in contact: a body held only by contact would have a singular Jacobian.
-            # The nodes closest to contact (within 1e-3 h of the smallest gap, and closer than
-            # one facet size) get the lumped penalty stiffness in the TANGENT only (the
-            # residual stays exact), so the first Newton step brings the bodies into contact.
-            # Switched off as soon as one node is active, where the tangent is exact again.
+            # The nodes closest to contact (rc.near_contact) get the penalty stiffness in the
+            # TANGENT only (the residual stays exact), so the first Newton step brings the
+            # bodies into contact. Switched off as soon as one node is active, where the
+            # tangent is exact again. The unconstrained recovery gets it in its own form
+            # (closing γ = M⁻¹G: rc.recover's predictor); the others the lumped one.
             gamma = self.gamma
             gmin = self.comm.allreduce(float(gamma[has].min(initial=np.inf)), op=MPI.MIN)
-            near = has & (gamma <= gmin + 1e-3 * self.h_mean) & (gamma < self.h_node)
-            self.kcoef = np.where(near, eps / safe_A, 0.0)
+            near = rc.near_contact(gamma, has, gmin, self.predictor_tol, self.h_node)
+            if self.recovery != "unconstrained":
+                self.kcoef = np.where(near, eps / safe_A, 0.0)
             self.predictor_nodes = int(near.sum())
             self.active = np.zeros_like(active)
         if self.frictional:
@@ -720,13 +724,25 @@ class MortarContact:
         cols = self.facet_gid[fi].ravel()
         vals = Mf[fi, ii].ravel()
         n = self.node_blocks.size
-        local = np.concatenate([self.A, self.G, self.lmbda, self.eps, has.astype(float)])
-        parts = comm.allgather((rows, cols, vals, local.reshape(5, n)))
+        local = np.concatenate(
+            [self.A, self.G, self.lmbda, self.eps, has.astype(float), self.h_node]
+        )
+        parts = comm.allgather((rows, cols, vals, local.reshape(6, n)))
         rows, cols, vals = (np.concatenate([q[k] for q in parts]) for k in range(3))
-        A, G, lam, eps, has_all = np.concatenate([q[3] for q in parts], axis=1)
+        A, G, lam, eps, has_all, h_all = np.concatenate([q[3] for q in parts], axis=1)
         N = A.size
         M = sp.csr_matrix((vals, (rows, cols)), shape=(N, N))
-        rec = rc.recover(self.recovery, M, A, G, lam, eps, has_all > 0.5, self.qp_frozen)
+        rec = rc.recover(
+            self.recovery,
+            M,
+            A,
+            G,
+            lam,
+            eps,
+            has_all > 0.5,
+            self.qp_frozen,
+            predictor=(self.predictor_tol, h_all),
+        )
         own = slice(self.gid_offset, self.gid_offset + n)
         self.gamma, self.p_hat, self.p = rec.gamma[own], rec.p_hat[own], rec.p[own]
         self._recovered = rec

@@ -174,6 +174,17 @@ def nonnegative_qp(M: sp.spmatrix, F: np.ndarray, scale: float | None = None):
     )
 
 
+def near_contact(
+    gamma: np.ndarray, has: np.ndarray, gmin: float, tol: float, h: np.ndarray
+) -> np.ndarray:
+    """(n,) bool: the nodes closest to contact while none carries pressure, γ^I ≤ gmin +
+    tol and γ^I < h^I (closer than one facet size); gmin is the smallest γ of the whole
+    surface (length). They get the penalty stiffness of an active node in the tangent
+    only, so that the first Newton step brings a body held by contact alone into
+    contact."""
+    return has & (gamma <= gmin + tol) & (gamma < h)
+
+
 def recover(
     method: str,
     M: sp.spmatrix,
@@ -183,6 +194,7 @@ def recover(
     eps: np.ndarray,
     has: np.ndarray,
     free: np.ndarray | None = None,
+    predictor: tuple[float, np.ndarray] | None = None,
 ) -> Recovered:
     """Recover γ, p̂, p and the tangent operator (module docstring) on n slave nodes.
 
@@ -192,7 +204,16 @@ def recover(
     the free set: the QP's free set 𝒫 is replaced by 𝒫 ∪ ``free`` when it lacks some of
     them (p is then M_𝒫𝒫⁻¹F_𝒫 on the union, 0 elsewhere, not necessarily ≥ 0). The
     contact term's chattering control uses it so that the set can only grow within a
-    Newton solve. Serial, deterministic.
+    Newton solve.
+
+    ``predictor`` (unconstrained only): (tol, h), h (n,) nodal sizes: while NO node
+    carries pressure, the nodes of :func:`near_contact` get the tangent of an active node
+    (the residual stays exact). A body held by
+    contact alone has a singular Jacobian in that state; the predictor stiffness
+    d_I W_I ⊗ W_I closes the recovered gap γ^I = (M⁻¹G)^I of those nodes in one Newton
+    step. The lumped stiffness would close G^I/A^I instead, which leaves γ < 0 (and a
+    large penalty force) at the nodes next to them, since the rows of M⁻¹ change sign.
+    Serial, deterministic.
     """
     n = A.size
     idx = np.flatnonzero(has)
@@ -229,6 +250,9 @@ def recover(
 
     if method == "unconstrained":
         p[idx] = lu.solve(F[idx])
+        if predictor is not None and not H.any():
+            gmin = float(gamma[idx].min())
+            tnodes = np.flatnonzero(near_contact(gamma, has, gmin, *predictor) & (eps > 0.0))
 
         def unconstrained_tangent():
             right = inverse_rows(tnodes)

@@ -159,17 +159,20 @@ def test_hard_cases_quick(hard, tmp_path):
             assert r["max_dev"] <= 2e-2, r
 
 
-def test_hard_cases_with_a_recovery(hard, tmp_path):
+@pytest.mark.parametrize("recovery,l2", [("constrained", 0.025), ("unconstrained", 0.032)])
+def test_hard_cases_with_a_recovery(hard, tmp_path, recovery, l2):
     """``--recovery`` rewrites the scenes with that recovery on every contact pair; the
-    results keep their analytic accuracy (constrained: the patch test exact with
-    segments, Hertz within 3 %)."""
+    results keep their analytic accuracy (the patch test exact with segments; Hertz from
+    an initial gap under force control: measured 2.19 % constrained, 2.98 %
+    unconstrained). The unconstrained run stalled in its first step before its contact
+    predictor closed γ = M⁻¹G (recovery.recover's ``predictor``)."""
     cases = ["hertz2d_gap", "patch2d_ratio4_segment"]
-    rows = hard.main(["--cases", *cases, "--recovery", "constrained", "--out", str(tmp_path)])
+    rows = hard.main(["--cases", *cases, "--recovery", recovery, "--out", str(tmp_path)])
     for case in cases:
         text = (tmp_path / "scenes" / f"{case}.toml").read_text()
-        assert 'recovery = "constrained"' in text
-    assert all(r["completed"] for r in rows), rows
-    assert rows[0]["l2_err"] < 0.03 and rows[1]["max_dev"] < 1e-8, rows
+        assert f'recovery = "{recovery}"' in text
+    assert all(r["completed"] and r["cutbacks"] == 0 for r in rows), rows
+    assert rows[0]["l2_err"] < l2 and rows[1]["max_dev"] < 1e-8, rows
 
 
 def test_plot_peers(tmp_path):

@@ -147,3 +147,27 @@ def test_constrained_with_imposed_free_set():
     sub = np.flatnonzero(wider)
     np.testing.assert_allclose((M @ r3.p)[sub], F[sub], atol=1e-12)
     assert np.all(r3.p[~wider] == 0.0)
+
+
+def test_unconstrained_predictor_closes_the_recovered_gap():
+    """Nothing in contact: ``predictor`` gives the nodes nearest to contact the tangent of
+    an active node in the unconstrained form, whose row is the row of M⁻¹ (the linearised
+    step closes γ^I = (M⁻¹G)^I); ignored as soon as a node carries pressure."""
+    rng = np.random.default_rng(5)
+    M, A = _mass_1d(31, rng)
+    M = sp.csr_matrix(M)
+    x = np.linspace(-1.0, 1.0, A.size)
+    G = A * (0.3 * x**2 + 0.01)  # open everywhere, closest at the middle
+    lam, eps, has = np.zeros(A.size), np.full(A.size, 100.0), np.ones(A.size, bool)
+    h = np.full(A.size, 0.1)
+    assert recover("unconstrained", M, A, G, lam, eps, has).tangent_nodes.size == 0
+    r = recover("unconstrained", M, A, G, lam, eps, has, predictor=(1e-4, h))
+    assert np.all(r.p == 0.0)  # the residual is untouched
+    near = np.flatnonzero(r.gamma <= r.gamma.min() + 1e-4)
+    np.testing.assert_array_equal(r.tangent_nodes, near)
+    np.testing.assert_allclose(r.d, A[near] * eps[near])
+    np.testing.assert_allclose(r.right @ G, r.gamma[near], rtol=1e-10)
+    np.testing.assert_allclose(r.left.toarray(), r.right.toarray())
+    closed = recover("unconstrained", M, A, G - 0.02 * A, lam, eps, has, predictor=(1e-4, h))
+    assert closed.p_hat.max() > 0.0
+    np.testing.assert_array_equal(closed.tangent_nodes, np.flatnonzero(closed.p_hat > 0.0))
