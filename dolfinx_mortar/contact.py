@@ -334,19 +334,19 @@ class MortarContact:
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
         # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets
-        # of finite facet_area (docs/method-notes.md, "Dual tangential weights"); node
+        # of finite t_facet_area (docs/method-notes.md, "Dual tangential weights"); node
         # integration keeps Φ (its points are the nodes)
         nsf, nphi = self.node_of.shape
         if self.tangential_weights == "dual" and self.integration != "node":
             try:
-                self.t_weights, self.facet_area = dual_coefficients(
+                self.t_weights, self.t_facet_area = dual_coefficients(
                     self.ftype, self.ftype_phi, self.slave.X, self.rule
                 )
             except ValueError as exc:
                 raise SceneError(f"{key}.tangential_weights", str(exc)) from None
         else:
             self.t_weights = np.ascontiguousarray(np.broadcast_to(np.eye(nphi), (nsf, nphi, nphi)))
-            self.facet_area = np.full(nsf, np.inf)
+            self.t_facet_area = np.full(nsf, np.inf)
         self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
         self.lmbda_t_committed = np.zeros((n, d - 1))
         self.tau = np.zeros((n, d - 1))
@@ -566,7 +566,7 @@ class MortarContact:
             used = self.qp_w != 0.0
             ok = (self.qp_mn >= 0) & (gn <= HISTORY_GAP_TOL * self.h_facet[:, None])
             closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
-            self.dual_area = np.where(closed, self.facet_area, np.inf)
+            self.dual_area = np.where(closed, self.t_facet_area, np.inf)
             self._history_key = key
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
