@@ -285,3 +285,219 @@ def recover(
         return nodes, A[nodes] * eps[nodes], left, inverse_rows(nodes)
 
     return Recovered(gamma, p_hat, p, free_all, constrained_tangent, its)
+
+
+# ---------------------------------------------------------------------------- tangential
+#: Iteration bound of the semismooth Newton method of :func:`cone_qp`.
+CONE_QP_MAX_ITERATIONS = 50
+
+
+@dataclasses.dataclass
+class TangentialRecovered:
+    """The recovered tangential fields of n slave nodes with m = d − 1 frame components.
+
+    gamma (n, m): the mixed slip (length); tau_hat (n, m): the nodal Coulomb law applied to
+    it (:func:`dolfinx_mortar.friction.return_mapping`, stress); tau (n, m): the recovered
+    traction; state (n,), D (n, m, m) = ∂τ̂/∂γ, Pd (n, m) = ∂τ̂/∂p of the nodal law.
+
+    The tangent operator, built on first use: ``Tsig`` (n·m, n·m) = ∂τ/∂σ and ``Tp``
+    (n·m, n) = ∂τ/∂p, dense, with the components of node I at rows I·m + α (σ^I_α =
+    a^I_α·S^I: the weighted slip in the node's frame; p: the normal pressures of the cone).
+    """
+
+    gamma: np.ndarray
+    tau_hat: np.ndarray
+    tau: np.ndarray
+    state: np.ndarray
+    D: np.ndarray
+    Pd: np.ndarray
+    build_tangent: Callable[[], tuple] = dataclasses.field(repr=False)
+    iterations: int = 0
+
+    @functools.cached_property
+    def _tangent(self) -> tuple:
+        return self.build_tangent()
+
+    @property
+    def Tsig(self) -> np.ndarray:
+        return self._tangent[0]
+
+    @property
+    def Tp(self) -> np.ndarray:
+        return self._tangent[1]
+
+
+def _project_discs(z: np.ndarray, c: np.ndarray):
+    """Projection of z (n, m) onto the discs |τ_i| ≤ c_i, with its derivatives.
+
+    Returns P (n, m), dPz (n, m, m) = ∂P/∂z and dPc (n, m) = ∂P/∂c."""
+    n, m = z.shape
+    nz = np.linalg.norm(z, axis=1)
+    out = nz > c
+    s = z / np.maximum(nz, 1e-300)[:, None]
+    P = np.where(out[:, None], c[:, None] * s, z)
+    eye = np.eye(m)
+    ratio = np.where(out, c / np.maximum(nz, 1e-300), 1.0)
+    dPz = ratio[:, None, None] * np.where(
+        out[:, None, None], eye - np.einsum("ni,nj->nij", s, s), eye
+    )
+    dPc = np.where(out[:, None], s, 0.0)
+    return P, dPz, dPc
+
+
+def _block(Mdense: np.ndarray, m: int) -> np.ndarray:
+    """M ⊗ I_m with the components of node I at rows I·m + α, shape (n·m, n·m)."""
+    return np.kron(Mdense, np.eye(m))
+
+
+def _blockdiag(blocks: np.ndarray) -> np.ndarray:
+    """(n, m, m) → block-diagonal (n·m, n·m)."""
+    n, m, _ = blocks.shape
+    out = np.zeros((n * m, n * m))
+    for i in range(m):
+        for j in range(m):
+            out[np.arange(n) * m + i, np.arange(n) * m + j] = blocks[:, i, j]
+    return out
+
+
+def _column_blocks(vecs: np.ndarray) -> np.ndarray:
+    """(n, m) → (n·m, n) with vecs[I] in column I (rows I·m + α)."""
+    n, m = vecs.shape
+    out = np.zeros((n * m, n))
+    for a in range(m):
+        out[np.arange(n) * m + a, np.arange(n)] = vecs[:, a]
+    return out
+
+
+def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray):
+    """min ½ Σ_α τ_αᵀ M τ_α − Σ_α τ_αᵀ F_α subject to |τ_i| ≤ c_i for every node i.
+
+    M (n, n) symmetric positive definite (dense), F (n, m), c (n,) ≥ 0: the Coulomb cone
+    radii μ p_i. The solution is the fixed point τ = P(z), z = τ − R(Mτ − F), with P the
+    nodewise projection onto the discs (intervals when m = 1) and R = diag(1/M_ii) > 0
+    (for a separable convex set the fixed point is the KKT system, whatever R). It is
+    found by semismooth Newton on G(τ) = τ − P(z(τ)), started from the projection of
+    the unconstrained minimiser, to a relative 1e-13.
+
+    Returns (τ (n, m), J (n·m, n·m) = ∂G/∂τ at the solution, dPz (n, m, m), dPc (n, m),
+    iterations): the sensitivities ∂τ = J⁻¹[∂P/∂z R ∂F + ∂P/∂c ∂c] follow from
+    differentiating the fixed point. Raises ConvergenceError without convergence.
+    """
+    n, m = F.shape
+    if n == 0:
+        return F.copy(), np.zeros((0, 0)), np.zeros((0, m, m)), np.zeros((0, m)), 0
+    r = 1.0 / np.diag(M)
+    Mb = _block(M, m)
+    tau, _, _ = _project_discs(np.linalg.solve(M, F), c)
+    scale = max(float(np.abs(F).max()) * float(r.max()), float(c.max()), 1e-300)
+    for it in range(1, CONE_QP_MAX_ITERATIONS + 1):
+        z = tau - r[:, None] * (M @ tau - F)
+        P, dPz, dPc = _project_discs(z, c)
+        G = tau - P
+        J = np.eye(n * m) - _blockdiag(dPz) @ (np.eye(n * m) - np.repeat(r, m)[:, None] * Mb)
+        if np.abs(G).max() <= 1e-13 * scale:
+            return P, J, dPz, dPc, it
+        tau = tau - np.linalg.solve(J, G.ravel()).reshape(n, m)
+    raise ConvergenceError(
+        f"constrained tangential recovery: no convergence in {CONE_QP_MAX_ITERATIONS} "
+        "semismooth Newton iterations"
+    )
+
+
+def recover_tangential(
+    method: str,
+    M: sp.spmatrix,
+    A: np.ndarray,
+    sigma: np.ndarray,
+    lam: np.ndarray,
+    p: np.ndarray,
+    has: np.ndarray,
+    active: np.ndarray,
+    mu: float,
+    eps_t: np.ndarray,
+    frozen=None,
+    tol=None,
+) -> TangentialRecovered:
+    r"""Tangential recovery of n slave nodes (docs/method-notes.md, "Tangential recoveries").
+
+    With the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J dA₀ (Ψ the tangential weights, row
+    sums A^I = ∫Ψ_I dA₀) and the weighted slip σ^I_α = a^I_α·S^I in each node's frame:
+
+        M γ_α = σ_α,    τ̂^I = Coulomb(λ_T^I + ε_T^I γ^I; μ p^I),    F^I = A^I τ̂^I,
+
+    * ``lumped``: M → diag(A): γ = σ/A, τ = τ̂ (the nodal return mapping);
+    * ``unconstrained``: M τ_α = F_α (τ may leave the Coulomb cone);
+    * ``constrained``: τ = argmin_{|τ^I| ≤ μ p^I} ½ Σ_α τ_αᵀMτ_α − τ_αᵀF_α
+      (:func:`cone_qp`): the projection of M⁻¹F onto the cone in the M-norm.
+
+    The frame components of neighbouring nodes are identified (M acts on each component
+    α); exact for a flat surface, an O(h κ) approximation on a curved one.
+
+    M (n, n) sparse; A, p, eps_t (n,); sigma, lam (n, m); has (n,) bool: nodes that take
+    part (others get zero); active (n,) the normal active set; mu the Coulomb
+    coefficient; frozen, tol as :func:`~dolfinx_mortar.friction.return_mapping`.
+    Serial, deterministic.
+    """
+    from .friction import SLIP, STICK, return_mapping
+
+    n, m = sigma.shape
+    idx = np.flatnonzero(has)
+    gamma = np.zeros((n, m))
+    tau = np.zeros((n, m))
+    if method == "lumped":
+        gamma[idx] = sigma[idx] / A[idx, None]
+    elif idx.size:
+        Mh = sp.csr_matrix(M)[idx][:, idx].toarray()
+        W = np.linalg.inv(Mh)
+        gamma[idx] = W @ sigma[idx]
+    tau_hat, state, D, Pd = return_mapping(lam, gamma, p, active & has, mu, eps_t, frozen, tol)
+    tau_hat[~has] = 0.0
+    F = A[:, None] * tau_hat
+    k = idx.size
+    pos = (idx[:, None] * m + np.arange(m)).ravel()  # rows of the taking-part nodes
+
+    def embed(Ts, Tp_):
+        Tsig, Tp = np.zeros((n * m, n * m)), np.zeros((n * m, n))
+        Tsig[np.ix_(pos, pos)] = Ts
+        Tp[np.ix_(pos, idx)] = Tp_
+        return Tsig, Tp
+
+    Dk, Pk, Ak = D[idx], Pd[idx], A[idx]
+    if method == "lumped":
+
+        def lumped_tangent():
+            return embed(_blockdiag(Dk / Ak[:, None, None]), _column_blocks(Pk))
+
+        tau[idx] = tau_hat[idx]
+        return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, lumped_tangent)
+    if method not in ("unconstrained", "constrained"):
+        raise ValueError(f"unknown tangential recovery {method!r}")
+    if not k:
+        return TangentialRecovered(
+            gamma, tau_hat, tau, state, D, Pd, lambda: embed(np.zeros((0, 0)), np.zeros((0, 0)))
+        )
+    Wb = _block(W, m)
+    # ∂F (k·m) = A D W ∂σ + A Pd ∂p
+    dF_sig = _blockdiag(Ak[:, None, None] * Dk) @ Wb
+    dF_p = _column_blocks(Ak[:, None] * Pk)
+    if method == "unconstrained":
+        tau[idx] = W @ F[idx]
+
+        def unconstrained_tangent():
+            return embed(Wb @ dF_sig, Wb @ dF_p)
+
+        return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, unconstrained_tangent)
+    c = mu * np.maximum(p[idx], 0.0)
+    t_k, J, dPz, dPc, its = cone_qp(Mh, F[idx], c)
+    tau[idx] = t_k
+    # the QP decides stick (inside the cone) and slip (on it) at the nodes it touches
+    on_cone = active[idx] & has[idx] & (np.linalg.norm(t_k, axis=1) >= c - 1e-12 * c.max())
+    state = state.copy()
+    state[idx[active[idx]]] = np.where(on_cone[active[idx]], SLIP, STICK)
+
+    def constrained_tangent():
+        PR = _blockdiag(dPz) * np.repeat(1.0 / np.diag(Mh), m)[None, :]
+        rhs_p = PR @ dF_p + _column_blocks(dPc) * mu
+        return embed(np.linalg.solve(J, PR @ dF_sig), np.linalg.solve(J, rhs_p))
+
+    return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, constrained_tangent, its)

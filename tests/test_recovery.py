@@ -13,7 +13,7 @@ from scipy.optimize import nnls
 from dolfinx_mortar.kernels import mortar as kmortar
 from dolfinx_mortar.kernels import reference as kref
 from dolfinx_mortar.kernels.shape import INTERVAL1, INTERVAL2, QUAD1, TRIANGLE1
-from dolfinx_mortar.recovery import RECOVERIES, nonnegative_qp, recover
+from dolfinx_mortar.recovery import RECOVERIES, nonnegative_qp, recover, recover_tangential
 
 
 def _mass_1d(n, rng, degree=1):
@@ -171,3 +171,99 @@ def test_unconstrained_predictor_closes_the_recovered_gap():
     closed = recover("unconstrained", M, A, G - 0.02 * A, lam, eps, has, predictor=(1e-4, h))
     assert closed.p_hat.max() > 0.0
     np.testing.assert_array_equal(closed.tangent_nodes, np.flatnonzero(closed.p_hat > 0.0))
+
+
+# ---------------------------------------------------------------- tangential recoveries
+def _tangential_state(n, m, rng):
+    M, A = _mass_1d(n, rng)
+    x = np.linspace(-1.0, 1.0, n)
+    sigma = A[:, None] * (
+        0.02 * x[:, None] ** np.arange(1, m + 1) + 0.003 * rng.normal(size=(n, m))
+    )
+    lam = 0.1 * rng.normal(size=(n, m))
+    p = np.maximum(1.0 - x**2, 0.0) + 0.1
+    p[:2] = 0.0  # two open nodes
+    has = np.ones(n, bool)
+    has[-1] = False  # one node without tangential area
+    return sp.csr_matrix(M), A, sigma, lam, p, has, p > 0.0, np.full(n, 50.0)
+
+
+MU_T = 0.3
+
+
+@pytest.mark.parametrize("method", RECOVERIES)
+@pytest.mark.parametrize("m", [1, 2])
+def test_tangential_recovery_equations(method, m):
+    """The defining equations (module docstring of recover_tangential), stick and slip
+    nodes present, the cone respected except by the unconstrained recovery."""
+    M, A, sigma, lam, p, has, active, eps = _tangential_state(21, m, np.random.default_rng(1))
+    r = recover_tangential(method, M, A, sigma, lam, p, has, active, MU_T, eps)
+    idx = np.flatnonzero(has)
+    Mh = M[idx][:, idx].toarray()
+    states = np.bincount(r.state[active], minlength=3)
+    assert states[1] >= 1 and states[2] >= 1, states
+    assert np.all(r.tau[~has] == 0.0) and np.all(r.tau_hat[~active] == 0.0)
+    F = A[idx, None] * r.tau_hat[idx]
+    norm = np.linalg.norm(r.tau, axis=1)
+    if method == "lumped":
+        np.testing.assert_allclose(r.gamma[idx], sigma[idx] / A[idx, None])
+        np.testing.assert_allclose(r.tau, r.tau_hat)
+    else:
+        np.testing.assert_allclose(Mh @ r.gamma[idx], sigma[idx], atol=1e-14)
+    if method == "unconstrained":
+        np.testing.assert_allclose(Mh @ r.tau[idx], F, atol=1e-14)
+        assert np.any(norm > MU_T * p * (1 + 1e-6))  # M⁻¹ leaves the cone
+    else:
+        assert np.all(norm <= MU_T * p * (1 + 1e-12) + 1e-15)
+    if method == "constrained":
+        # KKT: the gradient Mτ − F vanishes inside the cone and is antiparallel to τ on it
+        g = Mh @ r.tau[idx] - F
+        c = MU_T * p[idx]
+        inside = np.linalg.norm(r.tau[idx], axis=1) < c * (1 - 1e-9)
+        np.testing.assert_allclose(g[inside], 0.0, atol=1e-12)
+        on = ~inside & (c > 0)
+        cosang = np.einsum("na,na->n", g[on], r.tau[idx][on]) / (
+            np.linalg.norm(g[on], axis=1) * np.linalg.norm(r.tau[idx][on], axis=1) + 1e-300
+        )
+        assert np.all((cosang < -1 + 1e-9) | (np.linalg.norm(g[on], axis=1) < 1e-12))
+    # a uniform stick state is reproduced exactly (M·1 = A)
+    u = recover_tangential(
+        method,
+        M,
+        A,
+        1e-4 * A[:, None] * np.ones((1, m)),
+        np.zeros((A.size, m)),
+        np.ones(A.size),
+        np.ones(A.size, bool),
+        np.ones(A.size, bool),
+        MU_T,
+        eps,
+    )
+    np.testing.assert_allclose(u.tau, 50.0 * 1e-4, rtol=1e-11)
+
+
+@pytest.mark.parametrize("method", RECOVERIES)
+@pytest.mark.parametrize("m", [1, 2])
+def test_tangential_recovery_tangent_matches_finite_differences(method, m):
+    """Tsig = ∂τ/∂σ and Tp = ∂τ/∂p (away from the kink of the cone radius μ⟨p⟩ at p = 0)."""
+    n = 21
+    M, A, sigma, lam, p, has, active, eps = _tangential_state(n, m, np.random.default_rng(9))
+
+    def tau(s, q):
+        return recover_tangential(method, M, A, s, lam, q, has, active, MU_T, eps).tau.ravel()
+
+    r = recover_tangential(method, M, A, sigma, lam, p, has, active, MU_T, eps)
+    h = 1e-7
+    fd_s = np.stack(
+        [
+            (tau(sigma + h * e, p) - tau(sigma - h * e, p)) / (2 * h)
+            for e in np.eye(n * m).reshape(n * m, n, m)
+        ],
+        axis=1,
+    )
+    fd_p = np.stack(
+        [(tau(sigma, p + h * e) - tau(sigma, p - h * e)) / (2 * h) for e in np.eye(n)], 1
+    )
+    np.testing.assert_allclose(r.Tsig, fd_s, atol=1e-7 * np.abs(fd_s).max())
+    np.testing.assert_allclose(r.Tp[:, 2:], fd_p[:, 2:], atol=1e-7 * np.abs(fd_p).max())
+    assert np.abs(fd_s).max() > 0.0 and np.abs(fd_p).max() > 0.0
