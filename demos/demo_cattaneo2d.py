@@ -52,6 +52,7 @@ def scene(
     n_shear: int = 4,
     recovery: str = "lumped",
     tangential_weights: str = "dual",
+    tangential_recovery: str = "lumped",
 ):
     """The scene dict (SCENES.md) at refinement level ``refine``."""
     dirichlet, steps = cm.press_then_shift(
@@ -74,6 +75,7 @@ def scene(
                 "integration": integration,
                 "penalty": "auto",
                 "tangential_weights": tangential_weights,
+                "tangential_recovery": tangential_recovery,
                 "uzawa_tol": 1e-6,
                 "uzawa_max": 40,
             }
@@ -164,6 +166,12 @@ def main(argv=None) -> dict:
         default="dual",
         help="weight functions of the tangential mixed field [dual]",
     )
+    ap.add_argument(
+        "--tangential-recovery",
+        choices=("lumped", "unconstrained", "constrained"),
+        default="lumped",
+        help="recovery of the tangential traction [lumped]",
+    )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
@@ -172,6 +180,7 @@ def main(argv=None) -> dict:
         args.integration,
         recovery=args.recovery,
         tangential_weights=args.tangential_weights,
+        tangential_recovery=args.tangential_recovery,
     )
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
@@ -180,6 +189,7 @@ def main(argv=None) -> dict:
         m["png"] = plot(m, Path(args.out) / "cattaneo2d_q.png")
     cm.report(
         f"cattaneo2d: {args.integration}, {args.recovery}, {args.tangential_weights} weights, "
+        f"{args.tangential_recovery} tangential recovery, "
         f"h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
         [
             ("measured P, Q/(μP)", f"{m['P']:.4f}, {m['Q_ratio']:.4f}"),

@@ -136,6 +136,7 @@ class MortarContact:
         friction=0.0,
         penalty_tangential=None,
         tangential_weights="standard",
+        tangential_recovery="lumped",
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -152,7 +153,13 @@ class MortarContact:
                 f"{key}.tangential_weights",
                 f"{tangential_weights!r} is not one of {', '.join(TANGENTIAL_WEIGHTS)}",
             )
+        if tangential_recovery not in RECOVERIES:
+            raise SceneError(
+                f"{key}.tangential_recovery",
+                f"{tangential_recovery!r} is not one of {', '.join(RECOVERIES)}",
+            )
         self.tangential_weights = tangential_weights
+        self.tangential_recovery = tangential_recovery
         self.problem = problem
         self.comm = comm = problem.comm
         self.slave_name, self.master_name = slave, master
@@ -261,7 +268,7 @@ class MortarContact:
                 "friction needs non-negative nodal pressures for its Coulomb limit: use "
                 'recovery = "lumped" or "constrained" (got "unconstrained")',
             )
-        if recovery != "lumped":
+        if recovery != "lumped" or (self.frictional and tangential_recovery != "lumped"):
             self._init_mixed_numbering()
         if self.frictional:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
@@ -317,6 +324,7 @@ class MortarContact:
             friction=pair.friction,
             penalty_tangential=pair.penalty_tangential,
             tangential_weights=pair.tangential_weights,
+            tangential_recovery=pair.tangential_recovery,
         )
 
     # ------------------------------------------------------------------ friction set-up
@@ -349,9 +357,13 @@ class MortarContact:
             self.t_facet_area = np.full(nsf, np.inf)
         self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
         self.lmbda_t_committed = np.zeros((n, d - 1))
-        self.tau = np.zeros((n, d - 1))
+        self.tau = np.zeros((n, d - 1))  # recovered traction components (residual, output)
+        self.tau_law = np.zeros((n, d - 1))  # the nodal law's τ̂ (Uzawa, history)
         self.gamma_t = np.zeros((n, d - 1))
-        self.fstate = np.zeros(n, np.int64)
+        self.sigma_t = np.zeros((n, d - 1))  # weighted slip a_α·S in the node's frame
+        self.fstate = np.zeros(n, np.int64)  # the nodal law's states
+        self._trec = None  # recovery.TangentialRecovered (consistent recoveries)
+        self._learned_t = np.empty(0, np.int64)
         self.slip_length = np.zeros(n)  # accumulated |γ_T| over converged steps
         self.slip_length_committed = np.zeros(n)
         self.dissipation = 0.0
@@ -407,6 +419,7 @@ class MortarContact:
                     "tangential_weights": "standard (node integration)"
                     if self.integration == "node"
                     else self.tangential_weights,
+                    "tangential_recovery": self.tangential_recovery,
                     "frame": "convected orthonormal slave frame (a_ab = identity)",
                     "chattering_control": f"stick/slip states frozen after {self.freeze_after} "
                     "Newton iterations, re-checked at convergence",
@@ -685,7 +698,8 @@ class MortarContact:
             self.kcoef = np.zeros_like(eps)
         self.active = active
         self.predictor_nodes = 0
-        if self.comm.allreduce(int(active.sum())) == 0:
+        self._no_contact = self.comm.allreduce(int(active.sum())) == 0
+        if self._no_contact:
             # Nothing in contact: a body held only by contact would have a singular Jacobian.
             # The nodes closest to contact (rc.near_contact) get the penalty stiffness in the
             # TANGENT only (the residual stays exact), so the first Newton step brings the
@@ -748,16 +762,34 @@ class MortarContact:
         self._recovered = rec
 
     def _recover_tangential(self, frozen="current"):
-        """Lumped tangential recovery γ = a·S/A_T and the return mapping (local).
+        """Tangential recovery and the nodal return mapping: lumped γ = a·S/A_T (local), or
+        the consistent recoveries of :func:`.recovery.recover_tangential` (collective).
 
-        With ``frozen = None`` the states are computed free and only returned.
+        With ``frozen = None`` the states of the nodal law are computed free and only
+        returned, with the directions of τ̂.
         """
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
-        safe = np.where(hasT, self.AT, 1.0)
-        gam = np.einsum("nac,nc->na", self.frame_a, self.S) / safe[:, None]
-        gam[~hasT] = 0.0
-        p = np.where(hasT, self.p, 0.0)
+        sigma = np.einsum("nac,nc->na", self.frame_a, self.S)
+        sigma[~hasT] = 0.0
         imposed = self.frozen if frozen == "current" else frozen
+        if self.tangential_recovery != "lumped":
+            rec = self._recover_tangential_mixed(sigma, hasT, imposed)
+            own = slice(self.gid_offset, self.gid_offset + self.node_blocks.size)
+            if frozen is None:
+                th = rec.tau_hat[own]
+                return rec.state[own], th / np.maximum(np.linalg.norm(th, axis=1), 1e-300)[:, None]
+            self._trec = rec
+            self.sigma_t, self.gamma_t = sigma, rec.gamma[own]
+            self.tau, self.tau_law = rec.tau[own], rec.tau_hat[own]
+            # the states are the nodal law's: M⁻¹F of a slipping zone may stay inside the
+            # cone (the QP then leaves it untouched) while the law slips there
+            self.fstate = rec.state[own]
+            self._D, self._Pd = rec.D[own], rec.Pd[own]
+            self.t_vec = np.einsum("na,nac->nc", self.tau, self.frame_a)
+            return self.fstate, None
+        safe = np.where(hasT, self.AT, 1.0)
+        gam = sigma / safe[:, None]
+        p = np.where(hasT, self.p, 0.0)
         active = hasT & self.active
         tau, state, D, Pd = fr.return_mapping(
             self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._slip_tol
@@ -765,9 +797,81 @@ class MortarContact:
         if frozen is None:
             norm = np.linalg.norm(tau, axis=1)
             return state, tau / np.maximum(norm, 1e-300)[:, None]
-        self.gamma_t, self.tau, self.fstate, self._D, self._Pd = gam, tau, state, D, Pd
+        self.sigma_t, self.gamma_t, self.tau, self.tau_law = sigma, gam, tau, tau
+        self.fstate = state
+        self._D, self._Pd = D, Pd
         self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
         return state, None
+
+    def _tangential_mass(self) -> np.ndarray:
+        """Facet blocks (nsf, nphi, nphi) of the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J
+        dA₀ over the points that enter S^I (paired now and at t_n; Ψ on the facets where
+        ``slip_integrals`` uses it). A facet paired over part of its area enters lumped
+        (row sums kept), as in the normal recovery (local)."""
+        nsf, nphi = self.node_of.shape
+        Mf = np.zeros((nsf, nphi, nphi))
+        if not nsf:
+            return Mf
+        qp = np.where((self.qp_m >= 0) & (self.qp_mn >= 0), 0, -1)
+        kmortar.facet_mass(self.ftype_phi, self.qp_xi, self.qp_w, qp, Mf)
+        paired = np.where(qp >= 0, self.qp_w, 0.0).sum(axis=1)
+        dual = paired >= (1.0 - kfriction.FULL_COVER_TOL) * self.dual_area
+        Mf[dual] = np.einsum("fij,fjk->fik", self.t_weights[dual], Mf[dual])
+        partial = np.flatnonzero(paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
+        sums = Mf[partial].sum(axis=2)
+        Mf[partial] = 0.0
+        Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
+        return Mf
+
+    def _recover_tangential_mixed(self, sigma, hasT, imposed):
+        """The unconstrained or constrained tangential recovery on the gathered slave
+        surface (as :meth:`_recover_mixed`): every rank solves the same system
+        (collective). Returns the :class:`.recovery.TangentialRecovered` of all nodes."""
+        comm, m = self.comm, self.gdim - 1
+        n, nphi = self.node_blocks.size, self.node_of.shape[1]
+        Mf = self._tangential_mass()
+        fi, ii = np.nonzero(self.node_of >= 0)
+        rows = np.repeat(self.facet_gid[fi, ii], nphi)
+        cols = self.facet_gid[fi].ravel()
+        vals = Mf[fi, ii].ravel()
+        states, dirs = imposed if imposed is not None else (np.full(n, -1), np.zeros((n, m)))
+        local = np.column_stack(
+            [
+                self.AT,
+                sigma,
+                self.lmbda_t,
+                np.where(hasT, self.p, 0.0),
+                hasT,
+                hasT & self.active,
+                self.eps_t,
+                self._slip_tol,
+                states,
+                dirs,
+            ]
+        )
+        parts = comm.allgather((rows, cols, vals, local))
+        rows, cols, vals = (np.concatenate([q[k] for q in parts]) for k in range(3))
+        L = np.concatenate([q[3] for q in parts], axis=0)
+        N = L.shape[0]
+        M = sp.csr_matrix((vals, (rows, cols)), shape=(N, N))
+        k = 1 + 2 * m
+        AT, sig, lam = L[:, 0], L[:, 1 : 1 + m], L[:, 1 + m : k]
+        p, has, act, eps, tol, st = (L[:, k + j] for j in range(6))
+        fz = None if imposed is None else (st.astype(np.int64), L[:, k + 6 :])
+        return rc.recover_tangential(
+            self.tangential_recovery,
+            M,
+            AT,
+            sig,
+            lam,
+            p,
+            has > 0.5,
+            act > 0.5,
+            self.mu,
+            eps,
+            fz,
+            tol,
+        )
 
     # ------------------------------------------------------------------ assembly
     def _terms(self, want_jac: bool, masked: bool = True):
@@ -826,8 +930,9 @@ class MortarContact:
             res_idx[keep].astype(PETSc.IntType), res_val[keep], addv=PETSc.InsertMode.ADD_VALUES
         )
         if self.frictional:
-            # R_T = Σ_I (∂S^I/∂u)ᵀ t^I
-            act = self.fstate[self.s_node] > 0
+            # R_T = Σ_I (∂S^I/∂u)ᵀ t^I (the consistent recoveries may give t^I ≠ 0 at nodes
+            # the nodal law calls open)
+            act = np.any(self.t_vec != 0.0, axis=1)[self.s_node]
             vals = self.t_vec[self.s_node[act]] * self.s_w[act, None]
             if masked:
                 idx = self.s_dof[act]
@@ -1025,8 +1130,12 @@ class MortarContact:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
         self._jacobians += 1
         if self.frozen is None and self._jacobians >= self.freeze_after:
-            norm = np.linalg.norm(self.tau, axis=1)
-            self.frozen = (self.fstate.copy(), self.tau / np.maximum(norm, 1e-300)[:, None])
+            norm = np.linalg.norm(self.tau_law, axis=1)
+            self.frozen = (self.fstate.copy(), self.tau_law / np.maximum(norm, 1e-300)[:, None])
+        self._learned_t = np.empty(0, np.int64)
+        if self.tangential_recovery != "lumped" and not self._no_contact:
+            self._add_mixed_tangential_jacobian(A, c_off, c_idx, c_val)
+            return
         d, m = self.gdim, self.gdim - 1
         fo, pf_all = self.frames.pair_off, self.frames.pair_f
         # predictor nodes (nothing in contact yet: tangent-only normal stiffness) get the
@@ -1073,6 +1182,81 @@ class MortarContact:
                 idx = U.astype(PETSc.IntType)
                 A.setValues(idx, idx, K, addv=PETSc.InsertMode.ADD_VALUES)
 
+    def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
+        """K_T = Σ_I (∂S^I/∂u)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] for the consistent tangential
+        recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
+        ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α and ∂p^K = −(row of the normal recovery). The rows
+        ∂σ^K and ∂p^K of every node are gathered (collective); non-symmetric."""
+        comm, rec = self.comm, self._trec
+        d, m, bs = self.gdim, self.gdim - 1, self.bs
+        n, lo = self.node_blocks.size, self.gid_offset
+        N = rec.tau.shape[0]
+        ndof = int(self.ranges[-1]) * bs
+        fo, pf_all = self.frames.pair_off, self.frames.pair_f
+        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        trip_s, trip_p, local_rows = [], [], {}
+        for node in np.flatnonzero(hasT):
+            s, e = self.s_off[node], self.s_off[node + 1]
+            ps, pe = fo[node], fo[node + 1]
+            U, _, Srow, Frow = fr.node_rows(
+                self.s_dof[s:e],
+                self.s_w[s:e],
+                self.slave.dofs[pf_all[ps:pe]].reshape(-1, d),
+                self.frame_dA[ps:pe].reshape(-1, m, d, d),
+            )
+            nu = U.size
+            local_rows[node] = (U, Srow[:, :nu], Frow[:, :, :nu])
+            Gr = self.frame_a[node] @ Srow[:, :nu] + np.einsum(
+                "c,acu->au", self.S[node], Frow[:, :, :nu]
+            )
+            g = lo + node
+            for a in range(m):
+                trip_s.append((np.full(nu, g * m + a), U, Gr[a]))
+            if self._dp_rows is not None:
+                r = self._dp_rows
+                sl = slice(r.indptr[node], r.indptr[node + 1])
+                trip_p.append((np.full(sl.stop - sl.start, g), r.indices[sl], -r.data[sl]))
+            else:
+                sl = slice(c_off[node], c_off[node + 1])
+                keep = c_idx[sl] >= 0
+                trip_p.append(
+                    (
+                        np.full(int(keep.sum()), g),
+                        c_idx[sl][keep],
+                        -self.kcoef[node] * c_val[sl][keep],
+                    )
+                )
+
+        def gathered(trips, nrows):
+            mine = [
+                np.concatenate([t[k] for t in trips]) if trips else np.empty(0) for k in range(3)
+            ]
+            parts = comm.allgather(mine)
+            r, c, v = (np.concatenate([q[k] for q in parts]) for k in range(3))
+            return sp.csr_matrix((v, (r.astype(np.int64), c.astype(np.int64))), shape=(nrows, ndof))
+
+        Gm = gathered(trip_s, N * m)
+        Pm = gathered(trip_p, N)
+        own = np.arange(lo * m, (lo + n) * m)
+        dtau = (sp.csr_matrix(rec.Tsig[own]) @ Gm + sp.csr_matrix(rec.Tp[own]) @ Pm).tocsr()
+        keys, nb = [], int(self.ranges[-1])
+        for node, (U, Srow, Frow) in local_rows.items():
+            rows = dtau[node * m : (node + 1) * m]
+            V = np.union1d(rows.indices, U)
+            dt = self.frame_a[node].T @ rows[:, V].toarray()
+            jU = np.searchsorted(V, U)
+            dt[:, jU] += np.einsum("a,acu->cu", self.tau[node], Frow)
+            K = Srow.T @ dt
+            A.setValues(
+                U.astype(PETSc.IntType),
+                V.astype(PETSc.IntType),
+                K,
+                addv=PETSc.InsertMode.ADD_VALUES,
+            )
+            ub, vb = np.unique(U // bs), np.unique(V // bs)
+            keys.append((ub[:, None] * nb + vb[None, :]).ravel())
+        self._learned_t = np.unique(np.concatenate(keys)) if keys else np.empty(0, np.int64)
+
     # ------------------------------------------------------------------ sparsity
     def block_couplings(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (block row, block col) pairs the contact terms may fill: for every owned
@@ -1113,12 +1297,12 @@ class MortarContact:
             sset = blocks[a:b]
             rows.append(np.repeat(sset, sset.size))
             cols.append(np.tile(sset, sset.size))
-        if self._learned.size:
-            # the unconstrained/constrained tangent couples nodes a few rings apart: the
+        nb = int(self.ranges[-1])
+        for learned in (self._learned, getattr(self, "_learned_t", self._learned[:0])):
+            # the unconstrained/constrained tangents couple nodes a few rings apart: the
             # couplings of the last assembled tangent
-            nb = int(self.ranges[-1])
-            rows.append(self._learned // nb)
-            cols.append(self._learned % nb)
+            rows.append(learned // nb)
+            cols.append(learned % nb)
         return np.concatenate(rows), np.concatenate(cols)
 
     # ------------------------------------------------------------------ Uzawa, steps
@@ -1144,7 +1328,7 @@ class MortarContact:
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
         rel_t, changed = 0.0, 0
         if self.frictional:
-            dt = np.linalg.norm(self.tau - self.lmbda_t, axis=1).max(initial=0.0)
+            dt = np.linalg.norm(self.tau_law - self.lmbda_t, axis=1).max(initial=0.0)
             rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
             info["tangential_change"] = rel_t
             if self.frozen is not None:
@@ -1164,7 +1348,7 @@ class MortarContact:
         if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
             return changed == 0, info
         # one relaxation factor for the stacked change [d_N, d_T]
-        dv = np.concatenate([d, (self.tau - self.lmbda_t).ravel()]) if self.frictional else d
+        dv = np.concatenate([d, (self.tau_law - self.lmbda_t).ravel()]) if self.frictional else d
         omega = 1.0
         if self.aitken and self._d_prev is not None:
             dd = dv - self._d_prev
@@ -1176,7 +1360,7 @@ class MortarContact:
         self._d_prev, self._omega = dv, omega
         self.lmbda = np.maximum(self.lmbda + omega * d, 0.0)
         if self.frictional:
-            self.lmbda_t = self.lmbda_t + omega * (self.tau - self.lmbda_t)
+            self.lmbda_t = self.lmbda_t + omega * (self.tau_law - self.lmbda_t)
         return False, info
 
     def begin_solve(self) -> None:
@@ -1217,13 +1401,13 @@ class MortarContact:
                 act, np.linalg.norm(self.gamma_t, axis=1), 0.0
             )
             slip = self.fstate == fr.SLIP
-            local = float(
-                np.sum(self.AT[slip] * np.einsum("na,na->n", self.tau, self.gamma_t)[slip])
-            )
+            # Σ over slipping nodes of τ^I·σ^I (σ = a·S = A_T γ when lumped)
+            local = float(np.sum(np.einsum("na,na->n", self.tau, self.sigma_t)[slip]))
             self.dissipation = self.comm.allreduce(local)
             if self._pending is not None:
                 self._pending[0].destroy()
-            self._pending = (self.problem.u.vector.copy(), np.where(act[:, None], self.tau, 0.0))
+            hist = np.where((self.fstate > 0)[:, None], self.tau_law, 0.0)
+            self._pending = (self.problem.u.vector.copy(), hist)
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()

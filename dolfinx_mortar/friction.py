@@ -208,22 +208,22 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     return tau, state, D, Pd
 
 
-def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val):
-    """K_I = (∂S/∂u)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring).
+def node_rows(s_dofs, s_w, f_dofs, f_dA, extra=None):
+    """The derivative rows of one node's weighted slip and frame over the union U of its
+    dofs (and of ``extra`` dofs, if given). Dofs < 0 are dropped.
 
-    a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
-    :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs (E, d), s_w (E,) the
-    S-weights; f_dofs (F, d), f_dA (F, m, d, d) the frame derivatives per facet node
-    (dofs of its d components); b_idx, b_val the row B^I. Dofs < 0 are dropped.
-    Returns (dofs (U,), K (U, U)).
+    s_dofs (E, d), s_w (E,): the S-weights (S = Σ_k w_k x_k); f_dofs (F, d), f_dA
+    (F, m, d, d): the frame derivatives per facet node (dofs of its d components).
+    Returns (U (nu,), pos: dofs → columns (nu for dropped ones), Srow (d, nu + 1) =
+    ∂S/∂u, Frow (m, d, nu + 1) = ∂a_α/∂u); the last column collects the dropped dofs.
     """
-    m, d = a.shape
-    U = np.unique(np.concatenate([s_dofs.ravel(), f_dofs.ravel(), b_idx]))
+    m, d = f_dA.shape[1], s_dofs.shape[1]
+    parts = [s_dofs.ravel(), f_dofs.ravel()] + ([] if extra is None else [extra])
+    U = np.unique(np.concatenate(parts))
     U = U[U >= 0]
     nu = U.size
-    Srow = np.zeros((d, nu + 1))  # last column collects the dropped dofs
+    Srow = np.zeros((d, nu + 1))
     Frow = np.zeros((m, d, nu + 1))
-    Brow = np.zeros(nu + 1)
 
     def pos(idx):
         j = np.searchsorted(U, idx)
@@ -233,6 +233,21 @@ def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_v
         np.add.at(Srow[c], pos(s_dofs[:, c]), s_w)
         for c2 in range(d):
             np.add.at(Frow[:, c].T, pos(f_dofs[:, c2]), f_dA[:, :, c, c2])
+    return U, pos, Srow, Frow
+
+
+def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val):
+    """K_I = (∂S/∂u)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring).
+
+    a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
+    :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs, s_w, f_dofs, f_dA as
+    :func:`node_rows`; b_idx, b_val the row B^I. Dofs < 0 are dropped.
+    Returns (dofs (U,), K (U, U)).
+    """
+    m, d = a.shape
+    U, pos, Srow, Frow = node_rows(s_dofs, s_w, f_dofs, f_dA, b_idx)
+    nu = U.size
+    Brow = np.zeros(nu + 1)
     np.add.at(Brow, pos(b_idx), b_val)
     dgam = (a @ Srow.reshape(d, -1) + np.einsum("c,acu->au", S, Frow)) / AT
     dtau = D @ dgam - np.outer(Pd, kN * Brow)

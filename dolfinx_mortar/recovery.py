@@ -438,7 +438,7 @@ def recover_tangential(
     coefficient; frozen, tol as :func:`~dolfinx_mortar.friction.return_mapping`.
     Serial, deterministic.
     """
-    from .friction import SLIP, STICK, return_mapping
+    from .friction import return_mapping
 
     n, m = sigma.shape
     idx = np.flatnonzero(has)
@@ -490,10 +490,6 @@ def recover_tangential(
     c = mu * np.maximum(p[idx], 0.0)
     t_k, J, dPz, dPc, its = cone_qp(Mh, F[idx], c)
     tau[idx] = t_k
-    # the QP decides stick (inside the cone) and slip (on it) at the nodes it touches
-    on_cone = active[idx] & has[idx] & (np.linalg.norm(t_k, axis=1) >= c - 1e-12 * c.max())
-    state = state.copy()
-    state[idx[active[idx]]] = np.where(on_cone[active[idx]], SLIP, STICK)
 
     def constrained_tangent():
         PR = _blockdiag(dPz) * np.repeat(1.0 / np.diag(Mh), m)[None, :]

@@ -36,6 +36,7 @@ Schema (``*`` = required; defaults in brackets)::
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
       tangential_weights  "standard" | "dual"                 ["standard"]
+      tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
 
@@ -234,6 +235,11 @@ class ContactPair:
         Weight functions of the tangential mixed field (friction only): ``"standard"``
         (the shape functions themselves, default) or ``"dual"`` (the biorthogonal basis of
         the slave facets closed at t_n); docs/method-notes.md, "Dual tangential weights".
+    tangential_recovery:
+        Recovery of the tangential mixed fields (friction only): ``"lumped"`` (the nodal
+        return mapping, default), ``"unconstrained"`` (τ = M⁻¹F) or ``"constrained"``
+        (the Coulomb-cone projection with the full mortar matrix);
+        docs/method-notes.md, "Tangential recoveries".
     uzawa_tol:
         Relative tolerance on the multiplier change (dimensionless), >= 0;
         0 = pure penalty.
@@ -249,6 +255,7 @@ class ContactPair:
     penalty: float | str = "auto"
     penalty_tangential: float | str | None = None
     tangential_weights: str = "standard"
+    tangential_recovery: str = "lumped"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
 
@@ -692,6 +699,7 @@ _CONTACT_KEYS = (
     "penalty",
     "penalty_tangential",
     "tangential_weights",
+    "tangential_recovery",
     "uzawa_tol",
     "uzawa_max",
 )
@@ -785,6 +793,11 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "tangential_weights"),
         TANGENTIAL_WEIGHTS,
     )
+    t_recovery = _choice(
+        table.get("tangential_recovery", "lumped"),
+        _key(prefix, "tangential_recovery"),
+        RECOVERIES,
+    )
     uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
     uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
     return ContactPair(
@@ -796,6 +809,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         penalty=penalty,
         penalty_tangential=penalty_t,
         tangential_weights=weights,
+        tangential_recovery=t_recovery,
         uzawa_tol=uzawa_tol,
         uzawa_max=uzawa_max,
     )

@@ -88,8 +88,8 @@ CATTANEO2D = {
 }
 
 
-def _with_recovery(data, recovery):
-    return dict(data, contact=[dict(data["contact"][0], recovery=recovery)])
+def _with_recovery(data, recovery, **more):
+    return dict(data, contact=[dict(data["contact"][0], recovery=recovery, **more)])
 
 
 def _run(data, out, comm):
@@ -108,8 +108,10 @@ def _run(data, out, comm):
         ("hertz2d-constrained", _with_recovery(HERTZ2D, "constrained"), "cylinder_surface"),
         ("hertz3d-constrained", _with_recovery(HERTZ3D, "constrained"), "sphere_surface"),
         (
+            # the gathered systems of both consistent recoveries: the normal QP and the
+            # tangential Coulomb-cone QP
             "cattaneo2d-friction-constrained",
-            _with_recovery(CATTANEO2D, "constrained"),
+            _with_recovery(CATTANEO2D, "constrained", tangential_recovery="constrained"),
             "upper_surface",
         ),
     ],

@@ -24,7 +24,13 @@ MU = 0.3
 
 
 def _problem(
-    case, integration="element", mu=MU, penalty_t=1.0, recovery="lumped", weights="standard"
+    case,
+    integration="element",
+    mu=MU,
+    penalty_t=1.0,
+    recovery="lumped",
+    weights="standard",
+    t_recovery="lumped",
 ):
     gen, params, slave, master, bodies, _ = CASES[case]
     contact = {
@@ -39,6 +45,7 @@ def _problem(
     if mu > 0:
         contact["penalty_tangential"] = penalty_t
         contact["tangential_weights"] = weights
+        contact["tangential_recovery"] = t_recovery
     data = {
         "kinematics": "finite",
         "mesh": {"generator": gen, "params": params},
@@ -248,6 +255,32 @@ def test_frictional_tangent_with_dual_weights(case):
     term = _frictional_state(problem, case)
     closed = MPI.COMM_WORLD.allreduce(int(np.isfinite(term.dual_area).sum()))
     assert closed >= 1
+    _check_tangent(problem, term)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "case, recovery, t_recovery",
+    [
+        ("hertz2d-P1", "lumped", "unconstrained"),
+        ("hertz2d-P1", "lumped", "constrained"),
+        ("hertz2d-Q1", "constrained", "constrained"),
+        ("hertz2d-P2", "lumped", "constrained"),
+        ("hertz3d-P1", "lumped", "unconstrained"),
+        ("hertz3d-P1", "constrained", "constrained"),
+    ],
+)
+def test_frictional_tangent_with_tangential_recovery(case, recovery, t_recovery):
+    """The consistent tangential recoveries (M⁻¹ and the Coulomb-cone QP on the gathered
+    slave surface) keep the tangent exact; they differ from the lumped recovery."""
+    problem = _problem(case, recovery=recovery, t_recovery=t_recovery)
+    term = _frictional_state(problem, case)
+    lumped = _frictional_state(_problem(case, recovery=recovery), case)
+    comm = MPI.COMM_WORLD
+    s_c, s_l = (comm.allreduce(float(np.sum(t.tau**2))) for t in (term, lumped))  # any partition
+    assert abs(s_c - s_l) > 1e-6 * s_l > 0.0, (s_c, s_l)
+    if t_recovery == "constrained":  # inside the Coulomb cone
+        assert np.all(np.linalg.norm(term.tau, axis=1) <= MU * term.p * (1 + 1e-10) + 1e-14)
     _check_tangent(problem, term)
 
 

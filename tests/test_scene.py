@@ -200,7 +200,7 @@ def test_defaults_are_filled():
     assert isinstance(m.E, float) and m.E == 5.0 and m.nu == 0.0
     c = s.contacts[0]
     assert c.friction == 0.0
-    assert c.recovery == "lumped"
+    assert c.recovery == "lumped" and c.tangential_recovery == "lumped"
     assert c.integration == "element"
     assert c.penalty == "auto"
     assert c.penalty_tangential is None and c.penalty_t == "auto"
@@ -423,6 +423,12 @@ CASES = [
         "biorthogonal",
         "contact[0].tangential_weights",
         '"dual"',
+    ),
+    (
+        ("contact", 0, "tangential_recovery"),
+        "mortar",
+        "contact[0].tangential_recovery",
+        '"constrained"',
     ),
     (("contact", 0, "uzawa_tol"), -1e-6, "contact[0].uzawa_tol", "must be >= 0"),
     (("contact", 0, "uzawa_max"), 0, "contact[0].uzawa_max", "must be >= 1"),
