@@ -283,6 +283,8 @@ class MortarContact:
         self.active = np.zeros(n, bool)
         self.kcoef = np.zeros(n)
         self._recovered = None
+        self._segment_rows = None  # 2D segments, mixed recoveries: (C_γ, D_p) rows
+        self._partial_facets = None
         self._learned = np.empty(0, np.int64)
         self.qp_frozen = None  # constrained recovery: the QP free set, once frozen
         self._jacobians = 0
@@ -733,6 +735,8 @@ class MortarContact:
             sums = Mf[partial].sum(axis=2)
             Mf[partial] = 0.0
             Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
+            self._partial_facets = np.zeros(nsf, bool)
+            self._partial_facets[partial] = True
         fi, ii = np.nonzero(self.node_of >= 0)
         rows = np.repeat(self.facet_gid[fi, ii], nphi)
         cols = self.facet_gid[fi].ravel()
@@ -985,9 +989,18 @@ class MortarContact:
 
         Lumped recovery: p^I = λ^I − ε^I G^I/A^I also varies through G^I and A^I, adding
         (ε^I/A^I) B^I ⊗ C^I with C^I = Σ_q Φ_I (g_q − γ^I) dw_q + w_q [Φ_I'(g_q − γ^I)
-        + Φ_I ∂g_q/∂ξ] dξ_q. The unconstrained and constrained recoveries would also need
-        the variation of the mortar matrix M: not implemented (their tangent stays
-        approximate with segments, as does the tangential part of friction)."""
+        + Φ_I ∂g_q/∂ξ] dξ_q.
+
+        Unconstrained and constrained recoveries: M, A and G vary with the points too,
+        ∂γ = W(∂G − ∂M γ) and ∂p = Lᵀ(∂F − ∂M p), ∂F = A ∂p̂ + p̂ ∂A. The rows kept for
+        :meth:`_add_mixed_jacobian` (``self._segment_rows``) are, per owned node I,
+
+            C_γ^I = Σ_q Φ_I (g_q − γ_h) dw_q + w_q [Φ_I'(g_q − γ_h) + Φ_I (∂g_q/∂ξ − γ_h')] dξ_q,
+            D_p^I = Σ_q Φ_I (p̂^I − p_h) dw_q + w_q [Φ_I'(p̂^I − p_h) − Φ_I p_h'] dξ_q,
+
+        with γ_h = Σ_J Φ_J γ^J and p_h = Σ_J Φ_J p^J at ξ_q (the nodal γ^I, p^I and no
+        derivative on a partially paired facet, whose block of M is lumped). The
+        tangential part of friction stays without these terms."""
         from .kernels.segment import segment_end_derivatives
 
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
@@ -1019,6 +1032,9 @@ class MortarContact:
             ii = idx[r].astype(PETSc.IntType)
             A.setValues(ii, ii, extra[r], addv=ADD)
         if self.recovery != "lumped":
+            self._segment_rows = self._mixed_segment_rows(
+                fr_, nodes, idx, w, g, gxi, phi, dphi, dxi, dw
+            )
             return
         # (ε/A) B^I ⊗ C^I of the lumped nodes with a tangent coefficient
         rr, ii = np.nonzero((nodes >= 0) & (self.kcoef[np.maximum(nodes, 0)] > 0.0))
@@ -1046,6 +1062,40 @@ class MortarContact:
                     self.kcoef[n_] * np.outer(c_val[s:e], Cm.data[cs:ce]),
                     addv=ADD,
                 )
+
+    def _mixed_segment_rows(self, fr_, nodes, idx, w, g, gxi, phi, dphi, dxi, dw):
+        """The rows C_γ^I and D_p^I of :meth:`_add_segment_jacobian` (its docstring) of the
+        owned nodes, as CSR (n, ndof) with global dof columns (local)."""
+        rec = self._recovered
+        gid = self.facet_gid[fr_]  # (rows, nphi) global node numbers of the facet nodes
+        gam, pv = rec.gamma[gid], rec.p[gid]
+        partial = self._partial_facets[fr_]
+        rr, ii = np.nonzero(nodes >= 0)
+        node = nodes[rr, ii]
+        ph, dph = phi[rr, ii], dphi[rr, ii]
+        g_h = np.einsum("ri,ri->r", phi, gam)[rr]
+        g_hx = np.einsum("ri,ri->r", dphi, gam)[rr]
+        p_h = np.einsum("ri,ri->r", phi, pv)[rr]
+        p_hx = np.einsum("ri,ri->r", dphi, pv)[rr]
+        lump = partial[rr]
+        g_h = np.where(lump, gam[rr, ii], g_h)
+        p_h = np.where(lump, pv[rr, ii], p_h)
+        g_hx = np.where(lump, 0.0, g_hx)
+        p_hx = np.where(lump, 0.0, p_hx)
+        gg, pp = g[rr] - g_h, self.p_hat[node] - p_h
+        wr = w[rr]
+        c_vals = (ph * gg)[:, None] * dw[rr] + (wr * (dph * gg + ph * (gxi[rr] - g_hx)))[
+            :, None
+        ] * dxi[rr]
+        d_vals = (ph * pp)[:, None] * dw[rr] + (wr * (dph * pp - ph * p_hx))[:, None] * dxi[rr]
+        cols = idx[rr]
+        keep = cols >= 0
+        ndof = int(self.ranges[-1]) * self.bs
+        rows = np.broadcast_to(node[:, None], cols.shape)[keep]
+        shape = (self.node_blocks.size, ndof)
+        Cg = sp.csr_matrix((c_vals[keep], (rows, cols[keep])), shape=shape)
+        Dp = sp.csr_matrix((d_vals[keep], (rows, cols[keep])), shape=shape)
+        return Cg, Dp
 
     def _b_rows(self, mask, sdofs, mdofs, b_count=None):
         """Rows B^I = ∂G^I/∂u of the owned nodes with mask > 0, as CSR (c_off, c_idx, c_val)
@@ -1100,10 +1150,22 @@ class MortarContact:
         row_val = np.concatenate([q[3] for q in parts])
         ndof = int(self.ranges[-1]) * self.bs
         Bm = sp.csr_matrix((row_val, row_idx, indptr), shape=(rec.p.size, ndof))
+        seg = None
+        if self.integration == "segment" and self.gdim == 2:  # on every rank (collective)
+            empty = sp.csr_matrix((n, ndof))
+            seg = self._segment_rows or (empty, empty)
+        self._segment_rows = None
+        Cm = Bm
+        if seg is not None:
+            # 2D segments: c^I = Σ_K W_IK (B^K + C_γ^K), with the rows C_γ of every node
+            Cg = seg[0].tocoo()
+            parts = comm.allgather((Cg.row + lo, Cg.col, Cg.data))
+            r_, c_, v_ = (np.concatenate([q[k] for q in parts]) for k in range(3))
+            Cm = Bm + sp.csr_matrix((v_, (r_, c_)), shape=Bm.shape)
         t = rec.tangent_nodes
         sel = np.flatnonzero((t >= lo) & (t < lo + n))
         Lm = (rec.left[sel] @ Bm).tocsr()
-        Rm = (rec.right[sel] @ Bm).tocsr()
+        Rm = (rec.right[sel] @ Cm).tocsr()
         if self.frictional:
             # −∂p^J/∂u = Σ_I L_IJ d_I c^I for the owned nodes J (the slip tangent needs it)
             own = slice(lo, lo + n)
@@ -1124,6 +1186,25 @@ class MortarContact:
                 )
                 ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
                 keys.append((ab[:, None] * nb + cb[None, :]).ravel())
+        if seg is not None:
+            # −Σ_I (Σ_J L_IJ B^J) ⊗ D_p^I over the owned nodes I with a row D_p
+            Dp = seg[1].tocsr()
+            own_nodes = np.flatnonzero(np.diff(Dp.indptr) > 0)
+            if own_nodes.size:
+                La = (rec.left_rows(own_nodes + lo) @ Bm).tocsr()
+                for r, node in enumerate(own_nodes):
+                    a = slice(La.indptr[r], La.indptr[r + 1])
+                    c = slice(Dp.indptr[node], Dp.indptr[node + 1])
+                    ai, ci = La.indices[a], Dp.indices[c]
+                    if ai.size and ci.size:
+                        A.setValues(
+                            ai.astype(PETSc.IntType),
+                            ci.astype(PETSc.IntType),
+                            -np.outer(La.data[a], Dp.data[c]),
+                            addv=PETSc.InsertMode.ADD_VALUES,
+                        )
+                        ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
+                        keys.append((ab[:, None] * nb + cb[None, :]).ravel())
         self._learned = np.unique(np.concatenate(keys)) if keys else np.empty(0, np.int64)
 
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:

@@ -89,6 +89,12 @@ class Recovered:
     free: np.ndarray
     build_tangent: Callable[[], tuple] = dataclasses.field(repr=False)
     qp_iterations: int = 0
+    #: nodes (k,) → CSR (k, n) rows L_I of ∂p = Σ_I L_Iᵀ ∂F_I (∂F the variation of F with
+    #: M held fixed; W = M⁻¹ when unconstrained, M_𝒫𝒫⁻¹ on the free set when constrained,
+    #: zero rows elsewhere); None when lumped
+    left_rows: Callable[[np.ndarray], sp.csr_matrix] | None = dataclasses.field(
+        default=None, repr=False
+    )
 
     @functools.cached_property
     def _tangent(self) -> tuple:
@@ -258,7 +264,7 @@ def recover(
             right = inverse_rows(tnodes)
             return tnodes, A[tnodes] * eps[tnodes], right, right
 
-        return Recovered(gamma, p_hat, p, has, unconstrained_tangent)
+        return Recovered(gamma, p_hat, p, has, unconstrained_tangent, left_rows=inverse_rows)
     if method != "constrained":
         raise ValueError(f"unknown recovery {method!r}")
     ph, fmask, lu_free, its = nonnegative_qp(Mh, F[idx])
@@ -273,18 +279,27 @@ def recover(
     free_all = np.zeros(n, bool)
     free_all[fidx] = True
 
+    def free_rows(nodes):
+        """Rows of M_𝒫𝒫⁻¹ for the nodes in 𝒫 (zero rows for the others)."""
+        out = sp.lil_matrix((nodes.size, n))
+        inside = np.flatnonzero(free_all[nodes])
+        if lu_free is None or not inside.size:
+            return out.tocsr()
+        fpos = np.full(n, -1, np.int64)
+        fpos[fidx] = np.arange(fidx.size)
+        cols = _columns_of_inverse(lu_free, fpos[nodes[inside]], fidx.size)
+        rows = _truncated_columns(cols, fidx, n)
+        sel = sp.csr_matrix(
+            (np.ones(inside.size), (inside, np.arange(inside.size))),
+            shape=(nodes.size, inside.size),
+        )
+        return (sel @ rows).tocsr()
+
     def constrained_tangent():
         nodes = tnodes[np.isin(tnodes, fidx)]
-        if lu_free is None:
-            left = sp.csr_matrix((nodes.size, n))
-        else:
-            fpos = np.full(n, -1, np.int64)
-            fpos[fidx] = np.arange(fidx.size)
-            cols = _columns_of_inverse(lu_free, fpos[nodes], fidx.size)
-            left = _truncated_columns(cols, fidx, n)
-        return nodes, A[nodes] * eps[nodes], left, inverse_rows(nodes)
+        return nodes, A[nodes] * eps[nodes], free_rows(nodes), inverse_rows(nodes)
 
-    return Recovered(gamma, p_hat, p, free_all, constrained_tangent, its)
+    return Recovered(gamma, p_hat, p, free_all, constrained_tangent, its, left_rows=free_rows)
 
 
 # ---------------------------------------------------------------------------- tangential
