@@ -1172,40 +1172,35 @@ class MortarContact:
             LdR = (rec.left.T @ sp.diags(rec.d) @ rec.right).tocsr()[own]
             self._dp_rows = (LdR @ Bm).tocsr()
         keys = []
-        nb = int(self.ranges[-1])
-        for r, dI in enumerate(rec.d[sel]):
-            a = slice(Lm.indptr[r], Lm.indptr[r + 1])
-            c = slice(Rm.indptr[r], Rm.indptr[r + 1])
-            ai, ci = Lm.indices[a], Rm.indices[c]
-            if ai.size and ci.size:
-                A.setValues(
-                    ai.astype(PETSc.IntType),
-                    ci.astype(PETSc.IntType),
-                    dI * np.outer(Lm.data[a], Rm.data[c]),
-                    addv=PETSc.InsertMode.ADD_VALUES,
-                )
-                ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
-                keys.append((ab[:, None] * nb + cb[None, :]).ravel())
+        rr = np.arange(sel.size)
+        self._add_row_products(A, Lm, rr, Rm, rr, rec.d[sel], keys)
         if seg is not None:
             # −Σ_I (Σ_J L_IJ B^J) ⊗ D_p^I over the owned nodes I with a row D_p
             Dp = seg[1].tocsr()
             own_nodes = np.flatnonzero(np.diff(Dp.indptr) > 0)
             if own_nodes.size:
                 La = (rec.left_rows(own_nodes + lo) @ Bm).tocsr()
-                for r, node in enumerate(own_nodes):
-                    a = slice(La.indptr[r], La.indptr[r + 1])
-                    c = slice(Dp.indptr[node], Dp.indptr[node + 1])
-                    ai, ci = La.indices[a], Dp.indices[c]
-                    if ai.size and ci.size:
-                        A.setValues(
-                            ai.astype(PETSc.IntType),
-                            ci.astype(PETSc.IntType),
-                            -np.outer(La.data[a], Dp.data[c]),
-                            addv=PETSc.InsertMode.ADD_VALUES,
-                        )
-                        ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
-                        keys.append((ab[:, None] * nb + cb[None, :]).ravel())
+                coef = -np.ones(own_nodes.size)
+                self._add_row_products(A, La, np.arange(own_nodes.size), Dp, own_nodes, coef, keys)
         self._learned = np.unique(np.concatenate(keys)) if keys else np.empty(0, np.int64)
+
+    def _add_row_products(self, A, La, li, Ra, ri, coef, keys) -> None:
+        """A += coef_k L_{li_k} ⊗ R_{ri_k} for rows of the CSR matrices La, Ra (global dof
+        columns); appends the block couplings filled to ``keys`` (local)."""
+        nb = int(self.ranges[-1])
+        for i, j, ck in zip(li, ri, coef, strict=True):
+            a = slice(La.indptr[i], La.indptr[i + 1])
+            c = slice(Ra.indptr[j], Ra.indptr[j + 1])
+            ai, ci = La.indices[a], Ra.indices[c]
+            if ai.size and ci.size:
+                A.setValues(
+                    ai.astype(PETSc.IntType),
+                    ci.astype(PETSc.IntType),
+                    ck * np.outer(La.data[a], Ra.data[c]),
+                    addv=PETSc.InsertMode.ADD_VALUES,
+                )
+                ab, cb = np.unique(ai // self.bs), np.unique(ci // self.bs)
+                keys.append((ab[:, None] * nb + cb[None, :]).ravel())
 
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
