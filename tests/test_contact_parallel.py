@@ -120,6 +120,12 @@ def test_parallel_equals_serial(shared_tmp, name, data, slave):
     comm = MPI.COMM_WORLD
     par = _run(data, shared_tmp / f"{name}_par", comm)
     assert par["status"] == "ok" and par["ranks"] == comm.size
+    (pair,) = par["modelled"]["contact_pairs"].values()
+    assert pair["recovery"] == data["contact"][0].get("recovery", "lumped")
+    if pair["tangential_fields"]:
+        assert pair["tangential_recovery"] == data["contact"][0].get(
+            "tangential_recovery", "lumped"
+        )
     if comm.rank == 0:
         # serially the "parallel" run IS the serial one: the checks below then only test
         # the run itself (states, pressures), without running it a second time
