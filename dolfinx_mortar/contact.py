@@ -119,6 +119,9 @@ class MortarContact:
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
     penalty_tangential: ε_T (stress per length), "auto" (the rule of ``penalty``) or None
         (= ``penalty``).
+    tangential_weights: "standard" or "dual" weight functions of the tangential field.
+    tangential_recovery: "lumped", "unconstrained" or "constrained" recovery of the
+        tangential traction (:func:`dolfinx_mortar.recovery.recover_tangential`).
     """
 
     def __init__(
