@@ -288,7 +288,8 @@ class MortarContact:
         self._recovered = None
         self._segment_rows = None  # 2D segments, mixed recoveries: (C_γ, D_p) rows
         self._partial_facets = None
-        self._learned = np.empty(0, np.int64)
+        self._learned = np.empty(0, np.int64)  # couplings of the mixed normal tangent
+        self._learned_t = np.empty(0, np.int64)  # ... and of the consistent tangential one
         self.qp_frozen = None  # constrained recovery: the QP free set, once frozen
         self._jacobians = 0
         self.freeze_after = FREEZE_AFTER
@@ -368,7 +369,6 @@ class MortarContact:
         self.sigma_t = np.zeros((n, d - 1))  # weighted slip a_α·S in the node's frame
         self.fstate = np.zeros(n, np.int64)  # the nodal law's states
         self._trec = None  # recovery.TangentialRecovered (consistent recoveries)
-        self._learned_t = np.empty(0, np.int64)
         self.slip_length = np.zeros(n)  # accumulated |γ_T| over converged steps
         self.slip_length_committed = np.zeros(n)
         self.dissipation = 0.0
@@ -1377,7 +1377,7 @@ class MortarContact:
             rows.append(np.repeat(sset, sset.size))
             cols.append(np.tile(sset, sset.size))
         nb = int(self.ranges[-1])
-        for learned in (self._learned, getattr(self, "_learned_t", self._learned[:0])):
+        for learned in (self._learned, self._learned_t):
             # the unconstrained/constrained tangents couple nodes a few rings apart: the
             # couplings of the last assembled tangent
             rows.append(learned // nb)
