@@ -284,6 +284,24 @@ def test_frictional_tangent_with_tangential_recovery(case, recovery, t_recovery)
     _check_tangent(problem, term)
 
 
+@pytest.mark.mpi
+def test_dual_weights_make_the_tangential_mass_diagonal():
+    """On the facets closed at t_n, ∫Ψ_I Φ_J = δ_IJ ∫Φ_I: the consistent tangential
+    recoveries equal the lumped one there (docs/scenes.md)."""
+    problem = _problem("hertz2d-P1", weights="dual", t_recovery="unconstrained")
+    term = _frictional_state(problem, "hertz2d-P1")
+    Mf = term._tangential_mass()
+    qp = np.where((term.qp_m >= 0) & (term.qp_mn >= 0), 0, -1)
+    paired = np.where(qp >= 0, term.qp_w, 0.0).sum(axis=1)
+    dual = np.isfinite(term.dual_area) & (paired >= (1 - 1e-6) * term.dual_area)
+    comm = MPI.COMM_WORLD
+    assert comm.allreduce(int(dual.sum())) >= 1
+    Md = Mf[dual]
+    off = Md - np.einsum("fii->fi", Md)[:, :, None] * np.eye(Md.shape[1])
+    scale = comm.allreduce(float(np.abs(Md).max(initial=0.0)), op=MPI.MAX)
+    assert comm.allreduce(float(np.abs(off).max(initial=0.0)), op=MPI.MAX) < 1e-12 * scale
+
+
 def _check_tangent(problem, term):
     """Central FD of the frictional residual against the assembled tangent, states fixed."""
     comm = MPI.COMM_WORLD
