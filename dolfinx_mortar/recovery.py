@@ -68,8 +68,17 @@ INVERSE_TRUNCATION = 1e-13
 QP_MAX_ITERATIONS = 200
 
 
+class _LazyTangent:
+    """The tangent operator of a recovery, built by ``build_tangent`` on first use only
+    (the residual evaluations of the line search do not need it)."""
+
+    @functools.cached_property
+    def _tangent(self) -> tuple:
+        return self.build_tangent()
+
+
 @dataclasses.dataclass
-class Recovered:
+class Recovered(_LazyTangent):
     """The recovered nodal fields and the tangent operator (all arrays over the n nodes).
 
     gamma, p_hat, p: (n,) mixed gap (length), nodal penalty pressure ⟨λ − εγ⟩ and the
@@ -95,10 +104,6 @@ class Recovered:
     left_rows: Callable[[np.ndarray], sp.csr_matrix] | None = dataclasses.field(
         default=None, repr=False
     )
-
-    @functools.cached_property
-    def _tangent(self) -> tuple:
-        return self.build_tangent()
 
     @property
     def tangent_nodes(self) -> np.ndarray:
@@ -308,7 +313,7 @@ CONE_QP_MAX_ITERATIONS = 50
 
 
 @dataclasses.dataclass
-class TangentialRecovered:
+class TangentialRecovered(_LazyTangent):
     """The recovered tangential fields of n slave nodes with m = d − 1 frame components.
 
     gamma (n, m): the mixed slip (length); tau_hat (n, m): the nodal Coulomb law applied to
@@ -328,10 +333,6 @@ class TangentialRecovered:
     Pd: np.ndarray
     build_tangent: Callable[[], tuple] = dataclasses.field(repr=False)
     iterations: int = 0
-
-    @functools.cached_property
-    def _tangent(self) -> tuple:
-        return self.build_tangent()
 
     @property
     def Tsig(self) -> np.ndarray:
