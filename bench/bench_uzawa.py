@@ -1,12 +1,13 @@
-"""Uzawa cost against the auto-penalty factor and the Aitken relaxation, on any scene.
+"""Uzawa cost against the auto-penalty factor and the acceleration of the update, on any scene.
 
-For each penalty factor k (``penalty = "auto"`` gives ε^I = k E*/h_I) and with or
-without the Irons–Tuck relaxation, the scene is run once and the Newton iterations,
-Uzawa rounds, cutbacks, wall time and the multiplier change per round of the last
-step are printed. Run from the repository root, e.g. on the peers' problem A:
+For each penalty factor k (``penalty = "auto"`` gives ε^I = k E*/h_I) and each
+acceleration of the Uzawa update (``MortarContact.acceleration``: Anderson, Irons–Tuck
+Aitken, none), the scene is run once and the Newton iterations and Uzawa rounds per
+step, cutbacks, wall time and the multiplier change per round of the last step (the
+larger of the normal and tangential change) are printed. Run from the repository root, e.g. on the peers' problem A:
 
     /usr/bin/python3 bench/bench_uzawa.py ../shared/peers/scenes/hertz_A_L2.toml \\
-        --factors 100 1000 10000 --aitken both
+        --factors 100 1000 10000 --acceleration anderson aitken none
 
 (the peers' meshes are written by ``../shared/peers/export_scenes.py``; or use a scene
 built on a generator, e.g. the one that ``demos/demo_hertz2d.py`` runs).
@@ -25,14 +26,14 @@ from dolfinx_mortar.runner import run
 from dolfinx_mortar.scene import load_scene
 
 
-def one(scene_path: str, factor: float, aitken: bool) -> dict:
-    """Run the scene with the given auto-penalty factor and relaxation (collective)."""
+def one(scene_path: str, factor: float, acceleration: str) -> dict:
+    """Run the scene with the given auto-penalty factor and acceleration (collective)."""
     contact.AUTO_PENALTY_FACTOR = factor
     original = contact.MortarContact.__init__
 
     def init(self, *args, **kwargs):
         original(self, *args, **kwargs)
-        self.aitken = aitken
+        self.uzawa_acceleration.method = acceleration
 
     contact.MortarContact.__init__ = init
     try:
@@ -42,10 +43,17 @@ def one(scene_path: str, factor: float, aitken: bool) -> dict:
     finally:
         contact.MortarContact.__init__ = original
     st = s["steps"]
-    changes = [next(iter(r.values()))["multiplier_change"] for r in st[-1]["uzawa"]] if st else []
+    changes = (
+        [
+            max(i["multiplier_change"], i.get("tangential_change", 0.0))
+            for i in (next(iter(r.values())) for r in st[-1]["uzawa"])
+        ]
+        if st
+        else []
+    )
     return {
         "factor": factor,
-        "aitken": aitken,
+        "acceleration": acceleration,
         "status": s["status"],
         "newton": [sum(x["newton_iterations"]) for x in st],
         "uzawa": [x["uzawa_rounds"] for x in st],
@@ -59,13 +67,17 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene")
     ap.add_argument("--factors", type=float, nargs="+", default=[100.0])
-    ap.add_argument("--aitken", choices=["on", "off", "both"], default="both")
+    ap.add_argument(
+        "--acceleration",
+        nargs="+",
+        choices=contact.ACCELERATIONS,
+        default=list(contact.ACCELERATIONS),
+    )
     args = ap.parse_args(argv)
-    modes = {"on": [True], "off": [False], "both": [False, True]}[args.aitken]
     rows = []
     for factor in args.factors:
-        for aitken in modes:
-            row = one(args.scene, factor, aitken)
+        for acceleration in args.acceleration:
+            row = one(args.scene, factor, acceleration)
             rows.append(row)
             if MPI.COMM_WORLD.rank == 0:
                 print(row, flush=True)

@@ -81,8 +81,12 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
 #: × its area enters the mortar mass matrix lumped.
 PARTIAL_FACET_TOL = 1e-9
-#: Upper bound of the Aitken relaxation of the Uzawa update.
+#: Upper bound of the Aitken relaxation of the Uzawa update (``acceleration = "aitken"``).
 OMEGA_MAX = 10.0
+#: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
+ANDERSON_DEPTH = 5
+#: Uzawa update schemes: "anderson" (default), "aitken" (Irons–Tuck) and "none" (plain).
+ACCELERATIONS = ("anderson", "aitken", "none")
 #: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
 #: and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
@@ -102,6 +106,73 @@ HISTORY_GAP_TOL = 1e-2
 
 def _plane_modulus(E: float, nu: float) -> float:
     return E / (1.0 - nu**2)
+
+
+class UzawaAcceleration:
+    """The accelerated update x ← x + f of the Uzawa rounds of one contact pair (collective).
+
+    x, f: (n,) local parts of a distributed vector (the stacked multipliers [λ, λ_T] of
+    the rank's slave nodes and their plain Uzawa change, stress units). ``method``:
+
+    - "none": plain Uzawa, x + f;
+    - "aitken": x + ω f with the Irons–Tuck factor
+      ω_k = −ω_{k−1} f_{k−1}·(f_k − f_{k−1}) / |f_k − f_{k−1}|², clamped to [1, OMEGA_MAX];
+    - "anderson" (type II, depth m = ANDERSON_DEPTH, the default): with the differences
+      ΔX = [x_{i+1} − x_i] and ΔF = [f_{i+1} − f_i] of the last m rounds,
+      θ = argmin |f − ΔF θ| and x + f − (ΔX + ΔF) θ. At fixed active and stick/slip sets
+      a round x ↦ x + f is affine, and Anderson is then GMRES on its fixed-point
+      equation: it damps every slow mode, not just the slowest one. The history restarts
+      when a nodal state changes (the map changes) and when |f| grows.
+    """
+
+    def __init__(self, comm, method: str = "anderson", depth: int = ANDERSON_DEPTH):
+        if method not in ACCELERATIONS:
+            raise ValueError(f"unknown Uzawa acceleration {method!r}: one of {ACCELERATIONS}")
+        self.comm, self.method, self.depth = comm, method, depth
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history (a new load step, or a step restored after a cutback)."""
+        self._f_prev, self._omega = None, 1.0
+        self._hist = None
+
+    def step(self, x: np.ndarray, f: np.ndarray, states: np.ndarray, info: dict) -> np.ndarray:
+        """The next x from the current x and its plain change f (collective).
+
+        ``states``: the local nodal states that define the map (any array; a change on
+        any rank restarts the Anderson history). ``info`` receives "relaxation" (Aitken)
+        or "anderson_depth" (the number of history columns used)."""
+        comm = self.comm
+        if self.method == "none":
+            return x + f
+        if self.method == "aitken":
+            omega = 1.0
+            if self._f_prev is not None:
+                df = f - self._f_prev
+                num = comm.allreduce(float(self._f_prev @ df))
+                den = comm.allreduce(float(df @ df))
+                if den > 0.0:
+                    omega = float(np.clip(-self._omega * num / den, 1.0, OMEGA_MAX))
+            info["relaxation"] = omega
+            self._f_prev, self._omega = f, omega
+            return x + omega * f
+        norm_f = np.sqrt(comm.allreduce(float(f @ f)))
+        h = self._hist
+        restart = h is None or norm_f > h["norm_f"] or not np.array_equal(states, h["states"])
+        restart = bool(comm.allreduce(int(restart), op=MPI.MAX))
+        dX, dF = ([], []) if restart else (h["dX"], h["dF"])
+        if not restart:
+            dX.append(x - h["x"])
+            dF.append(f - h["f"])
+            del dX[: -self.depth], dF[: -self.depth]
+        self._hist = {"x": x, "f": f, "states": states, "norm_f": norm_f, "dX": dX, "dF": dF}
+        info["anderson_depth"] = len(dF)
+        if not dF:
+            return x + f
+        F = np.column_stack(dF)
+        gram = comm.allreduce(F.T @ F)
+        theta = np.linalg.lstsq(gram, comm.allreduce(F.T @ f), rcond=1e-12)[0]
+        return x + f - (np.column_stack(dX) + F) @ theta
 
 
 class MortarContact:
@@ -277,8 +348,7 @@ class MortarContact:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
-        self.aitken = True
-        self._d_prev, self._omega = None, 1.0
+        self.uzawa_acceleration = UzawaAcceleration(comm)
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)
         self.p = np.zeros(n)
@@ -1389,13 +1459,9 @@ class MortarContact:
         """Augment the multipliers unless converged (collective). Returns (converged, info).
 
         Plain Uzawa is λ ← p̂ (the nodal penalty pressure ⟨λ − εγ⟩, = p when lumped), i.e.
-        λ ← λ + d with d = p̂ − λ. The change contracts by a
-        steady factor per round (one slow mode, dominated by the nodes at the contact
-        edge), so the step is relaxed with the Irons–Tuck (vector Aitken) factor
-        ω_k = −ω_{k−1} d_{k−1}·(d_k − d_{k−1}) / |d_k − d_{k−1}|², clamped to
-        [1, OMEGA_MAX]: λ ← max(λ + ω d, 0). The first round of a step uses ω = 1.
-        With friction, the tangential multipliers move the same way, λ_T ← λ_T + ω(τ − λ_T)
-        (ω from the stacked change [d_N, d_T]), the change counts max |τ − λ_T| too, and a solve that ended with frozen
+        λ ← λ + d with d = p̂ − λ; with friction also λ_T ← λ_T + (τ − λ_T). The step is
+        accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`, Anderson by
+        default) and λ is kept ≥ 0. The change counts max |τ − λ_T| too, and a solve that ended with frozen
         stick/slip states (chattering control) is not accepted when the free states
         differ: another solve follows with the states free.
         """
@@ -1426,20 +1492,17 @@ class MortarContact:
             info["unfrozen_qp_nodes"] = changed
         if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
             return changed == 0, info
-        # one relaxation factor for the stacked change [d_N, d_T]
-        dv = np.concatenate([d, (self.tau_law - self.lmbda_t).ravel()]) if self.frictional else d
-        omega = 1.0
-        if self.aitken and self._d_prev is not None:
-            dd = dv - self._d_prev
-            num = comm.allreduce(float(self._d_prev @ dd))
-            den = comm.allreduce(float(dd @ dd))
-            if den > 0.0:
-                omega = float(np.clip(-self._omega * num / den, 1.0, OMEGA_MAX))
-        info["relaxation"] = omega
-        self._d_prev, self._omega = dv, omega
-        self.lmbda = np.maximum(self.lmbda + omega * d, 0.0)
+        # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
+        x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
+        f = np.concatenate([d, (self.tau_law - self.lmbda_t).ravel()]) if self.frictional else d
+        states = self.p_hat > 0.0
         if self.frictional:
-            self.lmbda_t = self.lmbda_t + omega * (self.tau_law - self.lmbda_t)
+            states = np.concatenate([states, self.fstate > 0, self.fstate == fr.SLIP])
+        x = self.uzawa_acceleration.step(x.copy(), f, states, info)
+        n = self.lmbda.size
+        self.lmbda = np.maximum(x[:n], 0.0)
+        if self.frictional:
+            self.lmbda_t = x[n:].reshape(self.lmbda_t.shape)
         return False, info
 
     def begin_solve(self) -> None:
@@ -1457,7 +1520,7 @@ class MortarContact:
     def begin_step(self) -> None:
         """Reset the Aitken history (multipliers carry over from the last step); with
         friction, the last committed state becomes the slip reference t_n."""
-        self._d_prev, self._omega = None, 1.0
+        self.uzawa_acceleration.reset()
         if self.frictional:
             if self._pending is not None:
                 u_n, tau = self._pending
@@ -1490,7 +1553,7 @@ class MortarContact:
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()
-        self._d_prev, self._omega = None, 1.0
+        self.uzawa_acceleration.reset()
         if self.frictional:
             self.lmbda_t = self.lmbda_t_committed.copy()
             self.frozen = None

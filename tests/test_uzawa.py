@@ -1,0 +1,86 @@
+"""The accelerated Uzawa update (contact.UzawaAcceleration) on model fixed-point maps.
+
+A Uzawa round at fixed active and stick/slip sets is an affine map x ↦ Mx + c of the
+stacked multipliers, with the spectrum of M in [0, 1). The vector is distributed: each
+rank holds a slice, as the slave nodes are split over ranks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dolfinx_mortar.contact import ACCELERATIONS, UzawaAcceleration
+
+N = 60
+
+
+def _affine_map(slow: list[float]):
+    """A symmetric M with eigenvalues in [0, 0.4] but for the ``slow`` ones (the modes of
+    the nodes at the contact or stick edge), c, and the fixed point."""
+    rng = np.random.default_rng(7)  # the same map on every rank
+    Q = np.linalg.qr(rng.standard_normal((N, N)))[0]
+    ev = rng.uniform(0.0, 0.4, N)
+    ev[: len(slow)] = slow
+    M = Q @ np.diag(ev) @ Q.T
+    c = rng.standard_normal(N)
+    return M, c, np.linalg.solve(np.eye(N) - M, c)
+
+
+def _rounds(method: str, slow: list[float], tol: float, max_rounds: int = 800) -> int:
+    """Rounds of the distributed iteration until |x − x*| ≤ tol |x*| (collective)."""
+    comm = MPI.COMM_WORLD
+    M, c, xs = _affine_map(slow)
+    part = np.array_split(np.arange(N), comm.size)[comm.rank]
+    acc = UzawaAcceleration(comm, method)
+    x = np.zeros(part.size)
+    for k in range(max_rounds):
+        xg = np.concatenate(comm.allgather(x))
+        if np.linalg.norm(xg - xs) <= tol * np.linalg.norm(xs):
+            return k
+        f = (M @ xg + c - xg)[part]
+        x = acc.step(x.copy(), f, np.zeros(part.size, bool), {})
+    return max_rounds
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("slow", [[], [0.95, 0.9, 0.85, 0.8]], ids=["spread", "slow-modes"])
+def test_anderson_converges_faster_than_plain_and_aitken(slow):
+    """Plain Uzawa contracts like the largest eigenvalue q per round. Aitken's one factor
+    removes one slow mode; Anderson's history several."""
+    plain = _rounds("none", slow, 1e-10)
+    aitken = _rounds("aitken", slow, 1e-10)
+    anderson = _rounds("anderson", slow, 1e-10)
+    q = max(slow, default=0.4)
+    assert plain >= 0.8 * np.log(1e-10) / np.log(q)
+    assert anderson <= aitken < plain
+    assert anderson <= 0.6 * plain, (plain, aitken, anderson)
+
+
+@pytest.mark.mpi
+def test_anderson_restarts_when_a_state_changes_or_the_change_grows():
+    comm = MPI.COMM_WORLD
+    acc = UzawaAcceleration(comm, "anderson", depth=2)
+    n = 3
+    states = np.zeros(n, bool)
+    depths = []
+    for k, scale in enumerate([1.0, 0.5, 0.25, 0.1, 0.05, 0.5]):
+        info = {}
+        if k == 4:  # one rank's nodal state changes: every rank restarts
+            states = states.copy()
+            states[0] = comm.rank == comm.size - 1
+        acc.step(np.full(n, float(k)), np.full(n, scale) * (1 + np.arange(n)), states, info)
+        depths.append(info["anderson_depth"])
+    # 0, 1, 2 (depth capped), 2, restart on the state, restart on the growth
+    assert depths == [0, 1, 2, 2, 0, 0]
+    acc.reset()
+    info = {}
+    acc.step(np.zeros(n), np.ones(n), states, info)
+    assert info["anderson_depth"] == 0
+
+
+def test_unknown_acceleration_is_rejected():
+    assert "anderson" in ACCELERATIONS
+    with pytest.raises(ValueError, match="unknown Uzawa acceleration"):
+        UzawaAcceleration(MPI.COMM_WORLD, "broyden")
