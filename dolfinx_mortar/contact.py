@@ -56,7 +56,7 @@ from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
 from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
-from .scene import TANGENTIAL_WEIGHTS
+from .scene import TANGENTIAL_WEIGHTS, UZAWA_ACCELERATIONS
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
 from .surface import dual_coefficients, extract_facets, mixed_nodes, nodal_rule, quadrature
 
@@ -81,12 +81,12 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
 #: × its area enters the mortar mass matrix lumped.
 PARTIAL_FACET_TOL = 1e-9
-#: Upper bound of the Aitken relaxation of the Uzawa update (``acceleration = "aitken"``).
+#: Upper bound of the Aitken relaxation of the Uzawa update (``uzawa_acceleration = "aitken"``).
 OMEGA_MAX = 10.0
 #: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
 ANDERSON_DEPTH = 5
-#: Uzawa update schemes: "anderson" (default), "aitken" (Irons–Tuck) and "none" (plain).
-ACCELERATIONS = ("anderson", "aitken", "none")
+#: Uzawa update schemes (scene key ``uzawa_acceleration``; the first is the default).
+ACCELERATIONS = UZAWA_ACCELERATIONS
 #: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
 #: and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
@@ -117,7 +117,7 @@ class UzawaAcceleration:
     - "none": plain Uzawa, x + f;
     - "aitken": x + ω f with the Irons–Tuck factor
       ω_k = −ω_{k−1} f_{k−1}·(f_k − f_{k−1}) / |f_k − f_{k−1}|², clamped to [1, OMEGA_MAX];
-    - "anderson" (type II, depth m = ANDERSON_DEPTH, the default): with the differences
+    - "anderson" (type II, depth m = ANDERSON_DEPTH): with the differences
       ΔX = [x_{i+1} − x_i] and ΔF = [f_{i+1} − f_i] of the last m rounds,
       θ = argmin |f − ΔF θ| and x + f − (ΔX + ΔF) θ. At fixed active and stick/slip sets
       a round x ↦ x + f is affine, and Anderson is then GMRES on its fixed-point
@@ -125,7 +125,7 @@ class UzawaAcceleration:
       when a nodal state changes (the map changes) and when |f| grows.
     """
 
-    def __init__(self, comm, method: str = "anderson", depth: int = ANDERSON_DEPTH):
+    def __init__(self, comm, method: str = ACCELERATIONS[0], depth: int = ANDERSON_DEPTH):
         if method not in ACCELERATIONS:
             raise ValueError(f"unknown Uzawa acceleration {method!r}: one of {ACCELERATIONS}")
         self.comm, self.method, self.depth = comm, method, depth
@@ -185,6 +185,7 @@ class MortarContact:
     penalty: ε_N (stress per length) or "auto" (see :data:`AUTO_PENALTY_FACTOR`).
     recovery, integration: see METHOD.md §3 and §7 ("node" = node-to-segment baseline).
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
+    uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`).
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
@@ -211,6 +212,7 @@ class MortarContact:
         penalty_tangential=None,
         tangential_weights="standard",
         tangential_recovery="lumped",
+        uzawa_acceleration=ACCELERATIONS[0],
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -348,7 +350,7 @@ class MortarContact:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
-        self.uzawa_acceleration = UzawaAcceleration(comm)
+        self.uzawa_acceleration = UzawaAcceleration(comm, uzawa_acceleration)
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)
         self.p = np.zeros(n)
@@ -401,6 +403,7 @@ class MortarContact:
             penalty_tangential=pair.penalty_tangential,
             tangential_weights=pair.tangential_weights,
             tangential_recovery=pair.tangential_recovery,
+            uzawa_acceleration=pair.uzawa_acceleration,
         )
 
     # ------------------------------------------------------------------ friction set-up
@@ -487,6 +490,7 @@ class MortarContact:
             "penalty": self.penalty_description,
             "penalty_range": list(self.penalty_range),
             "uzawa_tol": self.uzawa_tol,
+            "uzawa_acceleration": self.uzawa_acceleration.method,
             "slave_nodes": self.n_global_nodes,
             **(
                 {
@@ -1460,7 +1464,7 @@ class MortarContact:
 
         Plain Uzawa is λ ← p̂ (the nodal penalty pressure ⟨λ − εγ⟩, = p when lumped), i.e.
         λ ← λ + d with d = p̂ − λ; with friction also λ_T ← λ_T + (τ − λ_T). The step is
-        accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`, Anderson by
+        accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`, Aitken by
         default) and λ is kept ≥ 0. The change counts max |τ − λ_T| too, and a solve that ended with frozen
         stick/slip states (chattering control) is not accepted when the free states
         differ: another solve follows with the states free.

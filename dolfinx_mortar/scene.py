@@ -39,6 +39,7 @@ Schema (``*`` = required; defaults in brackets)::
       tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
+      uzawa_acceleration  "aitken" | "anderson" | "none"       ["aitken"]
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -149,6 +150,9 @@ INTEGRATIONS = ("element", "segment", "node")
 #: Allowed values of ``contact.tangential_weights``: the dual (biorthogonal) basis Ψ_I of the
 #: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
 TANGENTIAL_WEIGHTS = ("dual", "standard")
+#: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
+#: augmentation"; the first is the default).
+UZAWA_ACCELERATIONS = ("aitken", "anderson", "none")
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
 #: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
@@ -245,6 +249,9 @@ class ContactPair:
         0 = pure penalty.
     uzawa_max:
         Maximum number of Uzawa augmentations per load step, >= 1.
+    uzawa_acceleration:
+        Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
+        relaxation, default), ``"anderson"`` (Anderson, depth 5) or ``"none"`` (plain).
     """
 
     slave: str
@@ -258,6 +265,7 @@ class ContactPair:
     tangential_recovery: str = "lumped"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
+    uzawa_acceleration: str = "aitken"
 
     @property
     def name(self) -> str:
@@ -702,6 +710,7 @@ _CONTACT_KEYS = (
     "tangential_recovery",
     "uzawa_tol",
     "uzawa_max",
+    "uzawa_acceleration",
 )
 _DIRICHLET_KEYS = ("boundary", "components", "path")
 _TRACTION_KEYS = ("boundary", "path")
@@ -800,6 +809,11 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     )
     uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
     uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
+    acceleration = _choice(
+        table.get("uzawa_acceleration", UZAWA_ACCELERATIONS[0]),
+        _key(prefix, "uzawa_acceleration"),
+        UZAWA_ACCELERATIONS,
+    )
     return ContactPair(
         slave=slave,
         master=master,
@@ -812,6 +826,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         tangential_recovery=t_recovery,
         uzawa_tol=uzawa_tol,
         uzawa_max=uzawa_max,
+        uzawa_acceleration=acceleration,
     )
 
 

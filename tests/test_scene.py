@@ -204,7 +204,7 @@ def test_defaults_are_filled():
     assert c.integration == "element"
     assert c.penalty == "auto"
     assert c.penalty_tangential is None and c.penalty_t == "auto"
-    assert c.uzawa_tol == 1e-6 and c.uzawa_max == 20
+    assert c.uzawa_tol == 1e-6 and c.uzawa_max == 20 and c.uzawa_acceleration == "aitken"
     assert s.dirichlet[0].components is None
     assert s.tractions == ()
     assert s.steps == scene_mod.Steps(t_end=1.0, n=10, max_cutbacks=6, output_times=())
@@ -432,6 +432,12 @@ CASES = [
     ),
     (("contact", 0, "uzawa_tol"), -1e-6, "contact[0].uzawa_tol", "must be >= 0"),
     (("contact", 0, "uzawa_max"), 0, "contact[0].uzawa_max", "must be >= 1"),
+    (
+        ("contact", 0, "uzawa_acceleration"),
+        "broyden",
+        "contact[0].uzawa_acceleration",
+        '"anderson"',
+    ),
     (("contact", 0, "master"), "cylinder_surface", "contact[0].master", "same group"),
     # paths
     (("dirichlet", 0, "path"), [], "dirichlet[0].path", "path is empty"),

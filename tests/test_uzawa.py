@@ -84,3 +84,65 @@ def test_unknown_acceleration_is_rejected():
     assert "anderson" in ACCELERATIONS
     with pytest.raises(ValueError, match="unknown Uzawa acceleration"):
         UzawaAcceleration(MPI.COMM_WORLD, "broyden")
+
+
+def _coarse_cattaneo(acceleration: str) -> dict:
+    """The coarse Cattaneo press-and-shift scene (lumped), Uzawa to 1e-8."""
+    return {
+        "title": f"coarse Cattaneo, {acceleration}",
+        "kinematics": "small",
+        "mesh": {
+            "generator": "cattaneo2d",
+            "params": {"h_contact": 0.1, "c_zone": 1.0, "h_far": 3.0},
+        },
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
+            for r in ("upper", "lower")
+        ],
+        "contact": [
+            {
+                "slave": "upper_surface",
+                "master": "lower_surface",
+                "friction": 0.2,
+                "uzawa_tol": 1e-8,
+                "uzawa_max": 40,
+                "uzawa_acceleration": acceleration,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {
+                "boundary": "upper_top",
+                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.15], [2.0, 0.025, -0.15]],
+            },
+        ],
+        "steps": {"t_end": 2.0, "n": 2},
+    }
+
+
+@pytest.mark.mpi
+def test_scene_key_selects_the_acceleration(tmp_path_factory):
+    """``uzawa_acceleration`` reaches the contact term; on the frictional shift step,
+    whose tangential rounds are slow, Anderson needs fewer rounds than Aitken, and both
+    end at the same state."""
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    comm = MPI.COMM_WORLD
+    out = {}
+    for acc in ("aitken", "anderson"):
+        path = Path(comm.bcast(str(tmp_path_factory.mktemp(acc)) if comm.rank == 0 else None))
+        out[acc] = run(parse_scene(_coarse_cattaneo(acc), path), comm, path)
+        assert out[acc]["status"] == "ok"
+        pair = next(iter(out[acc]["modelled"]["contact_pairs"].values()))
+        assert pair["uzawa_acceleration"] == acc
+    shift = {acc: out[acc]["steps"][-1] for acc in out}
+    key = {"aitken": "relaxation", "anderson": "anderson_depth"}
+    for acc, st in shift.items():
+        assert all(key[acc] in next(iter(r.values())) for r in st["uzawa"][:-1])
+    assert shift["anderson"]["uzawa_rounds"] < shift["aitken"]["uzawa_rounds"]
+    fa = next(iter(shift["aitken"]["contact_force"].values()))
+    fb = next(iter(shift["anderson"]["contact_force"].values()))
+    assert np.allclose(fa, fb, rtol=1e-6, atol=1e-9)
