@@ -157,6 +157,7 @@ def step_record(problem, res) -> dict:
         "uzawa_rounds": res.uzawa_rounds,
         "uzawa": res.uzawa,
         "cutbacks": res.cutbacks,
+        "full_step_solves": res.full_step_solves,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -59,6 +59,18 @@ MIN_STEP_FRACTION = 1e-9
 #: pattern, grow and every iteration gets expensive. Other solves keep PETSc's 1e4: a
 #: first contact can grow the residual 20-fold before converging.
 PREDICTOR_DIVERGENCE_TOLERANCE = 1e2
+#: A solve that ends on its iteration limit or a failed line search, with a finite
+#: residual, continues from its last iterate with up to this many FULL Newton steps (line
+#: search "basic") before the step is cut back. The l2 search stalls with ‖R‖ constant
+#: where the iterate sits on a kink of the residual (a slave point crossing a master
+#: vertex, an active-set or stick/slip switch): it minimises ‖R‖ along the Newton step,
+#: and the minimum is the kink. A full step crosses it. (Switching at the first stall,
+#: within max_it, was tried: it stops ironing2d at the onset of gross slip.)
+FULL_STEP_ITERATIONS = 10
+_STALLED = (
+    PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
+    PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH,
+)
 
 
 class NewtonSolver:
@@ -98,7 +110,9 @@ class NewtonSolver:
         self.snes.setTolerances(
             rtol=settings.rtol, atol=settings.atol, stol=0.0, max_it=settings.max_it
         )
-        self.snes.setConvergenceHistory(length=settings.max_it + 1, reset=True)
+        self.snes.setConvergenceHistory(
+            length=settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
+        )
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -110,6 +124,11 @@ class NewtonSolver:
                 f"PETSc rejected the options {sorted(settings.petsc)}: {lines[-1]}",
             ) from None
         self.timings = {"linear_solve": 0.0}
+        #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
+        self._line_search = str(defaults["snes_linesearch_type"])
+        self._full_step_fallback = self._line_search != "basic"
+        #: solves whose line search stalled and that were continued with full steps
+        self.full_step_solves = 0
         self._n_solves = 0
         self._dtol = None
 
@@ -157,11 +176,15 @@ class NewtonSolver:
         t_ksp0 = _ksp_time()
         try:
             self.snes.solve(None, x)
+            reason = self.snes.getConvergedReason()
+            its = self.snes.getIterationNumber()
+            norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
+            if reason in _STALLED and np.all(np.isfinite(norms)) and self._full_step_fallback:
+                target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
+                reason, more = self._full_steps(x, target / norms[-1], FULL_STEP_ITERATIONS)
+                its, norms = its + len(more), norms + more
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
-        reason = self.snes.getConvergedReason()
-        its = self.snes.getIterationNumber()
-        norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
         if reason <= 0 or not np.all(np.isfinite(norms)):
             x.destroy()
             raise ConvergenceError(
@@ -172,6 +195,28 @@ class NewtonSolver:
         p.u.x.scatter_forward()
         x.destroy()
         return its, norms
+
+    def _full_steps(self, x: PETSc.Vec, rtol: float, max_it: int) -> tuple[int, list[float]]:
+        """Continue a stalled solve from x with at most ``max_it`` full Newton steps
+        (collective), to ‖R‖ ≤ rtol × ‖R(x)‖ (the original solve's target) or atol. x is
+        updated in place. Returns the SNES reason and the residual norms after each step."""
+        s = self.settings
+        opts = PETSc.Options()
+        key = s.prefix + "snes_linesearch_type"
+        opts[key] = "basic"
+        self.snes.setFromOptions()
+        self.snes.setTolerances(rtol=min(rtol, 0.5), max_it=max_it)
+        try:
+            self.snes.solve(None, x)
+        finally:
+            opts[key] = self._line_search
+            self.snes.setFromOptions()
+            self.snes.setTolerances(max_it=s.max_it)
+        reason = self.snes.getConvergedReason()
+        its = self.snes.getIterationNumber()
+        self.full_step_solves += 1
+        log.info("stalled Newton solve continued with %d full steps: SNES reason %d", its, reason)
+        return reason, [float(r) for r in self.snes.getConvergenceHistory()[0][1 : its + 1]]
 
     def destroy(self) -> None:
         opts = PETSc.Options()
@@ -216,6 +261,9 @@ class StepResult:
     wall_time: float
     timings: dict
     uzawa: list[dict] = field(default_factory=list)
+    #: Newton solves since the last converged step (failed attempts included) that were
+    #: continued with full steps (see FULL_STEP_ITERATIONS)
+    full_step_solves: int = 0
 
 
 def solve_step(
@@ -295,6 +343,7 @@ class LoadStepper:
         previous = None  # (u, t) of the step before the last converged one
         cutbacks = 0
         use_predictor = True
+        full_steps_mark = self.newton.full_step_solves
         while pending:
             t_new = pending[0]
             wall0 = perf_counter()
@@ -356,6 +405,8 @@ class LoadStepper:
             timings["linear_solve"] = self.newton.timings["linear_solve"] - ls0
             timings["total"] = perf_counter() - wall0
             res = StepResult(t, its, norms, len(info), cutbacks, timings["total"], timings, info)
+            res.full_step_solves = self.newton.full_step_solves - full_steps_mark
+            full_steps_mark = self.newton.full_step_solves
             self.results.append(res)
             cutbacks = 0
             if self.on_step is not None:

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from dolfinx_mortar.solver import FULL_STEP_ITERATIONS
+
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 sys.path.insert(0, str(DEMOS))
 
@@ -104,7 +106,9 @@ def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
 def test_ironing2d_short(shared_tmp):
     """Ironing, short path: press 1.4 in 5 steps, slide 1.4 in 14 steps (0.1 per step,
     one slab element), default mesh, slab as slave, ε_T = E*/h (the demo's defaults).
-    Measured (serial, ~31 s): 4 cutbacks (press), max Newton per solve 18, F_y 1.95–2.05;
+    Measured (serial, ~20 s): 2 cutbacks (press), one press solve that stalled at
+    max_it and was finished by full Newton steps (28 iterations; before that fallback
+    the step was cut back twice more), F_y 1.95–2.05;
     F_x/F_y 0.087 → 0.312 while the slab shears under a sticking die (u_x ≤ 1), then
     0.334, 0.342, 0.340, 0.337 with 0 stick / 44 slip nodes at the end (gross slip)."""
     mu = 0.3
@@ -118,7 +122,10 @@ def test_ironing2d_short(shared_tmp):
     late = [r for r, u in zip(m["ratio"], m["u_x"], strict=True) if u >= 1.0 - 1e-9]
     assert len(late) >= 5 and min(late) >= 0.9 * mu, late
     assert m["slip_nodes"][-1] > 10 * m["stick_nodes"][-1]  # gross slip at the end
-    assert m["max_newton_per_solve"] <= 25
+    assert m["cutbacks"] <= 3, m["cutbacks"]
+    # max_it = 25, plus the full steps of a stalled solve
+    assert m["max_newton_per_solve"] <= 25 + FULL_STEP_ITERATIONS
+    assert m["max_newton_per_solve"] <= 25 or m["full_step_solves"] > 0
 
 
 @pytest.mark.mpi

@@ -3,9 +3,12 @@ retry and the smallest step, with a Newton solver that fails on demand."""
 
 import numpy as np
 import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
 
+from dolfinx_mortar import solver as solver_module
 from dolfinx_mortar.errors import ConvergenceError
-from dolfinx_mortar.solver import MIN_STEP_FRACTION, LoadStepper
+from dolfinx_mortar.solver import MIN_STEP_FRACTION, LoadStepper, NewtonSolver, SolverSettings
 
 
 class _Array:
@@ -50,6 +53,7 @@ class _Newton:
         self.problem, self.limit = problem, limit
         self.timings = {"linear_solve": 0.0}
         self.start = 0.0
+        self.full_step_solves = 0
 
     def solve(self, rtol=None, dtol=None):
         p = self.problem
@@ -80,3 +84,86 @@ def test_shrinking_steps_stop_cleanly_at_the_minimum_step():
     assert len(p.committed) >= 2
     steps = np.diff([0.0] + p.committed)
     assert steps.min() > MIN_STEP_FRACTION
+
+
+class _Cubic:
+    """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
+
+    n = 3
+
+    def __init__(self, x0):
+        self.comm = MPI.COMM_SELF
+        self.timings = {"search": 0.0}
+        self.u = type("U", (), {})()
+        self.u.vector = PETSc.Vec().createSeq(self.n, comm=self.comm)
+        self.u.vector.set(x0)
+        self.u.x = type("X", (), {"scatter_forward": lambda self: None})()
+
+    def create_matrix(self):
+        A = PETSc.Mat().createAIJ([self.n, self.n], nnz=1, comm=self.comm)
+        A.setUp()
+        return A
+
+    def residual(self, x, b):
+        b.array[:] = x.array**3 - 8.0
+
+    def jacobian(self, x, A):
+        A.zeroEntries()
+        for i, v in enumerate(x.array):
+            A.setValue(i, i, 3.0 * v * v)
+        A.assemble()
+
+    def begin_solve(self):
+        pass
+
+    def update_contact(self, x):
+        pass
+
+    def ensure_contact_at(self, x):
+        pass
+
+    def pattern_outdated(self):
+        return False
+
+
+@pytest.fixture
+def cubic_vectors(monkeypatch):
+    monkeypatch.setattr(
+        solver_module, "_create_vector", lambda p: PETSc.Vec().createSeq(p.n, comm=p.comm)
+    )
+
+
+def test_a_stalled_solve_continues_with_full_steps(cubic_vectors):
+    """A solve that ends on its iteration limit (here 2; the l2 line search needs about
+    7) is continued from its last iterate with full Newton steps, to the original
+    tolerance; the line search option and max_it are restored afterwards."""
+    problem = _Cubic(10.0)
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=2, prefix="test_stall_")
+    with NewtonSolver(problem, settings) as newton:
+        its, norms = newton.solve()
+        assert newton.full_step_solves == 1
+        assert PETSc.Options()["test_stall_snes_linesearch_type"] == "l2"
+        assert newton.snes.getTolerances()[3] == 2
+    assert 2 < its <= 2 + solver_module.FULL_STEP_ITERATIONS
+    assert len(norms) == its + 1
+    assert norms[-1] <= 1e-10 * norms[0]
+    assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+def test_full_steps_are_bounded(cubic_vectors, monkeypatch):
+    """The continuation has FULL_STEP_ITERATIONS steps: a solve that still needs more
+    fails (and the load step would be cut back)."""
+    monkeypatch.setattr(solver_module, "FULL_STEP_ITERATIONS", 1)
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=2, prefix="test_budget_")
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        with pytest.raises(ConvergenceError, match="3 iterations"):
+            newton.solve()
+        assert newton.full_step_solves == 1
+
+
+def test_no_continuation_with_the_basic_line_search(cubic_vectors):
+    settings = SolverSettings(max_it=2, line_search="basic", prefix="test_basic_")
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        with pytest.raises(ConvergenceError, match="SNES reason -5"):
+            newton.solve()
+        assert newton.full_step_solves == 0
