@@ -60,8 +60,8 @@ MIN_STEP_FRACTION = 1e-9
 #: first contact can grow the residual 20-fold before converging.
 PREDICTOR_DIVERGENCE_TOLERANCE = 1e2
 #: A solve that ends on its iteration limit or a failed line search, with a finite
-#: residual, continues from its last iterate with up to this many FULL Newton steps (line
-#: search "basic") before the step is cut back. The l2 search stalls with ‖R‖ constant
+#: residual, continues from its last iterate with up to min(this, max_it) FULL Newton
+#: steps (line search "basic") before the step is cut back. The l2 search stalls with ‖R‖ constant
 #: where the iterate sits on a kink of the residual (a slave point crossing a master
 #: vertex, an active-set or stick/slip switch): it minimises ‖R‖ along the Newton step,
 #: and the minimum is the kink. A full step crosses it. (Switching at the first stall,
@@ -181,7 +181,8 @@ class NewtonSolver:
             norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
             if reason in _STALLED and np.all(np.isfinite(norms)) and self._full_step_fallback:
                 target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
-                reason, more = self._full_steps(x, target / norms[-1], FULL_STEP_ITERATIONS)
+                budget = min(FULL_STEP_ITERATIONS, s.max_it)
+                reason, more = self._full_steps(x, target / norms[-1], budget)
                 its, norms = its + len(more), norms + more
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0

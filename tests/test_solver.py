@@ -134,25 +134,26 @@ def cubic_vectors(monkeypatch):
 
 
 def test_a_stalled_solve_continues_with_full_steps(cubic_vectors):
-    """A solve that ends on its iteration limit (here 2; the l2 line search needs about
-    7) is continued from its last iterate with full Newton steps, to the original
-    tolerance; the line search option and max_it are restored afterwards."""
+    """A solve that ends on its iteration limit (here 4; the l2 line search needs about
+    7) is continued from its last iterate with at most min(FULL_STEP_ITERATIONS, max_it)
+    full Newton steps, to the original tolerance; the line search option and max_it are
+    restored afterwards."""
     problem = _Cubic(10.0)
-    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=2, prefix="test_stall_")
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=4, prefix="test_stall_")
     with NewtonSolver(problem, settings) as newton:
         its, norms = newton.solve()
         assert newton.full_step_solves == 1
         assert PETSc.Options()["test_stall_snes_linesearch_type"] == "l2"
-        assert newton.snes.getTolerances()[3] == 2
-    assert 2 < its <= 2 + solver_module.FULL_STEP_ITERATIONS
+        assert newton.snes.getTolerances()[3] == 4
+    assert 4 < its <= 4 + 4
     assert len(norms) == its + 1
     assert norms[-1] <= 1e-10 * norms[0]
     assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
 
 
 def test_full_steps_are_bounded(cubic_vectors, monkeypatch):
-    """The continuation has FULL_STEP_ITERATIONS steps: a solve that still needs more
-    fails (and the load step would be cut back)."""
+    """The continuation has at most FULL_STEP_ITERATIONS (and max_it) steps: a solve that
+    still needs more fails (and the load step would be cut back)."""
     monkeypatch.setattr(solver_module, "FULL_STEP_ITERATIONS", 1)
     settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=2, prefix="test_budget_")
     with NewtonSolver(_Cubic(10.0), settings) as newton:
@@ -167,3 +168,11 @@ def test_no_continuation_with_the_basic_line_search(cubic_vectors):
         with pytest.raises(ConvergenceError, match="SNES reason -5"):
             newton.solve()
         assert newton.full_step_solves == 0
+
+
+def test_full_steps_at_most_max_it(cubic_vectors):
+    """max_it = 3: 3 l2 iterations, then 3 full steps (not 10), not enough here."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=3, prefix="test_maxit_")
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        with pytest.raises(ConvergenceError, match="6 iterations"):
+            newton.solve()
