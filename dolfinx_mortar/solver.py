@@ -61,11 +61,11 @@ MIN_STEP_FRACTION = 1e-9
 PREDICTOR_DIVERGENCE_TOLERANCE = 1e2
 #: A solve that ends on its iteration limit or a failed line search, with a finite
 #: residual, continues from its last iterate with up to min(this, max_it) FULL Newton
-#: steps (line search "basic") before the step is cut back. The l2 search stalls with ‖R‖ constant
-#: where the iterate sits on a kink of the residual (a slave point crossing a master
-#: vertex, an active-set or stick/slip switch): it minimises ‖R‖ along the Newton step,
-#: and the minimum is the kink. A full step crosses it. (Switching at the first stall,
-#: within max_it, was tried: it stops ironing2d at the onset of gross slip.)
+#: steps (line search "basic") before the step is cut back. The l2 search stalls with
+#: ‖R‖ constant where the iterate sits on a kink of the residual (a slave point crossing
+#: a master vertex, an active-set or stick/slip switch): it minimises ‖R‖ along the
+#: Newton step, and the minimum is the kink. A full step crosses it. (Switching at the
+#: first stall, within max_it, was tried: it stops ironing2d at the onset of gross slip.)
 FULL_STEP_ITERATIONS = 10
 _STALLED = (
     PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
@@ -126,7 +126,6 @@ class NewtonSolver:
         self.timings = {"linear_solve": 0.0}
         #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
         self._line_search = str(defaults["snes_linesearch_type"])
-        self._full_step_fallback = self._line_search != "basic"
         #: solves whose line search stalled and that were continued with full steps
         self.full_step_solves = 0
         self._n_solves = 0
@@ -155,7 +154,8 @@ class NewtonSolver:
         ``rtol`` overrides the relative tolerance for this solve only (inexact Uzawa
         rounds); ``dtol`` the divergence tolerance (None: PETSc's default 1e4, or the user's
         ``snes_divergence_tolerance``). Returns (iterations, residual norms per
-        iteration). Raises ConvergenceError.
+        iteration, the full-step continuation of a stalled solve included: see
+        :data:`FULL_STEP_ITERATIONS`). Raises ConvergenceError.
         """
         s = self.settings
         if dtol != self._dtol:
@@ -179,7 +179,8 @@ class NewtonSolver:
             reason = self.snes.getConvergedReason()
             its = self.snes.getIterationNumber()
             norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
-            if reason in _STALLED and np.all(np.isfinite(norms)) and self._full_step_fallback:
+            stalled = reason in _STALLED and self._line_search != "basic"
+            if stalled and np.all(np.isfinite(norms)):
                 target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
                 budget = min(FULL_STEP_ITERATIONS, s.max_it)
                 reason, more = self._full_steps(x, target / norms[-1], budget)
