@@ -1465,9 +1465,9 @@ class MortarContact:
         Plain Uzawa is λ ← p̂ (the nodal penalty pressure ⟨λ − εγ⟩, = p when lumped), i.e.
         λ ← λ + d with d = p̂ − λ; with friction also λ_T ← λ_T + (τ − λ_T). The step is
         accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`, Aitken by
-        default) and λ is kept ≥ 0. The change counts max |τ − λ_T| too, and a solve that ended with frozen
-        stick/slip states (chattering control) is not accepted when the free states
-        differ: another solve follows with the states free.
+        default) and λ is kept ≥ 0. With friction the change counts max |τ − λ_T| too,
+        and a solve that ended with frozen stick/slip states (chattering control) is not
+        accepted when the free states differ: another solve follows with the states free.
         """
         comm = self.comm
         d = self.p_hat - self.lmbda
@@ -1522,7 +1522,7 @@ class MortarContact:
         return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
 
     def begin_step(self) -> None:
-        """Reset the Aitken history (multipliers carry over from the last step); with
+        """Reset the Uzawa acceleration's history (multipliers carry over from the last step); with
         friction, the last committed state becomes the slip reference t_n."""
         self.uzawa_acceleration.reset()
         if self.frictional:
