@@ -195,6 +195,10 @@ def main(argv=None) -> dict:
             ),
         ]
     rows += [
+        (
+            "solves finished by full steps, restarted after a NaN",
+            f"{m['full_step_solves']}, {m['backtracked_solves']}",
+        ),
         ("Newton: max per solve", str(m["max_newton_per_solve"])),
         ("max Uzawa rounds", str(max(m["uzawa_rounds"], default=0))),
         ("wall time", f"{wall:.1f} s"),

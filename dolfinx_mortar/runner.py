@@ -158,6 +158,7 @@ def step_record(problem, res) -> dict:
         "uzawa": res.uzawa,
         "cutbacks": res.cutbacks,
         "full_step_solves": res.full_step_solves,
+        "backtracked_solves": res.backtracked_solves,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

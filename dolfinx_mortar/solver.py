@@ -71,6 +71,13 @@ _STALLED = (
     PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
     PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH,
 )
+#: A solve whose residual becomes non-finite (NaN: an element inverted, det F <= 0, at a
+#: trial point) restarts from its last iterate with a finite residual with up to max_it
+#: steps of the backtracking line search "bt", before the step is cut back. PETSc's l2 search halves λ after a NaN at λ = 1 but then fits
+#: its secant through λ = 1/2 and may return a λ in (1/2, 1) where the residual is NaN
+#: again (the first press step of ironing2d, the full steps at its onset of gross
+#: slip); bt only shrinks λ.
+_NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
 
 
 class NewtonSolver:
@@ -111,7 +118,7 @@ class NewtonSolver:
             rtol=settings.rtol, atol=settings.atol, stol=0.0, max_it=settings.max_it
         )
         self.snes.setConvergenceHistory(
-            length=settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
+            length=2 * settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
         )
         try:
             self.snes.setFromOptions()
@@ -128,6 +135,13 @@ class NewtonSolver:
         self._line_search = str(defaults["snes_linesearch_type"])
         #: solves whose line search stalled and that were continued with full steps
         self.full_step_solves = 0
+        #: solves whose residual became non-finite and that were restarted with "bt"
+        self.backtracked_solves = 0
+        #: the last iterate with a finite residual norm of the current solve (the
+        #: monitor's copy) and its iteration number (-1: none yet)
+        self._finite_x = self._b.duplicate()
+        self._finite_it = -1
+        self.snes.setMonitor(self._remember_finite)
         self._n_solves = 0
         self._dtol = None
 
@@ -136,6 +150,11 @@ class NewtonSolver:
         self.problem.update_contact(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.residual(x, b)
+
+    def _remember_finite(self, snes, its, fnorm):
+        if np.isfinite(fnorm):
+            snes.getSolution().copy(self._finite_x)
+            self._finite_it = its
 
     def _J(self, snes, x, A, P):
         # The line search may have evaluated F last at a trial point other than x: the
@@ -147,15 +166,19 @@ class NewtonSolver:
         self.problem.jacobian(x, A)
 
     def solve(
-        self, rtol: float | None = None, dtol: float | None = None
+        self, rtol: float | None = None, dtol: float | None = None, rescue: bool = True
     ) -> tuple[int, list[float]]:
         """Solve R(u) = 0 from the problem's current ``u`` (collective).
 
         ``rtol`` overrides the relative tolerance for this solve only (inexact Uzawa
         rounds); ``dtol`` the divergence tolerance (None: PETSc's default 1e4, or the user's
-        ``snes_divergence_tolerance``). Returns (iterations, residual norms per
-        iteration, the full-step continuation of a stalled solve included: see
-        :data:`FULL_STEP_ITERATIONS`). Raises ConvergenceError.
+        ``snes_divergence_tolerance``); ``rescue = False`` skips the "bt" restart after a
+        non-finite residual (a solve from the extrapolated predictor: retrying it from the
+        converged state is cheaper than up to max_it backtracking steps). Returns (iterations, residual norms per
+        iteration, the full-step continuation of a stalled solve and the "bt" restart of a
+        solve whose residual became non-finite included: see :data:`FULL_STEP_ITERATIONS`
+        and :data:`_NONFINITE`; the iterations after the last finite residual are not
+        counted). Raises ConvergenceError.
         """
         s = self.settings
         if dtol != self._dtol:
@@ -175,15 +198,30 @@ class NewtonSolver:
         x = p.u.vector.copy()
         t_ksp0 = _ksp_time()
         try:
+            self._finite_it = -1
             self.snes.solve(None, x)
             reason = self.snes.getConvergedReason()
             its = self.snes.getIterationNumber()
             norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
+            target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
+            budget = min(FULL_STEP_ITERATIONS, s.max_it)
             stalled = reason in _STALLED and self._line_search != "basic"
             if stalled and np.all(np.isfinite(norms)):
-                target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
-                budget = min(FULL_STEP_ITERATIONS, s.max_it)
-                reason, more = self._full_steps(x, target / norms[-1], budget)
+                self.full_step_solves += 1
+                reason, more = self._continue(x, "basic", target / norms[-1], budget)
+                its, norms = its + len(more), norms + more
+            if (
+                reason in _NONFINITE
+                and self._finite_it >= 0
+                and self._line_search != "bt"
+                and rescue
+            ):
+                # restart from the last finite iterate: drop the norms after it
+                norms = [r for r in norms if np.isfinite(r)]
+                its = len(norms) - 1
+                self._finite_x.copy(x)
+                self.backtracked_solves += 1
+                reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
                 its, norms = its + len(more), norms + more
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
@@ -198,14 +236,18 @@ class NewtonSolver:
         x.destroy()
         return its, norms
 
-    def _full_steps(self, x: PETSc.Vec, rtol: float, max_it: int) -> tuple[int, list[float]]:
-        """Continue a stalled solve from x with at most ``max_it`` full Newton steps
-        (collective), to ‖R‖ ≤ rtol × ‖R(x)‖ (the original solve's target) or atol. x is
-        updated in place. Returns the SNES reason and the residual norms after each step."""
+    def _continue(
+        self, x: PETSc.Vec, line_search: str, rtol: float, max_it: int
+    ) -> tuple[int, list[float]]:
+        """Continue a failed solve from x with at most ``max_it`` Newton steps under the
+        given line search ("basic": full steps; "bt": backtracking) (collective), to
+        ‖R‖ ≤ rtol × ‖R(x)‖ (the original solve's target) or atol. x is updated in place;
+        the options are restored afterwards. Returns the SNES reason and the residual
+        norms after each step."""
         s = self.settings
         opts = PETSc.Options()
         key = s.prefix + "snes_linesearch_type"
-        opts[key] = "basic"
+        opts[key] = line_search
         self.snes.setFromOptions()
         self.snes.setTolerances(rtol=min(rtol, 0.5), max_it=max_it)
         try:
@@ -216,8 +258,12 @@ class NewtonSolver:
             self.snes.setTolerances(max_it=s.max_it)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
-        self.full_step_solves += 1
-        log.info("stalled Newton solve continued with %d full steps: SNES reason %d", its, reason)
+        log.info(
+            "Newton solve continued with %d steps of line search %s: SNES reason %d",
+            its,
+            line_search,
+            reason,
+        )
         return reason, [float(r) for r in self.snes.getConvergenceHistory()[0][1 : its + 1]]
 
     def destroy(self) -> None:
@@ -228,6 +274,7 @@ class NewtonSolver:
         self.snes.destroy()
         self._A.destroy()
         self._b.destroy()
+        self._finite_x.destroy()
 
     def __enter__(self):
         return self
@@ -266,6 +313,9 @@ class StepResult:
     #: Newton solves since the last converged step (failed attempts included) that were
     #: continued with full steps (see FULL_STEP_ITERATIONS)
     full_step_solves: int = 0
+    #: the same for solves restarted with the bt line search after a non-finite
+    #: residual (see _NONFINITE)
+    backtracked_solves: int = 0
 
 
 def solve_step(
@@ -279,12 +329,14 @@ def solve_step(
     1e-4. When the multipliers have settled after an inexact solve, one more solve at the
     full tolerance (same multipliers) makes the accepted state fully converged.
     ``uzawa_max`` bounds the number of Uzawa rounds; ``dtol`` goes to the first solve
-    (see :data:`PREDICTOR_DIVERGENCE_TOLERANCE`). Raises ConvergenceError.
+    (see :data:`PREDICTOR_DIVERGENCE_TOLERANCE`), which is then a start from the predictor
+    and gets no "bt" restart (:meth:`NewtonSolver.solve`). Raises ConvergenceError.
     """
     its_all, norms_all, info_all = [], [], []
     rtol = None
     for k in range(max(uzawa_max, 1)):
-        its, norms = newton.solve(rtol, dtol if k == 0 else None)
+        predicted = k == 0 and dtol is not None
+        its, norms = newton.solve(rtol, dtol if k == 0 else None, rescue=not predicted)
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()
@@ -346,6 +398,7 @@ class LoadStepper:
         cutbacks = 0
         use_predictor = True
         full_steps_mark = self.newton.full_step_solves
+        backtracked_mark = self.newton.backtracked_solves
         while pending:
             t_new = pending[0]
             wall0 = perf_counter()
@@ -409,6 +462,8 @@ class LoadStepper:
             res = StepResult(t, its, norms, len(info), cutbacks, timings["total"], timings, info)
             res.full_step_solves = self.newton.full_step_solves - full_steps_mark
             full_steps_mark = self.newton.full_step_solves
+            res.backtracked_solves = self.newton.backtracked_solves - backtracked_mark
+            backtracked_mark = self.newton.backtracked_solves
             self.results.append(res)
             cutbacks = 0
             if self.on_step is not None:

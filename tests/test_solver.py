@@ -54,8 +54,9 @@ class _Newton:
         self.timings = {"linear_solve": 0.0}
         self.start = 0.0
         self.full_step_solves = 0
+        self.backtracked_solves = 0
 
-    def solve(self, rtol=None, dtol=None):
+    def solve(self, rtol=None, dtol=None, rescue=True):
         p = self.problem
         t0 = p.committed[-1] if p.committed else 0.0
         if p.t - t0 > self.limit(t0):
@@ -176,3 +177,37 @@ def test_full_steps_at_most_max_it(cubic_vectors):
     with NewtonSolver(_Cubic(10.0), settings) as newton:
         with pytest.raises(ConvergenceError, match="6 iterations"):
             newton.solve()
+
+
+class _CubicWithHole(_Cubic):
+    """The cubic with a NaN residual for x >= 8 (an inverted element beyond a step)."""
+
+    def residual(self, x, b):
+        b.array[:] = np.where(x.array < 8.0, x.array**3 - 8.0, np.nan)
+
+
+def test_a_nan_residual_restarts_with_backtracking(cubic_vectors):
+    """From x = 0.5 the full Newton step lands at 11, where the residual is NaN: the solve
+    restarts from its last finite iterate (x0) with the bt line search, which halves the
+    step until the residual is finite, and converges; the line search option is restored."""
+    problem = _CubicWithHole(0.5)
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, line_search="basic", prefix="test_nan_")
+    with NewtonSolver(problem, settings) as newton:
+        its, norms = newton.solve()
+        assert newton.backtracked_solves == 1 and newton.full_step_solves == 0
+        assert PETSc.Options()["test_nan_snes_linesearch_type"] == "basic"
+    assert len(norms) == its + 1 and np.all(np.isfinite(norms))
+    assert norms[0] == pytest.approx(np.sqrt(3.0) * 7.875)
+    assert norms[-1] <= 1e-10 * norms[0]
+    assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+def test_no_restart_without_rescue(cubic_vectors):
+    """rescue=False (a start from the predictor): the NaN fails the solve at once."""
+    problem = _CubicWithHole(0.5)
+    settings = SolverSettings(line_search="basic", prefix="test_norescue_")
+    with NewtonSolver(problem, settings) as newton:
+        with pytest.raises(ConvergenceError, match="SNES reason -4"):
+            newton.solve(rescue=False)
+        assert newton.backtracked_solves == 0
+    assert np.allclose(problem.u.vector.array, 0.5)
