@@ -95,6 +95,13 @@ ACCELERATIONS = UZAWA_ACCELERATIONS
 #: solve (re-checked against the plain QP at convergence).
 FREEZE_AFTER = 8
 FROZEN_DIRECTION_TOL = 1e-6
+#: Chattering control of the pairing (element and node integration): from the
+#: FREEZE_AFTER-th Jacobian of a Newton solve on, a slave quadrature point whose master
+#: facet went A → B → A over the last three Jacobians (B may be "none") stays paired with
+#: A for the rest of the solve, with the projection onto A extended beyond its edge
+#: (``kernels.mortar.forced_points``), unless that projection lies more than this far
+#: outside A in reference coordinates (the pin is then ignored).
+PIN_OUTSIDE_TOL = 0.1
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
 SLIP_TOL = 1e-10
@@ -365,6 +372,13 @@ class MortarContact:
         self.qp_frozen = None  # constrained recovery: the QP free set, once frozen
         self._jacobians = 0
         self.freeze_after = FREEZE_AFTER
+        # chattering control of the pairing (PIN_OUTSIDE_TOL): pinned master facet per
+        # slave quadrature point (−1: free), the pairings of the last two Jacobians, the
+        # Jacobians of this solve, and the master exchange they refer to
+        self.qp_pinned = None
+        self._pair_hist = []
+        self._pair_jacobians = 0
+        self._pin_exchange = -1
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
@@ -593,6 +607,8 @@ class MortarContact:
                 self.qp_zeta,
                 self.qp_g,
             )
+            if self.qp_pinned is not None and self._pin_exchange == self._exchanges:
+                self._apply_pins()
         else:
             kmortar.forced_points(
                 self.ftype,
@@ -605,6 +621,50 @@ class MortarContact:
                 self.qp_zeta,
                 self.qp_g,
             )
+
+    def _apply_pins(self) -> None:
+        """Pair the pinned quadrature points with their pinned master facet (the projection
+        extended beyond its edges), unless it lies more than PIN_OUTSIDE_TOL outside."""
+        pinned = self.qp_pinned >= 0
+        qm = np.where(pinned, self.qp_pinned, -1)
+        zeta = np.zeros_like(self.qp_zeta)
+        g = np.zeros_like(self.qp_g)
+        kmortar.forced_points(
+            self.ftype,
+            self.master.ftype,
+            self.xs,
+            self.qp_xi,
+            qm,
+            self.xm,
+            self.master.sign,
+            zeta,
+            g,
+        )
+        for f, q in zip(*np.nonzero(pinned), strict=True):
+            if kmortar._outside(self.master.ftype, zeta[f, q]) <= PIN_OUTSIDE_TOL:
+                self.qp_m[f, q] = qm[f, q]
+                self.qp_zeta[f, q] = zeta[f, q]
+                self.qp_g[f, q] = g[f, q]
+
+    def _watch_pairing(self) -> None:
+        """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL)."""
+        if self.integration == "segment" or not self.slave.num_facets:
+            return
+        if self._pin_exchange != self._exchanges:  # facet indices refer to another layer
+            self._pin_exchange = self._exchanges
+            self._pair_hist, self.qp_pinned = [], None
+        self._pair_jacobians += 1
+        cur = self.qp_m
+        if self._pair_jacobians >= self.freeze_after and len(self._pair_hist) == 2:
+            h2, h1 = self._pair_hist
+            flip = (cur == h2) & (cur != h1) & ((cur >= 0) | (h1 >= 0))
+            if self.qp_pinned is None:
+                self.qp_pinned = np.full_like(cur, -1)
+            new = flip & (self.qp_pinned < 0)
+            if new.any():
+                self.qp_pinned[new] = np.where(cur >= 0, cur, h1)[new]
+                log.debug("%s: %d chattering points pinned", self.name, int(new.sum()))
+        self._pair_hist = [*self._pair_hist[-1:], cur.copy()]
 
     def _friction_integrals(self) -> None:
         """Pairing at t_n, A_T, S and the S-weights per node, and the nodal frames.
@@ -1026,6 +1086,7 @@ class MortarContact:
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
+        self._watch_pairing()
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
         ADD = PETSc.InsertMode.ADD_VALUES
         for r in np.flatnonzero(res_idx.max(axis=1) >= 0):
@@ -1489,6 +1550,16 @@ class MortarContact:
                 changed = comm.allreduce(int(local))
                 info["unfrozen_states"] = changed
                 self.frozen = None
+        # the pinned points of the solve that ended (chattering control of the pairing), and
+        # how far outside their pinned facet they converged (reference coordinates)
+        pinned = np.zeros(0, bool)
+        if self.qp_pinned is not None:
+            pinned = (self.qp_pinned >= 0) & (self.qp_m == self.qp_pinned)
+        n_pinned = comm.allreduce(int(pinned.sum()))
+        if n_pinned:
+            outside = [kmortar._outside(self.master.ftype, z) for z in self.qp_zeta[pinned]]
+            info["pinned_points"] = n_pinned
+            info["pinned_outside"] = comm.allreduce(max(outside, default=0.0), op=MPI.MAX)
         if self.qp_frozen is not None:
             frozen, self.qp_frozen = self.qp_frozen, None
             self._recover()
@@ -1510,10 +1581,11 @@ class MortarContact:
         return False, info
 
     def begin_solve(self) -> None:
-        """A Newton solve starts: the stick/slip states and the constrained recovery's
-        active set are free again."""
+        """A Newton solve starts: the stick/slip states, the constrained recovery's
+        active set and the pairing are free again (chattering control)."""
         self._jacobians = 0
         self.qp_frozen = None
+        self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
         if self.frictional:
             self.frozen = None
 

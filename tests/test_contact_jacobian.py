@@ -246,3 +246,95 @@ def test_segment_tangent_error_is_bounded(case, recovery):
     A.assemble()
     errs = fd_errors(problem, term, A, u0, n=2)
     assert 1e-8 < max(errs) < SEGMENT_ERROR_BOUND[case, recovery], errs
+
+
+def _pin_neighbours(term, max_pins=6):
+    """Pin up to ``max_pins`` paired quadrature points to a master facet next to their own
+    (sharing a vertex) whose extended projection lies at most PIN_OUTSIDE_TOL outside it;
+    returns the pinned (f, q) pairs (local)."""
+    from dolfinx_mortar.contact import PIN_OUTSIDE_TOL
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    xm = term.xm
+    term.qp_pinned = np.full_like(term.qp_m, -1)
+    term._pin_exchange = term._exchanges
+    pins = []
+    for f, q in zip(*np.nonzero(term.qp_m >= 0), strict=True):
+        m = term.qp_m[f, q]
+        for m2 in range(xm.shape[0]):
+            shared = np.isclose(xm[m][:, None, :], xm[m2][None, :, :]).all(axis=2).any()
+            if m2 == m or not shared:
+                continue
+            qm = np.full_like(term.qp_m, -1)
+            qm[f, q] = m2
+            zeta, g = np.zeros_like(term.qp_zeta), np.zeros_like(term.qp_g)
+            kmortar.forced_points(
+                term.ftype,
+                term.master.ftype,
+                term.xs,
+                term.qp_xi,
+                qm,
+                xm,
+                term.master.sign,
+                zeta,
+                g,
+            )
+            if 0.0 < kmortar._outside(term.master.ftype, zeta[f, q]) <= PIN_OUTSIDE_TOL:
+                term.qp_pinned[f, q] = m2
+                pins.append((f, q))
+                break
+        if len(pins) == max_pins:
+            break
+    return pins
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_pinned_points_keep_their_facet_and_an_exact_tangent(case):
+    """Chattering control of the pairing: a quadrature point pinned to a neighbouring
+    master facet is paired with it (its projection extended beyond the facet's edge) at
+    every update of the solve, and the tangent stays exact with it."""
+    problem = _problem(case, "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, {2: 0.05, 3: 0.04}[problem.gdim], CASES[case][4][0])
+    term.update(problem.u)
+    u0 = problem.u.vector.copy()
+    pins = _pin_neighbours(term)
+    assert MPI.COMM_WORLD.allreduce(len(pins)) >= 2
+    free = term.qp_m.copy()
+    term.update(problem.u)
+    for f, q in pins:
+        assert term.qp_m[f, q] == term.qp_pinned[f, q] != free[f, q]
+    A = problem.create_matrix()
+    A.zeroEntries()
+    term.add_jacobian(A)
+    A.assemble()
+    errs = fd_errors(problem, term, A, u0, check=lambda t: None)
+    for f, q in pins:  # still pinned after the perturbed updates
+        assert term.qp_m[f, q] == term.qp_pinned[f, q]
+    assert max(errs) < 1e-5, errs
+    term.begin_solve()
+    assert term.qp_pinned is None
+
+
+def test_a_point_switching_back_is_pinned():
+    """From the FREEZE_AFTER-th Jacobian on, a point whose facet went A → B → A is pinned
+    to A (also when B is "none", −1); a point that moved on (A → B → C) is not."""
+    from dolfinx_mortar.contact import FREEZE_AFTER
+
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    term.update(problem.u)
+    shape = term.qp_m.shape
+    a = np.zeros(shape, np.int64)
+    b, c = a.copy(), a.copy()
+    b.flat[0], b.flat[1], b.flat[2] = 5, -1, 7
+    c.flat[2] = 9
+    term._pin_exchange = term._exchanges
+    term._pair_jacobians = FREEZE_AFTER - 3
+    for m in (a, b, c):
+        term.qp_m = m
+        term._watch_pairing()
+    assert term.qp_pinned.flat[0] == 0 and term.qp_pinned.flat[1] == 0
+    assert term.qp_pinned.flat[2] == -1
+    assert np.count_nonzero(term.qp_pinned >= 0) == 2
