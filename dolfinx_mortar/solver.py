@@ -112,6 +112,10 @@ class NewtonSolver:
             opts[key] = "" if v is True else v
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
+        #: the last iterate with a finite residual norm of the current solve (the
+        #: monitor's copy) and its iteration number (-1: none yet)
+        self._finite_x = self._b.duplicate()
+        self._finite_it = -1
         self.snes.setFunction(self._F, self._b)
         self.snes.setJacobian(self._J, self._A, self._A)
         self.snes.setTolerances(
@@ -137,10 +141,6 @@ class NewtonSolver:
         self.full_step_solves = 0
         #: solves whose residual became non-finite and that were restarted with "bt"
         self.backtracked_solves = 0
-        #: the last iterate with a finite residual norm of the current solve (the
-        #: monitor's copy) and its iteration number (-1: none yet)
-        self._finite_x = self._b.duplicate()
-        self._finite_it = -1
         self.snes.setMonitor(self._remember_finite)
         self._n_solves = 0
         self._dtol = None
