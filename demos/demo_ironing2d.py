@@ -304,6 +304,7 @@ def main(argv=None) -> dict:
         ("status, cutbacks", f"{m['status']}, {m['cutbacks']} (t reached {m['t_reached']:g})"),
         ("solves finished by full steps", str(m["full_step_solves"])),
         ("solves restarted after a NaN", str(m["backtracked_solves"])),
+        ("failed attempts from the predictor", str(m["predictor_failures"])),
         ("F_y at the end of the press", f"{m['F_y_press_end']:.5f}"),
         ("F_x/F_y while sliding", f"{m['ratio_slide_min']:.4f} … {m['ratio_slide_max']:.4f}"),
     ]

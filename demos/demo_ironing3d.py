@@ -199,6 +199,7 @@ def main(argv=None) -> dict:
             "solves finished by full steps, restarted after a NaN",
             f"{m['full_step_solves']}, {m['backtracked_solves']}",
         ),
+        ("failed attempts from the predictor", str(m["predictor_failures"])),
         ("Newton: max per solve", str(m["max_newton_per_solve"])),
         ("max Uzawa rounds", str(max(m["uzawa_rounds"], default=0))),
         ("wall time", f"{wall:.1f} s"),

@@ -159,6 +159,7 @@ def step_record(problem, res) -> dict:
         "cutbacks": res.cutbacks,
         "full_step_solves": res.full_step_solves,
         "backtracked_solves": res.backtracked_solves,
+        "predictor_failures": res.predictor_failures,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -87,6 +87,45 @@ def test_shrinking_steps_stop_cleanly_at_the_minimum_step():
     assert steps.min() > MIN_STEP_FRACTION
 
 
+class _NoPredictor(_Newton):
+    """Fails every solve started from the predictor (the stepper passes dtol then)."""
+
+    def __init__(self, problem):
+        super().__init__(problem, lambda t0: 1.0)
+        self.predicted = 0
+
+    def solve(self, rtol=None, dtol=None, rescue=True):
+        if dtol is not None:
+            self.predicted += 1
+            raise ConvergenceError("far off")
+        return super().solve(rtol, dtol, rescue)
+
+
+def test_predictor_backs_off_after_failures():
+    """After a failure from the predictor the next 1, 2, 4 … (at most
+    PREDICTOR_MAX_BACKOFF) steps start from the converged state; each step records its
+    failed attempts."""
+    p = _Problem()
+    newton = _NoPredictor(p)
+    results = LoadStepper(p, newton, 1.0, 8).run()
+    assert [r.predictor_failures for r in results] == [0, 1, 0, 1, 0, 0, 1, 0]
+    assert newton.predicted == 3
+    assert p.committed[-1] == pytest.approx(1.0) and len(p.committed) == 8
+
+
+def test_predictor_used_while_it_works():
+    p = _Problem()
+    newton = _Newton(p, lambda t0: 1.0)
+    calls = []
+    orig = newton.solve
+    newton.solve = lambda rtol=None, dtol=None, rescue=True: (
+        calls.append(dtol) or orig(rtol, dtol, rescue)
+    )
+    results = LoadStepper(p, newton, 1.0, 5).run()
+    assert [d is not None for d in calls] == [False, True, True, True, True]
+    assert all(r.predictor_failures == 0 for r in results)
+
+
 class _Cubic:
     """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
 
