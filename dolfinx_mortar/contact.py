@@ -102,6 +102,18 @@ FROZEN_DIRECTION_TOL = 1e-6
 #: (``kernels.mortar.forced_points``), unless that projection lies more than this far
 #: outside A in reference coordinates (the pin is then ignored).
 PIN_OUTSIDE_TOL = 0.1
+#: First contact: in a Newton solve that starts with no active node on the pair, at a
+#: Jacobian whose active set (p̂^I > 0) differs from that of the previous Jacobian, the
+#: geometric part of the normal contact tangent, −Σ_I p^I ∫ Φ_I ∂²g (the variation of the
+#: projection and of the master normal), is left out; the penalty part ε/A B⊗B stays. The
+#: first iterate of such a solve penetrates deeply (no contact force holds the body
+#: back), p is ε times that depth, and the geometric part then dominates the tangent and
+#: is indefinite: Newton cycled through active sets (peers problem A, level 3: 8 to 37
+#: active nodes over 25 full steps, then a cutback). Once the active set repeats, the
+#: tangent is exact again, so the final iterations keep quadratic convergence. Only
+#: first-contact solves: on ironing2d the same rule in every solve gave 7 step halvings
+#: instead of 1.
+GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
 SLIP_TOL = 1e-10
@@ -379,6 +391,8 @@ class MortarContact:
         self._pair_hist = []
         self._pair_jacobians = 0
         self._pin_exchange = -1
+        self._jac_active = None  # the active set at the previous Jacobian of the solve
+        self._first_contact = False  # the solve started with no active node
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
@@ -645,6 +659,18 @@ class MortarContact:
                 self.qp_m[f, q] = qm[f, q]
                 self.qp_zeta[f, q] = zeta[f, q]
                 self.qp_g[f, q] = g[f, q]
+
+    def _first_contact_moving(self) -> bool:
+        """Whether this solve started with no active node on the pair and the active set
+        differs from that of its previous Jacobian (collective; False at the first
+        Jacobian of a solve). See GEOMETRIC_TANGENT_AT_FIRST_CONTACT."""
+        act = self.p_hat > 0.0
+        prev, self._jac_active = self._jac_active, act.copy()
+        if prev is None:
+            self._first_contact = self.comm.allreduce(int(act.sum())) == 0
+            return False
+        moved = prev.shape == act.shape and bool(np.any(prev != act))
+        return self._first_contact and bool(self.comm.allreduce(int(moved), op=MPI.MAX))
 
     def _watch_pairing(self) -> None:
         """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL)."""
@@ -1088,6 +1114,8 @@ class MortarContact:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
         self._watch_pairing()
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
+        if self._first_contact_moving() and not GEOMETRIC_TANGENT_AT_FIRST_CONTACT:
+            hess_val[:] = 0.0
         ADD = PETSc.InsertMode.ADD_VALUES
         for r in np.flatnonzero(res_idx.max(axis=1) >= 0):
             idx = res_idx[r].astype(PETSc.IntType)
@@ -1586,6 +1614,7 @@ class MortarContact:
         self._jacobians = 0
         self.qp_frozen = None
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
+        self._jac_active = None
         if self.frictional:
             self.frozen = None
 

@@ -17,6 +17,7 @@ from mpi4py import MPI
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 sys.path.insert(0, str(DEMOS))
 
+import _common as cm  # noqa: E402
 import demo_hertz2d  # noqa: E402
 import demo_hertz3d  # noqa: E402
 import demo_patch2d  # noqa: E402
@@ -49,14 +50,18 @@ def test_hertz2d_accuracy(hertz2d):
 
 # Newton on hertz2d (h = 0.1, quadrilaterals, 4 steps, 1-3 ranks). Observed orders of the
 # main solve of each step, with the round-off floor estimated from the run (2 x the smallest
-# residual): 3.46, 1.32, 1.45, 1.43 on 1 to 3 ranks. Steps 2-4 stop on rtol one iterate
-# after the contraction first reaches ~1e-3 (step 2: 9.0e-2 -> 1.5e-4 -> 3.5e-8); their
-# contraction still accelerates (1.7e-3 then 2.3e-4). The full Jacobian (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a
-# mid-Uzawa state. The order estimate from three residuals is fragile near round-off (on
-# 3 ranks the last iterate of step 1 lands on the floor), so the test asserts superlinear
-# convergence on every step: above 10x the smallest residual of the run, the last
-# contraction is <= 1e-2 and at most 0.2x the one before; and at least one step shows an
-# observed order >= 1.8.
+# residual): 1.66, 1.32, 1.45, 1.43. Step 1 is a first-contact solve: the geometric contact
+# tangent is left out while its active set moves (contact.GEOMETRIC_TANGENT_AT_FIRST_CONTACT),
+# then exact: 11.4 -> 4.8e-3 (a step without the geometric part) -> 7.6e-7 -> 3.9e-13
+# (exact steps; the last lands near round-off; before that rule the step read 3.46). Steps
+# 2-4 stop on rtol one iterate after the contraction first reaches ~1e-3. The full Jacobian
+# (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a mid-Uzawa
+# state. The order estimate from three residuals is fragile near round-off, so the test
+# asserts superlinear convergence on every step: above 10x the smallest residual of the
+# run, the last contraction is <= 1e-2 and at most 0.2x the one before (or already <= 1e-3:
+# step 1's step before it contracted by 4e-4); and the remainder of a quadratic iteration
+# in step 1: C = r_{k+1} r_0 / r_k^2 <= 1 over its last two iterations above round-off
+# (measured 0.33; a linear rate of 1e-2 would give C ~ 1e-2 r_0 / r_k ~ 1e4 there).
 @pytest.mark.mpi
 def test_hertz2d_newton_superlinear(hertz2d):
     floor = 10.0 * min(x for st in hertz2d["residual_norms"] for r in st for x in r if x > 0)
@@ -64,8 +69,9 @@ def test_hertz2d_newton_superlinear(hertz2d):
         r = [x for x in max(st, key=len) if x > floor]
         assert len(r) >= 3, (k, r)
         last, before = r[-1] / r[-2], r[-2] / r[-3]
-        assert last <= 1e-2 and last <= 0.2 * before, (k, r)
-    assert max(hertz2d["newton_order"]) >= 1.8, hertz2d["newton_order"]
+        assert last <= 1e-2 and (last <= 0.2 * before or last <= 1e-3), (k, r)
+    steps = {"steps": [{"residual_norms": st} for st in hertz2d["residual_norms"]]}
+    assert cm.quadratic_constants(steps)[0] <= 1.0, cm.quadratic_constants(steps)
 
 
 RECOVERIES = ("lumped", "unconstrained", "constrained")
