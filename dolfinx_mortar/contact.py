@@ -32,6 +32,11 @@ do not depend on the number of ranks.
 Integrals are over the reference slave surface: p^I is a nominal pressure
 (force per unit reference area), as the CSV output reports it.
 
+Newton aids (docs/method-notes.md): a quadrature point that switches master facet back
+and forth is pinned to one facet for the rest of the solve (PIN_OUTSIDE_TOL), and a
+solve that starts with no active node leaves the geometric part of the normal tangent
+out while its active set moves (GEOMETRIC_TANGENT_AT_FIRST_CONTACT).
+
 With ``friction > 0`` the tangential part (METHOD.md §1, §2, §4; the node-level
 formulas in :mod:`dolfinx_mortar.friction`, the point integrals in
 :mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (∂S^I/∂u)ᵀ t^I and its exact

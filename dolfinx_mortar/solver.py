@@ -79,11 +79,13 @@ _STALLED = (
 )
 #: A solve whose residual becomes non-finite (NaN: an element inverted, det F <= 0, at a
 #: trial point) restarts from its last iterate with a finite residual with up to max_it
-#: steps of the backtracking line search "bt", before the step is cut back. PETSc's l2 search halves λ after a NaN at λ = 1 but then fits
-#: its secant through λ = 1/2 and may return a λ in (1/2, 1) where the residual is NaN
-#: again (the first press step of ironing2d, the full steps at its onset of gross
-#: slip); bt only shrinks λ.
+#: steps of the backtracking line search "bt", before the step is cut back. PETSc's l2
+#: search halves λ after a NaN at λ = 1 but then fits its secant through λ = 1/2 and may
+#: return a λ in (1/2, 1) where the residual is NaN again (the first press step of
+#: ironing2d, the full steps at its onset of gross slip); bt only shrinks λ.
 _NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
+#: NewtonSolver counters that StepResult reports per step
+_SOLVE_COUNTERS = ("full_step_solves", "backtracked_solves")
 
 
 class NewtonSolver:
@@ -119,9 +121,9 @@ class NewtonSolver:
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
         #: the last iterate with a finite residual norm of the current solve (the
-        #: monitor's copy) and its iteration number (-1: none yet)
+        #: monitor's copy), and whether the solve has had one
         self._finite_x = self._b.duplicate()
-        self._finite_it = -1
+        self._has_finite = False
         self.snes.setFunction(self._F, self._b)
         self.snes.setJacobian(self._J, self._A, self._A)
         self.snes.setTolerances(
@@ -160,7 +162,7 @@ class NewtonSolver:
     def _remember_finite(self, snes, its, fnorm):
         if np.isfinite(fnorm):
             snes.getSolution().copy(self._finite_x)
-            self._finite_it = its
+            self._has_finite = True
 
     def _J(self, snes, x, A, P):
         # The line search may have evaluated F last at a trial point other than x: the
@@ -180,8 +182,8 @@ class NewtonSolver:
         rounds); ``dtol`` the divergence tolerance (None: PETSc's default 1e4, or the user's
         ``snes_divergence_tolerance``); ``rescue = False`` skips the "bt" restart after a
         non-finite residual (a solve from the extrapolated predictor: retrying it from the
-        converged state is cheaper than up to max_it backtracking steps). Returns (iterations, residual norms per
-        iteration, the full-step continuation of a stalled solve and the "bt" restart of a
+        converged state is cheaper than up to max_it backtracking steps). Returns
+        (iterations, residual norms per iteration, the full-step continuation of a stalled solve and the "bt" restart of a
         solve whose residual became non-finite included: see :data:`FULL_STEP_ITERATIONS`
         and :data:`_NONFINITE`; the iterations after the last finite residual are not
         counted). Raises ConvergenceError.
@@ -204,7 +206,7 @@ class NewtonSolver:
         x = p.u.vector.copy()
         t_ksp0 = _ksp_time()
         try:
-            self._finite_it = -1
+            self._has_finite = False
             self.snes.solve(None, x)
             reason = self.snes.getConvergedReason()
             its = self.snes.getIterationNumber()
@@ -216,12 +218,7 @@ class NewtonSolver:
                 self.full_step_solves += 1
                 reason, more = self._continue(x, "basic", target / norms[-1], budget)
                 its, norms = its + len(more), norms + more
-            if (
-                reason in _NONFINITE
-                and self._finite_it >= 0
-                and self._line_search != "bt"
-                and rescue
-            ):
+            if reason in _NONFINITE and self._has_finite and self._line_search != "bt" and rescue:
                 # restart from the last finite iterate: drop the norms after it
                 norms = [r for r in norms if np.isfinite(r)]
                 its = len(norms) - 1
@@ -371,7 +368,8 @@ class LoadStepper:
     :data:`PREDICTOR_MAX_BACKOFF`); then it is retried with half the time
     increment, at most ``max_cutbacks`` times in a row; then the ConvergenceError
     propagates (every finished step has been passed to
-    ``on_step`` already). A step's timings include its failed attempts. ``on_step(step_index, result)`` is called after each
+    ``on_step`` already). A step's timings include its failed attempts.
+    ``on_step(step_index, result)`` is called after each
     converged step, with the problem holding the converged state.
     """
 
@@ -408,8 +406,7 @@ class LoadStepper:
         cutbacks = 0
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
-        full_steps_mark = self.newton.full_step_solves
-        backtracked_mark = self.newton.backtracked_solves
+        marks = {k: getattr(self.newton, k) for k in _SOLVE_COUNTERS}
         wall0 = None
         while pending:
             t_new = pending[0]
@@ -478,10 +475,9 @@ class LoadStepper:
             timings["linear_solve"] = self.newton.timings["linear_solve"] - ls0
             timings["total"] = perf_counter() - wall0
             res = StepResult(t, its, norms, len(info), cutbacks, timings["total"], timings, info)
-            res.full_step_solves = self.newton.full_step_solves - full_steps_mark
-            full_steps_mark = self.newton.full_step_solves
-            res.backtracked_solves = self.newton.backtracked_solves - backtracked_mark
-            backtracked_mark = self.newton.backtracked_solves
+            for k in _SOLVE_COUNTERS:  # the solves of this step (failed attempts included)
+                setattr(res, k, getattr(self.newton, k) - marks[k])
+                marks[k] = getattr(self.newton, k)
             res.predictor_failures, predictor_failures = predictor_failures, 0
             self.results.append(res)
             cutbacks = 0
