@@ -938,7 +938,7 @@ class MortarContact:
         the consistent recoveries of :func:`.recovery.recover_tangential` (collective).
 
         With ``frozen = None`` the states of the nodal law are computed free and only
-        returned, with the directions of τ̂.
+        returned, with the law's traction τ̂ (n, m) for those states.
         """
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
         sigma = np.einsum("nac,nc->na", self.frame_a, self.S)
@@ -948,8 +948,7 @@ class MortarContact:
             rec = self._recover_tangential_mixed(sigma, hasT, imposed)
             own = slice(self.gid_offset, self.gid_offset + self.node_blocks.size)
             if frozen is None:
-                th = rec.tau_hat[own]
-                return rec.state[own], th / np.maximum(np.linalg.norm(th, axis=1), 1e-300)[:, None]
+                return rec.state[own], rec.tau_hat[own]
             self._trec = rec
             self.sigma_t, self.gamma_t = sigma, rec.gamma[own]
             self.tau, self.tau_law = rec.tau[own], rec.tau_hat[own]
@@ -967,8 +966,7 @@ class MortarContact:
             self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._slip_tol
         )
         if frozen is None:
-            norm = np.linalg.norm(tau, axis=1)
-            return state, tau / np.maximum(norm, 1e-300)[:, None]
+            return state, tau
         self.sigma_t, self.gamma_t, self.tau, self.tau_law = sigma, gam, tau, tau
         self.fstate = state
         self._D, self._Pd = D, Pd
@@ -1571,18 +1569,24 @@ class MortarContact:
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
         rel_t, changed = 0.0, 0
         if self.frictional:
-            dt = np.linalg.norm(self.tau_law - self.lmbda_t, axis=1).max(initial=0.0)
-            rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
-            info["tangential_change"] = rel_t
+            # the update target: the nodal law's traction at the converged state. After a
+            # solve with frozen states that is the law with the states free: a node frozen
+            # in stick keeps τ = λ_T + ε_T γ however far outside the Coulomb cone, and
+            # taking that as λ_T made the rounds diverge (peers problem B, level 3)
+            tau_law, fstate = self.tau_law, self.fstate
             if self.frozen is not None:
-                free, s_free = self._recover_tangential(frozen=None)
+                fstate, tau_law = self._recover_tangential(frozen=None)
+                s_free = tau_law / np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)[:, None]
                 moved = (self.fstate == fr.SLIP) & (
                     np.linalg.norm(s_free - self.frozen[1], axis=1) > FROZEN_DIRECTION_TOL
                 )
-                local = np.count_nonzero(free != self.fstate) + np.count_nonzero(moved)
+                local = np.count_nonzero(fstate != self.fstate) + np.count_nonzero(moved)
                 changed = comm.allreduce(int(local))
                 info["unfrozen_states"] = changed
                 self.frozen = None
+            dt = np.linalg.norm(tau_law - self.lmbda_t, axis=1).max(initial=0.0)
+            rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
+            info["tangential_change"] = rel_t
         # the pinned points of the solve that ended (chattering control of the pairing), and
         # how far outside their pinned facet they converged (reference coordinates)
         pinned = np.zeros(0, bool)
@@ -1602,10 +1606,10 @@ class MortarContact:
             return changed == 0, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
         x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
-        f = np.concatenate([d, (self.tau_law - self.lmbda_t).ravel()]) if self.frictional else d
+        f = np.concatenate([d, (tau_law - self.lmbda_t).ravel()]) if self.frictional else d
         states = self.p_hat > 0.0
         if self.frictional:
-            states = np.concatenate([states, self.fstate > 0, self.fstate == fr.SLIP])
+            states = np.concatenate([states, fstate > 0, fstate == fr.SLIP])
         x = self.uzawa_acceleration.step(x.copy(), f, states, info)
         n = self.lmbda.size
         self.lmbda = np.maximum(x[:n], 0.0)

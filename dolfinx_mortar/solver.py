@@ -73,6 +73,13 @@ PREDICTOR_MAX_BACKOFF = 8
 #: Newton step, and the minimum is the kink. A full step crosses it. (Switching at the
 #: first stall, within max_it, was tried: it stops ironing2d at the onset of gross slip.)
 FULL_STEP_ITERATIONS = 10
+#: The Uzawa rounds of a step stop (ConvergenceError, so the step is cut back) when this
+#: many rounds in a row have not brought the multiplier change below half the smallest
+#: change before them. A rate slower than 0.5^(1/8) ≈ 0.92 per round would not reach a
+#: useful tolerance within the default 20 rounds anyway; cycling rounds (stick/slip
+#: states that flip back and forth between rounds: peers problem B, level 3, full
+#: tangential step) otherwise run all ``uzawa_max`` rounds before the cutback.
+UZAWA_STALL_ROUNDS = 8
 _STALLED = (
     PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
     PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH,
@@ -334,12 +341,14 @@ def solve_step(
     previous round: there is no point in a 1e-9 solve for multipliers that still move by
     1e-4. When the multipliers have settled after an inexact solve, one more solve at the
     full tolerance (same multipliers) makes the accepted state fully converged.
-    ``uzawa_max`` bounds the number of Uzawa rounds; ``dtol`` goes to the first solve
+    ``uzawa_max`` bounds the number of Uzawa rounds, and the rounds stop early when they
+    stall (:data:`UZAWA_STALL_ROUNDS`); ``dtol`` goes to the first solve
     (see :data:`PREDICTOR_DIVERGENCE_TOLERANCE`), which is then a start from the predictor
     and gets no "bt" restart (:meth:`NewtonSolver.solve`). Raises ConvergenceError.
     """
     its_all, norms_all, info_all = [], [], []
     rtol = None
+    changes = []  # per round: the largest relative multiplier change, normal or tangential
     for k in range(max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
         its, norms = newton.solve(rtol, dtol if k == 0 else None, rescue=not predicted)
@@ -355,9 +364,31 @@ def solve_step(
             return its_all, norms_all, info_all
         change = max((i.get("multiplier_change", 0.0) for i in info.values()), default=0.0)
         rtol = min(1e-3, 1e-2 * change) if inexact else None
+        changes.append(
+            max(
+                (
+                    max(i.get("multiplier_change", 0.0), i.get("tangential_change", 0.0))
+                    for i in info.values()
+                ),
+                default=0.0,
+            )
+        )
+        if uzawa_stalled(changes):
+            raise ConvergenceError(
+                f"Uzawa augmentation stalled: no progress in {UZAWA_STALL_ROUNDS} rounds "
+                f"(multiplier changes {', '.join(f'{c:.2g}' for c in changes)}; {info})"
+            )
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
     )
+
+
+def uzawa_stalled(changes, rounds: int = UZAWA_STALL_ROUNDS) -> bool:
+    """True when none of the last ``rounds`` entries of ``changes`` (the relative multiplier
+    change per Uzawa round) is below half the smallest one before them."""
+    if len(changes) <= rounds:
+        return False
+    return min(changes[-rounds:]) > 0.5 * min(changes[:-rounds])
 
 
 class LoadStepper:

@@ -321,6 +321,34 @@ def _check_tangent(problem, term):
     assert max(errs) < 1e-5, errs
 
 
+@pytest.mark.mpi
+def test_uzawa_update_after_frozen_states_takes_the_free_law():
+    """After a solve with frozen stick/slip states (chattering control) the tangential
+    multipliers are updated from the nodal law with the states free: a node frozen in
+    stick keeps τ = λ_T + ε_T γ even far outside the Coulomb cone, and taking that as λ_T
+    made the Uzawa rounds of peers problem B (level 3) diverge."""
+    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    term = _frictional_state(problem, "hertz2d-P1")
+    term.uzawa_tol = 1e-12
+    comm = MPI.COMM_WORLD
+    slip = term.fstate == fr.SLIP
+    assert comm.allreduce(int(slip.sum())) >= 1
+    # freeze every slipping node in stick: its traction is the trial one, outside the cone
+    states = np.where(slip, fr.STICK, term.fstate)
+    term.frozen = (states, np.zeros_like(term.lmbda_t))
+    term._recover_tangential()
+    cone = MU * term.p
+    outside = np.linalg.norm(term.tau_law, axis=1) > cone * (1 + 1e-9) + 1e-12
+    assert comm.allreduce(int(outside.sum())) >= 1
+    free_state, free_tau = term._recover_tangential(frozen=None)
+    done, info = term.uzawa_update()
+    assert not done
+    assert info["unfrozen_states"] == comm.allreduce(int(slip.sum()))
+    # the first round of the (reset) acceleration is the plain update λ_T ← τ̂(free)
+    assert np.allclose(term.lmbda_t, free_tau, rtol=0, atol=1e-12)
+    assert np.all(np.linalg.norm(term.lmbda_t, axis=1) <= cone * (1 + 1e-9) + 1e-12)
+
+
 # ---------------------------------------------------------------- objectivity
 def _rotation(d, angle):
     c, s = np.cos(angle), np.sin(angle)

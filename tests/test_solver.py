@@ -126,6 +126,38 @@ def test_predictor_used_while_it_works():
     assert all(r.predictor_failures == 0 for r in results)
 
 
+def test_uzawa_stall_rule():
+    k = solver_module.UZAWA_STALL_ROUNDS
+    assert not solver_module.uzawa_stalled([1.0] * k)  # too few rounds to judge
+    assert solver_module.uzawa_stalled([1.0] * (k + 1))
+    assert not solver_module.uzawa_stalled([1.0] * k + [0.4])
+    slow = [0.9**i for i in range(3 * k)]  # 0.9 per round: half within k = 8 rounds
+    assert not any(solver_module.uzawa_stalled(slow[:n]) for n in range(1, len(slow) + 1))
+    # a cycle that sometimes comes close does not count as progress unless it halves
+    assert solver_module.uzawa_stalled([0.14, 0.28, 0.3, 0.33, 0.4, 0.4, 0.4, 0.076, 0.4])
+
+
+class _Cycling(_Problem):
+    """Uzawa rounds whose multiplier change cycles (0.3, 0.4, 0.3, ...) and never settles."""
+
+    def __init__(self):
+        super().__init__()
+        self.rounds = 0
+
+    def uzawa_update(self):
+        self.rounds += 1
+        change = 0.3 if self.rounds % 2 else 0.4
+        return False, {"pair": {"multiplier_change": 0.01, "tangential_change": change}}
+
+
+def test_stalled_uzawa_rounds_stop_before_uzawa_max():
+    p = _Cycling()
+    p.set_time(0.5)
+    with pytest.raises(ConvergenceError, match="stalled"):
+        solver_module.solve_step(p, _Newton(p, lambda t0: 1.0), uzawa_max=30)
+    assert p.rounds == solver_module.UZAWA_STALL_ROUNDS + 1
+
+
 class _Cubic:
     """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
 
