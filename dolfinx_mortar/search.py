@@ -14,6 +14,8 @@
 
 from __future__ import annotations
 
+from itertools import chain
+
 import numpy as np
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
@@ -102,7 +104,8 @@ def candidates(xs: np.ndarray, xm: np.ndarray, reach: np.ndarray) -> tuple[np.nd
     A master facet is a candidate of slave facet f when their bounding boxes, the
     slave's inflated by ``reach[f]``, overlap. Master facets are grouped in size
     classes (radius within a factor 2) with one k-d tree each, so graded meshes
-    keep the cost O(n log n).
+    keep the cost O(n log n). xs (nsf, k, d), xm (nmf, k', d) facet node coordinates,
+    reach (nsf,); indices sorted within each slave facet. Local (not collective).
     """
     nsf, nmf = xs.shape[0], xm.shape[0]
     if nsf == 0 or nmf == 0:
@@ -114,21 +117,25 @@ def candidates(xs: np.ndarray, xm: np.ndarray, reach: np.ndarray) -> tuple[np.nd
     slo, shi = xs.min(axis=1) - reach[:, None], xs.max(axis=1) + reach[:, None]
     mlo, mhi = xm.min(axis=1), xm.max(axis=1)
     cls = np.floor(np.log2(np.maximum(rm, 1e-300) / rm.max())).astype(np.int64)
-    found: list[list[int]] = [[] for _ in range(nsf)]
+    fs, ms = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
     for c in np.unique(cls):
         members = np.flatnonzero(cls == c)
         tree = cKDTree(cm[members])
-        lists = tree.query_ball_point(cs, rs + reach + rm[members].max())
-        for f, lst in enumerate(lists):
-            if lst:
-                m = members[np.asarray(lst)]
-                ok = np.all((mhi[m] >= slo[f]) & (mlo[m] <= shi[f]), axis=1)
-                found[f].extend(m[ok].tolist())
-    counts = np.array([len(x) for x in found], dtype=np.int64)
+        # boxes that overlap have centres within sqrt(d) (rs + reach + rm): the ball
+        # query finds all of them, the box test keeps the overlapping ones
+        radius = np.sqrt(xs.shape[2]) * (rs + reach + rm[members].max())
+        lists = tree.query_ball_point(cs, radius, return_sorted=False)
+        lens = np.fromiter(map(len, lists), np.int64, count=nsf)
+        f = np.repeat(np.arange(nsf, dtype=np.int64), lens)
+        m = members[np.fromiter(chain.from_iterable(lists), np.int64, count=int(lens.sum()))]
+        ok = np.all((mhi[m] >= slo[f]) & (mlo[m] <= shi[f]), axis=1)
+        fs.append(f[ok])
+        ms.append(m[ok])
+    f, m = np.concatenate(fs), np.concatenate(ms)
+    order = np.lexsort((m, f))  # by slave facet, then master facet
     off = np.zeros(nsf + 1, np.int64)
-    np.cumsum(counts, out=off[1:])
-    idx = np.fromiter((i for lst in found for i in sorted(lst)), dtype=np.int64, count=int(off[-1]))
-    return off, idx
+    np.cumsum(np.bincount(f, minlength=nsf), out=off[1:])
+    return off, m[order]
 
 
 class Fetcher:
