@@ -8,6 +8,9 @@ return plain NumPy arrays.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -23,6 +26,7 @@ __all__ = [
     "create_form",
     "sparsity_pattern",
     "cell_geometry_nodes",
+    "set_lag_preconditioner",
 ]
 
 
@@ -85,3 +89,26 @@ def cell_geometry_nodes(mesh) -> np.ndarray:
         + mesh.topology.index_map(mesh.topology.dim).num_ghosts,
         -1,
     )
+
+
+def set_lag_preconditioner(snes: PETSc.SNES, lag: int) -> None:
+    """``SNESSetLagPreconditioner`` (lag 1: a new preconditioner for every Jacobian; −1:
+    keep the last one). petsc4py 3.18 does not wrap it, so the C function of the PETSc
+    library that petsc4py itself has loaded is called through ctypes. Not collective."""
+    if hasattr(snes, "setLagPreconditioner"):
+        snes.setLagPreconditioner(lag)
+        return
+    fn = _petsc_c_library().SNESSetLagPreconditioner
+    int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
+    fn.argtypes = [ctypes.c_void_p, int_t]
+    fn.restype = ctypes.c_int
+    if fn(ctypes.c_void_p(snes.handle), lag) != 0:
+        raise RuntimeError(f"SNESSetLagPreconditioner({lag}) failed")
+
+
+def _petsc_c_library():
+    """The PETSc shared library (the one already mapped into the process by petsc4py)."""
+    if not hasattr(_petsc_c_library, "lib"):
+        name = next((n for n in ("petsc_real", "petsc") if ctypes.util.find_library(n)), "petsc")
+        _petsc_c_library.lib = ctypes.CDLL(ctypes.util.find_library(name) or name)
+    return _petsc_c_library.lib

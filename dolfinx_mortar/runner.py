@@ -160,6 +160,8 @@ def step_record(problem, res) -> dict:
         "full_step_solves": res.full_step_solves,
         "backtracked_solves": res.backtracked_solves,
         "predictor_failures": res.predictor_failures,
+        "reused_factorizations": res.reused_factorizations,
+        "failed_reuses": res.failed_reuses,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -22,6 +22,7 @@ from time import perf_counter
 import numpy as np
 from petsc4py import PETSc
 
+from . import compat
 from .errors import ConvergenceError, SceneError
 
 log = logging.getLogger(__name__)
@@ -92,7 +93,24 @@ _STALLED = (
 #: ironing2d, the full steps at its onset of gross slip); bt only shrinks λ.
 _NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
 #: NewtonSolver counters that StepResult reports per step
-_SOLVE_COUNTERS = ("full_step_solves", "backtracked_solves")
+_SOLVE_COUNTERS = (
+    "full_step_solves",
+    "backtracked_solves",
+    "reused_factorizations",
+    "failed_reuses",
+)
+#: Direct linear solvers (``linear`` = "mumps", "lu", "superlu_dist", with no
+#: ``ksp_type``/``pc_type`` of the user's): the first Newton iteration of an Uzawa round
+#: after the first (and of the final full-tolerance solve) does not factorize its
+#: Jacobian but solves with GMRES preconditioned by the last factorization, to a relative
+#: residual of REUSE_RTOL_FACTOR × the solve's own relative tolerance, within
+#: REUSE_MAX_IT iterations. Between rounds only the multipliers have changed, so the
+#: Jacobian differs little from the one last factorized: each GMRES iteration (a pair of
+#: triangular solves) gains about two digits. If GMRES does not converge, the solve
+#: starts again with a new factorization. The later iterations factorize as usual.
+REUSE_FACTORIZATION = True
+REUSE_RTOL_FACTOR = 0.1
+REUSE_MAX_IT = 8
 
 
 class NewtonSolver:
@@ -159,6 +177,18 @@ class NewtonSolver:
         self.snes.setMonitor(self._remember_finite)
         self._n_solves = 0
         self._dtol = None
+        #: factorization reuse (REUSE_FACTORIZATION): possible at all with these options,
+        #: a factorization of the current matrix exists, and the KSP is in GMRES mode now
+        self._reuse_possible = (
+            REUSE_FACTORIZATION
+            and settings.linear in ("mumps", "lu", "superlu_dist")
+            and not {"ksp_type", "pc_type"} & set(settings.petsc)
+        )
+        self._factored = False
+        self._reusing = False
+        #: linear solves done with a reused factorization, and those that fell back
+        self.reused_factorizations = 0
+        self.failed_reuses = 0
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -179,9 +209,29 @@ class NewtonSolver:
         self.problem.ensure_contact_at(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
+        if self._reusing and snes.getIterationNumber() > 0:
+            self._reuse_mode(False)  # only the first iteration of a solve reuses
+
+    def _reuse_mode(self, on: bool, rtol: float = 0.0) -> None:
+        """Switch the KSP between GMRES on the last factorization (``on``, to relative
+        residual ``rtol``) and the direct solve that factorizes each Jacobian."""
+        ksp = self.snes.getKSP()
+        if on:
+            ksp.setType(PETSc.KSP.Type.GMRES)
+            ksp.setPCSide(PETSc.PC.Side.RIGHT)  # the true residual is what converges
+            ksp.setTolerances(rtol=rtol, max_it=REUSE_MAX_IT)
+        else:
+            ksp.setType(PETSc.KSP.Type.PREONLY)
+        # SNES decides after each Jacobian whether the PC is rebuilt: by its lag
+        compat.set_lag_preconditioner(self.snes, -1 if on else 1)
+        self._reusing = on
 
     def solve(
-        self, rtol: float | None = None, dtol: float | None = None, rescue: bool = True
+        self,
+        rtol: float | None = None,
+        dtol: float | None = None,
+        rescue: bool = True,
+        reuse: bool = False,
     ) -> tuple[int, list[float]]:
         """Solve R(u) = 0 from the problem's current ``u`` (collective).
 
@@ -189,7 +239,9 @@ class NewtonSolver:
         rounds); ``dtol`` the divergence tolerance (None: PETSc's default 1e4, or the user's
         ``snes_divergence_tolerance``); ``rescue = False`` skips the "bt" restart after a
         non-finite residual (a solve from the extrapolated predictor: retrying it from the
-        converged state is cheaper than up to max_it backtracking steps). Returns
+        converged state is cheaper than up to max_it backtracking steps); ``reuse``: the
+        first iteration may use the last factorization (:data:`REUSE_FACTORIZATION`;
+        for a solve that starts where the last one converged). Returns
         (iterations, residual norms per iteration, the full-step continuation of a stalled solve and the "bt" restart of a
         solve whose residual became non-finite included: see :data:`FULL_STEP_ITERATIONS`
         and :data:`_NONFINITE`; the iterations after the last finite residual are not
@@ -210,12 +262,29 @@ class NewtonSolver:
             self._A.destroy()
             self._A = p.create_matrix()
             self.snes.setJacobian(self._J, self._A, self._A)
+            self._factored = False
         x = p.u.vector.copy()
         t_ksp0 = _ksp_time()
         try:
             self._has_finite = False
+            reusing = reuse and self._reuse_possible and self._factored
+            if reusing:
+                self._reuse_mode(True, REUSE_RTOL_FACTOR * self.snes.getTolerances()[0])
             self.snes.solve(None, x)
             reason = self.snes.getConvergedReason()
+            if reusing:
+                if self._reusing:
+                    self._reuse_mode(False)
+                if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+                    # GMRES on the old factorization did not converge: start again
+                    self.failed_reuses += 1
+                    log.info("GMRES on the last factorization failed; factorizing")
+                    p.u.vector.copy(x)
+                    self.snes.solve(None, x)
+                    reason = self.snes.getConvergedReason()
+                else:
+                    self.reused_factorizations += 1
+            self._factored = self._factored or self.snes.getIterationNumber() > 0
             its = self.snes.getIterationNumber()
             norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
             target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
@@ -329,6 +398,10 @@ class StepResult:
     #: attempts of this step from the extrapolated predictor that failed (then retried
     #: from the converged state; see PREDICTOR_MAX_BACKOFF)
     predictor_failures: int = 0
+    #: Newton solves of this step whose first linear solve used the last factorization
+    #: (GMRES on it; see REUSE_FACTORIZATION), and those where GMRES did not converge
+    reused_factorizations: int = 0
+    failed_reuses: int = 0
 
 
 def solve_step(
@@ -351,14 +424,14 @@ def solve_step(
     changes = []  # per round: the largest relative multiplier change, normal or tangential
     for k in range(max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
-        its, norms = newton.solve(rtol, dtol if k == 0 else None, rescue=not predicted)
+        its, norms = newton.solve(rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0)
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()
         info_all.append(info)
         if done:
             if rtol is not None:
-                its, norms = newton.solve()
+                its, norms = newton.solve(reuse=True)
                 its_all.append(its)
                 norms_all.append(norms)
             return its_all, norms_all, info_all

@@ -55,8 +55,10 @@ class _Newton:
         self.start = 0.0
         self.full_step_solves = 0
         self.backtracked_solves = 0
+        self.reused_factorizations = 0
+        self.failed_reuses = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False):
         p = self.problem
         t0 = p.committed[-1] if p.committed else 0.0
         if p.t - t0 > self.limit(t0):
@@ -94,7 +96,7 @@ class _NoPredictor(_Newton):
         super().__init__(problem, lambda t0: 1.0)
         self.predicted = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False):
         if dtol is not None:
             self.predicted += 1
             raise ConvergenceError("far off")
@@ -118,7 +120,7 @@ def test_predictor_used_while_it_works():
     newton = _Newton(p, lambda t0: 1.0)
     calls = []
     orig = newton.solve
-    newton.solve = lambda rtol=None, dtol=None, rescue=True: (
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False: (
         calls.append(dtol) or orig(rtol, dtol, rescue)
     )
     results = LoadStepper(p, newton, 1.0, 5).run()
@@ -248,6 +250,66 @@ def test_full_steps_at_most_max_it(cubic_vectors):
     with NewtonSolver(_Cubic(10.0), settings) as newton:
         with pytest.raises(ConvergenceError, match="6 iterations"):
             newton.solve()
+
+
+class _Shifted(_Cubic):
+    """R(x) = x³ + s x − 8, J = diag(3x² + s): ``s`` (per entry) plays the multipliers that
+    an Uzawa round changes between two solves."""
+
+    def __init__(self, x0):
+        super().__init__(x0)
+        self.s = np.zeros(self.n)
+
+    def residual(self, x, b):
+        b.array[:] = x.array**3 + self.s * x.array - 8.0
+
+    def jacobian(self, x, A):
+        A.zeroEntries()
+        for i, v in enumerate(x.array):
+            A.setValue(i, i, 3.0 * v * v + self.s[i])
+        A.assemble()
+
+
+def _two_rounds(prefix, reuse=True, **settings):
+    """Solve with s = 0, then with s = (0, 30, 60) from that solution; returns the
+    second solve's (iterations, norms, solution) and the solver's reuse counters."""
+    problem = _Shifted(3.0)
+    opts = SolverSettings(rtol=1e-11, atol=1e-14, prefix=prefix, **settings)
+    with NewtonSolver(problem, opts) as newton:
+        newton.solve()
+        problem.s = np.array([0.0, 30.0, 60.0])
+        its, norms = newton.solve(reuse=reuse)
+        counts = (newton.reused_factorizations, newton.failed_reuses)
+    x = problem.u.vector.array.copy()
+    assert np.allclose(x**3 + problem.s * x, 8.0, rtol=1e-10)
+    return its, norms, counts
+
+
+def test_a_round_reuses_the_last_factorization(cubic_vectors):
+    """The first iteration of the second solve runs GMRES on the factorization of the
+    first solve's last Jacobian (diag(12) against diag(12, 42, 72): 3 GMRES iterations)
+    and gives the exact Newton step: the same residual history as with a new
+    factorization."""
+    its, norms, counts = _two_rounds("test_reuse_")
+    assert counts == (1, 0)
+    its_ref, norms_ref, counts_ref = _two_rounds("test_noreuse_", reuse=False)
+    assert counts_ref == (0, 0)
+    assert its == its_ref
+    np.testing.assert_allclose(norms, norms_ref, rtol=1e-6, atol=1e-13)
+
+
+def test_a_failed_reuse_factorizes_again(cubic_vectors, monkeypatch):
+    """One GMRES iteration cannot solve the changed system: the solve starts again with a
+    new factorization, and converges."""
+    monkeypatch.setattr(solver_module, "REUSE_MAX_IT", 1)
+    its, norms, counts = _two_rounds("test_reusefail_")
+    assert counts == (0, 1)
+    assert norms[-1] <= 1e-11 * norms[0]
+
+
+def test_no_reuse_with_an_iterative_solver(cubic_vectors):
+    _, _, counts = _two_rounds("test_reuse_gmres_", petsc={"ksp_type": "gmres"})
+    assert counts == (0, 0)
 
 
 class _CubicWithHole(_Cubic):
