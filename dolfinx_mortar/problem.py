@@ -191,6 +191,13 @@ class ContactProblem:
         for _, path, const in self._tractions:
             const.value = interpolate_path(path, t)
 
+    def load_values(self, t: float) -> np.ndarray:
+        """The prescribed data of time ``t``: the values of every Dirichlet path (not of
+        Dirichlet fields) and every traction path, concatenated (local)."""
+        vals = [interpolate_path(d.path, t) for d in self._dirichlet if d.constants]
+        vals += [interpolate_path(path, t) for _, path, _ in self._tractions]
+        return np.concatenate(vals) if vals else np.zeros(0)
+
     # ---------------------------------------------------------------- assembly
     def _set_state(self, x: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

@@ -54,6 +54,12 @@ class SolverSettings:
 
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
 MIN_STEP_FRACTION = 1e-9
+#: The extrapolated predictor assumes that the prescribed data keep their rate: a step
+#: whose rate of the Dirichlet and traction paths differs from the last step's by more
+#: than this (relative) starts from the converged state. At a corner of the load path
+#: (peers problem B: the normal approach, then the tangential shift at fixed depth) the
+#: extrapolation would press the body in again by a whole normal increment.
+PATH_RATE_TOL = 0.1
 #: SNES divergence tolerance of a solve started from the extrapolated predictor: the
 #: relative growth of the residual norm that aborts it (the step is then retried from
 #: the converged state). From a far-off start the contact candidates, hence the Jacobian
@@ -75,11 +81,13 @@ PREDICTOR_MAX_BACKOFF = 8
 #: first stall, within max_it, was tried: it stops ironing2d at the onset of gross slip.)
 FULL_STEP_ITERATIONS = 10
 #: The Uzawa rounds of a step stop (ConvergenceError, so the step is cut back) when this
-#: many rounds in a row have not brought the multiplier change below half the smallest
-#: change before them. A rate slower than 0.5^(1/8) ≈ 0.92 per round would not reach a
-#: useful tolerance within the default 20 rounds anyway; cycling rounds (stick/slip
-#: states that flip back and forth between rounds: peers problem B, level 3, full
-#: tangential step) otherwise run all ``uzawa_max`` rounds before the cutback.
+#: many rounds in a row have not brought the multiplier change, taken as the larger of
+#: two consecutive rounds, below half its smallest value before them. A rate slower than
+#: 0.5^(1/8) ≈ 0.92 per round would not reach a useful tolerance within the default 20
+#: rounds anyway; cycling rounds (stick/slip states that flip back and forth between
+#: rounds: peers problem B, level 3, full tangential step, where every other round
+#: changes by 0.4 and the rounds between by 0.1 … 0.002) otherwise run all
+#: ``uzawa_max`` rounds before the cutback.
 UZAWA_STALL_ROUNDS = 8
 _STALLED = (
     PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
@@ -457,11 +465,25 @@ def solve_step(
 
 
 def uzawa_stalled(changes, rounds: int = UZAWA_STALL_ROUNDS) -> bool:
-    """True when none of the last ``rounds`` entries of ``changes`` (the relative multiplier
-    change per Uzawa round) is below half the smallest one before them."""
-    if len(changes) <= rounds:
+    """True when none of the last ``rounds`` values of m_k = max(c_{k−1}, c_k) (``changes``:
+    c_k the relative multiplier change of Uzawa round k) is below half the smallest
+    m before them. The pairwise maximum sees through a 2-cycle of large and small
+    changes."""
+    m = [max(a, b) for a, b in zip(changes[:-1], changes[1:], strict=True)]
+    if len(m) <= rounds:
         return False
-    return min(changes[-rounds:]) > 0.5 * min(changes[:-rounds])
+    return min(m[-rounds:]) > 0.5 * min(m[:-rounds])
+
+
+def _path_bends(problem, t0: float, t1: float, t2: float) -> bool:
+    """Whether the rate of some prescribed value on [t1, t2] differs from its rate on
+    [t0, t1] by more than PATH_RATE_TOL relative to the larger of the two (local: the paths
+    are the same on every rank). A problem without ``load_values`` never bends."""
+    if not hasattr(problem, "load_values"):
+        return False
+    v0, v1, v2 = (np.asarray(problem.load_values(t), float) for t in (t0, t1, t2))
+    a, b = (v1 - v0) / (t1 - t0), (v2 - v1) / (t2 - t1)
+    return bool(np.any(np.abs(a - b) > PATH_RATE_TOL * np.maximum(np.abs(a), np.abs(b))))
 
 
 class LoadStepper:
@@ -518,7 +540,12 @@ class LoadStepper:
                 wall0 = perf_counter()
                 tim0 = dict(p.timings)
                 ls0 = self.newton.timings["linear_solve"]
-            predictable = self.predictor and previous is not None and t > previous[1]
+            predictable = (
+                self.predictor
+                and previous is not None
+                and t > previous[1]
+                and not _path_bends(p, previous[1], t, t_new)
+            )
             predicted = predictable and use_predictor and skip == 0
             if predicted:
                 # linear extrapolation of the last increment: u = u_n + (Δt/Δt_n)(u_n − u_{n−1})

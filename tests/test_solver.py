@@ -130,13 +130,40 @@ def test_predictor_used_while_it_works():
 
 def test_uzawa_stall_rule():
     k = solver_module.UZAWA_STALL_ROUNDS
-    assert not solver_module.uzawa_stalled([1.0] * k)  # too few rounds to judge
-    assert solver_module.uzawa_stalled([1.0] * (k + 1))
-    assert not solver_module.uzawa_stalled([1.0] * k + [0.4])
+    stalled = solver_module.uzawa_stalled
+    assert not stalled([1.0] * (k + 1))  # too few rounds to judge
+    assert stalled([1.0] * (k + 2))
+    assert not stalled([1.0] * (k + 1) + [0.4, 0.4])
     slow = [0.9**i for i in range(3 * k)]  # 0.9 per round: half within k = 8 rounds
-    assert not any(solver_module.uzawa_stalled(slow[:n]) for n in range(1, len(slow) + 1))
-    # a cycle that sometimes comes close does not count as progress unless it halves
-    assert solver_module.uzawa_stalled([0.14, 0.28, 0.3, 0.33, 0.4, 0.4, 0.4, 0.076, 0.4])
+    assert not any(stalled(slow[:n]) for n in range(1, len(slow) + 1))
+    zigzag = [0.5**i * (3.0 if i % 2 else 1.0) for i in range(3 * k)]  # converging
+    assert not any(stalled(zigzag[:n]) for n in range(1, len(zigzag) + 1))
+    # peers problem B, level 3, full tangential step: every other round changes by 0.4
+    cycle = [0.14, 0.28, 0.3, 0.33, 0.36, 0.4, 0.11, 0.4, 0.028, 0.4, 0.022, 0.4]
+    first = next(n for n in range(1, len(cycle) + 1) if stalled(cycle[:n]))
+    assert first == k + 2
+
+
+class _Ramp(_Problem):
+    """Prescribed data ramped up to t = 0.5, then held: the load path has a corner."""
+
+    def load_values(self, t):
+        return np.array([min(t, 0.5), 2.0])
+
+
+def test_no_predictor_across_a_corner_of_the_load_path():
+    """The step after the corner starts from the converged state (the extrapolation would
+    continue the ramp); the next one, at the new constant rate, uses the predictor."""
+    p = _Ramp()
+    newton = _Newton(p, lambda t0: 1.0)
+    calls = []
+    orig = newton.solve
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False: (
+        calls.append(dtol) or orig(rtol, dtol, rescue)
+    )
+    results = LoadStepper(p, newton, 1.0, 4).run()
+    assert [d is not None for d in calls] == [False, True, False, True]
+    assert all(r.predictor_failures == 0 for r in results)
 
 
 class _Cycling(_Problem):
@@ -157,7 +184,7 @@ def test_stalled_uzawa_rounds_stop_before_uzawa_max():
     p.set_time(0.5)
     with pytest.raises(ConvergenceError, match="stalled"):
         solver_module.solve_step(p, _Newton(p, lambda t0: 1.0), uzawa_max=30)
-    assert p.rounds == solver_module.UZAWA_STALL_ROUNDS + 1
+    assert p.rounds == solver_module.UZAWA_STALL_ROUNDS + 2
 
 
 class _Cubic:
