@@ -349,6 +349,28 @@ def test_uzawa_update_after_frozen_states_takes_the_free_law():
     assert np.all(np.linalg.norm(term.lmbda_t, axis=1) <= cone * (1 + 1e-9) + 1e-12)
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("tol, counted", [(1e-3, False), (1e-9, True)])
+def test_frozen_states_count_only_where_the_traction_differs(tol, counted):
+    """Slip directions frozen 1e-5 off the free ones: the frozen and free laws give
+    tractions within 1e-5 μ p. With uzawa_tol = 1e-3 the re-check accepts them (no
+    unfrozen state: the state satisfies the free law to the Uzawa tolerance); with 1e-9
+    every slipping node counts."""
+    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    term = _frictional_state(problem, "hertz2d-P1")
+    comm = MPI.COMM_WORLD
+    slip = term.fstate == fr.SLIP
+    n_slip = comm.allreduce(int(slip.sum()))
+    assert n_slip >= 1
+    s = term.tau_law / np.maximum(np.linalg.norm(term.tau_law, axis=1), 1e-300)[:, None]
+    term.frozen = (term.fstate.copy(), s * (1.0 + 1e-5))
+    term._recover_tangential()
+    term.uzawa_tol = tol
+    _, info = term.uzawa_update()
+    assert 0.0 < info["frozen_traction_error"] < 1e-4
+    assert info["unfrozen_states"] == (n_slip if counted else 0)
+
+
 # ---------------------------------------------------------------- objectivity
 def _rotation(d, angle):
     c, s = np.cos(angle), np.sin(angle)
