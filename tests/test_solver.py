@@ -115,16 +115,22 @@ def test_predictor_backs_off_after_failures():
     assert p.committed[-1] == pytest.approx(1.0) and len(p.committed) == 8
 
 
-def test_predictor_used_while_it_works():
-    p = _Problem()
+def _predicted_solves(p, n):
+    """Run ``n`` steps of ``p`` with a Newton that always converges; returns per solve
+    whether it started from the predictor, and the step results."""
     newton = _Newton(p, lambda t0: 1.0)
     calls = []
     orig = newton.solve
     newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False: (
         calls.append(dtol) or orig(rtol, dtol, rescue)
     )
-    results = LoadStepper(p, newton, 1.0, 5).run()
-    assert [d is not None for d in calls] == [False, True, True, True, True]
+    results = LoadStepper(p, newton, 1.0, n).run()
+    return [d is not None for d in calls], results
+
+
+def test_predictor_used_while_it_works():
+    predicted, results = _predicted_solves(_Problem(), 5)
+    assert predicted == [False, True, True, True, True]
     assert all(r.predictor_failures == 0 for r in results)
 
 
@@ -154,15 +160,8 @@ class _Ramp(_Problem):
 def test_no_predictor_across_a_corner_of_the_load_path():
     """The step after the corner starts from the converged state (the extrapolation would
     continue the ramp); the next one, at the new constant rate, uses the predictor."""
-    p = _Ramp()
-    newton = _Newton(p, lambda t0: 1.0)
-    calls = []
-    orig = newton.solve
-    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False: (
-        calls.append(dtol) or orig(rtol, dtol, rescue)
-    )
-    results = LoadStepper(p, newton, 1.0, 4).run()
-    assert [d is not None for d in calls] == [False, True, False, True]
+    predicted, results = _predicted_solves(_Ramp(), 4)
+    assert predicted == [False, True, False, True]
     assert all(r.predictor_failures == 0 for r in results)
 
 
