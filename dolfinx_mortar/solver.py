@@ -89,6 +89,16 @@ FULL_STEP_ITERATIONS = 10
 #: changes by 0.4 and the rounds between by 0.1 … 0.002) otherwise run all
 #: ``uzawa_max`` rounds before the cutback.
 UZAWA_STALL_ROUNDS = 8
+#: A step fails (and is cut back) when this many Uzawa rounds in a row end with frozen
+#: stick/slip states (the chattering control, contact.FREEZE_AFTER) that the free law
+#: contradicts (summary.json ``unfrozen_states`` > 0) AND a multiplier change larger
+#: than the round before. A solve whose frozen slip directions were wrong converges to a
+#: state where those nodes slip the other way, and the multipliers taken from it reverse
+#: the tangential traction there: the rounds of peers problem B's full tangential step
+#: (level 3) grew (changes 0.14, 0.28, 0.30, 0.33 with 6, 11, 22 wrong states) into a
+#: 2-cycle. Rounds whose change shrinks go on: the constrained recovery's Cattaneo test
+#: converges through a run of rounds with 1–2 wrong states.
+FROZEN_RETRY_ROUNDS = 3
 _STALLED = (
     PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT,
     PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH,
@@ -430,6 +440,7 @@ def solve_step(
     its_all, norms_all, info_all = [], [], []
     rtol = None
     changes = []  # per round: the largest relative multiplier change, normal or tangential
+    inconsistent = 0  # rounds in a row whose frozen stick/slip states were wrong
     for k in range(max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
         its, norms = newton.solve(rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0)
@@ -458,6 +469,15 @@ def solve_step(
             raise ConvergenceError(
                 f"Uzawa augmentation stalled: no progress in {UZAWA_STALL_ROUNDS} rounds "
                 f"(multiplier changes {', '.join(f'{c:.2g}' for c in changes)}; {info})"
+            )
+        unfrozen = any(i.get("unfrozen_states", 0) > 0 for i in info.values())
+        growing = len(changes) >= 2 and changes[-1] >= changes[-2]
+        inconsistent = inconsistent + 1 if unfrozen and growing else 0
+        if inconsistent >= FROZEN_RETRY_ROUNDS:
+            raise ConvergenceError(
+                f"the stick/slip states frozen by the chattering control were wrong at "
+                f"convergence, and the multiplier change grew, in {inconsistent} Uzawa "
+                f"rounds in a row ({info})"
             )
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"

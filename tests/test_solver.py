@@ -186,6 +186,38 @@ def test_stalled_uzawa_rounds_stop_before_uzawa_max():
     assert p.rounds == solver_module.UZAWA_STALL_ROUNDS + 2
 
 
+class _Unfrozen(_Problem):
+    """Uzawa rounds with a growing (or shrinking) change whose solves end with wrong
+    frozen stick/slip states in the rounds listed in ``pattern`` (1: wrong); done after
+    it."""
+
+    def __init__(self, pattern, growing=True):
+        super().__init__()
+        self.pattern, self.rounds, self.growing = pattern, 0, growing
+
+    def uzawa_update(self):
+        k, self.rounds = self.rounds, self.rounds + 1
+        if k == len(self.pattern):
+            return True, {"pair": {"multiplier_change": 0.0}}
+        change = 2.0**k if self.growing else 0.5**k
+        info = {"multiplier_change": change, "unfrozen_states": self.pattern[k]}
+        return False, {"pair": info}
+
+
+def test_wrong_frozen_states_in_a_row_fail_the_step():
+    k = solver_module.FROZEN_RETRY_ROUNDS
+    p = _Unfrozen([0] + [1] * k + [0])
+    p.set_time(0.5)
+    with pytest.raises(ConvergenceError, match="frozen"):
+        solver_module.solve_step(p, _Newton(p, lambda t0: 1.0), uzawa_max=30)
+    assert p.rounds == 1 + k
+    # not in a row, or with a shrinking change: the rounds go on to convergence
+    for p, n in ((_Unfrozen([1, 0] * k), 2 * k), (_Unfrozen([1] * 2 * k, growing=False), 2 * k)):
+        p.set_time(0.5)
+        solver_module.solve_step(p, _Newton(p, lambda t0: 1.0), uzawa_max=30)
+        assert p.rounds == n + 1
+
+
 class _Cubic:
     """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
 
