@@ -298,6 +298,8 @@ class NewtonSolver:
                     self.failed_reuses += 1
                     log.info("GMRES on the last factorization failed; factorizing")
                     p.u.vector.copy(x)
+                    p.begin_solve()  # the per-solve chattering control starts afresh
+                    self._has_finite = False
                     self.snes.solve(None, x)
                     reason = self.snes.getConvergedReason()
                 else:
