@@ -27,6 +27,7 @@ __all__ = [
     "sparsity_pattern",
     "cell_geometry_nodes",
     "set_lag_preconditioner",
+    "lag_preconditioner_available",
 ]
 
 
@@ -104,6 +105,17 @@ def set_lag_preconditioner(snes: PETSc.SNES, lag: int) -> None:
     fn.restype = ctypes.c_int
     if fn(ctypes.c_void_p(snes.handle), lag) != 0:
         raise RuntimeError(f"SNESSetLagPreconditioner({lag}) failed")
+
+
+def lag_preconditioner_available() -> bool:
+    """Whether :func:`set_lag_preconditioner` works here (petsc4py wraps it, or the PETSc
+    library with its C function can be found). Not collective."""
+    if hasattr(PETSc.SNES, "setLagPreconditioner"):
+        return True
+    try:
+        return hasattr(_petsc_c_library(), "SNESSetLagPreconditioner")
+    except OSError:
+        return False
 
 
 def _petsc_c_library():

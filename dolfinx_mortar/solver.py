@@ -201,6 +201,7 @@ class NewtonSolver:
             REUSE_FACTORIZATION
             and settings.linear in ("mumps", "lu", "superlu_dist")
             and not {"ksp_type", "pc_type"} & set(settings.petsc)
+            and compat.lag_preconditioner_available()
         )
         self._factored = False
         self._reusing = False

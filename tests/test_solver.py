@@ -370,6 +370,16 @@ def test_no_reuse_with_an_iterative_solver(cubic_vectors):
     assert counts == (0, 0)
 
 
+def test_no_reuse_without_the_lag_setting(cubic_vectors, monkeypatch):
+    """Where SNESSetLagPreconditioner cannot be reached (no petsc4py wrapper, no PETSc
+    library found), every iteration factorizes: the same solution, no reuse."""
+    from dolfinx_mortar import compat
+
+    monkeypatch.setattr(compat, "lag_preconditioner_available", lambda: False)
+    _, _, counts = _two_rounds("test_reuse_nolag_")
+    assert counts == (0, 0)
+
+
 class _CubicWithHole(_Cubic):
     """The cubic with a NaN residual for x >= 8 (an inverted element beyond a step)."""
 
