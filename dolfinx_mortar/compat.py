@@ -100,9 +100,6 @@ def set_lag_preconditioner(snes: PETSc.SNES, lag: int) -> None:
         snes.setLagPreconditioner(lag)
         return
     fn = _petsc_c_library().SNESSetLagPreconditioner
-    int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
-    fn.argtypes = [ctypes.c_void_p, int_t]
-    fn.restype = ctypes.c_int
     if fn(ctypes.c_void_p(snes.handle), lag) != 0:
         raise RuntimeError(f"SNESSetLagPreconditioner({lag}) failed")
 
@@ -119,8 +116,14 @@ def lag_preconditioner_available() -> bool:
 
 
 def _petsc_c_library():
-    """The PETSc shared library (the one already mapped into the process by petsc4py)."""
+    """The PETSc shared library (the one already mapped into the process by petsc4py),
+    with the argument types of the functions called here set once."""
     if not hasattr(_petsc_c_library, "lib"):
         name = next((n for n in ("petsc_real", "petsc") if ctypes.util.find_library(n)), "petsc")
-        _petsc_c_library.lib = ctypes.CDLL(ctypes.util.find_library(name) or name)
+        lib = ctypes.CDLL(ctypes.util.find_library(name) or name)
+        if hasattr(lib, "SNESSetLagPreconditioner"):
+            int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
+            lib.SNESSetLagPreconditioner.argtypes = [ctypes.c_void_p, int_t]
+            lib.SNESSetLagPreconditioner.restype = ctypes.c_int
+        _petsc_c_library.lib = lib
     return _petsc_c_library.lib
