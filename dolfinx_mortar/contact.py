@@ -117,8 +117,18 @@ PIN_OUTSIDE_TOL = 0.1
 #: active nodes over 25 full steps, then a cutback). Once the active set repeats, the
 #: tangent is exact again, so the final iterations keep quadratic convergence. Only
 #: first-contact solves: on ironing2d the same rule in every solve gave 7 step halvings
-#: instead of 1.
+#: instead of 1. The rule also holds in any solve whose iterate has an active node deeper
+#: than DEEP_PENETRATION_TOL × h_I, the first Jacobian of the solve included (see below).
 GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
+#: Deep penetration (in units of the nodal facet size h_I): an active node with mixed gap
+#: γ^I < −DEEP_PENETRATION_TOL h_I marks an iterate far from equilibrium, where p = ε|γ|
+#: is 5 E* (auto penalty) or more, and the geometric part of the tangent is left out while
+#: the active set moves, as at first contact. The extrapolated predictor of a
+#: displacement-driven press step puts every node of the previous contact zone into the
+#: other body by its initial gap (cattaneo2d, t = 0.5 → 1: 0.5 h); with the exact tangent
+#: Newton then cycled for 35 iterations, from the predictor and again from the converged
+#: state, and the step was cut back. Converged states penetrate by p/ε ≈ 1e-4 h.
+DEEP_PENETRATION_TOL = 0.05
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
 SLIP_TOL = 1e-10
@@ -665,17 +675,20 @@ class MortarContact:
                 self.qp_zeta[f, q] = zeta[f, q]
                 self.qp_g[f, q] = g[f, q]
 
-    def _first_contact_moving(self) -> bool:
-        """Whether this solve started with no active node on the pair and the active set
-        differs from that of its previous Jacobian (collective; False at the first
-        Jacobian of a solve). See GEOMETRIC_TANGENT_AT_FIRST_CONTACT."""
+    def _drop_geometric_tangent(self) -> bool:
+        """Whether the geometric part of the normal tangent is left out at this Jacobian
+        (collective): the active set differs from that of the previous Jacobian of this
+        solve (at the first Jacobian of a solve: always), and either the solve started with
+        no active node on the pair or an active node is deeper than DEEP_PENETRATION_TOL ×
+        h_I. See GEOMETRIC_TANGENT_AT_FIRST_CONTACT."""
         act = self.p_hat > 0.0
         prev, self._jac_active = self._jac_active, act.copy()
         if prev is None:
             self._first_contact = self.comm.allreduce(int(act.sum())) == 0
-            return False
-        moved = prev.shape == act.shape and bool(np.any(prev != act))
-        return self._first_contact and bool(self.comm.allreduce(int(moved), op=MPI.MAX))
+        moved = prev is None or (prev.shape == act.shape and bool(np.any(prev != act)))
+        depth = float(np.max(-self.gamma[act] / self.h_node[act], initial=0.0))
+        flags = self.comm.allreduce(int(moved) | int(depth > DEEP_PENETRATION_TOL) << 1, op=MPI.BOR)
+        return bool(flags & 1) and (self._first_contact or bool(flags & 2))
 
     def _watch_pairing(self) -> None:
         """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL)."""
@@ -1117,7 +1130,7 @@ class MortarContact:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
         self._watch_pairing()
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
-        if self._first_contact_moving() and not GEOMETRIC_TANGENT_AT_FIRST_CONTACT:
+        if self._drop_geometric_tangent() and not GEOMETRIC_TANGENT_AT_FIRST_CONTACT:
             hess_val[:] = 0.0
         ADD = PETSc.InsertMode.ADD_VALUES
         for r in np.flatnonzero(res_idx.max(axis=1) >= 0):

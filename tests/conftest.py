@@ -91,3 +91,16 @@ def block_msh(shared_tmp):
 
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+@pytest.fixture
+def exact_contact_tangent(monkeypatch):
+    """The exact contact tangent at every Jacobian: the finite-difference configurations
+    press the bodies up to 0.125 h_I into each other (a few active nodes on coarse meshes),
+    where contact.DEEP_PENETRATION_TOL would leave the geometric part of the tangent out
+    (tested on its own in test_contact_jacobian.py)."""
+    import numpy as np
+
+    from dolfinx_mortar import contact
+
+    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)

@@ -13,8 +13,13 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from dolfinx_mortar import contact
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
+
+pytestmark = pytest.mark.usefixtures("exact_contact_tangent")
+#: the library's value, before the fixture above raises it for the FD tests
+DEEP_PENETRATION_TOL = contact.DEEP_PENETRATION_TOL
 
 CASES = {
     # name: (generator, params, slave, master, bodies (slave, master), gdim)
@@ -216,6 +221,51 @@ def test_contact_tangent_matches_finite_differences(case, integration, recovery)
     A.assemble()
     errs = fd_errors(problem, term, A, u0)
     assert max(errs) < 1e-5, errs
+
+
+@pytest.mark.mpi
+def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_moves(
+    monkeypatch,
+):
+    """contact.DEEP_PENETRATION_TOL. The FD configuration hertz2d-P1 presses the cylinder
+    more than 0.05 h_I into the block. The first Jacobian of a solve there is the
+    penalty part alone (symmetric, positive semi-definite on the contact dofs) and does
+    NOT match finite differences; the next Jacobian at the same active set is exact
+    again (FD to 1e-5), as is the first one with the rule off."""
+    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", DEEP_PENETRATION_TOL)
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
+    term.update(problem.u)
+    u0 = problem.u.vector.copy()
+    act = term.p_hat > 0.0
+    depth = comm.allreduce(float(np.max(-term.gamma[act] / term.h_node[act], initial=0.0)), MPI.MAX)
+    assert depth > DEEP_PENETRATION_TOL, depth
+
+    def jacobian():
+        A = problem.create_matrix()
+        A.zeroEntries()
+        term.add_jacobian(A)
+        A.assemble()
+        return A
+
+    term.begin_solve()
+    first, second = jacobian(), jacobian()
+    assert max(fd_errors(problem, term, first, u0, n=2)) > 1e-3
+    assert max(fd_errors(problem, term, second, u0, n=2)) < 1e-5
+    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
+    term.begin_solve()
+    assert max(fd_errors(problem, term, jacobian(), u0, n=2)) < 1e-5
+    # the penalty part: symmetric, and v·K v >= 0
+    assert first.isSymmetric(tol=1e-10 * first.norm())
+    rng = PETSc.Random().create(comm)
+    for _ in range(5):
+        v = u0.copy()
+        v.setRandom(rng)
+        Kv = v.duplicate()
+        first.mult(v, Kv)
+        assert v.dot(Kv) >= -1e-12 * first.norm() * v.norm() ** 2
 
 
 #: Segment integration where the tangent is still approximate, with the bound asserted:

@@ -20,6 +20,8 @@ from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 from dolfinx_mortar.surface import dual_coefficients
 
+pytestmark = pytest.mark.usefixtures("exact_contact_tangent")
+
 MU = 0.3
 
 

@@ -64,7 +64,11 @@ def test_cattaneo2d(shared_tmp):
     """Default mesh (h = 0.05 ≈ a/13), the library's default (standard) tangential
     weights, profiles over the reference coordinate. Measured: stick half-width −0.29
     elements, L2(q) 11.7 %, L2(p) 3.75 % (dual weights: L2(q) 8.8 %, 30 s instead of
-    14 s). The issue's 5 % on q is NOT met here (BENCHMARKS.md §8)."""
+    14 s). The issue's 5 % on q is NOT met here (BENCHMARKS.md §8). The second press step
+    (t = 0.5 → 1) converges from the extrapolated predictor, which puts the previous
+    contact zone 0.5 h into the block (contact.DEEP_PENETRATION_TOL; before that rule it
+    failed after 35 iterations from the predictor and again from the converged state, and
+    was cut back)."""
     out = str(shared_tmp / "cattaneo2d")
     m = demo_cattaneo2d.main(["--tangential-weights", "standard", "--out", out])
     assert 0.4 <= m["Q_ratio"] <= 0.55, m["Q_ratio"]
@@ -74,13 +78,15 @@ def test_cattaneo2d(shared_tmp):
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25
+    assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
 
 
 def test_cattaneo2d_constrained(shared_tmp):
     """The normal pressure from the constrained recovery (tangential part lumped, dual
     weights). Measured: stick half-width −0.29 elements, L2(q) 6.2 %, L2(p) 2.3 %
     (standard tangential weights: L2(q) 9.8 %); no negative pressure. The interpolation
-    error of the exact q at these nodes is already 4.5 %."""
+    error of the exact q at these nodes is already 4.5 %. No cutback and no failed
+    predictor (as test_cattaneo2d; at most 21 Newton iterations in one solve)."""
     out = str(shared_tmp / "cattaneo2d-constrained")
     m = demo_cattaneo2d.main(["--recovery", "constrained", "--out", out])
     assert abs(m["c_err_elements"]) <= 0.5, m["c_err_elements"]
@@ -89,6 +95,7 @@ def test_cattaneo2d_constrained(shared_tmp):
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25
+    assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
 
 
 @pytest.mark.mpi
