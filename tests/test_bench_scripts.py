@@ -203,10 +203,12 @@ def test_newton_diagnostics_hertz2d(tmp_path, mesh):
     """At the iterates of hertz2d's step-4 main solve (the demo scene itself, Dirichlet rows
     included) where the residual is smooth along the Newton step (the remainder quadratic
     in t), the tangent matches central differences along the step; the last two steps are
-    smooth. On triangles the FD check holds at every iterate. On quadrilaterals the l2 line
-    search stops the second iterate on a kink (lambda = 0.013), where the FD check is void."""
+    smooth. On triangles the FD check holds at every iterate; on quadrilaterals at the smooth
+    ones. Measured on quadrilaterals (4 iterates since contact.DEEP_PENETRATION_TOL, 5
+    before): the first iterate, the predictor 0.05 h deep, is not smooth along its step
+    (quotients 1.23 … 1.14); the other three are, and |du_k+1|/|du_k|² = 2.8, 1.5, 1.6."""
     log = _load("newton_diagnostics").main(["--step", "4", "--out", str(tmp_path), *mesh])
-    assert len(log) >= 5
+    assert len(log) >= 4
     # quad = ‖R(u − t du) − (1 − t) R(u)‖ / t² (t = 1/4, 1/2, 1) is constant to 1 %, or its
     # spread is round-off: the residual norm of hertz2d is exact to ~1e-13 (its converged
     # norms), and at t = 1/4 the quotient multiplies that by 16. The last iterate's
