@@ -1130,7 +1130,9 @@ class MortarContact:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
         self._watch_pairing()
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
-        if self._drop_geometric_tangent() and not GEOMETRIC_TANGENT_AT_FIRST_CONTACT:
+        drop = self._drop_geometric_tangent()  # collective: called at every Jacobian
+        geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
+        if not geometric:
             hess_val[:] = 0.0
         ADD = PETSc.InsertMode.ADD_VALUES
         for r in np.flatnonzero(res_idx.max(axis=1) >= 0):
@@ -1146,7 +1148,7 @@ class MortarContact:
                 v = c_val[s:e]
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
         if self.integration == "segment" and self.gdim == 2 and self.slave.num_facets:
-            self._add_segment_jacobian(A, sdofs, mdofs, c_off, c_idx, c_val)
+            self._add_segment_jacobian(A, sdofs, mdofs, c_off, c_idx, c_val, geometric)
         if self._recovered is not None and self.recovery != "lumped":
             self._add_mixed_jacobian(A, sdofs, mdofs)
             if self.recovery == "constrained":
@@ -1159,7 +1161,9 @@ class MortarContact:
         if self.frictional:
             self._add_tangential_jacobian(A, c_off, c_idx, c_val)
 
-    def _add_segment_jacobian(self, A, sdofs, mdofs, c_off, c_idx, c_val) -> None:
+    def _add_segment_jacobian(
+        self, A, sdofs, mdofs, c_off, c_idx, c_val, geometric: bool = True
+    ) -> None:
         """2D segment integration: the terms of the moving segment points (local).
 
         The points ξ_q and weights w_q of a segment move with its ends, the projections of
@@ -1172,6 +1176,10 @@ class MortarContact:
         Lumped recovery: p^I = λ^I − ε^I G^I/A^I also varies through G^I and A^I, adding
         (ε^I/A^I) B^I ⊗ C^I with C^I = Σ_q Φ_I (g_q − γ^I) dw_q + w_q [Φ_I'(g_q − γ^I)
         + Φ_I ∂g_q/∂ξ] dξ_q.
+
+        ``geometric = False`` leaves the first (p-proportional) part out, as
+        :meth:`add_jacobian` leaves out the geometric part of the element tangent
+        (GEOMETRIC_TANGENT_AT_FIRST_CONTACT, DEEP_PENETRATION_TOL).
 
         Unconstrained and constrained recoveries: M, A and G vary with the points too,
         ∂γ = W(∂G − ∂M γ) and ∂p = Lᵀ(∂F − ∂M p), ∂F = A ∂p̂ + p̂ ∂A. The rows kept for
@@ -1210,6 +1218,8 @@ class MortarContact:
         extra -= np.einsum("ri,rj->rij", (s0 * w)[:, None] * db, dxi)
         idx = np.concatenate([sdofs[fr_], mdofs[mr]], axis=1)
         ADD = PETSc.InsertMode.ADD_VALUES
+        if not geometric:
+            extra[:] = 0.0
         for r in np.flatnonzero(np.abs(extra).max(axis=(1, 2)) > 0.0):
             ii = idx[r].astype(PETSc.IntType)
             A.setValues(ii, ii, extra[r], addv=ADD)

@@ -224,17 +224,20 @@ def test_contact_tangent_matches_finite_differences(case, integration, recovery)
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("integration", ["element", "segment"])
 def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_moves(
-    monkeypatch,
+    monkeypatch, integration
 ):
     """contact.DEEP_PENETRATION_TOL. The FD configuration hertz2d-P1 presses the cylinder
-    more than 0.05 h_I into the block. The first Jacobian of a solve there is the
-    penalty part alone (symmetric, positive semi-definite on the contact dofs) and does
-    NOT match finite differences; the next Jacobian at the same active set is exact
-    again (FD to 1e-5), as is the first one with the rule off."""
+    more than 0.05 h_I into the block. The first Jacobian of a solve there leaves the
+    geometric part out and does NOT match finite differences; the next Jacobian at the
+    same active set is exact again (FD to 1e-5), as is the first one with the rule off.
+    Element integration: what is left is the penalty part (ε/A) B⊗B alone, symmetric and
+    positive semi-definite. Segment integration: the p-proportional terms of the moving
+    segment ends are left out too (the first Jacobian differs from one that keeps them)."""
     monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", DEEP_PENETRATION_TOL)
     comm = MPI.COMM_WORLD
-    problem = _problem("hertz2d-P1", "element", "lumped")
+    problem = _problem("hertz2d-P1", integration, "lumped")
     term = problem.contacts[0]
     _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
     term.update(problem.u)
@@ -254,6 +257,19 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
     first, second = jacobian(), jacobian()
     assert max(fd_errors(problem, term, first, u0, n=2)) > 1e-3
     assert max(fd_errors(problem, term, second, u0, n=2)) < 1e-5
+    if integration == "segment":
+        # the same first Jacobian, but with the segment-end terms of p kept
+        keep = contact.MortarContact._add_segment_jacobian
+        monkeypatch.setattr(
+            contact.MortarContact,
+            "_add_segment_jacobian",
+            lambda self, *args: keep(self, *args[:-1], True),
+        )
+        term.begin_solve()
+        kept = jacobian()
+        kept.axpy(-1.0, first)
+        assert kept.norm() > 1e-6 * first.norm()
+        return
     monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
     term.begin_solve()
     assert max(fd_errors(problem, term, jacobian(), u0, n=2)) < 1e-5
