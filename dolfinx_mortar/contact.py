@@ -1211,18 +1211,17 @@ class MortarContact:
         kmortar.point_xi_terms(*self._point_args(sdofs, mdofs), b, db, g, gxi, phi, dphi)
         w = self.qp_w[fr_, qr]
         nodes = self.node_of[fr_]  # (n_rows, nphi), −1: not an owned node
-        pn = np.where(nodes >= 0, self.p[np.maximum(nodes, 0)], 0.0)
-        s0 = np.einsum("ri,ri->r", pn, phi)
-        s1 = np.einsum("ri,ri->r", pn, dphi)
-        extra = -np.einsum("ri,rj->rij", b, (s1 * w)[:, None] * dxi + s0[:, None] * dw)
-        extra -= np.einsum("ri,rj->rij", (s0 * w)[:, None] * db, dxi)
         idx = np.concatenate([sdofs[fr_], mdofs[mr]], axis=1)
         ADD = PETSc.InsertMode.ADD_VALUES
-        if not geometric:
-            extra[:] = 0.0
-        for r in np.flatnonzero(np.abs(extra).max(axis=(1, 2)) > 0.0):
-            ii = idx[r].astype(PETSc.IntType)
-            A.setValues(ii, ii, extra[r], addv=ADD)
+        if geometric:
+            pn = np.where(nodes >= 0, self.p[np.maximum(nodes, 0)], 0.0)
+            s0 = np.einsum("ri,ri->r", pn, phi)
+            s1 = np.einsum("ri,ri->r", pn, dphi)
+            extra = -np.einsum("ri,rj->rij", b, (s1 * w)[:, None] * dxi + s0[:, None] * dw)
+            extra -= np.einsum("ri,rj->rij", (s0 * w)[:, None] * db, dxi)
+            for r in np.flatnonzero(np.abs(extra).max(axis=(1, 2)) > 0.0):
+                ii = idx[r].astype(PETSc.IntType)
+                A.setValues(ii, ii, extra[r], addv=ADD)
         if self.recovery != "lumped":
             self._segment_rows = self._mixed_segment_rows(
                 fr_, nodes, idx, w, g, gxi, phi, dphi, dxi, dw
