@@ -15,9 +15,10 @@ lumped. The contact residual and its exact tangent are
     K_c = Σ_I (ε^I H^I / A^I) B^I ⊗ B^I − Σ_I p^I ∂²G^I/∂u²,   H^I = [λ^I − ε^I γ^I ≥ 0]
 
 for fixed integration points (element and node integration). Segment integration moves
-its points with u: in 2D, :meth:`MortarContact._add_segment_jacobian` adds those terms
-(exact with the lumped recovery); in 3D, with the mixed recoveries, and in the friction
-integrals, the motion is not linearised (docs/method-notes.md, "Segment integration").
+its points with u (2D: the segment ends; 3D: the vertices of the clipped polygons), and
+the tangent has those terms too, for every recovery and in the friction integrals
+(:meth:`MortarContact._add_segment_jacobian`, :meth:`MortarContact._segment_slip_motion`;
+docs/method-notes.md, "Segment integration").
 
 The unconstrained and constrained recoveries keep the consistent mortar matrix M
 (:mod:`dolfinx_mortar.recovery`, which also gives their tangent Σ_I d_I a^I ⊗ c^I); the
@@ -136,6 +137,26 @@ SLIP_TOL = 1e-10
 #: gap γ_n ≤ HISTORY_GAP_TOL h_I (a node closing from farther enters frictionless: its slip
 #: from the t_n projection would be spurious, of order γ_n × the rotation of the normal).
 HISTORY_GAP_TOL = 1e-2
+
+
+def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
+    """A[rows_e, cols_e] += vals_e (global indices, −1 ignored) for the entries e, with
+    rows (E, r), cols (E, c), vals (E, r, c); entries with equal ``key`` (E,) have the same
+    rows and columns and are summed first, one ``setValues`` per key (local)."""
+    if not key.size:
+        return
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    start = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+    sums = np.add.reduceat(vals[order], start, axis=0)
+    for e, block in zip(order[start], sums, strict=True):
+        if np.any(block):
+            A.setValues(
+                rows[e].astype(PETSc.IntType),
+                cols[e].astype(PETSc.IntType),
+                block,
+                addv=PETSc.InsertMode.ADD_VALUES,
+            )
 
 
 def _plane_modulus(E: float, nu: float) -> float:
@@ -723,6 +744,7 @@ class MortarContact:
             un = self._u_n
             xs_n = self.slave.X + self._fetch_slave(un).reshape(self.slave.X.shape)
             xm_n = self.master.X + self._fetch_cand(un).reshape(self.master.X.shape)
+            self._x_n = (xs_n, xm_n)
             off, idx = candidates(xs_n, xm_n, 2.0 * self.h_facet)
             self.hist_cand = (off, idx)
             self.qp_mn = np.full((nsf, nq), -1, np.int64)
@@ -1000,11 +1022,17 @@ class MortarContact:
         paired = np.where(qp >= 0, self.qp_w, 0.0).sum(axis=1)
         dual = paired >= (1.0 - kfriction.FULL_COVER_TOL) * self.dual_area
         Mf[dual] = np.einsum("fij,fjk->fik", self.t_weights[dual], Mf[dual])
-        partial = np.flatnonzero(paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
+        partial = np.flatnonzero(self._tangential_partial())
         sums = Mf[partial].sum(axis=2)
         Mf[partial] = 0.0
         Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
         return Mf
+
+    def _tangential_partial(self) -> np.ndarray:
+        """(nsf,) bool: the facets whose block of the tangential mortar matrix is lumped,
+        paired now and at t_n over less than their whole area (local)."""
+        paired = np.where((self.qp_m >= 0) & (self.qp_mn >= 0), self.qp_w, 0.0).sum(axis=1)
+        return paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area
 
     def _recover_tangential_mixed(self, sigma, hasT, imposed):
         """The unconstrained or constrained tangential recovery on the gathered slave
@@ -1147,7 +1175,9 @@ class MortarContact:
                 idx = c_idx[s:e].astype(PETSc.IntType)
                 v = c_val[s:e]
                 A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
-        if self.integration == "segment" and self.gdim == 2 and self.slave.num_facets:
+        self._seg_motion = self._seg_c_rows = None
+        if self.integration == "segment" and self.slave.num_facets:
+            self._seg_motion = self._segment_motion()
             self._add_segment_jacobian(A, sdofs, mdofs, c_off, c_idx, c_val, geometric)
         if self._recovered is not None and self.recovery != "lumped":
             self._add_mixed_jacobian(A, sdofs, mdofs)
@@ -1161,53 +1191,77 @@ class MortarContact:
         if self.frictional:
             self._add_tangential_jacobian(A, c_off, c_idx, c_val)
 
+    def _segment_motion(self) -> tuple[np.ndarray, np.ndarray]:
+        """dξ_q (n_paired, k, nloc) and dw_q (n_paired, nloc) of the segment points with
+        respect to their local dofs (:func:`.kernels.segment.segment_derivatives`; local)."""
+        from .kernels.segment import segment_derivatives
+
+        ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
+        nloc = (ns + nm) * d
+        n_rows = int(np.count_nonzero(self.qp_m >= 0))
+        dxi, dw = np.zeros((n_rows, d - 1, nloc)), np.zeros((n_rows, nloc))
+        if n_rows:
+            segment_derivatives(
+                self.ftype,
+                self.xs,
+                self.slave.X,
+                self.slave.sign,
+                self.master.ftype,
+                self.xm,
+                self.master.sign,
+                self.cand_off,
+                self.cand,
+                *self.seg_rule,
+                self.qp_m,
+                dxi,
+                dw,
+            )
+        return dxi, dw
+
     def _add_segment_jacobian(
         self, A, sdofs, mdofs, c_off, c_idx, c_val, geometric: bool = True
     ) -> None:
-        """2D segment integration: the terms of the moving segment points (local).
+        """Segment integration: the terms of the moving segment points (local).
 
-        The points ξ_q and weights w_q of a segment move with its ends, the projections of
-        the master end nodes onto the slave facet (:func:`.kernels.segment.
-        segment_end_derivatives` gives dξ_q, dw_q per paired point). With p held fixed,
+        The points ξ_q and weights w_q move with u: in 2D with the segment ends (the
+        projections of the master end nodes onto the slave facet), in 3D with the vertices
+        of the clipped polygons (:func:`.kernels.segment.segment_derivatives` gives dξ_q
+        (k components) and dw_q per paired point). With p held fixed,
         R_c = −Σ_q (Σ_I p^I Φ_I(ξ_q)) w_q b_q varies by
 
-            −b_q ⊗ [(Σ p Φ') w_q dξ_q + (Σ p Φ) dw_q] − (Σ p Φ) w_q (db_q/dξ) ⊗ dξ_q.
+            −b_q ⊗ [(Σ p ∂_β Φ) w_q dξ_q^β + (Σ p Φ) dw_q] − (Σ p Φ) w_q (∂b_q/∂ξ_β) ⊗ dξ_q^β.
 
         Lumped recovery: p^I = λ^I − ε^I G^I/A^I also varies through G^I and A^I, adding
-        (ε^I/A^I) B^I ⊗ C^I with C^I = Σ_q Φ_I (g_q − γ^I) dw_q + w_q [Φ_I'(g_q − γ^I)
-        + Φ_I ∂g_q/∂ξ] dξ_q.
+        (ε^I/A^I) B^I ⊗ C^I with C^I = Σ_q Φ_I (g_q − γ^I) dw_q + w_q [∂_βΦ_I (g_q − γ^I)
+        + Φ_I ∂g_q/∂ξ_β] dξ_q^β.
 
         ``geometric = False`` leaves the first (p-proportional) part out, as
         :meth:`add_jacobian` leaves out the geometric part of the element tangent
-        (GEOMETRIC_TANGENT_AT_FIRST_CONTACT, DEEP_PENETRATION_TOL).
+        (GEOMETRIC_TANGENT_AT_FIRST_CONTACT, DEEP_PENETRATION_TOL). The rows C^I are kept
+        (``self._seg_c_rows``) for the friction tangent, whose ∂p^I they complete.
 
         Unconstrained and constrained recoveries: M, A and G vary with the points too,
         ∂γ = W(∂G − ∂M γ) and ∂p = Lᵀ(∂F − ∂M p), ∂F = A ∂p̂ + p̂ ∂A. The rows kept for
         :meth:`_add_mixed_jacobian` (``self._segment_rows``) are, per owned node I,
 
-            C_γ^I = Σ_q Φ_I (g_q − γ_h) dw_q + w_q [Φ_I'(g_q − γ_h) + Φ_I (∂g_q/∂ξ − γ_h')] dξ_q,
-            D_p^I = Σ_q Φ_I (p̂^I − p_h) dw_q + w_q [Φ_I'(p̂^I − p_h) − Φ_I p_h'] dξ_q,
+            C_γ^I = Σ_q Φ_I (g_q − γ_h) dw_q + w_q [∂_βΦ_I (g_q − γ_h) + Φ_I (∂_βg_q − ∂_βγ_h)] dξ_q^β,
+            D_p^I = Σ_q Φ_I (p̂^I − p_h) dw_q + w_q [∂_βΦ_I (p̂^I − p_h) − Φ_I ∂_βp_h] dξ_q^β,
 
         with γ_h = Σ_J Φ_J γ^J and p_h = Σ_J Φ_J p^J at ξ_q (the nodal γ^I, p^I and no
-        derivative on a partially paired facet, whose block of M is lumped). The
-        tangential part of friction stays without these terms."""
-        from .kernels.segment import segment_end_derivatives
-
+        derivative on a partially paired facet, whose block of M is lumped). The motion of
+        the points in the slip integrals of friction: :meth:`_segment_slip_rows`."""
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
-        nloc = (ns + nm) * d
+        k, nloc = d - 1, (ns + nm) * d
         fr_, qr = np.nonzero(self.qp_m >= 0)
         n_rows = fr_.size
         if not n_rows:
             return
         mr = self.qp_m[fr_, qr]
         nphi = self.node_of.shape[1]
-        dxi, dw = np.zeros((n_rows, nloc)), np.zeros((n_rows, nloc))
-        segment_end_derivatives(
-            self.ftype, self.xs, self.slave.X, self.xm, self.qp_xi, self.qp_w, self.qp_m, dxi, dw
-        )
-        b, db = np.zeros((n_rows, nloc)), np.zeros((n_rows, nloc))
-        g, gxi = np.zeros(n_rows), np.zeros(n_rows)
-        phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi))
+        dxi, dw = self._seg_motion
+        b, db = np.zeros((n_rows, nloc)), np.zeros((n_rows, k, nloc))
+        g, gxi = np.zeros(n_rows), np.zeros((n_rows, k))
+        phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
         kmortar.point_xi_terms(*self._point_args(sdofs, mdofs), b, db, g, gxi, phi, dphi)
         w = self.qp_w[fr_, qr]
         nodes = self.node_of[fr_]  # (n_rows, nphi), −1: not an owned node
@@ -1216,12 +1270,11 @@ class MortarContact:
         if geometric:
             pn = np.where(nodes >= 0, self.p[np.maximum(nodes, 0)], 0.0)
             s0 = np.einsum("ri,ri->r", pn, phi)
-            s1 = np.einsum("ri,ri->r", pn, dphi)
-            extra = -np.einsum("ri,rj->rij", b, (s1 * w)[:, None] * dxi + s0[:, None] * dw)
-            extra -= np.einsum("ri,rj->rij", (s0 * w)[:, None] * db, dxi)
-            for r in np.flatnonzero(np.abs(extra).max(axis=(1, 2)) > 0.0):
-                ii = idx[r].astype(PETSc.IntType)
-                A.setValues(ii, ii, extra[r], addv=ADD)
+            s1 = np.einsum("ri,rib->rb", pn, dphi)
+            move = np.einsum("rb,rbj->rj", s1 * w[:, None], dxi) + s0[:, None] * dw
+            extra = -np.einsum("ri,rj->rij", b, move)
+            extra -= np.einsum("rbi,rbj->rij", (s0 * w)[:, None, None] * db, dxi)
+            _add_blocks(A, fr_ * self.master.num_facets + mr, idx, idx, extra)
         if self.recovery != "lumped":
             self._segment_rows = self._mixed_segment_rows(
                 fr_, nodes, idx, w, g, gxi, phi, dphi, dxi, dw
@@ -1233,9 +1286,8 @@ class MortarContact:
             return
         node = nodes[rr, ii]
         gg = g[rr] - self.gamma[node]
-        cvals = (phi[rr, ii] * gg)[:, None] * dw[rr] + (
-            w[rr] * (dphi[rr, ii] * gg + phi[rr, ii] * gxi[rr])
-        )[:, None] * dxi[rr]
+        xcoef = w[rr, None] * (dphi[rr, ii] * gg[:, None] + phi[rr, ii, None] * gxi[rr])
+        cvals = (phi[rr, ii] * gg)[:, None] * dw[rr] + np.einsum("rb,rbj->rj", xcoef, dxi[rr])
         cols = idx[rr]
         keep = cols >= 0
         ndof = int(self.ranges[-1]) * self.bs
@@ -1243,6 +1295,7 @@ class MortarContact:
             (cvals[keep], (np.broadcast_to(node[:, None], cols.shape)[keep], cols[keep])),
             shape=(self.node_blocks.size, ndof),
         )
+        self._seg_c_rows = Cm  # ∂p^I = −(ε^I/A^I)(B^I + C^I): the friction tangent needs C
         for n_ in np.unique(node):
             s, e = c_off[n_], c_off[n_ + 1]
             cs, ce = Cm.indptr[n_], Cm.indptr[n_ + 1]
@@ -1263,22 +1316,23 @@ class MortarContact:
         partial = self._partial_facets[fr_]
         rr, ii = np.nonzero(nodes >= 0)
         node = nodes[rr, ii]
-        ph, dph = phi[rr, ii], dphi[rr, ii]
+        ph, dph = phi[rr, ii], dphi[rr, ii]  # (n,), (n, k)
         g_h = np.einsum("ri,ri->r", phi, gam)[rr]
-        g_hx = np.einsum("ri,ri->r", dphi, gam)[rr]
+        g_hx = np.einsum("rib,ri->rb", dphi, gam)[rr]
         p_h = np.einsum("ri,ri->r", phi, pv)[rr]
-        p_hx = np.einsum("ri,ri->r", dphi, pv)[rr]
+        p_hx = np.einsum("rib,ri->rb", dphi, pv)[rr]
         lump = partial[rr]
         g_h = np.where(lump, gam[rr, ii], g_h)
         p_h = np.where(lump, pv[rr, ii], p_h)
-        g_hx = np.where(lump, 0.0, g_hx)
-        p_hx = np.where(lump, 0.0, p_hx)
+        g_hx = np.where(lump[:, None], 0.0, g_hx)
+        p_hx = np.where(lump[:, None], 0.0, p_hx)
         gg, pp = g[rr] - g_h, self.p_hat[node] - p_h
-        wr = w[rr]
-        c_vals = (ph * gg)[:, None] * dw[rr] + (wr * (dph * gg + ph * (gxi[rr] - g_hx)))[
-            :, None
-        ] * dxi[rr]
-        d_vals = (ph * pp)[:, None] * dw[rr] + (wr * (dph * pp - ph * p_hx))[:, None] * dxi[rr]
+        wr = w[rr, None]
+        dx = dxi[rr]
+        c_x = wr * (dph * gg[:, None] + ph[:, None] * (gxi[rr] - g_hx))
+        d_x = wr * (dph * pp[:, None] - ph[:, None] * p_hx)
+        c_vals = (ph * gg)[:, None] * dw[rr] + np.einsum("rb,rbj->rj", c_x, dx)
+        d_vals = (ph * pp)[:, None] * dw[rr] + np.einsum("rb,rbj->rj", d_x, dx)
         cols = idx[rr]
         keep = cols >= 0
         ndof = int(self.ranges[-1]) * self.bs
@@ -1342,13 +1396,13 @@ class MortarContact:
         ndof = int(self.ranges[-1]) * self.bs
         Bm = sp.csr_matrix((row_val, row_idx, indptr), shape=(rec.p.size, ndof))
         seg = None
-        if self.integration == "segment" and self.gdim == 2:  # on every rank (collective)
+        if self.integration == "segment":  # on every rank (collective)
             empty = sp.csr_matrix((n, ndof))
             seg = self._segment_rows or (empty, empty)
         self._segment_rows = None
         Cm = Bm
         if seg is not None:
-            # 2D segments: c^I = Σ_K W_IK (B^K + C_γ^K), with the rows C_γ of every node
+            # segments: c^I = Σ_K W_IK (B^K + C_γ^K), with the rows C_γ of every node
             Cg = seg[0].tocoo()
             parts = comm.allgather((Cg.row + lo, Cg.col, Cg.data))
             r_, c_, v_ = (np.concatenate([q[k] for q in parts]) for k in range(3))
@@ -1358,10 +1412,20 @@ class MortarContact:
         Lm = (rec.left[sel] @ Bm).tocsr()
         Rm = (rec.right[sel] @ Cm).tocsr()
         if self.frictional:
-            # −∂p^J/∂u = Σ_I L_IJ d_I c^I for the owned nodes J (the slip tangent needs it)
+            # −∂p^J/∂u = Σ_I L_IJ (d_I c^I − D_p^I) for the owned nodes J (the slip tangent
+            # needs it; D_p only with segments)
             own = slice(lo, lo + n)
             LdR = (rec.left.T @ sp.diags(rec.d) @ rec.right).tocsr()[own]
-            self._dp_rows = (LdR @ Bm).tocsr()
+            dp = LdR @ Cm
+            if seg is not None:
+                Dc = seg[1].tocoo()
+                parts = comm.allgather((Dc.row + lo, Dc.col, Dc.data))
+                r_, c_, v_ = (np.concatenate([q[k] for q in parts]) for k in range(3))
+                Dg = sp.csr_matrix((v_, (r_, c_)), shape=Bm.shape)
+                rows_d = np.flatnonzero(np.diff(Dg.indptr) > 0)
+                if rows_d.size:
+                    dp = dp - rec.left_rows(rows_d).T.tocsr()[own] @ Dg[rows_d]
+            self._dp_rows = dp.tocsr()
         keys = []
         rr = np.arange(sel.size)
         self._add_row_products(A, Lm, rr, Rm, rr, rec.d[sel], keys)
@@ -1400,8 +1464,12 @@ class MortarContact:
             norm = np.linalg.norm(self.tau_law, axis=1)
             self.frozen = (self.fstate.copy(), self.tau_law / np.maximum(norm, 1e-300)[:, None])
         self._learned_t = np.empty(0, np.int64)
-        if self.tangential_recovery != "lumped" and not self._no_contact:
-            self._add_mixed_tangential_jacobian(A, c_off, c_idx, c_val)
+        mot = None
+        mixed = self.tangential_recovery != "lumped" and not self._no_contact
+        if self._seg_motion is not None:
+            mot = self._segment_slip_motion(A, (self._trec.gamma, self._trec.tau) if mixed else ())
+        if mixed:
+            self._add_mixed_tangential_jacobian(A, c_off, c_idx, c_val, mot)
             return
         d, m = self.gdim, self.gdim - 1
         fo, pf_all = self.frames.pair_off, self.frames.pair_f
@@ -1427,9 +1495,12 @@ class MortarContact:
                 r = self._dp_rows
                 sl = slice(r.indptr[node], r.indptr[node + 1])
                 kN, b_idx, b_val = 1.0, r.indices[sl].astype(np.int64), r.data[sl]
-            else:
+            elif predictor[node]:
                 sl = slice(c_off[node], c_off[node + 1])
                 kN, b_idx, b_val = self.kcoef[node], c_idx[sl], c_val[sl]
+            else:
+                kN = self.kcoef[node]
+                b_idx, b_val = self._dp_lumped(node, c_off, c_idx, c_val)
             U, K = fr.node_tangent(
                 self.frame_a[node],
                 self.S[node],
@@ -1444,16 +1515,197 @@ class MortarContact:
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
                 b_idx,
                 b_val,
+                None if mot is None else self._moving_rows(mot, node),
             )
             if U.size:
                 idx = U.astype(PETSc.IntType)
                 A.setValues(idx, idx, K, addv=PETSc.InsertMode.ADD_VALUES)
 
-    def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
+    def _dp_lumped(self, node, c_off, c_idx, c_val) -> tuple[np.ndarray, np.ndarray]:
+        """Lumped normal recovery: the row of ∂p^I = −(ε^I/A^I) row as (dofs, values): B^I,
+        plus C^I with segment integration (the points move, :meth:`_add_segment_jacobian`)."""
+        sl = slice(c_off[node], c_off[node + 1])
+        if self._seg_c_rows is None:
+            return c_idx[sl], c_val[sl]
+        r = self._seg_c_rows
+        sc = slice(r.indptr[node], r.indptr[node + 1])
+        return np.concatenate([c_idx[sl], r.indices[sc]]), np.concatenate([c_val[sl], r.data[sc]])
+
+    def _segment_slip_motion(self, A, values=()) -> dict:
+        """Segment integration: the motion of the points in the slip integrals (local).
+
+        A point q of weight w_q at ξ_q contributes w_q Ψ_I(ξ_q) to A_T^I, w_q Ψ_I Δg(ξ_q) to
+        S^I and the residual weights W_Ia = w_q Ψ_I N_a(ξ_q) (slave node a), W_Ib =
+        −w_q Ψ_I N^m_b(ζ_n(ξ_q)) (node b of the t_n master facet), :mod:`.kernels.friction`.
+        With dξ_q, dw_q of :meth:`_segment_motion` and the point terms of
+        :func:`.kernels.friction.slip_point_terms`:
+
+            dA_T^I = Ψ_I dw + w ∂_βΨ_I dξ^β,   dS^I = Δg dA_T^I + w Ψ_I ∂_βΔg dξ^β,
+            dW_Ia = N_a dA_T^I + w Ψ_I ∂_βN_a dξ^β,
+            dW_Ib = −(N^m_b dA_T^I + w Ψ_I ∂_β[N^m_b(ζ_n)] dξ^β),
+
+        summed over the points of each (slave facet, master facet) by
+        :func:`.kernels.friction.slip_motion_blocks`. Adds Σ_I t^I ⊗ dW_I (the variation of
+        the residual weights, R_T = Σ_I Wᵀ t^I) to ``A``. For nodal ``values`` (each (N, m),
+        all nodes, global numbering), also (∂M v)^I = v_h dA_T^I + w Ψ_I ∂_β v_h dξ^β with
+        v_h = Σ_J Φ_J v^J, or v^I on a facet whose block of M is lumped
+        (:meth:`_tangential_mass`): the consistent tangential recoveries need them.
+
+        Returns the entries e = (facet, master facet, node I): ``node`` (E,), ``cols``
+        (E, nloc) global dofs, ``dS`` (E, d, nloc), ``dAT`` (E, nloc), ``dMv``
+        (len(values), E, m, nloc), and the rows of ∂S^I and ∂A_T^I summed per node as CSR
+        ``dS_rows`` (n·d, ndof), ``dAT_rows`` (n, ndof).
+        """
+        dxi, dw = self._seg_motion
+        n_rows = dw.shape[0]
+        ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
+        k, m = d - 1, d - 1
+        nphi = self.node_of.shape[1]
+        dg, dgxi = np.zeros((n_rows, d)), np.zeros((n_rows, k, d))
+        Ns, dNs = np.zeros((n_rows, ns)), np.zeros((n_rows, ns, k))
+        Nm, dNm = np.zeros((n_rows, nm)), np.zeros((n_rows, nm, k))
+        psi, dpsi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
+        phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
+        if n_rows:
+            kfriction.slip_point_terms(
+                self.ftype,
+                self.master.ftype,
+                self.ftype_phi,
+                self.xs,
+                self.xm,
+                *self._x_n,
+                self.qp_xi,
+                self.qp_w,
+                self.qp_m,
+                self.qp_mn,
+                self.qp_zn,
+                self.t_weights,
+                self.dual_area,
+                dg,
+                dgxi,
+                Ns,
+                dNs,
+                Nm,
+                dNm,
+                psi,
+                dpsi,
+                phi,
+                dphi,
+            )
+        fr_, qr = np.nonzero(self.qp_m >= 0)
+        mr, mn = self.qp_m[fr_, qr], self.qp_mn[fr_, qr]
+        w = self.qp_w[fr_, qr]
+        nmf = self.master.num_facets
+        k1, g1 = np.unique(fr_ * nmf + mr, return_inverse=True)
+        k2, g2 = np.unique((fr_ * nmf + mr) * nmf + np.maximum(mn, 0), return_inverse=True)
+        nodes = self.node_of[fr_]
+        slot_node = np.where(self.node_touching[np.maximum(nodes, 0)], nodes, -1)
+        used = (mn >= 0) & (w != 0.0)  # the points of the slip integrals
+        # the nodal values seen by each slot (lumped facets: the slot's own value)
+        nv = len(values)
+        vh, dvh = np.zeros((nv, n_rows, nphi, m)), np.zeros((nv, n_rows, nphi, k, m))
+        lump = self._tangential_partial()[fr_] if nv else None
+        for v, val in enumerate(values):
+            vals = val[self.facet_gid[fr_]]  # (n_rows, nphi, m)
+            vh[v] = np.where(
+                lump[:, None, None], vals, np.einsum("ri,ria->ra", phi, vals)[:, None, :]
+            )
+            dvh[v] = np.where(
+                lump[:, None, None, None], 0.0, np.einsum("rib,ria->rba", dphi, vals)[:, None]
+            )
+        nloc = (ns + nm) * d
+        dS = np.zeros((k1.size, nphi, d, nloc))
+        dAT = np.zeros((k1.size, nphi, nloc))
+        tw = np.zeros((k2.size, nloc, nloc))
+        dMv = np.zeros((nv, k1.size, nphi, m, nloc))
+        kfriction.slip_motion_blocks(
+            g1,
+            g2,
+            slot_node,
+            used,
+            self.t_vec,
+            w,
+            dxi,
+            dw,
+            dg,
+            dgxi,
+            Ns,
+            dNs,
+            Nm,
+            dNm,
+            psi,
+            dpsi,
+            vh,
+            dvh,
+            dS,
+            dAT,
+            tw,
+            dMv,
+        )
+        # Σ_I t^I ⊗ dW_I: rows [slave facet dofs, t_n master facet dofs], columns the
+        # local dofs [slave facet, current master facet]
+        f2, rest = np.divmod(k2, nmf * nmf)
+        m2, mn2 = np.divmod(rest, nmf)
+        _add_blocks(
+            A,
+            np.arange(k2.size),
+            np.concatenate([self.slave.dofs[f2], self.master.dofs[mn2]], axis=1),
+            np.concatenate([self.slave.dofs[f2], self.master.dofs[m2]], axis=1),
+            tw,
+        )
+        # the entries (group, slot) of a node taking part
+        f1, m1 = np.divmod(k1, nmf)
+        gg, ii = np.nonzero(np.any(dAT != 0.0, axis=2) | np.any(dS != 0.0, axis=(2, 3)))
+        node = self.node_of[f1[gg], ii]
+        cols = np.concatenate([self.slave.dofs[f1], self.master.dofs[m1]], axis=1)[gg]
+        dS, dAT, dMv = dS[gg, ii], dAT[gg, ii], dMv[:, gg, ii]
+        n, ndof = self.node_blocks.size, int(self.ranges[-1]) * self.bs
+        keep = cols >= 0
+        en = np.broadcast_to(node[:, None], cols.shape)[keep]
+        dS_rows = sp.csr_matrix(
+            (
+                dS.transpose(1, 0, 2)[:, keep].ravel(),
+                ((en[None, :] * d + np.arange(d)[:, None]).ravel(), np.tile(cols[keep], d)),
+            ),
+            shape=(n * d, ndof),
+        )
+        dAT_rows = sp.csr_matrix((dAT[keep], (en, cols[keep])), shape=(n, ndof))
+        order = np.argsort(node, kind="stable")
+        return {
+            "node": node,
+            "cols": cols,
+            "dS": dS,
+            "dAT": dAT,
+            "dMv": dMv,
+            "dS_rows": dS_rows,
+            "dAT_rows": dAT_rows,
+            "order": order,
+            "off": np.searchsorted(node[order], np.arange(n + 1)),
+        }
+
+    @staticmethod
+    def _entries_of(mot: dict, node: int) -> np.ndarray:
+        """The entries of :meth:`_segment_slip_motion` that belong to ``node``."""
+        return mot["order"][mot["off"][node] : mot["off"][node + 1]]
+
+    def _moving_rows(self, mot: dict, node: int):
+        """``moving`` of :func:`.friction.node_tangent` for one node, or None."""
+        d = self.gdim
+        rows, at = mot["dS_rows"][node * d : (node + 1) * d], mot["dAT_rows"][node]
+        dofs = np.union1d(rows.indices, at.indices)
+        if not dofs.size:
+            return None
+        return dofs, rows[:, dofs].toarray(), at[:, dofs].toarray()[0]
+
+    def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val, mot=None) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] for the consistent tangential
         recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
         ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α and ∂p^K = −(row of the normal recovery). The rows
-        ∂σ^K and ∂p^K of every node are gathered (collective); non-symmetric."""
+        ∂σ^K and ∂p^K of every node are gathered (collective); non-symmetric.
+
+        Segment integration (``mot`` from :meth:`_segment_slip_motion`): ∂S^K has the
+        part of the moving points, and M and A_T move too, ∂τ = Tsig(∂σ − ∂M γ) + Tp ∂p
+        + TF(τ̂ ∂A_T − ∂M τ); the rows τ̂ ∂A_T − ∂M τ are gathered as well."""
         comm, rec = self.comm, self._trec
         d, m, bs = self.gdim, self.gdim - 1, self.bs
         n, lo = self.node_blocks.size, self.gid_offset
@@ -1461,7 +1713,9 @@ class MortarContact:
         ndof = int(self.ranges[-1]) * bs
         fo, pf_all = self.frames.pair_off, self.frames.pair_f
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
-        trip_s, trip_p, local_rows = [], [], {}
+        trip_s, trip_p, trip_f, local_rows = [], [], [], {}
+        if mot is not None:
+            dMg, dMt = mot["dMv"]  # (E, m, nloc): ∂M γ and ∂M τ
         for node in np.flatnonzero(hasT):
             s, e = self.s_off[node], self.s_off[node + 1]
             ps, pe = fo[node], fo[node + 1]
@@ -1479,19 +1733,25 @@ class MortarContact:
             g = lo + node
             for a in range(m):
                 trip_s.append((np.full(nu, g * m + a), U, Gr[a]))
+            sel = np.empty(0, np.int64) if mot is None else self._entries_of(mot, node)
+            if sel.size:
+                cols = mot["cols"][sel].ravel()
+                keep = cols >= 0
+                dsig = np.einsum("ac,ecj->eaj", self.frame_a[node], mot["dS"][sel]) - dMg[sel]
+                dF = self._trec.tau_hat[g][None, :, None] * mot["dAT"][sel][:, None, :] - dMt[sel]
+                for a in range(m):
+                    rows_a = np.full(int(keep.sum()), g * m + a)
+                    trip_s.append((rows_a, cols[keep], dsig[:, a].ravel()[keep]))
+                    trip_f.append((rows_a, cols[keep], dF[:, a].ravel()[keep]))
             if self._dp_rows is not None:
                 r = self._dp_rows
                 sl = slice(r.indptr[node], r.indptr[node + 1])
                 trip_p.append((np.full(sl.stop - sl.start, g), r.indices[sl], -r.data[sl]))
             else:
-                sl = slice(c_off[node], c_off[node + 1])
-                keep = c_idx[sl] >= 0
+                b_idx, b_val = self._dp_lumped(node, c_off, c_idx, c_val)
+                keep = b_idx >= 0
                 trip_p.append(
-                    (
-                        np.full(int(keep.sum()), g),
-                        c_idx[sl][keep],
-                        -self.kcoef[node] * c_val[sl][keep],
-                    )
+                    (np.full(int(keep.sum()), g), b_idx[keep], -self.kcoef[node] * b_val[keep])
                 )
 
         def gathered(trips, nrows):
@@ -1505,7 +1765,10 @@ class MortarContact:
         Gm = gathered(trip_s, N * m)
         Pm = gathered(trip_p, N)
         own = np.arange(lo * m, (lo + n) * m)
-        dtau = (sp.csr_matrix(rec.Tsig[own]) @ Gm + sp.csr_matrix(rec.Tp[own]) @ Pm).tocsr()
+        dtau = sp.csr_matrix(rec.Tsig[own]) @ Gm + sp.csr_matrix(rec.Tp[own]) @ Pm
+        if self.integration == "segment":  # on every rank (collective)
+            dtau = dtau + sp.csr_matrix(rec.TF[own]) @ gathered(trip_f, N * m)
+        dtau = dtau.tocsr()
         keys, nb = [], int(self.ranges[-1])
         for node, (U, Srow, Frow) in local_rows.items():
             rows = dtau[node * m : (node + 1) * m]

@@ -236,20 +236,31 @@ def node_rows(s_dofs, s_w, f_dofs, f_dA, extra=None):
     return U, pos, Srow, Frow
 
 
-def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val):
+def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val, moving=None):
     """K_I = (∂S/∂u)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring).
 
     a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
     :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs, s_w, f_dofs, f_dA as
-    :func:`node_rows`; b_idx, b_val the row B^I. Dofs < 0 are dropped.
+    :func:`node_rows`; b_idx, b_val the row B^I. Dofs < 0 are dropped. ``moving`` = (dofs
+    (E,), dS (d, E), dA_T (E,)): the parts of ∂S and ∂A_T from moving integration points
+    (segment integration), so that ∂γ = (a·∂S + S·∂a)/A_T − γ ∂A_T/A_T; the left factor
+    (the residual weights) stays (∂S/∂u at fixed points).
     Returns (dofs (U,), K (U, U)).
     """
     m, d = a.shape
-    U, pos, Srow, Frow = node_rows(s_dofs, s_w, f_dofs, f_dA, b_idx)
+    extra = b_idx if moving is None else np.concatenate([b_idx, moving[0]])
+    U, pos, Srow, Frow = node_rows(s_dofs, s_w, f_dofs, f_dA, extra)
     nu = U.size
     Brow = np.zeros(nu + 1)
     np.add.at(Brow, pos(b_idx), b_val)
-    dgam = (a @ Srow.reshape(d, -1) + np.einsum("c,acu->au", S, Frow)) / AT
+    dS = Srow.reshape(d, -1)
+    if moving is not None:
+        j = pos(moving[0])
+        dS = dS + np.stack([np.bincount(j, moving[1][c], nu + 1) for c in range(d)])
+        at_row = np.bincount(j, moving[2], nu + 1)
+    dgam = (a @ dS + np.einsum("c,acu->au", S, Frow)) / AT
+    if moving is not None:
+        dgam -= np.outer(a @ S / AT, at_row / AT)
     dtau = D @ dgam - np.outer(Pd, kN * Brow)
     dt = a.T @ dtau + np.einsum("a,acu->cu", tau, Frow)
     K = Srow[:, :nu].T @ dt[:, :nu]

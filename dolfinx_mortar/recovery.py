@@ -322,7 +322,10 @@ class TangentialRecovered(_LazyTangent):
 
     The tangent operator, built on first use: ``Tsig`` (n·m, n·m) = ∂τ/∂σ and ``Tp``
     (n·m, n) = ∂τ/∂p, dense, with the components of node I at rows I·m + α (σ^I_α =
-    a^I_α·S^I: the weighted slip in the node's frame; p: the normal pressures of the cone).
+    a^I_α·S^I: the weighted slip in the node's frame; p: the normal pressures of the cone),
+    and ``TF`` (n·m, n·m) = ∂τ/∂F at fixed M (W = M⁻¹ unconstrained, the linearised
+    M-norm projection constrained; zero when lumped), with which a variation of M and A
+    enters as ∂τ = Tsig(∂σ − ∂M γ) + TF(τ̂ ∂A − ∂M τ) (moving integration points).
     """
 
     gamma: np.ndarray
@@ -341,6 +344,10 @@ class TangentialRecovered(_LazyTangent):
     @property
     def Tp(self) -> np.ndarray:
         return self._tangent[1]
+
+    @property
+    def TF(self) -> np.ndarray:
+        return self._tangent[2]
 
 
 def _project_discs(z: np.ndarray, c: np.ndarray):
@@ -472,11 +479,13 @@ def recover_tangential(
     k = idx.size
     pos = (idx[:, None] * m + np.arange(m)).ravel()  # rows of the taking-part nodes
 
-    def embed(Ts, Tp_):
-        Tsig, Tp = np.zeros((n * m, n * m)), np.zeros((n * m, n))
+    def embed(Ts, Tp_, TF_=None):
+        Tsig, Tp, TF = np.zeros((n * m, n * m)), np.zeros((n * m, n)), np.zeros((n * m, n * m))
         Tsig[np.ix_(pos, pos)] = Ts
         Tp[np.ix_(pos, idx)] = Tp_
-        return Tsig, Tp
+        if TF_ is not None:
+            TF[np.ix_(pos, pos)] = TF_
+        return Tsig, Tp, TF
 
     Dk, Pk, Ak = D[idx], Pd[idx], A[idx]
     if method == "lumped":
@@ -500,7 +509,7 @@ def recover_tangential(
         tau[idx] = W @ F[idx]
 
         def unconstrained_tangent():
-            return embed(Wb @ dF_sig, Wb @ dF_p)
+            return embed(Wb @ dF_sig, Wb @ dF_p, Wb)
 
         return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, unconstrained_tangent)
     c = mu * np.maximum(p[idx], 0.0)
@@ -510,6 +519,7 @@ def recover_tangential(
     def constrained_tangent():
         PR = _blockdiag(dPz) * np.repeat(1.0 / np.diag(Mh), m)[None, :]
         rhs_p = PR @ dF_p + _column_blocks(dPc) * mu
-        return embed(np.linalg.solve(J, PR @ dF_sig), np.linalg.solve(J, rhs_p))
+        TF = np.linalg.solve(J, PR)
+        return embed(TF @ dF_sig, np.linalg.solve(J, rhs_p), TF)
 
     return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, constrained_tangent, its)

@@ -191,6 +191,9 @@ PARAMS = (
         for case in ("hertz2d-P1", "hertz2d-P2", "hertz2d-Q1")
         for recovery in ("unconstrained", "constrained")
     ]
+    # 3D segment integration: the vertices of the clipped polygons move with u
+    + [(case, "segment", "lumped") for case in ("hertz3d-P1", "hertz3d-P2", "patch3d-Q1")]
+    + [("hertz3d-P1", "segment", recovery) for recovery in ("unconstrained", "constrained")]
 )
 
 
@@ -282,36 +285,6 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
         Kv = v.duplicate()
         first.mult(v, Kv)
         assert v.dot(Kv) >= -1e-12 * first.norm() * v.norm() ** 2
-
-
-#: Segment integration where the tangent is still approximate, with the bound asserted:
-#: 3D (the clipped polygons' motion is not linearised; measured 1.6e-4). The 2D mixed
-#: recoveries (1.7e-6 before the variation of M was linearised) are in PARAMS now.
-SEGMENT_ERROR_BOUND = {
-    ("hertz3d-P1", "lumped"): 1e-3,
-}
-
-
-@pytest.mark.mpi
-@pytest.mark.parametrize("case, recovery", sorted(SEGMENT_ERROR_BOUND))
-def test_segment_tangent_error_is_bounded(case, recovery):
-    """Segment integration, the cases whose tangent is approximate
-    (docs/method-notes.md, "Segment integration"): bounded, but not round-off. This test
-    fails, on purpose, once their linearisation is completed (then move them to PARAMS)."""
-    problem = _problem(case, "segment", recovery)
-    term = problem.contacts[0]
-    _set_state(problem, {2: 0.05, 3: 0.04}[problem.gdim], CASES[case][4][0])
-    rng = np.random.default_rng(1 + MPI.COMM_WORLD.rank)
-    term.lmbda = np.where(rng.random(term.lmbda.size) < 0.5, 0.2 * rng.random(term.lmbda.size), 0.0)
-    u0 = problem.u.vector.copy()
-    term.update(problem.u)
-    assert MPI.COMM_WORLD.allreduce(int((term.p > 0).sum())) >= 3
-    A = problem.create_matrix()
-    A.zeroEntries()
-    term.add_jacobian(A)
-    A.assemble()
-    errs = fd_errors(problem, term, A, u0, n=2)
-    assert 1e-8 < max(errs) < SEGMENT_ERROR_BOUND[case, recovery], errs
 
 
 def _pin_neighbours(term, max_pins=6):

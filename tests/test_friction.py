@@ -218,6 +218,85 @@ def test_slip_integrals_match_reference(case, weights):
     assert np.allclose(S_w, S, atol=1e-12)
 
 
+@pytest.mark.parametrize("case", ["hertz2d-P2", "hertz3d-P1"])
+def test_slip_point_terms_match_reference(case):
+    """kernels.friction.slip_point_terms against the NumPy reference geometry
+    (kernels.reference): Δg(ξ) = x¹(ξ) − x²(ζ_n(ξ)), with ζ_n(ξ) the reference projection of
+    the t_n slave point on the t_n master facet, and its ξ-derivatives by central
+    differences; the shape functions and weights at the point (serial)."""
+    from dolfinx_mortar.kernels import reference as ref
+    from dolfinx_mortar.kernels.friction import slip_point_terms
+
+    problem = _problem(case, "segment")
+    term = _frictional_state(problem, case)
+    xs_n, xm_n = term._x_n
+    fr_, qr = np.nonzero(term.qp_m >= 0)
+    n, d = fr_.size, term.gdim
+    k, ns, nm, nphi = d - 1, term.xs.shape[1], term.xm.shape[1], term.node_of.shape[1]
+    out = [
+        np.zeros(sh)
+        for sh in (
+            (n, d),
+            (n, k, d),
+            (n, ns),
+            (n, ns, k),
+            (n, nm),
+            (n, nm, k),
+            (n, nphi),
+            (n, nphi, k),
+            (n, nphi),
+            (n, nphi, k),
+        )
+    ]
+    slip_point_terms(
+        term.ftype,
+        term.master.ftype,
+        term.ftype_phi,
+        term.xs,
+        term.xm,
+        xs_n,
+        xm_n,
+        term.qp_xi,
+        term.qp_w,
+        term.qp_m,
+        term.qp_mn,
+        term.qp_zn,
+        term.t_weights,
+        term.dual_area,
+        *out,
+    )
+    dg, dgxi, Ns, dNs, Nm, dNm, psi, dpsi, phi, dphi = out
+    mt = term.master.ftype
+
+    def delta_g(f, mn, xi, zeta0):
+        N, _, _ = ref.shape(term.ftype, xi)
+        zeta = ref.project(N @ xs_n[f], xm_n[mn], mt, zeta0=zeta0)
+        Nb, _, _ = ref.shape(mt, zeta)
+        return N @ term.xs[f] - Nb @ term.xm[mn], Nb
+
+    rows = np.flatnonzero(term.qp_mn[fr_, qr] >= 0)
+    assert rows.size > 10
+    h = 1e-6
+    for r in rows[:: max(1, rows.size // 12)]:
+        f, q = fr_[r], qr[r]
+        mn, xi, zn = term.qp_mn[f, q], term.qp_xi[f, q], term.qp_zn[f, q]
+        g0, Nb = delta_g(f, mn, xi, zn)
+        np.testing.assert_allclose(dg[r], g0, atol=1e-12)
+        np.testing.assert_allclose(Nm[r], Nb, atol=1e-12)
+        N, dN, _ = ref.shape(term.ftype, xi)
+        np.testing.assert_allclose(Ns[r], N, atol=1e-12)
+        np.testing.assert_allclose(dNs[r], dN, atol=1e-12)
+        Phi, dPhi, _ = ref.shape(term.ftype_phi, xi)
+        np.testing.assert_allclose(phi[r], Phi, atol=1e-12)
+        np.testing.assert_allclose(dphi[r], dPhi, atol=1e-12)
+        np.testing.assert_allclose(psi[r], Phi, atol=1e-12)  # standard weights: Ψ = Φ
+        for be in range(k):
+            e = np.eye(k)[be] * h
+            (gp, Np), (gm, Nmm) = delta_g(f, mn, xi + e, zn), delta_g(f, mn, xi - e, zn)
+            np.testing.assert_allclose(dgxi[r, be], (gp - gm) / (2 * h), atol=1e-7)
+            np.testing.assert_allclose(dNm[r, :, be], (Np - Nmm) / (2 * h), atol=1e-7)
+
+
 # ---------------------------------------------------------------- the tangent
 FD_CASES = [
     ("hertz2d-P1", "element", "lumped"),
@@ -232,6 +311,15 @@ FD_CASES = [
     ("hertz2d-P1", "element", "constrained"),
     ("hertz2d-Q1", "element", "constrained"),
     ("hertz3d-P1", "element", "constrained"),
+    # segment integration: the points move with u, in the slip integrals too (the
+    # patch3d-Q1 slave overhangs the master edge: 5e-2 before they were linearised)
+    ("hertz2d-P1", "segment", "lumped"),
+    ("hertz2d-P2", "segment", "lumped"),
+    ("hertz2d-Q1", "segment", "lumped"),
+    ("hertz3d-P1", "segment", "lumped"),
+    ("patch3d-Q1", "segment", "lumped"),
+    ("hertz2d-P1", "segment", "constrained"),
+    ("hertz3d-P1", "segment", "constrained"),
 ]
 
 
@@ -250,10 +338,19 @@ def test_frictional_tangent_matches_finite_differences(case, integration, recove
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz2d-P2", "hertz3d-P1"])
-def test_frictional_tangent_with_dual_weights(case):
+@pytest.mark.parametrize(
+    "case, integration",
+    [
+        ("hertz2d-P1", "element"),
+        ("hertz2d-P2", "element"),
+        ("hertz3d-P1", "element"),
+        ("hertz2d-Q1", "segment"),
+        ("hertz3d-P1", "segment"),
+    ],
+)
+def test_frictional_tangent_with_dual_weights(case, integration):
     """The dual tangential weights (on the facets closed at t_n) keep the tangent exact."""
-    problem = _problem(case, weights="dual")
+    problem = _problem(case, integration, weights="dual")
     term = _frictional_state(problem, case)
     closed = MPI.COMM_WORLD.allreduce(int(np.isfinite(term.dual_area).sum()))
     assert closed >= 1
@@ -262,22 +359,26 @@ def test_frictional_tangent_with_dual_weights(case):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize(
-    "case, recovery, t_recovery",
+    "case, recovery, t_recovery, integration",
     [
-        ("hertz2d-P1", "lumped", "unconstrained"),
-        ("hertz2d-P1", "lumped", "constrained"),
-        ("hertz2d-Q1", "constrained", "constrained"),
-        ("hertz2d-P2", "lumped", "constrained"),
-        ("hertz3d-P1", "lumped", "unconstrained"),
-        ("hertz3d-P1", "constrained", "constrained"),
+        ("hertz2d-P1", "lumped", "unconstrained", "element"),
+        ("hertz2d-P1", "lumped", "constrained", "element"),
+        ("hertz2d-Q1", "constrained", "constrained", "element"),
+        ("hertz2d-P2", "lumped", "constrained", "element"),
+        ("hertz3d-P1", "lumped", "unconstrained", "element"),
+        ("hertz3d-P1", "constrained", "constrained", "element"),
+        # segments: the tangential mortar matrix and A_T move with the points
+        ("hertz2d-P1", "lumped", "unconstrained", "segment"),
+        ("hertz2d-Q1", "constrained", "constrained", "segment"),
+        ("hertz3d-P1", "lumped", "constrained", "segment"),
     ],
 )
-def test_frictional_tangent_with_tangential_recovery(case, recovery, t_recovery):
+def test_frictional_tangent_with_tangential_recovery(case, recovery, t_recovery, integration):
     """The consistent tangential recoveries (M⁻¹ and the Coulomb-cone QP on the gathered
     slave surface) keep the tangent exact; they differ from the lumped recovery."""
-    problem = _problem(case, recovery=recovery, t_recovery=t_recovery)
+    problem = _problem(case, integration, recovery=recovery, t_recovery=t_recovery)
     term = _frictional_state(problem, case)
-    lumped = _frictional_state(_problem(case, recovery=recovery), case)
+    lumped = _frictional_state(_problem(case, integration, recovery=recovery), case)
     comm = MPI.COMM_WORLD
     s_c, s_l = (comm.allreduce(float(np.sum(t.tau**2))) for t in (term, lumped))  # any partition
     assert abs(s_c - s_l) > 1e-6 * s_l > 0.0, (s_c, s_l)

@@ -489,13 +489,48 @@ def test_shape_errors():
         run(INTERVAL1, xs, [1.0], TRIANGLE1, xm, [1.0], interval_rule(2))
 
 
-@pytest.mark.parametrize("ftype_s", [INTERVAL1, INTERVAL2])
-def test_2d_segment_end_derivatives_match_fd(ftype_s):
-    """dξ_q and dw_q of every point (segment_end_derivatives) against central differences
-    of segment_points in each local dof: the slave facet's nodes and the point's master
-    facet's nodes (inclined, curved slave on a kinked master; reference geometry ≠ current)."""
-    from dolfinx_mortar.kernels.segment import segment_end_derivatives
+def _fd_derivatives(ftype_s, xs, ss, ftype_m, xm, ms, rule, Xs, h=1e-6):
+    """segment_derivatives against central differences of segment_points in every local
+    dof of every point (the slave facet's nodes and the point's master facet's nodes);
+    the FD perturbations must not change the point set. Returns (dxi, dw)."""
+    from dolfinx_mortar.kernels.segment import segment_derivatives
 
+    count, qp_xi, qp_w, qp_m = run(ftype_s, xs, ss, ftype_m, xm, ms, rule, Xs=Xs)
+    nsf, nmf = xs.shape[0], xm.shape[0]
+    cand_off = np.arange(nsf + 1, dtype=np.int64) * nmf
+    cand = np.tile(np.arange(nmf, dtype=np.int64), nsf)
+    ns, nm, d = xs.shape[1], xm.shape[1], xs.shape[2]
+    k, nloc = d - 1, (ns + nm) * d
+    rows = np.flatnonzero(qp_m.ravel() >= 0)
+    dxi, dw = np.zeros((rows.size, k, nloc)), np.zeros((rows.size, nloc))
+    args = (ftype_s, xs, Xs, np.asarray(ss, float), ftype_m, xm, np.asarray(ms, float))
+    n = segment_derivatives(*args, cand_off, cand, *rule, qp_m, dxi, dw)
+    assert n == rows.size
+    for r, flat in enumerate(rows):
+        f, q = divmod(flat, qp_m.shape[1])
+        m = qp_m[f, q]
+        for j in range(nloc):
+            pts = []
+            for sgn in (1.0, -1.0):
+                xs2, xm2 = xs.copy(), xm.copy()
+                if j < ns * d:
+                    xs2[f, j // d, j % d] += sgn * h
+                else:
+                    xm2[m, (j - ns * d) // d, j % d] += sgn * h
+                c2, xi2, w2, m2 = run(ftype_s, xs2, ss, ftype_m, xm2, ms, rule, Xs=Xs)
+                assert np.array_equal(c2, count) and np.array_equal(m2, qp_m)
+                pts.append((xi2[f, q], w2[f, q]))
+            fd_xi = (pts[0][0] - pts[1][0]) / (2 * h)
+            fd_w = (pts[0][1] - pts[1][1]) / (2 * h)
+            np.testing.assert_allclose(dxi[r, :, j], fd_xi, rtol=0, atol=1e-7, err_msg=f"{r} {j}")
+            assert dw[r, j] == pytest.approx(fd_w, abs=1e-7), (r, j)
+    return dxi, dw
+
+
+@pytest.mark.parametrize("ftype_s", [INTERVAL1, INTERVAL2])
+def test_2d_segment_derivatives_match_fd(ftype_s):
+    """dξ_q and dw_q of every point (segment_derivatives) against central differences
+    (inclined, curved slave on a kinked master; reference geometry ≠ current)."""
     xs = [[0.0, 0.02], [1.0, 0.09]]
     if ftype_s == INTERVAL2:
         xs.append([0.5, 0.09])
@@ -503,30 +538,35 @@ def test_2d_segment_end_derivatives_match_fd(ftype_s):
     ss = [outward_sign(ftype_s, xs[0], np.array([0.0, 1.0]))]
     xm, ms = master_intervals(np.array([-0.3, 0.05, 0.37, 0.61, 0.9, 1.22]), y=0.08)
     xm[2, 1, 1] += 0.03  # a kink
-    rule = interval_rule(3)
-    Xs = 1.3 * xs + 0.1
-    count, qp_xi, qp_w, qp_m = run(ftype_s, xs, ss, INTERVAL1, xm, ms, rule, Xs=Xs)
-    n = int(count[0])
-    ns, d = xs.shape[1], 2
-    nloc = (ns + 2) * d
-    dxi, dw = np.zeros((n, nloc)), np.zeros((n, nloc))
-    segment_end_derivatives(ftype_s, xs, Xs, xm, qp_xi[:, :n], qp_w[:, :n], qp_m[:, :n], dxi, dw)
-    h = 1e-6
-    for q in range(n):
-        m = qp_m[0, q]
-        for j in range(nloc):
-            pts = []
-            for sgn in (1.0, -1.0):
-                xs2, xm2 = xs.copy(), xm.copy()
-                if j < ns * d:
-                    xs2[0, j // d, j % d] += sgn * h
-                else:
-                    xm2[m, (j - ns * d) // d, j % d] += sgn * h
-                c2, xi2, w2, m2 = run(ftype_s, xs2, ss, INTERVAL1, xm2, ms, rule, Xs=Xs)
-                assert c2[0] == n and np.array_equal(m2[0, :n], qp_m[0, :n])
-                pts.append((xi2[0, q, 0], w2[0, q]))
-            fd_xi = (pts[0][0] - pts[1][0]) / (2 * h)
-            fd_w = (pts[0][1] - pts[1][1]) / (2 * h)
-            assert dxi[q, j] == pytest.approx(fd_xi, abs=1e-7), (q, j)
-            assert dw[q, j] == pytest.approx(fd_w, abs=1e-7), (q, j)
+    dxi, dw = _fd_derivatives(ftype_s, xs, ss, INTERVAL1, xm, ms, interval_rule(3), 1.3 * xs + 0.1)
     assert np.abs(dxi).max() > 0.1 and np.abs(dw).max() > 0.01  # the ends do move
+
+
+@pytest.mark.parametrize(
+    "ftype_s, ftype_m, bulge",
+    [
+        (TRIANGLE1, TRIANGLE1, None),
+        (TRIANGLE1, QUAD1, None),
+        (QUAD1, QUAD1, None),
+        (QUAD1, TRIANGLE1, None),
+        (TRIANGLE2, TRIANGLE2, [0.0, 0.0, 0.03]),
+        (QUAD2, QUAD1, [0.01, -0.02, 0.04]),
+    ],
+)
+def test_3d_segment_derivatives_match_fd(ftype_s, ftype_m, bulge):
+    """3D: dξ_q and dw_q of every point against central differences, on tilted and warped
+    slave facets (the frame c, t₁, t₂ moves with every slave vertex) over a rotated,
+    perturbed, non-flat master: points in polygons with master vertices, edge-edge
+    intersections and reference corners; reference geometry ≠ current."""
+    xs, ss = slave_facets(ftype_s, None if bulge is None else np.array(bulge))
+    xs = xs.copy()
+    xs[..., 2] += 0.05 * xs[..., 0] - 0.03 * xs[..., 1]  # tilted
+    if ftype_s == QUAD1:
+        xs[0, 3] += [0.07, -0.05, 0.04]  # warped, non-parallelogram
+    xm, ms = master_surface(ftype_m, z=0.02)
+    xm = xm.copy()
+    xm[..., 2] += 0.02 * np.sin(3.0 * xm[..., 0]) * np.cos(2.0 * xm[..., 1])
+    Xs = 1.2 * xs + 0.3
+    Xs[..., 2] += 0.1 * Xs[..., 0] ** 2  # curved reference facet: J₀ varies with ξ
+    dxi, dw = _fd_derivatives(ftype_s, xs, ss, ftype_m, xm, ms, triangle_rule(2), Xs)
+    assert np.abs(dxi).max() > 0.1 and np.abs(dw).max() > 0.01

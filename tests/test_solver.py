@@ -58,7 +58,7 @@ class _Newton:
         self.reused_factorizations = 0
         self.failed_reuses = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         p = self.problem
         t0 = p.committed[-1] if p.committed else 0.0
         if p.t - t0 > self.limit(t0):
@@ -96,7 +96,7 @@ class _NoPredictor(_Newton):
         super().__init__(problem, lambda t0: 1.0)
         self.predicted = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         if dtol is not None:
             self.predicted += 1
             raise ConvergenceError("far off")
@@ -121,7 +121,7 @@ def _predicted_solves(p, n):
     newton = _Newton(p, lambda t0: 1.0)
     calls = []
     orig = newton.solve
-    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False: (
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False: (
         calls.append(dtol) or orig(rtol, dtol, rescue)
     )
     results = LoadStepper(p, newton, 1.0, n).run()
@@ -363,6 +363,39 @@ def test_a_failed_reuse_factorizes_again(cubic_vectors, monkeypatch):
     its, norms, counts = _two_rounds("test_reusefail_")
     assert counts == (0, 1)
     assert norms[-1] <= 1e-11 * norms[0]
+
+
+def test_a_forced_solve_iterates_below_atol(cubic_vectors):
+    """A multiplier change whose residual is already below atol: a plain solve keeps the
+    state, a forced one (later Uzawa rounds) takes a Newton step towards the new root."""
+    for force, moves in ((False, False), (True, True)):
+        problem = _Shifted(3.0)
+        opts = SolverSettings(rtol=1e-12, atol=1e-6, prefix=f"test_force_{force}_")
+        with NewtonSolver(problem, opts) as newton:
+            newton.solve()
+            x0 = problem.u.vector.array.copy()
+            problem.s = np.array([0.0, 0.0, 1e-8])  # residual change 2e-8 < atol
+            its, norms = newton.solve(force=force)
+        assert norms[0] < 1e-6
+        assert (its > 0) == moves
+        x = problem.u.vector.array
+        assert (abs(x[2] - x0[2]) > 1e-10) == moves
+        if moves:  # the step lands on the shifted root: x³ + s x = 8
+            assert abs(x[2] ** 3 + 1e-8 * x[2] - 8.0) < 1e-14
+
+
+def test_later_uzawa_rounds_force_an_iteration():
+    """solve_step forces at least one Newton iteration in every round after the first."""
+    p = _Unfrozen([0, 0], growing=False)
+    p.set_time(0.5)
+    newton = _Newton(p, lambda t0: 1.0)
+    forced = []
+    orig = newton.solve
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False: (
+        forced.append(force) or orig(rtol, dtol, rescue)
+    )
+    solver_module.solve_step(p, newton, uzawa_max=10, inexact=False)
+    assert forced == [False, True, True]
 
 
 def test_no_reuse_with_an_iterative_solver(cubic_vectors):

@@ -24,6 +24,11 @@ and the constant weights W^I_k of S^I = Σ_k W^I_k x_k over the slave facet node
 (W = w J₀ Ψ_I N_a) and the old master facet nodes (W = −w J₀ Ψ_I N^m_b(ζ_n)), one
 entry per (node I, point, facet node): ``e_node``, ``e_key`` (global block of
 node k), ``e_dof`` (its d global dofs, −1 where constrained), ``e_w``.
+
+With segment integration the points move with u; :func:`slip_point_terms` gives the
+pieces of those derivatives along ξ (Δg, ∂Δg/∂ξ through the t_n projection, the shape
+functions and weights), which :mod:`dolfinx_mortar.contact` combines with the motion of
+the points.
 """
 
 from __future__ import annotations
@@ -31,10 +36,42 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .gap import projection_derivative
 from .shape import shape, tdim
 
 #: relative shortfall of the paired area below which a facet still counts as fully paired
 FULL_COVER_TOL = 1e-6
+
+
+@numba.njit(cache=True)
+def _use_dual(f, qp_w, qp_m, qp_mn, area):
+    """Whether facet f uses the dual weights: its points paired now and at t_n cover its
+    whole ``area[f]`` (to FULL_COVER_TOL)."""
+    covered = 0.0
+    for q in range(qp_w.shape[1]):
+        if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0:
+            covered += qp_w[f, q]
+    return covered >= (1.0 - FULL_COVER_TOL) * area[f]
+
+
+@numba.njit(cache=True)
+def _weights(ftype_phi, xi, use_dual, dual_f, nphi, Psi, dPsi, Phi, dP, ddP):
+    """Ψ_i(ξ) (nphi,) and ∂Ψ_i/∂ξ_β (nphi, k): Σ_j dual_f[i, j] Φ_j, or Φ itself."""
+    shape(ftype_phi, xi, Phi, dP, ddP)
+    k = dPsi.shape[1]
+    for i in range(nphi):
+        if use_dual:
+            Psi[i] = 0.0
+            for be in range(k):
+                dPsi[i, be] = 0.0
+            for j in range(nphi):
+                Psi[i] += dual_f[i, j] * Phi[j]
+                for be in range(k):
+                    dPsi[i, be] += dual_f[i, j] * dP[j, be]
+        else:
+            Psi[i] = Phi[i]
+            for be in range(k):
+                dPsi[i, be] = dP[i, be]
 
 
 @numba.njit(cache=True)
@@ -91,6 +128,7 @@ def slip_integrals(
     ddNm = np.empty((nm, km, km))
     Phi = np.empty(9)
     Psi = np.empty(9)
+    dPsi = np.empty((9, ks))
     dP = np.empty((9, ks))
     ddP = np.empty((9, ks, ks))
     dg = np.empty(d)
@@ -98,25 +136,14 @@ def slip_integrals(
     S[:, :] = 0.0
     e = 0
     for f in range(nsf):
-        covered = 0.0
-        for q in range(nq):
-            if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0:
-                covered += qp_w[f, q]
-        use_dual = covered >= (1.0 - FULL_COVER_TOL) * area[f]
+        use_dual = _use_dual(f, qp_w, qp_m, qp_mn, area)
         for q in range(nq):
             mn = qp_mn[f, q]
             if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
-            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
-            for i in range(nphi):
-                if use_dual:
-                    Psi[i] = 0.0
-                    for j in range(nphi):
-                        Psi[i] += dual[f, i, j] * Phi[j]
-                else:
-                    Psi[i] = Phi[i]
+            _weights(ftype_phi, qp_xi[f, q], use_dual, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for c in range(d):
                 s = 0.0
                 for a in range(ns):
@@ -147,6 +174,242 @@ def slip_integrals(
                     e_w[e] = -wphi * Nm[b]
                     e += 1
     return e
+
+
+@numba.njit(cache=True)
+def slip_point_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    xs_n,
+    xm_n,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_mn,
+    qp_zn,
+    dual,
+    area,
+    dg,
+    dgxi,
+    Ns,
+    dNs,
+    Nm,
+    dNm,
+    psi,
+    dpsi,
+    phi,
+    dphi,
+):
+    r"""Per paired point (rows: qp_m >= 0, in (facet, point) order, as
+    :func:`dolfinx_mortar.kernels.segment.segment_derivatives`), the pieces of the
+    derivatives of the point's contributions to :func:`slip_integrals` along the slave
+    parameters ξ_β, for the linearisation of moving (segment) points:
+
+    dg = Δg(ξ) (d,) and dgxi_β = ∂Δg/∂ξ_β (k, d), with Δg(ξ) = x¹(ξ) − x²(ζ_n(ξ); m_n) and
+    ζ_n(ξ) the closest-point projection of the t_n slave point x¹_n(ξ) on the t_n master
+    facet m_n, so that
+
+        ∂Δg/∂ξ_β = x¹,β(ξ) − Σ_b ∂_γ N^m_b(ζ_n) x_b · ∂ζ_n^γ/∂ξ_β,
+        ∂ζ_n/∂ξ_β = (∂ζ_n/∂x¹_n) x¹_n,β(ξ)   (:func:`.gap.projection_derivative`);
+
+    Ns, dNs (ns,), (ns, k): the slave shape functions and their ξ-derivatives at ξ;
+    Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; psi, dpsi (nphi,),
+    (nphi, k): the weight functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
+    :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
+    Rows of points that enter no slip integral (not paired at t_n, weight 0) have
+    psi = dpsi = 0.
+
+    xs, xm current and xs_n (nsf, ns, d), xm_n (nmf, nm, d) t_n coordinates; the other
+    inputs as :func:`slip_integrals`.
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = psi.shape[1]
+    k = qp_xi.shape[2]
+    km = qp_zn.shape[2]
+    N = np.empty(ns)
+    dN = np.empty((ns, k))
+    ddN = np.empty((ns, k, k))
+    Nb = np.empty(nm)
+    dNb = np.empty((nm, km))
+    ddNb = np.empty((nm, km, km))
+    Phi = np.empty(9)
+    Psi = np.empty(9)
+    dPsi = np.empty((9, k))
+    dP = np.empty((9, k))
+    ddP = np.empty((9, k, k))
+    x1n = np.empty(d)
+    dzeta = np.empty((km, d * (1 + nm)))
+    dz = np.empty((km, k))
+    row = -1
+    for f in range(nsf):
+        use_dual = _use_dual(f, qp_w, qp_m, qp_mn, area)
+        for q in range(nq):
+            if qp_m[f, q] < 0:
+                continue
+            row += 1
+            mn = qp_mn[f, q]
+            for i in range(nphi):
+                psi[row, i] = 0.0
+                for be in range(k):
+                    dpsi[row, i, be] = 0.0
+            if mn < 0 or qp_w[f, q] == 0.0:
+                continue
+            shape(ftype_s, qp_xi[f, q], N, dN, ddN)
+            shape(ftype_m, qp_zn[f, q], Nb, dNb, ddNb)
+            _weights(ftype_phi, qp_xi[f, q], use_dual, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
+            for i in range(nphi):
+                psi[row, i] = Psi[i]
+                phi[row, i] = Phi[i]
+                for be in range(k):
+                    dpsi[row, i, be] = dPsi[i, be]
+                    dphi[row, i, be] = dP[i, be]
+            # ∂ζ_n/∂ξ_β = (∂ζ_n/∂x¹_n) x¹_n,β
+            for c in range(d):
+                x1n[c] = 0.0
+                for a in range(ns):
+                    x1n[c] += N[a] * xs_n[f, a, c]
+            projection_derivative(x1n, xm_n[mn], ftype_m, qp_zn[f, q], dzeta)
+            for ga in range(km):
+                for be in range(k):
+                    s = 0.0
+                    for c in range(d):
+                        xb = 0.0
+                        for a in range(ns):
+                            xb += dN[a, be] * xs_n[f, a, c]
+                        s += dzeta[ga, c] * xb
+                    dz[ga, be] = s
+            for a in range(ns):
+                Ns[row, a] = N[a]
+                for be in range(k):
+                    dNs[row, a, be] = dN[a, be]
+            for b in range(nm):
+                Nm[row, b] = Nb[b]
+                for be in range(k):
+                    s = 0.0
+                    for ga in range(km):
+                        s += dNb[b, ga] * dz[ga, be]
+                    dNm[row, b, be] = s
+            for c in range(d):
+                s = 0.0
+                for a in range(ns):
+                    s += N[a] * xs[f, a, c]
+                for b in range(nm):
+                    s -= Nb[b] * xm[mn, b, c]
+                dg[row, c] = s
+                for be in range(k):
+                    s = 0.0
+                    for a in range(ns):
+                        s += dN[a, be] * xs[f, a, c]
+                    for b in range(nm):
+                        s -= dNm[row, b, be] * xm[mn, b, c]
+                    dgxi[row, be, c] = s
+
+
+@numba.njit(cache=True)
+def slip_motion_blocks(
+    g1,
+    g2,
+    slot_node,
+    used,
+    t_vec,
+    w,
+    dxi,
+    dw,
+    dg,
+    dgxi,
+    Ns,
+    dNs,
+    Nm,
+    dNm,
+    psi,
+    dpsi,
+    vh,
+    dvh,
+    dS,
+    dAT,
+    tw,
+    dMv,
+):
+    r"""Sums over the moving points (rows as :func:`slip_point_terms`) of the derivatives
+    of the slip integrals (docs/method-notes.md, "Segment integration"), per point group.
+
+    Per row r with ``used[r]`` and per mixed slot i with ``slot_node[r, i] >= 0`` (a node
+    taking part), with dA = Ψ_i dw + w ∂_βΨ_i dξ^β:
+
+        dAT[g1[r], i] += dA,    dS[g1[r], i, c] += Δg_c dA + w Ψ_i ∂_βΔg_c dξ^β,
+        tw[g2[r], a·d + c] += t_c (N_a dA + w Ψ_i ∂_βN_a dξ^β)            (slave node a),
+        tw[g2[r], (ns + b)·d + c] −= t_c (N^m_b dA + w Ψ_i ∂_β[N^m_b] dξ^β) (t_n master node b),
+        dMv[v, g1[r], i, α] += v_h,α dA + w Ψ_i ∂_β v_h,α dξ^β          ((∂M v)^I per value v),
+
+    t = t_vec[slot_node[r, i]]. Inputs: g1, g2 (n,) group numbers (rows of a group share
+    their local dofs: (facet, master) and (facet, master, t_n master)); slot_node (n, nphi);
+    used (n,) bool; t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
+    :func:`.segment.segment_derivatives`; dg … dpsi from :func:`slip_point_terms`; vh
+    (nv, n, nphi, m), dvh (nv, n, nphi, k, m): the interpolated nodal values of the
+    consistent tangential recoveries as seen by slot i (nv = 0: none). Outputs (added to):
+    dS (G1, nphi, d, nloc), dAT (G1, nphi, nloc), tw (G2, (ns + nm)·d, nloc), dMv
+    (nv, G1, nphi, m, nloc).
+    """
+    n, k, nloc = dxi.shape
+    d = dg.shape[1]
+    ns = Ns.shape[1]
+    nm = Nm.shape[1]
+    nphi = psi.shape[1]
+    nv = vh.shape[0]
+    m = vh.shape[3]
+    dA = np.empty(nloc)
+    dX = np.empty(nloc)
+    for r in range(n):
+        if not used[r]:
+            continue
+        a1 = g1[r]
+        a2 = g2[r]
+        for i in range(nphi):
+            node = slot_node[r, i]
+            if node < 0:
+                continue
+            wp = w[r] * psi[r, i]
+            for j in range(nloc):
+                s = psi[r, i] * dw[r, j]
+                for be in range(k):
+                    s += w[r] * dpsi[r, i, be] * dxi[r, be, j]
+                dA[j] = s
+                dAT[a1, i, j] += s
+            for c in range(d):
+                for j in range(nloc):
+                    s = dg[r, c] * dA[j]
+                    for be in range(k):
+                        s += wp * dgxi[r, be, c] * dxi[r, be, j]
+                    dS[a1, i, c, j] += s
+            for a in range(ns + nm):
+                for j in range(nloc):
+                    if a < ns:
+                        s = Ns[r, a] * dA[j]
+                        for be in range(k):
+                            s += wp * dNs[r, a, be] * dxi[r, be, j]
+                    else:
+                        s = Nm[r, a - ns] * dA[j]
+                        for be in range(k):
+                            s += wp * dNm[r, a - ns, be] * dxi[r, be, j]
+                        s = -s
+                    dX[j] = s
+                for c in range(d):
+                    tc = t_vec[node, c]
+                    if tc != 0.0:
+                        for j in range(nloc):
+                            tw[a2, a * d + c, j] += tc * dX[j]
+            for v in range(nv):
+                for al in range(m):
+                    for j in range(nloc):
+                        s = vh[v, r, i, al] * dA[j]
+                        for be in range(k):
+                            s += wp * dvh[v, r, i, be, al] * dxi[r, be, j]
+                        dMv[v, a1, i, al, j] += s
 
 
 def slip_integrals_reference(

@@ -25,9 +25,9 @@ nominal traction):
 
 with the exact derivatives of the closest-point gap
 (:func:`dolfinx_mortar.kernels.gap.gap_and_derivatives`, x¹ = Σ_a N_a x_a).
-For segment integration the motion of the segment ends with u is not
-differentiated (exact when the gap is continuous across master facets and
-the segments tile the slave facet, e.g. a flat or smooth master).
+For segment integration the points and weights also move with u; those terms of
+the tangent come from :func:`dolfinx_mortar.kernels.segment.segment_derivatives` and
+:func:`point_xi_terms` (assembled in :mod:`dolfinx_mortar.contact`).
 
 Local dof vector of a paired point: [slave facet dofs (ns·d), master facet dofs
 (nm·d)], node-major (see :mod:`dolfinx_mortar.layout`).
@@ -552,26 +552,26 @@ def point_xi_terms(
     dphi,
 ):
     r"""Per paired point (rows as in :func:`contact_terms`), the gap and its derivatives
-    along the slave parameter ξ (interval slave facets), for the linearisation of moving
-    segment points:
+    along the slave parameters ξ_β (β < k), for the linearisation of moving segment points:
 
-    b = ∂g/∂u (local dofs), db = d(∂g/∂u)/dξ, g, gxi = dg/dξ = ν·x_s'(ξ) (the closest
-    point is stationary), phi = Φ_I(ξ), dphi = Φ_I'(ξ). With y = [x₁, x_m] and the slave
-    point x₁ = Σ_a N_a(ξ) x_a moving by x_s'(ξ) dξ:
+    b = ∂g/∂u (local dofs), db_β = d(∂g/∂u)/dξ_β, g, gxi_β = dg/dξ_β = ν·x_s,β(ξ) (the
+    closest point is stationary), phi = Φ_I(ξ), dphi_β = ∂Φ_I/∂ξ_β. With y = [x₁, x_m] and
+    the slave point x₁ = Σ_a N_a(ξ) x_a moving by x_s,β(ξ) dξ_β:
 
-        db_(a,c) = N_a'(ξ) ∂g/∂x₁_c + N_a(ξ) Σ_c' ∂²g/∂x₁_c∂x₁_c' x_s'_c',
-        db_(master j) = Σ_c' ∂²g/∂xm_j∂x₁_c' x_s'_c'.
+        db_β(a,c) = ∂_β N_a(ξ) ∂g/∂x₁_c + N_a(ξ) Σ_c' ∂²g/∂x₁_c∂x₁_c' x_s,β_c',
+        db_β(master j) = Σ_c' ∂²g/∂xm_j∂x₁_c' x_s,β_c'.
 
     The leading arguments are those of :func:`contact_terms` (qp_w, sdofs, mdofs and
-    node_of unused). Outputs: b, db (n_paired, nloc); g, gxi (n_paired,); phi, dphi
-    (n_paired, nphi).
+    node_of unused). Outputs: b (n_paired, nloc), db (n_paired, k, nloc); g (n_paired,),
+    gxi (n_paired, k); phi (n_paired, nphi), dphi (n_paired, nphi, k).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
     nm = xm.shape[1]
+    k = qp_xi.shape[2]
     nphi = phi.shape[1]
     N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, False)
-    xp = np.empty(d)
+    xp = np.empty((k, d))
     row = -1
     for f in range(nsf):
         for q in range(nq):
@@ -600,24 +600,26 @@ def point_xi_terms(
             shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
             for i in range(nphi):
                 phi[row, i] = Phi[i]
-                dphi[row, i] = dP[i, 0]
-            s = 0.0
-            for c in range(d):
-                xp[c] = 0.0
-                for a in range(ns):
-                    xp[c] += dN[a, 0] * xs[f, a, c]
-                s += dg[c] * xp[c]
-            gxi[row] = s
+                for be in range(k):
+                    dphi[row, i, be] = dP[i, be]
             for j in range(dg_loc.size):
                 b[row, j] = dg_loc[j]
-            for a in range(ns):
+            for be in range(k):
+                s = 0.0
                 for c in range(d):
+                    xp[be, c] = 0.0
+                    for a in range(ns):
+                        xp[be, c] += dN[a, be] * xs[f, a, c]
+                    s += dg[c] * xp[be, c]
+                gxi[row, be] = s
+                for a in range(ns):
+                    for c in range(d):
+                        s = 0.0
+                        for c2 in range(d):
+                            s += d2g[c, c2] * xp[be, c2]
+                        db[row, be, a * d + c] = dN[a, be] * dg[c] + N[a] * s
+                for j in range(nm * d):
                     s = 0.0
                     for c2 in range(d):
-                        s += d2g[c, c2] * xp[c2]
-                    db[row, a * d + c] = dN[a, 0] * dg[c] + N[a] * s
-            for j in range(nm * d):
-                s = 0.0
-                for c2 in range(d):
-                    s += d2g[d + j, c2] * xp[c2]
-                db[row, ns * d + j] = s
+                        s += d2g[d + j, c2] * xp[be, c2]
+                    db[row, be, ns * d + j] = s

@@ -93,6 +93,18 @@ What is exact and what is approximate
   overlapping parts are counted more than once. Self-intersecting (bow-tie) projected
   master quads are split at a reflex vertex and pieces of negative orientation dropped.
 
+Derivatives
+-----------
+:func:`segment_derivatives` recomputes the points with their derivatives with respect to
+the local dofs [slave facet nodes, master facet nodes] carried forward (forward-mode
+differentiation of the same code path, so the points are identical): in 2D through the
+closest-point parameters of the master end nodes, in 3D through the slave frame (c, n₀,
+t₁, t₂), the inverse vertex map, the Sutherland–Hodgman intersections, the canonical
+form and the fan. The discrete choices (which candidates face, which vertices are
+clipped or dropped as collinear, clamped segment ends) are piecewise constant and not
+differentiated. Checked against central differences of :func:`segment_points`
+(``tests/test_kernels_segment.py``).
+
 Buffer overflow
 ---------------
 The caller preallocates ``qp_xi`` (nsf, nqmax, k), ``qp_w`` and ``qp_m`` (nsf, nqmax). When
@@ -129,6 +141,11 @@ MIN_AREA = 1.0e-14
 COLLINEAR_TOL = 1.0e-13
 #: 3D: direction (1, KEY) whose minimum selects the first polygon vertex.
 KEY = 0.6180339887498949
+#: Derivatives: a segment end (2D) within this distance (reference units) of the slave
+#: facet's end counts as clamped there and does not move; a polygon vertex (3D) that close
+#: to a reference edge counts as lying on it and only slides along it (where both surfaces
+#: end together; :func:`_clip_halfplane`).
+ON_EDGE_TOL = 1.0e-10
 
 # Sutherland-Hodgman buffer: each half-plane clip at most doubles the vertex count.
 _POLY_MAX = 64
@@ -179,6 +196,40 @@ def _faces(ftype_s, xsf, ss, ftype_m, xmm, ms, xi):
 
 
 @numba.njit(cache=True)
+def _end_derivative(ftype_s, xsf, xe, t, node, dt):
+    """dt (nloc,) of the closest-point parameter t of the master node ``xe`` (local master
+    node ``node``) on the slave interval xsf, (x_s(t) − x_e)·x_s'(t) = 0:
+
+        dt = −[(x_s − x_e)·δx_s'(t) + (δx_s(t) − δx_e)·x_s'(t)] / [x_s'·x_s' + (x_s − x_e)·x_s''].
+    """
+    ns, d = xsf.shape
+    N = np.empty(ns)
+    dN = np.empty((ns, 1))
+    ddN = np.empty((ns, 1, 1))
+    tt = np.empty(1)
+    tt[0] = t
+    shape(ftype_s, tt, N, dN, ddN)
+    xv = np.zeros(d)
+    xp = np.zeros(d)
+    xpp = np.zeros(d)
+    for c in range(d):
+        for a in range(ns):
+            xv[c] += N[a] * xsf[a, c]
+            xp[c] += dN[a, 0] * xsf[a, c]
+            xpp[c] += ddN[a, 0, 0] * xsf[a, c]
+    den = 0.0
+    for c in range(d):
+        den += xp[c] * xp[c] + (xv[c] - xe[c]) * xpp[c]
+    for j in range(dt.size):
+        dt[j] = 0.0
+    for a in range(ns):
+        for c in range(d):
+            dt[a * d + c] = -((xv[c] - xe[c]) * dN[a, 0] + N[a] * xp[c]) / den
+    for c in range(d):
+        dt[(ns + node) * d + c] = xp[c] / den
+
+
+@numba.njit(cache=True)
 def _segments_1d(
     f,
     ftype_s,
@@ -195,11 +246,32 @@ def _segments_1d(
     qp_xi,
     qp_w,
     qp_m,
+    row0,
+    dxi,
+    dw,
 ):
-    """Points of slave interval facet f (see module docstring); returns the number needed."""
+    """Points of slave interval facet f (see module docstring); returns the number needed.
+
+    With non-empty ``dxi`` (rows, 1, nloc) and ``dw`` (rows, nloc), also the derivatives of
+    each point with respect to its local dofs, point n of the facet in row ``row0 + n``: a
+    point ξ = lo + r (hi − lo) with weight w = ŵ (hi − lo) J₀(ξ) moves with the segment
+    ends (:func:`_end_derivative`; a clamped end, 0 or 1, or one within ON_EDGE_TOL of it,
+    does not move),
+
+        dξ = (1 − r) dlo + r dhi,    dw = w [(dhi − dlo)/(hi − lo) + (J₀'/J₀)(ξ) dξ].
+    """
     d = xs.shape[2]
     xsf = xs[f]
     Xsf = Xs[f]
+    ns = xsf.shape[0]
+    want = dxi.shape[0] > 0
+    nd = (ns + xm.shape[1]) * d if want else 0
+    dt = np.zeros((2, nd))
+    ilo = 0
+    lo_moves = hi_moves = False
+    N = np.empty(ns)
+    dN = np.empty((ns, 1))
+    ddN = np.empty((ns, 1, 1))
     z0 = np.full(1, np.nan)
     t = np.empty(1)
     xi = np.empty(1)
@@ -221,10 +293,37 @@ def _segments_1d(
         xi[0] = 0.5 * (lo + hi)
         if not _faces(ftype_s, xsf, ssign[f], ftype_m, xm[m], msign[m], xi):
             continue
+        if want:
+            _end_derivative(ftype_s, xsf, xm[m, 0], t0, 0, dt[0])
+            _end_derivative(ftype_s, xsf, xm[m, 1], t1, 1, dt[1])
+            ilo = 0 if t0 <= t1 else 1
+            lo_moves = min(t0, t1) > ON_EDGE_TOL
+            hi_moves = max(t0, t1) < 1.0 - ON_EDGE_TOL
         for q in range(rule_w.shape[0]):
-            xi[0] = lo + length * rule_pts[q, 0]
+            r = rule_pts[q, 0]
+            xi[0] = lo + length * r
             j0 = unit_normal(Xsf, ftype_s, 1.0, xi, tmp)
-            cnt = _emit(f, cnt, 1, xi, rule_w[q] * length * j0, m, qp_xi, qp_w, qp_m)
+            w = rule_w[q] * length * j0
+            if want and cnt < qp_w.shape[1] and row0 + cnt < dxi.shape[0]:
+                # (J₀'/J₀)(ξ) on the reference facet: J₀ = |X'|, J₀' = X'·X''/J₀
+                shape(ftype_s, xi, N, dN, ddN)
+                j1 = 0.0
+                for c in range(d):
+                    xp = 0.0
+                    xpp = 0.0
+                    for a in range(ns):
+                        xp += dN[a, 0] * Xsf[a, c]
+                        xpp += ddN[a, 0, 0] * Xsf[a, c]
+                    j1 += xp * xpp
+                j1 /= j0 * j0
+                row = row0 + cnt
+                for jj in range(nd):
+                    dlo = dt[ilo, jj] if lo_moves else 0.0
+                    dhi = dt[1 - ilo, jj] if hi_moves else 0.0
+                    dx = (1.0 - r) * dlo + r * dhi
+                    dxi[row, 0, jj] = dx
+                    dw[row, jj] = w * ((dhi - dlo) / length + j1 * dx)
+            cnt = _emit(f, cnt, 1, xi, w, m, qp_xi, qp_w, qp_m)
     return cnt
 
 
@@ -247,7 +346,9 @@ def _plane_map(vt, P, xi, N, dN, ddN, r, J):
 
 @numba.njit(cache=True)
 def _invert_plane_map(vt, P, q, xic, Ainv, out):
-    """xi with sum_a N_a(xi) P_a = q (Newton from the centre; affine fallback)."""
+    """xi with sum_a N_a(xi) P_a = q (Newton from the centre; affine fallback).
+
+    Returns True when Newton converged, False when the affine fallback was taken."""
     nv = P.shape[0]
     N = np.empty(nv)
     dN = np.empty((nv, 2))
@@ -284,6 +385,7 @@ def _invert_plane_map(vt, P, q, xic, Ainv, out):
         # affine map of the centre tangents (the centre maps to q = 0)
         out[0] = xic[0] + Ainv[0, 0] * q[0] + Ainv[0, 1] * q[1]
         out[1] = xic[1] + Ainv[1, 0] * q[0] + Ainv[1, 1] * q[1]
+    return ok
 
 
 @numba.njit(cache=True)
@@ -297,11 +399,59 @@ def _signed_area2(poly, n):
 
 
 @numba.njit(cache=True)
-def _clip_halfplane(inp, nin, out, ax, ay, bx, by):
-    """Sutherland-Hodgman step: the part of polygon inp[:nin] left of the line a -> b."""
+def _cut(inp, din, ip, i, s, ds, out, dout, nout):
+    """out[nout] = inp[ip] + s (inp[i] − inp[ip]) and, when derivatives are carried
+    (din non-empty), its derivative from those of the two vertices and ds."""
+    for c in range(2):
+        out[nout, c] = inp[ip, c] + s * (inp[i, c] - inp[ip, c])
+    if din.shape[0]:
+        for c in range(2):
+            e = inp[i, c] - inp[ip, c]
+            for j in range(din.shape[2]):
+                dout[nout, c, j] = din[ip, c, j] + s * (din[i, c, j] - din[ip, c, j]) + ds[j] * e
+
+
+@numba.njit(cache=True)
+def _copy_vertex(inp, din, i, out, dout, nout):
+    out[nout, 0] = inp[i, 0]
+    out[nout, 1] = inp[i, 1]
+    if din.shape[0]:
+        dout[nout] = din[i]
+
+
+@numba.njit(cache=True)
+def _slide(dout, i, ex, ey):
+    """Keep only the part of vertex i's derivative along the line direction (ex, ey)."""
+    e2 = ex * ex + ey * ey
+    for j in range(dout.shape[2]):
+        dn = (ex * dout[i, 1, j] - ey * dout[i, 0, j]) / e2
+        dout[i, 0, j] += ey * dn
+        dout[i, 1, j] -= ex * dn
+
+
+@numba.njit(cache=True)
+def _clip_halfplane(inp, din, nin, out, dout, ax, ay, bx, by, ds):
+    """Sutherland-Hodgman step: the part of polygon inp[:nin] left of the line a -> b.
+
+    The line is fixed (a reference-element edge). With a non-empty ``din`` (nin, 2, nloc)
+    the vertex derivatives are carried into ``dout``: an intersection point
+    v = v_p + s (v_c − v_p), s = δ_p / (δ_p − δ_c), δ = e × (v − a), moves by
+    dv_p + s (dv_c − dv_p) + ds (v_c − v_p) with ds = (δ_p dδ_c − δ_c dδ_p) / (δ_p − δ_c)²;
+    ``ds`` (nloc,) is scratch.
+
+    A kept vertex ON the line (δ ≤ ON_EDGE_TOL |e|: a master vertex on the slave facet's
+    edge, as where the two surfaces end together) sits on a kink of the clipped region:
+    moving out, it is clipped and the region keeps the edge; moving in, the region
+    shrinks. Of the two one-sided derivatives the first is taken, the motion along the
+    edge only (dv − n (n·dv), n the edge normal). A master edge lying ON the line (both
+    |δ| ≤ ON_EDGE_TOL |e|) makes s a ratio of round-off: its intersection point gets
+    ds = 0 and slides along the line likewise.
+    """
     nout = 0
     ex = bx - ax
     ey = by - ay
+    el = math.sqrt(ex * ex + ey * ey)
+    want = din.shape[0] > 0
     for i in range(nin):
         ip = (i - 1 + nin) % nin
         cx = inp[i, 0]
@@ -310,28 +460,34 @@ def _clip_halfplane(inp, nin, out, ax, ay, bx, by):
         py = inp[ip, 1]
         dc = ex * (cy - ay) - ey * (cx - ax)
         dp = ex * (py - ay) - ey * (px - ax)
-        if dc >= 0.0:
-            if dp < 0.0:
-                s = dp / (dp - dc)
-                out[nout, 0] = px + s * (cx - px)
-                out[nout, 1] = py + s * (cy - py)
-                nout += 1
-            out[nout, 0] = cx
-            out[nout, 1] = cy
-            nout += 1
-        elif dp >= 0.0:
+        cut = (dc >= 0.0 and dp < 0.0) or (dc < 0.0 and dp >= 0.0)
+        if cut:
             s = dp / (dp - dc)
-            out[nout, 0] = px + s * (cx - px)
-            out[nout, 1] = py + s * (cy - py)
+            along = max(abs(dp), abs(dc)) <= ON_EDGE_TOL * el  # the edge lies on the line
+            if want:
+                den = (dp - dc) * (dp - dc)
+                for j in range(din.shape[2]):
+                    ddc = ex * din[i, 1, j] - ey * din[i, 0, j]
+                    ddp = ex * din[ip, 1, j] - ey * din[ip, 0, j]
+                    ds[j] = 0.0 if along else (dp * ddc - dc * ddp) / den
+            _cut(inp, din, ip, i, s, ds, out, dout, nout)
+            if want and along:
+                _slide(dout, nout, ex, ey)
+            nout += 1
+        if dc >= 0.0:
+            _copy_vertex(inp, din, i, out, dout, nout)
+            if want and dc <= ON_EDGE_TOL * el:
+                _slide(dout, nout, ex, ey)
             nout += 1
     return nout
 
 
 @numba.njit(cache=True)
-def _clip_reference(vt, subj, nsub, buf_a, buf_b):
+def _clip_reference(vt, subj, dsubj, nsub, buf_a, buf_b, dbuf_a, dbuf_b, ds):
     """Clip the CCW polygon subj[:nsub] against the reference triangle / unit square.
 
-    Returns (polygon array, vertex count); the result lives in buf_a or buf_b.
+    Returns (polygon, its derivatives, vertex count); they live in buf_a/dbuf_a or
+    buf_b/dbuf_b (derivatives only with a non-empty ``dsubj``, see :func:`_clip_halfplane`).
     """
     if vt == TRIANGLE1:
         cx = np.array([0.0, 1.0, 0.0])
@@ -341,60 +497,146 @@ def _clip_reference(vt, subj, nsub, buf_a, buf_b):
         cy = np.array([0.0, 0.0, 1.0, 1.0])
     nc = cx.shape[0]
     for i in range(nsub):
-        buf_a[i, 0] = subj[i, 0]
-        buf_a[i, 1] = subj[i, 1]
+        _copy_vertex(subj, dsubj, i, buf_a, dbuf_a, i)
     n = nsub
-    src = buf_a
-    dst = buf_b
+    src, dsrc = buf_a, dbuf_a
+    dst, ddst = buf_b, dbuf_b
     for e in range(nc):
         if n == 0:
             break
         e1 = (e + 1) % nc
-        n = _clip_halfplane(src, n, dst, cx[e], cy[e], cx[e1], cy[e1])
+        n = _clip_halfplane(src, dsrc, n, dst, ddst, cx[e], cy[e], cx[e1], cy[e1], ds)
         src, dst = dst, src
-    return src, n
+        dsrc, ddst = ddst, dsrc
+    return src, dsrc, n
 
 
 @numba.njit(cache=True)
-def _canonical(poly, n, out):
-    """Canonical form (module docstring) of the convex CCW polygon poly[:n] into out.
+def _canonical(poly, dpoly, n, out, dout):
+    """Canonical form (module docstring) of the convex CCW polygon poly[:n] into out
+    (and the vertex derivatives dpoly into dout, when dpoly is non-empty).
 
     Returns the vertex count (< 3: empty polygon).
     """
-    tmp = np.empty((n, 2))
-    for i in range(n):
-        tmp[i, 0] = poly[i, 0]
-        tmp[i, 1] = poly[i, 1]
+    want = dpoly.shape[0] > 0
+    keep = np.arange(n)  # the vertices of poly still in the polygon, in order
     changed = True
     while changed and n >= 3:
         changed = False
         for i in range(n):
-            ip = (i - 1 + n) % n
-            iq = (i + 1) % n
-            ux = tmp[i, 0] - tmp[ip, 0]
-            uy = tmp[i, 1] - tmp[ip, 1]
-            vx = tmp[iq, 0] - tmp[i, 0]
-            vy = tmp[iq, 1] - tmp[i, 1]
+            ip = keep[(i - 1 + n) % n]
+            iq = keep[(i + 1) % n]
+            ii = keep[i]
+            ux = poly[ii, 0] - poly[ip, 0]
+            uy = poly[ii, 1] - poly[ip, 1]
+            vx = poly[iq, 0] - poly[ii, 0]
+            vy = poly[iq, 1] - poly[ii, 1]
             if abs(ux * vy - uy * vx) <= COLLINEAR_TOL:
                 for l in range(i, n - 1):
-                    tmp[l, 0] = tmp[l + 1, 0]
-                    tmp[l, 1] = tmp[l + 1, 1]
+                    keep[l] = keep[l + 1]
                 n -= 1
                 changed = True
                 break
     if n < 3:
         return n
     i0 = 0
-    best = tmp[0, 0] + KEY * tmp[0, 1]
+    best = poly[keep[0], 0] + KEY * poly[keep[0], 1]
     for i in range(1, n):
-        v = tmp[i, 0] + KEY * tmp[i, 1]
+        v = poly[keep[i], 0] + KEY * poly[keep[i], 1]
         if v < best:
             best = v
             i0 = i
     for i in range(n):
-        out[i, 0] = tmp[(i0 + i) % n, 0]
-        out[i, 1] = tmp[(i0 + i) % n, 1]
+        src = keep[(i0 + i) % n]
+        out[i, 0] = poly[src, 0]
+        out[i, 1] = poly[src, 1]
+        if want:
+            dout[i] = dpoly[src]
     return n
+
+
+@numba.njit(cache=True)
+def _cross(u, v, out):
+    out[0] = u[1] * v[2] - u[2] * v[1]
+    out[1] = u[2] * v[0] - u[0] * v[2]
+    out[2] = u[0] * v[1] - u[1] * v[0]
+
+
+@numba.njit(cache=True)
+def _frame_derivatives(nv, N, dN, a1, a2, n0, t1, t2, dcen, dt1, dt2):
+    """Derivatives of the clipping frame of :func:`_segments_2d` with respect to the slave
+    vertex dofs j = a·3 + c (a < nv; the other columns are left untouched):
+
+        dc = N_a(ξ_c) e_c,  dt₁ = (I − t₁t₁ᵀ) da₁ / |a₁|,  dn₀ = (I − n₀n₀ᵀ) dm / |m|,
+        dt₂ = dn₀ × t₁ + n₀ × dt₁,
+
+    with a_α = Σ_a ∂_α N_a(ξ_c) x_a, m = a₁ × a₂, n₀ = m/|m|, t₁ = a₁/|a₁|, t₂ = n₀ × t₁.
+    Outputs dcen, dt1, dt2 (3, nloc).
+    """
+    la = math.sqrt(a1[0] ** 2 + a1[1] ** 2 + a1[2] ** 2)
+    m = np.empty(3)
+    _cross(a1, a2, m)
+    nn = math.sqrt(m[0] ** 2 + m[1] ** 2 + m[2] ** 2)
+    da1 = np.empty(3)
+    da2 = np.empty(3)
+    dm = np.empty(3)
+    tmp = np.empty(3)
+    dn = np.empty(3)
+    dt = np.empty(3)
+    for a in range(nv):
+        for c in range(3):
+            j = a * 3 + c
+            for i in range(3):
+                da1[i] = 0.0
+                da2[i] = 0.0
+                dcen[i, j] = 0.0
+            da1[c] = dN[a, 0]
+            da2[c] = dN[a, 1]
+            dcen[c, j] = N[a]
+            s = t1[c] * da1[c]
+            for i in range(3):
+                dt[i] = (da1[i] - t1[i] * s) / la
+                dt1[i, j] = dt[i]
+            _cross(da1, a2, dm)
+            _cross(a1, da2, tmp)
+            s = 0.0
+            for i in range(3):
+                dm[i] += tmp[i]
+                s += n0[i] * dm[i]
+            for i in range(3):
+                dn[i] = (dm[i] - n0[i] * s) / nn
+            _cross(dn, t1, dm)
+            _cross(n0, dt, tmp)
+            for i in range(3):
+                dt2[i, j] = dm[i] + tmp[i]
+
+
+@numba.njit(cache=True)
+def _area_gradient(ftype, X, xi, grad):
+    """∂J₀/∂ξ_β (β < 2) of the surface Jacobian J₀ = |a₁ × a₂| of facet X (n, 3) at ξ:
+    n·(a₁,β × a₂ + a₁ × a₂,β) with n = a₁ × a₂ / J₀ and a_α,β = Σ_a ∂²_αβ N_a X_a."""
+    n = X.shape[0]
+    N = np.empty(n)
+    dN = np.empty((n, 2))
+    ddN = np.empty((n, 2, 2))
+    shape(ftype, xi, N, dN, ddN)
+    a = np.zeros((2, 3))
+    aa = np.zeros((2, 2, 3))
+    for k in range(n):
+        for c in range(3):
+            for al in range(2):
+                a[al, c] += dN[k, al] * X[k, c]
+                for be in range(2):
+                    aa[al, be, c] += ddN[k, al, be] * X[k, c]
+    m = np.empty(3)
+    _cross(a[0], a[1], m)
+    j0 = math.sqrt(m[0] ** 2 + m[1] ** 2 + m[2] ** 2)
+    u = np.empty(3)
+    v = np.empty(3)
+    for be in range(2):
+        _cross(aa[0, be], a[1], u)
+        _cross(a[0], aa[1, be], v)
+        grad[be] = ((u[0] + v[0]) * m[0] + (u[1] + v[1]) * m[1] + (u[2] + v[2]) * m[2]) / j0
 
 
 @numba.njit(cache=True)
@@ -414,11 +656,25 @@ def _segments_2d(
     qp_xi,
     qp_w,
     qp_m,
+    row0,
+    dxi,
+    dw,
 ):
-    """Points of slave triangle / quad facet f (see module docstring); returns the number needed."""
+    """Points of slave triangle / quad facet f (see module docstring); returns the number needed.
+
+    With non-empty ``dxi`` (rows, 2, nloc) and ``dw`` (rows, nloc), also the derivatives
+    of each point's ξ and weight with respect to its local dofs [slave facet nodes, master
+    facet nodes] (× 3), point n of the facet in row ``row0 + n`` (forward mode through the
+    frame, the master vertex map, the clipping, the canonical form and the fan; see
+    :func:`segment_derivatives`).
+    """
     d = 3
+    want = dxi.shape[0] > 0
     xsf = xs[f]
     Xsf = Xs[f]
+    ns = xsf.shape[0]
+    nm = xm.shape[1]
+    nloc = (ns + nm) * d if want else 0
     tri_s = ftype_s == TRIANGLE1 or ftype_s == TRIANGLE2
     vt = TRIANGLE1 if tri_s else QUAD1
     nv = 3 if tri_s else 4
@@ -447,9 +703,7 @@ def _segments_2d(
             a1[c] += dN[a, 0] * xv[a, c]
             a2[c] += dN[a, 1] * xv[a, c]
     n0 = np.empty(d)
-    n0[0] = a1[1] * a2[2] - a1[2] * a2[1]
-    n0[1] = a1[2] * a2[0] - a1[0] * a2[2]
-    n0[2] = a1[0] * a2[1] - a1[1] * a2[0]
+    _cross(a1, a2, n0)
     nn = math.sqrt(n0[0] ** 2 + n0[1] ** 2 + n0[2] ** 2)
     la = math.sqrt(a1[0] ** 2 + a1[1] ** 2 + a1[2] ** 2)
     t1 = np.empty(d)
@@ -457,9 +711,7 @@ def _segments_2d(
     for c in range(d):
         n0[c] /= nn
         t1[c] = a1[c] / la
-    t2[0] = n0[1] * t1[2] - n0[2] * t1[1]
-    t2[1] = n0[2] * t1[0] - n0[0] * t1[2]
-    t2[2] = n0[0] * t1[1] - n0[1] * t1[0]
+    _cross(n0, t1, t2)
     P = np.empty((nv, 2))
     for a in range(nv):
         s1 = 0.0
@@ -480,15 +732,61 @@ def _segments_2d(
     Ainv[0, 1] = -J[0, 1] / det
     Ainv[1, 0] = -J[1, 0] / det
 
+    # derivatives of the frame, of P and of Ainv with respect to the slave vertex dofs
+    nd = nloc if want else 0
+    dcen = np.zeros((d, nd))
+    dt1 = np.zeros((d, nd))
+    dt2 = np.zeros((d, nd))
+    dP = np.zeros((nv, 2, nd))
+    dAinv = np.zeros((2, 2, nd))
+    if want:
+        _frame_derivatives(nv, N, dN, a1, a2, n0, t1, t2, dcen, dt1, dt2)
+        for a in range(nv):
+            for j in range(nv * d):
+                s1 = 0.0
+                s2 = 0.0
+                for c in range(d):
+                    dx = (1.0 if j == a * d + c else 0.0) - dcen[c, j]
+                    s1 += dx * t1[c] + (xv[a, c] - cen[c]) * dt1[c, j]
+                    s2 += dx * t2[c] + (xv[a, c] - cen[c]) * dt2[c, j]
+                dP[a, 0, j] = s1
+                dP[a, 1, j] = s2
+        # dAinv = −Ainv dJ Ainv, dJ = Σ_a dP_a ⊗ ∂N_a(ξ_c)
+        for j in range(nv * d):
+            dJ = np.zeros((2, 2))
+            for a in range(nv):
+                for i in range(2):
+                    for al in range(2):
+                        dJ[i, al] += dP[a, i, j] * dN[a, al]
+            for i in range(2):
+                for k2 in range(2):
+                    s = 0.0
+                    for l1 in range(2):
+                        for l2 in range(2):
+                            s += Ainv[i, l1] * dJ[l1, l2] * Ainv[l2, k2]
+                    dAinv[i, k2, j] = -s
+
     mpoly = np.empty((4, 2))
     subj = np.empty((4, 2))
     buf_a = np.empty((_POLY_MAX, 2))
     buf_b = np.empty((_POLY_MAX, 2))
     canon = np.empty((_POLY_MAX, 2))
+    dmpoly = np.zeros((4 if want else 0, 2, nd))
+    dsubj = np.zeros((4 if want else 0, 2, nd))
+    dbuf_a = np.zeros((_POLY_MAX if want else 0, 2, nd))
+    dbuf_b = np.zeros((_POLY_MAX if want else 0, 2, nd))
+    dcanon = np.zeros((_POLY_MAX if want else 0, 2, nd))
+    ds = np.zeros(nd)
+    dq = np.zeros((2, nd))
+    Nq = np.empty(nv)
+    dNq = np.empty((nv, 2))
+    ddNq = np.empty((nv, 2, 2))
+    jgrad = np.zeros(2)
     q = np.empty(2)
     xi = np.empty(2)
     xbar = np.empty(2)
     tmp = np.empty(d)
+    dvec = np.zeros(nd)
     cnt = 0
     for j in range(cand_off[f], cand_off[f + 1]):
         m = cand[j]
@@ -502,9 +800,44 @@ def _segments_2d(
                 s2 += (xm[m, node, c] - cen[c]) * t2[c]
             q[0] = s1
             q[1] = s2
-            _invert_plane_map(vt, P, q, xic, Ainv, xi)
+            ok = _invert_plane_map(vt, P, q, xic, Ainv, xi)
             mpoly[i, 0] = xi[0]
             mpoly[i, 1] = xi[1]
+            if want:
+                # dq_α = (dx_m − dc)·t_α + (x_m − c)·dt_α
+                for jj in range(nloc):
+                    s1 = 0.0
+                    s2 = 0.0
+                    for c in range(d):
+                        s1 += -dcen[c, jj] * t1[c] + (xm[m, node, c] - cen[c]) * dt1[c, jj]
+                        s2 += -dcen[c, jj] * t2[c] + (xm[m, node, c] - cen[c]) * dt2[c, jj]
+                    dq[0, jj] = s1
+                    dq[1, jj] = s2
+                for c in range(d):
+                    dq[0, (ns + node) * d + c] += t1[c]
+                    dq[1, (ns + node) * d + c] += t2[c]
+                if ok:
+                    # Σ_a N_a(ξ) P_a = q: dξ = J(ξ)⁻¹ (dq − Σ_a N_a(ξ) dP_a)
+                    _plane_map(vt, P, xi, Nq, dNq, ddNq, r, J)
+                    det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+                    for jj in range(nloc):
+                        r0 = dq[0, jj]
+                        r1 = dq[1, jj]
+                        for a in range(nv):
+                            r0 -= Nq[a] * dP[a, 0, jj]
+                            r1 -= Nq[a] * dP[a, 1, jj]
+                        dmpoly[i, 0, jj] = (J[1, 1] * r0 - J[0, 1] * r1) / det
+                        dmpoly[i, 1, jj] = (-J[1, 0] * r0 + J[0, 0] * r1) / det
+                else:
+                    # ξ = ξ_c + Ainv q
+                    for jj in range(nloc):
+                        for al in range(2):
+                            dmpoly[i, al, jj] = (
+                                dAinv[al, 0, jj] * q[0]
+                                + dAinv[al, 1, jj] * q[1]
+                                + Ainv[al, 0] * dq[0, jj]
+                                + Ainv[al, 1] * dq[1, jj]
+                            )
         area2 = _signed_area2(mpoly, nvm)
         if not (abs(area2) >= 2.0 * MIN_AREA * ref_area):
             continue
@@ -515,6 +848,11 @@ def _segments_2d(
                     v = mpoly[i, c]
                     mpoly[i, c] = mpoly[i2, c]
                     mpoly[i2, c] = v
+                    if want:
+                        for jj in range(nloc):
+                            v = dmpoly[i, c, jj]
+                            dmpoly[i, c, jj] = dmpoly[i2, c, jj]
+                            dmpoly[i2, c, jj] = v
         # convex pieces: the polygon itself, or two triangles split at a reflex vertex
         reflex = -1
         if nvm == 4:
@@ -533,20 +871,20 @@ def _segments_2d(
             if reflex < 0:
                 nsub = nvm
                 for i in range(nvm):
-                    subj[i, 0] = mpoly[i, 0]
-                    subj[i, 1] = mpoly[i, 1]
+                    _copy_vertex(mpoly, dmpoly, i, subj, dsubj, i)
             else:
                 nsub = 3
                 for i in range(3):
                     src = (reflex + piece + i) % 4 if i > 0 else reflex
-                    subj[i, 0] = mpoly[src, 0]
-                    subj[i, 1] = mpoly[src, 1]
+                    _copy_vertex(mpoly, dmpoly, src, subj, dsubj, i)
                 if _signed_area2(subj, 3) <= 0.0:
                     continue
-            poly, npoly = _clip_reference(vt, subj, nsub, buf_a, buf_b)
+            poly, dpoly, npoly = _clip_reference(
+                vt, subj, dsubj, nsub, buf_a, buf_b, dbuf_a, dbuf_b, ds
+            )
             if npoly < 3:
                 continue
-            nc = _canonical(poly, npoly, canon)
+            nc = _canonical(poly, dpoly, npoly, canon, dcanon)
             if nc < 3:
                 continue
             if facing < 0:
@@ -568,12 +906,36 @@ def _segments_2d(
                 jac = e1x * e2y - e1y * e2x
                 if not (0.5 * jac >= MIN_AREA * ref_area):
                     continue
+                if want:
+                    # djac = de1 × e2 + e1 × de2, de = dv_i − dv_0
+                    for jj in range(nloc):
+                        de1x = dcanon[i, 0, jj] - dcanon[0, 0, jj]
+                        de1y = dcanon[i, 1, jj] - dcanon[0, 1, jj]
+                        de2x = dcanon[i + 1, 0, jj] - dcanon[0, 0, jj]
+                        de2y = dcanon[i + 1, 1, jj] - dcanon[0, 1, jj]
+                        dvec[jj] = de1x * e2y + e1x * de2y - de1y * e2x - e1y * de2x
                 for qq in range(rule_w.shape[0]):
                     r1 = rule_pts[qq, 0]
                     r2 = rule_pts[qq, 1]
                     xi[0] = v0x + r1 * e1x + r2 * e2x
                     xi[1] = v0y + r1 * e1y + r2 * e2y
                     j0 = unit_normal(Xsf, ftype_s, 1.0, xi, tmp)
+                    if want and cnt < qp_w.shape[1] and row0 + cnt < dxi.shape[0]:
+                        # ξ = (1 − r₁ − r₂) v₀ + r₁ v_i + r₂ v_{i+1},  w = ŵ jac J₀(ξ)
+                        row = row0 + cnt
+                        _area_gradient(ftype_s, Xsf, xi, jgrad)
+                        r0 = 1.0 - r1 - r2
+                        for jj in range(nloc):
+                            gj = 0.0
+                            for al in range(2):
+                                dx = (
+                                    r0 * dcanon[0, al, jj]
+                                    + r1 * dcanon[i, al, jj]
+                                    + r2 * dcanon[i + 1, al, jj]
+                                )
+                                dxi[row, al, jj] = dx
+                                gj += jgrad[al] * dx
+                            dw[row, jj] = rule_w[qq] * (dvec[jj] * j0 + jac * gj)
                     cnt = _emit(f, cnt, 2, xi, rule_w[qq] * jac * j0, m, qp_xi, qp_w, qp_m)
     return cnt
 
@@ -632,6 +994,8 @@ def segment_points(
         raise ValueError("qp_xi must be (nsf, nqmax, tdim), qp_w and qp_m (nsf, nqmax)")
     nqmax = qp_w.shape[1]
     count = np.zeros(nsf, dtype=np.int64)
+    no_dxi = np.zeros((0, k, 0))
+    no_dw = np.zeros((0, 0))
     for f in range(nsf):
         for j in range(nqmax):
             qp_w[f, j] = 0.0
@@ -655,6 +1019,9 @@ def segment_points(
                 qp_xi,
                 qp_w,
                 qp_m,
+                0,
+                no_dxi,
+                no_dw,
             )
         else:
             cnt = _segments_2d(
@@ -673,102 +1040,96 @@ def segment_points(
                 qp_xi,
                 qp_w,
                 qp_m,
+                0,
+                no_dxi,
+                no_dw,
             )
         count[f] = cnt if cnt <= nqmax else -cnt
     return count
 
 
 @numba.njit(cache=True)
-def segment_end_derivatives(ftype_s, xs, Xs, xm, qp_xi, qp_w, qp_m, dxi, dw):
-    r"""2D: derivatives of the segment points ξ_q and weights w_q with respect to the local
-    dofs [slave facet nodes, master facet nodes] (× d) of each paired point.
+def segment_derivatives(
+    ftype_s, xs, Xs, ssign, ftype_m, xm, msign, cand_off, cand, rule_pts, rule_w, qp_m, dxi, dw
+):
+    r"""Derivatives of the segment points ξ_q and weights w_q of :func:`segment_points`
+    with respect to the local dofs [slave facet nodes, master facet nodes] (× d) of each
+    paired point, for the linearisation of segment integration.
 
-    Rows are the paired points (qp_m >= 0) in (facet, point) order, as in
-    :func:`dolfinx_mortar.kernels.mortar.contact_terms`. A segment of slave facet f on
-    master facet m is [lo, hi] = [max(min(t₀, t₁), 0), min(max(t₀, t₁), 1)], with t_e the
-    closest-point parameter of the master END node x_e on the slave facet,
-    (x_s(t_e) − x_e)·x_s'(t_e) = 0 (see the module docstring), so that
+    The arguments up to ``rule_w`` must be those of the :func:`segment_points` call that
+    produced ``qp_m`` (nsf, nq): the points are computed again, with the derivatives
+    carried forward through every step that depends on the coordinates. Rows are the
+    paired points (qp_m >= 0) in (facet, point) order, as in
+    :func:`dolfinx_mortar.kernels.mortar.contact_terms`.
 
-        dt_e = −[(x_s − x_e)·δx_s'(t_e) + (δx_s(t_e) − δx_e)·x_s'(t_e)]
-               / [x_s'·x_s' + (x_s − x_e)·x_s''],
+    2D: the segment ends are the closest-point parameters of the master END nodes on the
+    slave facet (:func:`_segments_1d`). 3D: a point ξ = (1 − r₁ − r₂) v₀ + r₁ v_i + r₂
+    v_{i+1} of the fan triangle (v₀, v_i, v_{i+1}) of a clipped polygon, with weight
+    w = ŵ jac J₀(ξ), jac = (v_i − v₀) × (v_{i+1} − v₀), moves with the polygon's vertices:
+    a reference-element corner is fixed; a master vertex mapped into the slave reference
+    plane moves with the master node and with the slave frame (c, t₁, t₂, P_a; the
+    inverse map Σ_a N_a(ξ) P_a = q gives dξ = J⁻¹(dq − Σ_a N_a dP_a)); an intersection
+    of a master edge with a reference edge moves with the edge's two end vertices
+    (:func:`_clip_halfplane`). Vertices dropped by the canonical form, the facing test
+    and the clamping of the ends are discrete choices (not differentiated).
 
-    both end nodes being dofs of the point's own master facet. A point
-    ξ = lo + r (hi − lo) with weight w = ŵ (hi − lo) J₀(ξ) (J₀ on the reference facet Xs)
-    moves by
-
-        dξ = (1 − r) dlo + r dhi,    dw = w [(dhi − dlo)/(hi − lo) + (J₀'/J₀)(ξ) dξ];
-
-    a clamped end (0 or 1) does not move.
-
-    Inputs: xs, Xs (nsf, ns, d) current / reference slave nodes (interval facets), xm
-    (nmf, nm, d) current master nodes, qp_xi (nsf, nq, 1), qp_w, qp_m (nsf, nq) from
-    :func:`segment_points` at the same xs, xm. Outputs dxi, dw (n_paired, (ns + nm)·d).
+    Outputs: dxi (n_paired, k, nloc), dw (n_paired, nloc). Returns the number of rows
+    written (= n_paired when the points are those of ``qp_m``).
     """
-    nsf, ns, d = xs.shape
-    nm = xm.shape[1]
-    nloc = (ns + nm) * d
-    N = np.empty(ns)
-    dN = np.empty((ns, 1))
-    ddN = np.empty((ns, 1, 1))
-    z0 = np.full(1, np.nan)
-    t = np.empty(1)
-    dt = np.zeros((2, nloc))
-    tt = np.zeros(2)
-    xv = np.empty(d)
-    xp = np.empty(d)
-    xpp = np.empty(d)
-    row = -1
+    nsf, nq = qp_m.shape
+    k = tdim(ftype_s)
+    sxi = np.zeros((nsf, nq, k))
+    sw = np.zeros((nsf, nq))
+    sm = np.full((nsf, nq), -1, dtype=np.int64)
+    row = 0
     for f in range(nsf):
-        for q in range(qp_w.shape[1]):
-            m = qp_m[f, q]
-            if m < 0:
-                continue
-            row += 1
-            for e in range(2):
-                project(xm[m, e], xs[f], ftype_s, z0, t, PROJ_TOL, PROJ_MAXIT)
-                tt[e] = t[0]
-                shape(ftype_s, t, N, dN, ddN)
-                for c in range(d):
-                    xv[c] = 0.0
-                    xp[c] = 0.0
-                    xpp[c] = 0.0
-                    for a in range(ns):
-                        xv[c] += N[a] * xs[f, a, c]
-                        xp[c] += dN[a, 0] * xs[f, a, c]
-                        xpp[c] += ddN[a, 0, 0] * xs[f, a, c]
-                den = 0.0
-                for c in range(d):
-                    den += xp[c] * xp[c] + (xv[c] - xm[m, e, c]) * xpp[c]
-                for j in range(nloc):
-                    dt[e, j] = 0.0
-                for a in range(ns):
-                    for c in range(d):
-                        dt[e, a * d + c] = -((xv[c] - xm[m, e, c]) * dN[a, 0] + N[a] * xp[c]) / den
-                for c in range(d):
-                    dt[e, (ns + e) * d + c] = xp[c] / den
-            ilo = 0 if tt[0] <= tt[1] else 1
-            ihi = 1 - ilo
-            lo, hi = tt[ilo], tt[ihi]
-            lo_moves, hi_moves = lo > 0.0, hi < 1.0
-            lo, hi = max(lo, 0.0), min(hi, 1.0)
-            length = hi - lo
-            r = (qp_xi[f, q, 0] - lo) / length
-            shape(ftype_s, qp_xi[f, q], N, dN, ddN)
-            j0 = 0.0
-            dj0 = 0.0
-            for c in range(d):
-                xp[c] = 0.0
-                xpp[c] = 0.0
-                for a in range(ns):
-                    xp[c] += dN[a, 0] * Xs[f, a, c]
-                    xpp[c] += ddN[a, 0, 0] * Xs[f, a, c]
-                j0 += xp[c] * xp[c]
-                dj0 += xp[c] * xpp[c]
-            j0 = math.sqrt(j0)
-            dj0 /= j0
-            for j in range(nloc):
-                dlo = dt[ilo, j] if lo_moves else 0.0
-                dhi = dt[ihi, j] if hi_moves else 0.0
-                dx = (1.0 - r) * dlo + r * dhi
-                dxi[row, j] = dx
-                dw[row, j] = qp_w[f, q] * ((dhi - dlo) / length + dj0 / j0 * dx)
+        if k == 1:
+            cnt = _segments_1d(
+                f,
+                ftype_s,
+                xs,
+                Xs,
+                ssign,
+                ftype_m,
+                xm,
+                msign,
+                cand_off,
+                cand,
+                rule_pts,
+                rule_w,
+                sxi,
+                sw,
+                sm,
+                row,
+                dxi,
+                dw,
+            )
+        else:
+            cnt = _segments_2d(
+                f,
+                ftype_s,
+                xs,
+                Xs,
+                ssign,
+                ftype_m,
+                xm,
+                msign,
+                cand_off,
+                cand,
+                rule_pts,
+                rule_w,
+                sxi,
+                sw,
+                sm,
+                row,
+                dxi,
+                dw,
+            )
+        paired = 0
+        for q in range(nq):
+            if qp_m[f, q] >= 0:
+                paired += 1
+        if cnt != paired:
+            raise ValueError("segment_derivatives: the points differ from those of qp_m")
+        row += cnt
+    return row
