@@ -28,6 +28,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument(
         "-v", "--verbose", action="count", default=0, help="log at INFO level (DEBUG with -vv)"
     )
+    r.epilog = (
+        "PETSc options of the solver follow with the prefix dm_, e.g. -dm_snes_monitor or "
+        "-dm_ksp_type gmres; they override the scene's [solver.petsc]."
+    )
     c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
     c.add_argument("scene", type=Path)
     sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
@@ -104,8 +108,41 @@ def _progress(comm):
     return show
 
 
+def petsc_arguments(tokens: list[str], prefix: str = "dm_") -> dict:
+    """``[solver.petsc]`` entries from command-line tokens ``-dm_KEY [VALUE] ...``: KEY
+    without the prefix, VALUE the next token unless that is another option (a bare flag is
+    True). Raises ValueError naming the first token that is not such an option."""
+    out, i = {}, 0
+    while i < len(tokens):
+        tok = tokens[i]
+        if not tok.startswith("-" + prefix) or len(tok) == len(prefix) + 1:
+            raise ValueError(tok)
+        nxt = tokens[i + 1] if i + 1 < len(tokens) else None
+        flag = nxt is None or (nxt.startswith("-") and not _is_number(nxt))
+        out[tok[len(prefix) + 1 :]] = True if flag else nxt
+        i += 1 if flag else 2
+    return out
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args, extra = parser.parse_known_args(argv)
+    petsc = {}
+    if extra:
+        try:
+            if args.command != "run":
+                raise ValueError(extra[0])
+            petsc = petsc_arguments(extra)
+        except ValueError as exc:
+            parser.error(f"unrecognized argument: {exc}")
     if args.command == "generators":
         from .generators import GENERATORS
 
@@ -138,6 +175,11 @@ def main(argv=None) -> int:
         from .scene import load_scene
 
         scene = load_scene(args.scene)
+        if petsc:  # command-line PETSc options override the scene's
+            import dataclasses
+
+            solver = dataclasses.replace(scene.solver, petsc={**scene.solver.petsc, **petsc})
+            scene = dataclasses.replace(scene, solver=solver)
         if args.command == "check":
             from .runner import prepare
 

@@ -37,6 +37,21 @@ _LINEAR = {
     },
     "petsc": {},
 }
+#: MUMPS ordering (ICNTL(7)) of 2D problems: AMD. MUMPS's automatic choice (METIS here)
+#: factorized the 2D contact Jacobians more slowly: linear solve time of peers problem A
+#: level 3 (36.7k dofs) 1.49 s instead of 1.74 s serially, 1.21 s instead of 1.57 s on
+#: 2 ranks; demo_hertz2d --refine 2 6.6 s instead of 9.2 s; cattaneo2d 1.40 s instead of
+#: 1.61 s (medians, BENCHMARKS §3). In 3D METIS stays: AMD was slower there (hertz3d
+#: --refine 1: 4.2 s instead of 3.5 s). A ``[solver.petsc] mat_mumps_icntl_7`` overrides.
+MUMPS_ORDERING_2D = 0
+
+
+def _ordering(linear: str, gdim: int | None) -> dict:
+    """The MUMPS ordering option of a ``linear`` choice in dimension ``gdim`` (see
+    MUMPS_ORDERING_2D)."""
+    if gdim == 2 and _LINEAR[linear].get("pc_factor_mat_solver_type") == "mumps":
+        return {"mat_mumps_icntl_7": MUMPS_ORDERING_2D}
+    return {}
 
 
 @dataclass
@@ -151,6 +166,7 @@ class NewtonSolver:
             "snes_error_if_not_converged": False,
             "snes_divergence_tolerance": 1e4,
             **_LINEAR[settings.linear],
+            **_ordering(settings.linear, getattr(problem, "gdim", None)),
             **settings.petsc,
         }
         # Written to the global database for setFromOptions, removed again by destroy(): a

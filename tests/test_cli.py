@@ -496,3 +496,42 @@ def test_petsc_options_flag_and_rejected_value(workdir):
     assert m and m.group("key") == "solver.petsc", line
     assert "snes_monitor" in m.group("reason") and "viewer" in m.group("reason"), line
     assert snapshot(workdir) == before
+
+
+def test_petsc_options_on_the_command_line(workdir):
+    """``run SCENE -dm_KEY [VALUE]``: PETSc options with the solver prefix override the
+    scene's [solver.petsc]; a bare option is a flag; any other extra argument is a usage
+    error (exit 2) and nothing is written."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_linesearch_type": "l2"}}
+    (workdir / "s.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "s.toml", "--out", "o1", "-dm_snes_monitor")
+    assert res.returncode == 0, res.stderr
+    assert "SNES Function norm" in res.stdout
+    res = cli(workdir, "run", "s.toml", "--out", "o2", "-dm_snes_linesearch_type", "nonsense")
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert "solver.petsc" in res.stderr and "snes_linesearch_type" in res.stderr
+    before = snapshot(workdir)
+    for extra in (["--bogus"], ["-snes_monitor"]):
+        res = cli(workdir, "run", "s.toml", "--out", "o3", *extra)
+        assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+        assert f"unrecognized argument: {extra[0]}" in res.stderr
+    res = cli(workdir, "check", "s.toml", "-dm_snes_monitor")
+    assert res.returncode == 2 and "unrecognized argument" in res.stderr
+    assert snapshot(workdir) == before
+
+
+def test_petsc_arguments_parsing():
+    from dolfinx_mortar.cli import petsc_arguments
+
+    assert petsc_arguments([]) == {}
+    assert petsc_arguments(["-dm_snes_monitor", "-dm_ksp_rtol", "1e-8"]) == {
+        "snes_monitor": True,
+        "ksp_rtol": "1e-8",
+    }
+    assert petsc_arguments(["-dm_snes_divergence_tolerance", "-1"]) == {
+        "snes_divergence_tolerance": "-1"
+    }
+    for bad in (["-dm_"], ["ksp_rtol"], ["-ksp_rtol", "1"]):
+        with pytest.raises(ValueError):
+            petsc_arguments(bad)

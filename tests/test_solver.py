@@ -445,3 +445,18 @@ def test_no_restart_without_rescue(cubic_vectors):
             newton.solve(rescue=False)
         assert newton.backtracked_solves == 0
     assert np.allclose(problem.u.vector.array, 0.5)
+
+
+def test_mumps_ordering_by_dimension(cubic_vectors):
+    """2D problems factorize with AMD (MUMPS_ORDERING_2D), 3D ones with MUMPS's own choice;
+    a [solver.petsc] entry overrides; no MUMPS option without MUMPS."""
+    ordering = solver_module._ordering
+    assert ordering("mumps", 2) == {"mat_mumps_icntl_7": solver_module.MUMPS_ORDERING_2D}
+    assert ordering("lu", 2) == {"mat_mumps_icntl_7": solver_module.MUMPS_ORDERING_2D}
+    assert ordering("mumps", 3) == {}
+    assert ordering("superlu_dist", 2) == {} and ordering("petsc", 2) == {}
+    problem = _Cubic(1.0)
+    problem.gdim = 2
+    for petsc, want in (({}, "0"), ({"mat_mumps_icntl_7": 5}, "5")):
+        with NewtonSolver(problem, SolverSettings(prefix="test_ord_", petsc=petsc)):
+            assert PETSc.Options()["test_ord_mat_mumps_icntl_7"] == want
