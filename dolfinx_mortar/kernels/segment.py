@@ -941,6 +941,40 @@ def _segments_2d(
 
 
 @numba.njit(cache=True)
+def _facet_points(
+    k,
+    f,
+    ftype_s,
+    xs,
+    Xs,
+    ssign,
+    ftype_m,
+    xm,
+    msign,
+    cand_off,
+    cand,
+    rule_pts,
+    rule_w,
+    qp_xi,
+    qp_w,
+    qp_m,
+    row0,
+    dxi,
+    dw,
+):
+    """:func:`_segments_1d` (k = 1) or :func:`_segments_2d` (k = 2) of slave facet f."""
+    if k == 1:
+        return _segments_1d(
+            f, ftype_s, xs, Xs, ssign, ftype_m, xm, msign, cand_off, cand, rule_pts, rule_w,
+            qp_xi, qp_w, qp_m, row0, dxi, dw,
+        )  # fmt: skip
+    return _segments_2d(
+        f, ftype_s, xs, Xs, ssign, ftype_m, xm, msign, cand_off, cand, rule_pts, rule_w,
+        qp_xi, qp_w, qp_m, row0, dxi, dw,
+    )  # fmt: skip
+
+
+@numba.njit(cache=True)
 def segment_points(
     ftype_s, xs, Xs, ssign, ftype_m, xm, msign, cand_off, cand, rule_pts, rule_w, qp_xi, qp_w, qp_m
 ):
@@ -1002,48 +1036,27 @@ def segment_points(
             qp_m[f, j] = -1
             for a in range(k):
                 qp_xi[f, j, a] = 0.0
-        if k == 1:
-            cnt = _segments_1d(
-                f,
-                ftype_s,
-                xs,
-                Xs,
-                ssign,
-                ftype_m,
-                xm,
-                msign,
-                cand_off,
-                cand,
-                rule_pts,
-                rule_w,
-                qp_xi,
-                qp_w,
-                qp_m,
-                0,
-                no_dxi,
-                no_dw,
-            )
-        else:
-            cnt = _segments_2d(
-                f,
-                ftype_s,
-                xs,
-                Xs,
-                ssign,
-                ftype_m,
-                xm,
-                msign,
-                cand_off,
-                cand,
-                rule_pts,
-                rule_w,
-                qp_xi,
-                qp_w,
-                qp_m,
-                0,
-                no_dxi,
-                no_dw,
-            )
+        cnt = _facet_points(
+            k,
+            f,
+            ftype_s,
+            xs,
+            Xs,
+            ssign,
+            ftype_m,
+            xm,
+            msign,
+            cand_off,
+            cand,
+            rule_pts,
+            rule_w,
+            qp_xi,
+            qp_w,
+            qp_m,
+            0,
+            no_dxi,
+            no_dw,
+        )
         count[f] = cnt if cnt <= nqmax else -cnt
     return count
 
@@ -1083,48 +1096,27 @@ def segment_derivatives(
     sm = np.full((nsf, nq), -1, dtype=np.int64)
     row = 0
     for f in range(nsf):
-        if k == 1:
-            cnt = _segments_1d(
-                f,
-                ftype_s,
-                xs,
-                Xs,
-                ssign,
-                ftype_m,
-                xm,
-                msign,
-                cand_off,
-                cand,
-                rule_pts,
-                rule_w,
-                sxi,
-                sw,
-                sm,
-                row,
-                dxi,
-                dw,
-            )
-        else:
-            cnt = _segments_2d(
-                f,
-                ftype_s,
-                xs,
-                Xs,
-                ssign,
-                ftype_m,
-                xm,
-                msign,
-                cand_off,
-                cand,
-                rule_pts,
-                rule_w,
-                sxi,
-                sw,
-                sm,
-                row,
-                dxi,
-                dw,
-            )
+        cnt = _facet_points(
+            k,
+            f,
+            ftype_s,
+            xs,
+            Xs,
+            ssign,
+            ftype_m,
+            xm,
+            msign,
+            cand_off,
+            cand,
+            rule_pts,
+            rule_w,
+            sxi,
+            sw,
+            sm,
+            row,
+            dxi,
+            dw,
+        )
         paired = 0
         for q in range(nq):
             if qp_m[f, q] >= 0:
