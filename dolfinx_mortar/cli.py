@@ -142,7 +142,11 @@ def main(argv=None) -> int:
                 raise ValueError(extra[0])
             petsc = petsc_arguments(extra)
         except ValueError as exc:
-            parser.error(f"unrecognized argument: {exc}")
+            _error_line(
+                f"dolfinx-mortar: error: command line: unrecognized argument {exc} "
+                "(PETSc options of `run` take the prefix -dm_)"
+            )
+            return 2
     if args.command == "generators":
         from .generators import GENERATORS
 

@@ -512,12 +512,18 @@ def test_petsc_options_on_the_command_line(workdir):
     assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
     assert "solver.petsc" in res.stderr and "snes_linesearch_type" in res.stderr
     before = snapshot(workdir)
-    for extra in (["--bogus"], ["-snes_monitor"]):
-        res = cli(workdir, "run", "s.toml", "--out", "o3", *extra)
+    for args in (["run", "s.toml", "--bogus"], ["run", "s.toml", "-snes_monitor"],
+                 ["check", "s.toml", "-dm_snes_monitor"]):  # fmt: skip
+        res = cli(workdir, *args)
         assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
-        assert f"unrecognized argument: {extra[0]}" in res.stderr
-    res = cli(workdir, "check", "s.toml", "-dm_snes_monitor")
-    assert res.returncode == 2 and "unrecognized argument" in res.stderr
+        (line,) = res.stderr.splitlines()
+        m = ERROR_LINE.match(line)
+        assert m and m.group("key") == "command line", line
+        assert f"unrecognized argument {args[-1]}" in m.group("reason"), line
+    res = cli(workdir, "run", "s.toml", "--bogus", ranks=2)  # one line on every rank
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.splitlines()
+    assert len(lines) == 2 and all(ERROR_LINE.match(ln) for ln in lines), res.stderr
     assert snapshot(workdir) == before
 
 
