@@ -1988,11 +1988,10 @@ class MortarContact:
         if self.frictional:
             # the master pushes the slave with −t^I per unit reference area
             force = force - np.einsum("n,nc->c", self.AT, self.t_vec)
-            stick = int(np.count_nonzero(self.fstate == fr.STICK))
-            slip = int(np.count_nonzero(self.fstate == fr.SLIP))
             out["dissipation"] = self.dissipation
-        else:
-            stick, slip = 0, int(active.sum())
+        state = self._output_state()
+        stick = int(np.count_nonzero(state == fr.STICK))
+        slip = int(np.count_nonzero(state == fr.SLIP))
         counts = self.comm.allreduce(np.array([int(active.sum()), stick, slip]))
         out.update(
             force=[float(v) for v in self.comm.allreduce(force)],
@@ -2019,20 +2018,34 @@ class MortarContact:
         t0 /= np.maximum(np.linalg.norm(t0, axis=1), 1e-300)[:, None]
         return nrm, np.stack([t0, np.cross(nrm, t0)], axis=1)
 
+    def _output_state(self) -> np.ndarray:
+        """The nodal state of the outputs (n,): 0 open, 1 stick, 2 slip.
+
+        A node that carries pressure (p̂^I > 0) but no tangential traction is reported as
+        sliding: every active node of a frictionless pair, and a frictional node in the
+        step in which it enters contact (it has no slip history at t_n, so the nodal law
+        leaves it open: zero traction, free to slide). Only nodes without pressure are
+        open (0)."""
+        touching = self.p_hat > 0
+        if not self.frictional:
+            return np.where(touching, fr.SLIP, fr.OPEN)
+        return np.where(touching & (self.fstate == fr.OPEN), fr.SLIP, self.fstate)
+
     def _tangential_output(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """p_T (n, d−1) in the output frame (traction of the master on the slave), the
-        accumulated slip length (n,) and the state (n,) (0 open, 1 stick, 2 slip)."""
+        accumulated slip length (n,) and the state (n,) of :meth:`_output_state`."""
         n, d = self.node_blocks.size, self.gdim
         if not self.frictional:
-            return np.zeros((n, d - 1)), np.zeros(n), np.where(self.p_hat > 0, 2, 0)
+            return np.zeros((n, d - 1)), np.zeros(n), self._output_state()
         _, tang = self._output_frame()
         p_t = -np.einsum("nac,nc->na", tang, self.t_vec)
-        return p_t, self.slip_length_committed, self.fstate
+        return p_t, self.slip_length_committed, self._output_state()
 
     def node_table(self) -> np.ndarray | None:
         """Rows x, y(, z), X, Y(, Z), p_N, p_T0(, p_T1), gap, slip, state of every slave node, on rank 0.
 
-        Frictionless active nodes are reported as sliding (state 2); ``gap`` is the mixed
+        Nodes in contact without tangential traction are reported as sliding (state 2,
+        :meth:`_output_state`); ``gap`` is the mixed
         nodal gap γ^I (NaN where the node sees no master); p_T are the components of the
         tangential traction of the master on the slave in the SCENES.md output frame.
         """

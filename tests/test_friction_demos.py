@@ -10,6 +10,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dolfinx_mortar.solver import FULL_STEP_ITERATIONS
@@ -79,6 +80,16 @@ def test_cattaneo2d(shared_tmp):
     assert m["negative"] == 0
     assert m["max_newton_per_solve"] <= 25
     assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
+    # SCENES.md states: a node that carries pressure is never "open" (0), also in the
+    # press steps, where every node enters contact (frictionless in its first step)
+    csvs = sorted(Path(out).glob("contact_*_*.csv"))
+    assert len(csvs) == 7, csvs
+    entering = 0
+    for f in csvs:
+        d = np.genfromtxt(f, delimiter=",", names=True)
+        assert not np.any((d["p_N"] > 0) & (d["state"] == 0)), f
+        entering += int(np.sum((d["p_N"] > 0) & (d["state"] == 2) & (d["p_T0"] == 0.0)))
+    assert entering > 0  # the first press step has such nodes (14 of 17 in contact)
 
 
 def test_cattaneo2d_constrained(shared_tmp):
