@@ -274,7 +274,8 @@ def solver_stats(summary: dict) -> dict:
     """Newton iterations per step (summed over Uzawa rounds), the most in one Newton solve,
     Uzawa rounds per step, cutbacks in all, the solves continued with full Newton steps
     (solver.FULL_STEP_ITERATIONS) and those restarted with the bt line search after a
-    non-finite residual in all, the failed attempts from the predictor in all, and the
+    non-finite residual in all, the Newton steps shortened by the penetration limit
+    (``[solver] step_depth_limit``) in all, the failed attempts from the predictor in all, and the
     frictional dissipation per step."""
     steps = summary["steps"]
     return {
@@ -283,6 +284,7 @@ def solver_stats(summary: dict) -> dict:
         "uzawa_rounds": [int(s["uzawa_rounds"]) for s in steps],
         "cutbacks": sum(int(s["cutbacks"]) for s in steps),
         "full_step_solves": sum(int(s.get("full_step_solves", 0)) for s in steps),
+        "limited_steps": sum(int(s.get("limited_steps", 0)) for s in steps),
         "backtracked_solves": sum(int(s.get("backtracked_solves", 0)) for s in steps),
         "predictor_failures": sum(int(s.get("predictor_failures", 0)) for s in steps),
         "dissipation": [float(s.get("dissipation", 0.0)) for s in steps],

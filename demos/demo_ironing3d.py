@@ -13,7 +13,8 @@ u_x = 0.5, the slab element size: there Newton stalls at a residual of 1e-3…1e
 far the step is cut back. A row of slab nodes probably sits on a kink of the faceted
 die, where the element-integration gap is only C⁰; this was not checked further. Penalty "auto", ε_T = E*/h,
 Uzawa to ``--uzawa-tol`` (1e-2: with friction the rounds converge slowly; at 1e-3 a step
-took 14–20 rounds).
+took 14–20 rounds); Newton steps penetration-limited (``--step-depth-limit`` 0.25, as in
+2D: no slab node out of contact goes deeper than 0.25 h in one Newton step).
 
 Forces per converged step: R = the reaction on ``die_top``; F_x = R_x (the drag) and
 F_z = −R_z (the normal force). Metrics: the plateau ratio F_x/F_z and the oscillation
@@ -35,7 +36,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _common as cm  # noqa: E402
 import numpy as np  # noqa: E402
-from demo_ironing2d import plot, report_run, run_scene, window_stats  # noqa: E402
+from demo_ironing2d import (  # noqa: E402
+    STEP_DEPTH_LIMIT,
+    plot,
+    report_run,
+    run_scene,
+    window_stats,
+)
 from mpi4py import MPI  # noqa: E402
 
 E_DIE, E_SLAB, NU = 1000.0, 1.0, 0.3
@@ -55,6 +62,7 @@ def scene(
     press: float = PRESS,
     slide: float = SLIDE,
     uzawa_tol: float = 1e-2,
+    step_depth_limit: float = STEP_DEPTH_LIMIT,
 ) -> dict:
     """The scene dict (SCENES.md) at refinement level ``refine`` (element sizes halved)."""
     h = H_CONTACT / 2**refine
@@ -107,6 +115,7 @@ def scene(
             "output_times": [k / n_press for k in range(1, n_press)]
             + [1.0 + k / n_slide for k in range(1, n_slide)],
         },
+        "solver": {"step_depth_limit": step_depth_limit},
         "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
     }
 
@@ -156,6 +165,12 @@ def main(argv=None) -> dict:
     ap.add_argument("--press", type=float, default=PRESS, help=f"die indentation [{PRESS}]")
     ap.add_argument("--slide", type=float, default=SLIDE, help=f"die travel [{SLIDE}]")
     ap.add_argument("--uzawa-tol", type=float, default=1e-2, help="Uzawa tolerance [1e-2]")
+    ap.add_argument(
+        "--step-depth-limit",
+        type=float,
+        default=STEP_DEPTH_LIMIT,
+        help=f"[solver] step_depth_limit (slave facet sizes; 0 = off) [{STEP_DEPTH_LIMIT}]",
+    )
     ap.add_argument("--plot", action="store_true", help="write F_x, F_z against u_x")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -169,6 +184,7 @@ def main(argv=None) -> dict:
         press=args.press,
         slide=args.slide,
         uzawa_tol=args.uzawa_tol,
+        step_depth_limit=args.step_depth_limit,
     )
     summary, wall = run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.mu, args.slide, h, comm=comm)
@@ -200,6 +216,7 @@ def main(argv=None) -> dict:
             f"{m['full_step_solves']}, {m['backtracked_solves']}",
         ),
         ("failed attempts from the predictor", str(m["predictor_failures"])),
+        ("Newton steps shortened (depth limit)", str(m["limited_steps"])),
         ("Newton: max per solve", str(m["max_newton_per_solve"])),
         ("max Uzawa rounds", str(max(m["uzawa_rounds"], default=0))),
         ("wall time", f"{wall:.1f} s"),

@@ -627,6 +627,49 @@ class MortarContact:
             self._friction_integrals()
         self._recover()
 
+    def step_limit(self, trial: PETSc.Vec, depth: float) -> float:
+        """The largest fraction λ ∈ (0, 1] of the Newton step from the current state to the
+        displacement ``trial`` (a global vector, (ndofs,)) along which no slave node that
+        is out of contact now (p̂^I = 0) penetrates deeper than ``depth`` h_I (local: the
+        caller reduces with MIN over the ranks; collective: the displacements are fetched).
+
+        The nodal gaps g^I = G^I/A^I are taken at the current state (g₀ > 0 for a node out
+        of contact, this term's last :meth:`update`) and at the trial (g₁, with the
+        current pairing: each paired point's closest-point projection onto its facet,
+        extended beyond the facet's edges, so that a point deeper than the pairing's reach
+        still counts), linear in between:
+        λ = min_I (g₀ + depth h_I)/(g₀ − g₁) over the open nodes with g₁ < −depth h_I.
+        Nodes in contact are not limited: the tangent carries their contact stiffness.
+        """
+        # the fetches are collective (PETSc scatters): every rank, with facets or not
+        xs = self.slave.X + self._fetch_slave(trial).reshape(self.slave.X.shape)
+        xm = self.master.X + self._fetch_cand(trial).reshape(self.master.X.shape)
+        if not self.slave.num_facets:
+            return 1.0
+        zeta, g = np.zeros_like(self.qp_zeta), np.zeros_like(self.qp_g)
+        kmortar.forced_points(
+            self.ftype,
+            self.master.ftype,
+            xs,
+            self.qp_xi,
+            self.qp_m,
+            xm,
+            self.master.sign,
+            zeta,
+            g,
+        )
+        n = self.node_blocks.size
+        A, G1 = np.zeros(n), np.zeros(n)
+        kmortar.nodal_integrals(
+            self.ftype_phi, self.qp_xi, self.qp_w, self.qp_m, g, self.node_of, A, G1
+        )
+        safe = np.where(self.has_area, self.A, 1.0)
+        g0, g1 = self.G / safe, G1 / safe
+        floor = -depth * self.h_node
+        over = self.has_area & (self.p_hat <= 0.0) & (g1 < floor) & (g0 > floor)
+        lam = (g0 - floor)[over] / (g0 - g1)[over]
+        return float(min(1.0, lam.min(initial=1.0)))
+
     def _pair(self) -> None:
         nsf = self.slave.num_facets
         km = self.gdim - 1

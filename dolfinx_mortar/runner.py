@@ -75,6 +75,7 @@ def modelled(scene: Scene, problem) -> dict:
         "cell_type": problem.mesh_data.info.get("cell_type"),
         "contact_pairs": {c.name: c.describe() for c in problem.contacts},
         "friction": any(getattr(c, "frictional", False) for c in problem.contacts),
+        "step_depth_limit": scene.solver.step_depth_limit,
     }
 
 
@@ -93,7 +94,13 @@ def run(scene: Scene, comm, out_dir: Path | None = None, progress=None, setup=No
     out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
     so = scene.solver
     settings = SolverSettings(
-        so.rtol, so.atol, so.max_it, so.linear, so.line_search, dict(so.petsc)
+        so.rtol,
+        so.atol,
+        so.max_it,
+        so.linear,
+        so.line_search,
+        dict(so.petsc),
+        step_depth_limit=so.step_depth_limit,
     )
     summary = {
         "scene": scene.title,
@@ -162,6 +169,7 @@ def step_record(problem, res) -> dict:
         "predictor_failures": res.predictor_failures,
         "reused_factorizations": res.reused_factorizations,
         "failed_reuses": res.failed_reuses,
+        "limited_steps": res.limited_steps,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -63,6 +63,9 @@ Schema (``*`` = required; defaults in brackets)::
       linear       "mumps" | "lu" | "superlu_dist" | "petsc"  ["mumps"]
                    ("petsc": use the [solver.petsc] options as given)
       line_search  "basic" | "bt" | "l2" | "cp"               ["l2"]
+      step_depth_limit  float >= 0: the deepest penetration, in units of the
+                   slave facet size h_I, that one Newton step may give a slave node
+                   out of contact (the step is shortened); 0 = off          [0]
       [solver.petsc]  table of PETSc options: string / int / float / bool values
                       (true: a bare flag, e.g. snes_monitor = true)
 
@@ -366,6 +369,10 @@ class SolverOptions:
         active set changes), ``"basic"`` (full Newton step), ``"bt"``, ``"cp"``.
     petsc:
         Extra PETSc options, names without the leading ``-`` (``{"ksp_type": "gmres"}``).
+    step_depth_limit:
+        Penetration-limited Newton steps (dimensionless, >= 0; 0 = off): a Newton step
+        is shortened so that no slave node out of contact penetrates deeper than
+        ``step_depth_limit`` × h_I (the nodal facet size).
     """
 
     rtol: float = 1e-9
@@ -374,6 +381,7 @@ class SolverOptions:
     linear: str = "mumps"
     line_search: str = "l2"
     petsc: dict[str, str | int | float | bool] = field(default_factory=dict)
+    step_depth_limit: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -715,7 +723,7 @@ _CONTACT_KEYS = (
 _DIRICHLET_KEYS = ("boundary", "components", "path")
 _TRACTION_KEYS = ("boundary", "path")
 _STEPS_KEYS = ("t_end", "n", "max_cutbacks", "output_times")
-_SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc")
+_SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "step_depth_limit")
 _OUTPUT_KEYS = ("dir", "fields")
 
 
@@ -925,8 +933,15 @@ def _parse_solver(value: Any) -> SolverOptions:
     line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
     petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
+    depth = _nonnegative(table.get("step_depth_limit", 0.0), "solver.step_depth_limit")
     return SolverOptions(
-        rtol=rtol, atol=atol, max_it=max_it, linear=linear, line_search=line_search, petsc=petsc
+        rtol=rtol,
+        atol=atol,
+        max_it=max_it,
+        linear=linear,
+        line_search=line_search,
+        petsc=petsc,
+        step_depth_limit=depth,
     )
 
 

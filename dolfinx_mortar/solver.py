@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from time import perf_counter
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
@@ -56,7 +57,8 @@ def _ordering(linear: str, gdim: int | None) -> dict:
 
 @dataclass
 class SolverSettings:
-    """Newton settings. ``petsc``: extra PETSc options (without prefix) that override the defaults."""
+    """Newton settings. ``petsc``: extra PETSc options (without prefix) that override the
+    defaults; ``step_depth_limit``: see :meth:`NewtonSolver._limit_step`."""
 
     rtol: float = 1e-9
     atol: float = 1e-10
@@ -65,6 +67,10 @@ class SolverSettings:
     line_search: str = "l2"
     petsc: dict = field(default_factory=dict)
     prefix: str = "dm_"
+    #: penetration-limited Newton steps (:meth:`NewtonSolver._limit_step`): the largest
+    #: penetration, in units of the nodal facet size h_I, that one Newton step may give a
+    #: slave node that is out of contact; 0 = off
+    step_depth_limit: float = 0.0
 
 
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
@@ -127,6 +133,7 @@ _STALLED = (
 _NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
 #: NewtonSolver counters that StepResult reports per step
 _SOLVE_COUNTERS = (
+    "limited_steps",
     "full_step_solves",
     "backtracked_solves",
     "reused_factorizations",
@@ -182,6 +189,7 @@ class NewtonSolver:
         #: the last iterate with a finite residual norm of the current solve (the
         #: monitor's copy), and whether the solve has had one
         self._finite_x = self._b.duplicate()
+        self._trial = self._b.duplicate()  # the end of the full Newton step (_limit_step)
         self._has_finite = False
         self.snes.setFunction(self._F, self._b)
         self.snes.setJacobian(self._J, self._A, self._A)
@@ -209,6 +217,10 @@ class NewtonSolver:
         #: solves whose residual became non-finite and that were restarted with "bt"
         self.backtracked_solves = 0
         self.snes.setMonitor(self._remember_finite)
+        #: Newton steps shortened by the penetration limit (settings.step_depth_limit)
+        self.limited_steps = 0
+        if settings.step_depth_limit > 0.0 and problem.contacts:
+            self.snes.setLineSearchPreCheck(self._limit_step)
         self._n_solves = 0
         self._dtol = None
         #: factorization reuse (REUSE_FACTORIZATION): possible at all with these options,
@@ -230,6 +242,25 @@ class NewtonSolver:
         self.problem.update_contact(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.residual(x, b)
+
+    def _limit_step(self, x, y):
+        """Line-search pre-check (collective): shorten the Newton step in place so that no
+        slave node out of contact penetrates deeper than ``settings.step_depth_limit`` h_I
+        (:meth:`~dolfinx_mortar.contact.MortarContact.step_limit`; docs/method-notes.md,
+        "Penetration-limited Newton steps"). x (ndofs,) is the iterate and x − y the full
+        Newton step's end (PETSc's sign convention); y is scaled by
+        λ = min(1, min over the contact terms and ranks of their step limits)."""
+        p = self.problem
+        p.ensure_contact_at(x)
+        x.copy(self._trial)
+        self._trial.axpy(-1.0, y)
+        depth = self.settings.step_depth_limit
+        lam = min(term.step_limit(self._trial, depth) for term in p.contacts)
+        lam = p.comm.allreduce(lam, op=MPI.MIN)
+        if lam < 1.0:
+            y.scale(lam)
+            self.limited_steps += 1
+            log.debug("Newton step shortened to %.3g of its length (step_depth_limit)", lam)
 
     def _remember_finite(self, snes, its, fnorm):
         if np.isfinite(fnorm):
@@ -395,6 +426,7 @@ class NewtonSolver:
         self._A.destroy()
         self._b.destroy()
         self._finite_x.destroy()
+        self._trial.destroy()
 
     def __enter__(self):
         return self
@@ -443,6 +475,9 @@ class StepResult:
     #: (GMRES on it; see REUSE_FACTORIZATION), and those where GMRES did not converge
     reused_factorizations: int = 0
     failed_reuses: int = 0
+    #: Newton steps of this step shortened by the penetration limit
+    #: (SolverSettings.step_depth_limit; failed attempts included)
+    limited_steps: int = 0
 
 
 def solve_step(

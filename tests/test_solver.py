@@ -57,6 +57,7 @@ class _Newton:
         self.backtracked_solves = 0
         self.reused_factorizations = 0
         self.failed_reuses = 0
+        self.limited_steps = 0
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         p = self.problem

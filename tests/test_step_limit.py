@@ -1,0 +1,132 @@
+"""Penetration-limited Newton steps (``[solver] step_depth_limit``).
+
+``MortarContact.step_limit`` against the closed form on a flat interface (gaps linear in
+a rigid translation), and a displacement-driven press from the open state solved with
+and without the limit: the same converged state, reached by shortened steps. Serially
+and under MPI.
+"""
+
+import numpy as np
+import pytest
+from dolfinx import fem
+from mpi4py import MPI
+
+from dolfinx_mortar.runner import prepare, run
+from dolfinx_mortar.scene import SceneError, parse_scene
+
+GAP0 = 0.05  # initial gap between the blocks of the patch
+
+
+def _patch_problem():
+    data = {
+        "kinematics": "finite",
+        "mesh": {"generator": "patch2d", "params": {"gap0": GAP0}},
+        "material": [
+            {"region": r, "model": "neo-hookean", "E": 200.0, "nu": 0.3} for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top", "penalty": 1.0e3}],
+        "output": {"dir": "unused"},
+    }
+    problem, _ = prepare(parse_scene(data, __import__("pathlib").Path(".")), MPI.COMM_WORLD)
+    return problem
+
+
+def _translated(problem, dy):
+    """A global vector: the upper block translated by dy (y), the lower one at rest."""
+    md = problem.mesh_data
+    cells = md.cell_tags.find(md.cell_groups["upper"])
+    dofs = fem.locate_dofs_topological(problem.V, problem.mesh.topology.dim, cells)
+    w = fem.Function(problem.V)
+    w.x.array[dofs * problem.V.dofmap.index_map_bs + 1] = dy
+    w.x.scatter_forward()
+    return w.vector.copy()
+
+
+@pytest.mark.mpi
+def test_step_limit_bounds_the_penetration_of_open_nodes():
+    problem = _patch_problem()
+    term = problem.contacts[0]
+    comm = problem.comm
+
+    def limit(current, trial, depth):
+        problem.update_contact(current)
+        return comm.allreduce(term.step_limit(trial, depth), op=MPI.MIN)
+
+    h = comm.allreduce(float(term.h_node.max(initial=0.0)), op=MPI.MAX)
+    h_min = comm.allreduce(float(term.h_node.min(initial=np.inf)), op=MPI.MIN)
+    assert h == pytest.approx(h_min, rel=1e-12)  # uniform slave facets: one closed form
+    rest = _translated(problem, 0.0)
+    # open (gap GAP0) -> 0.5 h deep: the open nodes may go 0.25 h deep, a fraction
+    # (GAP0 + 0.25 h) / (GAP0 + 0.5 h) of the step
+    lam = limit(rest, _translated(problem, -(GAP0 + 0.5 * h)), 0.25)
+    assert lam == pytest.approx((GAP0 + 0.25 * h) / (GAP0 + 0.5 * h), rel=1e-10)
+    # ... and there the deepest node is 0.25 h deep
+    problem.update_contact(_translated(problem, -lam * (GAP0 + 0.5 * h)))
+    has = term.has_area
+    deepest = comm.allreduce(float(np.max(-term.G[has] / term.A[has], initial=0.0)), op=MPI.MAX)
+    assert deepest == pytest.approx(0.25 * h, rel=1e-9)
+    # a step that stays above -0.25 h, and one that opens the gap: not shortened
+    assert limit(rest, _translated(problem, -(GAP0 + 0.2 * h)), 0.25) == 1.0
+    assert limit(rest, _translated(problem, 0.3), 0.25) == 1.0
+    # nodes in contact (0.01 h deep, pressed) are not limited: the tangent knows them
+    pressed = _translated(problem, -(GAP0 + 0.01 * h))
+    problem.update_contact(pressed)
+    n_active = comm.allreduce(int(np.sum(term.p_hat > 0)))
+    assert n_active == comm.allreduce(int(np.sum(term.has_area))) > 0
+    assert limit(pressed, _translated(problem, -(GAP0 + 2.0 * h)), 0.25) == 1.0
+
+
+PRESS = {
+    "kinematics": "small",
+    "mesh": {"generator": "hertz2d", "params": {"h_contact": 0.2, "h_far": 3.0}},
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
+        for r in ("cylinder", "block")
+    ],
+    "contact": [{"slave": "cylinder_surface", "master": "block_top", "uzawa_tol": 1e-8}],
+    "dirichlet": [
+        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+        {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        # one step from the open state, 2.5 h deep: without the limit the first Newton
+        # steps plunge the cylinder into the block; with it they are shortened 4 times
+        {"boundary": "cylinder_top", "components": [1], "path": [[0.0, 0.0], [1.0, -0.5]]},
+    ],
+    "steps": {"n": 1, "max_cutbacks": 0},
+}
+
+
+@pytest.mark.mpi
+def test_a_depth_limited_press_reaches_the_same_state(shared_tmp):
+    """The limit changes the path of Newton, not its solution: nodal pressures and the
+    contact force agree with the unlimited run to 1e-8 (measured 3e-13); the limited run
+    shortened some of its steps, the unlimited one none."""
+    out = {}
+    for depth in (0.0, 0.25):
+        data = {**PRESS, "solver": {"step_depth_limit": depth}}
+        d = shared_tmp / f"press{depth}"
+        s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=d)
+        assert s["status"] == "ok"
+        table = None
+        if MPI.COMM_WORLD.rank == 0:
+            table = np.genfromtxt(d / "contact_cylinder_surface_1.csv", delimiter=",", names=True)
+        out[depth] = (s, MPI.COMM_WORLD.bcast(table, root=0))
+    (s0, t0), (s1, t1) = out[0.0], out[0.25]
+    assert s0["steps"][0]["limited_steps"] == 0
+    assert s1["steps"][0]["limited_steps"] >= 1
+    p0 = t0["p_N"]
+    assert np.max(p0) > 0.0 and np.count_nonzero(p0) >= 3
+    assert np.max(np.abs(t1["p_N"] - p0)) <= 1e-8 * np.max(p0)
+    f0 = np.asarray(s0["steps"][0]["contact_force"]["cylinder_surface:block_top"])
+    f1 = np.asarray(s1["steps"][0]["contact_force"]["cylinder_surface:block_top"])
+    assert np.linalg.norm(f1 - f0) <= 1e-8 * np.linalg.norm(f0)
+    assert s1["modelled"]["step_depth_limit"] == 0.25
+
+
+def test_step_depth_limit_scene_key(tmp_path):
+    base = {**PRESS, "output": {"dir": "x"}}
+    assert parse_scene(base, tmp_path).solver.step_depth_limit == 0.0
+    ok = parse_scene({**base, "solver": {"step_depth_limit": 0.5}}, tmp_path)
+    assert ok.solver.step_depth_limit == 0.5
+    for bad in (-0.1, "deep", True):
+        with pytest.raises(SceneError, match=r"solver\.step_depth_limit"):
+            parse_scene({**base, "solver": {"step_depth_limit": bad}}, tmp_path)
