@@ -250,6 +250,7 @@ class NewtonSolver:
         "Penetration-limited Newton steps"). x (ndofs,) is the iterate and x − y the full
         Newton step's end (PETSc's sign convention); y is scaled by
         λ = min(1, min over the contact terms and ranks of their step limits)."""
+        t0 = perf_counter()
         p = self.problem
         p.ensure_contact_at(x)
         x.copy(self._trial)
@@ -257,6 +258,7 @@ class NewtonSolver:
         depth = self.settings.step_depth_limit
         lam = min(term.step_limit(self._trial, depth) for term in p.contacts)
         lam = p.comm.allreduce(lam, op=MPI.MIN)
+        p.timings["search"] += perf_counter() - t0  # a search at the step's end
         if lam < 1.0:
             y.scale(lam)
             self.limited_steps += 1
