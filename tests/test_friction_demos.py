@@ -107,6 +107,27 @@ def test_cattaneo2d_constrained(shared_tmp):
     assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
 
 
+@pytest.mark.mpi2
+def test_cattaneo2d_meets_the_issue_targets_at_a_over_27(shared_tmp):
+    """The issue's Cattaneo–Mindlin figures, on the demo's defaults (lumped normal
+    recovery, dual tangential weights) one refinement up, h = 0.025 ≈ a/27 (39654 dofs;
+    on 2 ranks only, marker mpi2: 25 s; serially 27 s and the same figures): stick-zone half-width within one slave element of c = a√(1 − Q/(μP))
+    (measured −0.06 elements), L2 error of the tangential traction ≤ 5 % (measured
+    4.70 %; at h = a/13 the nodal interpolant of the EXACT q already misses by 4.3–5.8 %,
+    BENCHMARKS §8), L2(p) 1.20 %, no cutback or failed predictor, at most 17 Newton
+    iterations in one solve."""
+    out = str(shared_tmp / "cattaneo2d-fine")
+    m = demo_cattaneo2d.main(["--refine", "1", "--out", out])
+    assert 0.4 <= m["Q_ratio"] <= 0.55, m["Q_ratio"]
+    assert abs(m["c_err_elements"]) <= 1.0, m["c_err_elements"]
+    assert m["l2_q"] <= 0.05, m["l2_q"]
+    assert m["l2_p"] <= 0.02, m["l2_p"]
+    assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
+    assert m["negative"] == 0
+    assert m["max_newton_per_solve"] <= 25
+    assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("mu,integration", [(0.3, "element"), (0.5, "segment")])
 def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from dolfinx import fem
 from mpi4py import MPI
+from test_contact_parallel import HERTZ2D
 
 from dolfinx_mortar.runner import prepare, run
 from dolfinx_mortar.scene import SceneError, parse_scene
@@ -76,21 +77,14 @@ def test_step_limit_bounds_the_penetration_of_open_nodes():
     assert limit(pressed, _translated(problem, -(GAP0 + 2.0 * h)), 0.25) == 1.0
 
 
+#: the 2D Hertz scene of the parallel tests, pressed by a displacement of the cylinder's
+#: top in one step from the open state, 2.5 h deep: without the limit the first Newton
+#: steps plunge the cylinder into the block; with it they are shortened 4 times
 PRESS = {
-    "kinematics": "small",
+    **{k: v for k, v in HERTZ2D.items() if k != "traction"},
     "mesh": {"generator": "hertz2d", "params": {"h_contact": 0.2, "h_far": 3.0}},
-    "material": [
-        {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
-        for r in ("cylinder", "block")
-    ],
-    "contact": [{"slave": "cylinder_surface", "master": "block_top", "uzawa_tol": 1e-8}],
-    "dirichlet": [
-        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
-        {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
-        # one step from the open state, 2.5 h deep: without the limit the first Newton
-        # steps plunge the cylinder into the block; with it they are shortened 4 times
-        {"boundary": "cylinder_top", "components": [1], "path": [[0.0, 0.0], [1.0, -0.5]]},
-    ],
+    "dirichlet": HERTZ2D["dirichlet"]
+    + [{"boundary": "cylinder_top", "components": [1], "path": [[0.0, 0.0], [1.0, -0.5]]}],
     "steps": {"n": 1, "max_cutbacks": 0},
 }
 
