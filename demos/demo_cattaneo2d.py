@@ -172,6 +172,12 @@ def main(argv=None) -> dict:
         default="lumped",
         help="recovery of the tangential traction [lumped]",
     )
+    ap.add_argument(
+        "--step-depth-limit",
+        type=float,
+        default=0.0,
+        help="[solver] step_depth_limit (slave facet sizes; 0 = off) [0]",
+    )
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
@@ -182,6 +188,8 @@ def main(argv=None) -> dict:
         tangential_weights=args.tangential_weights,
         tangential_recovery=args.tangential_recovery,
     )
+    if args.step_depth_limit > 0.0:
+        sc["solver"] = {"step_depth_limit": args.step_depth_limit}
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
