@@ -1,6 +1,6 @@
 """Shared helpers of the demo scripts (not part of the library).
 
-- :func:`parser`, :func:`run_scene`: command line and a collective run of a scene dict;
+- :func:`parser`, :func:`add_step_depth_limit`, :func:`run_scene`: command line and a collective run of a scene dict;
 - :func:`final_csv`: the slave-node table of the last converged step (rank 0);
 - :func:`mirror`: unfold a symmetric half model's profile onto -x;
 - :func:`profile_metrics`: the peers' pressure metrics (``shared/peers/hertz_common.py``
@@ -59,6 +59,19 @@ def parser(
             help="recovery of the nodal mixed gap and pressure (METHOD.md §3) [lumped]",
         )
     return ap
+
+
+def add_step_depth_limit(ap: argparse.ArgumentParser, default: float) -> None:
+    """The option ``--step-depth-limit`` (``[solver] step_depth_limit``: the deepest
+    penetration, in slave facet sizes, that one Newton step may give a slave node out of
+    contact; 0 = off) with the demo's ``default``."""
+    ap.add_argument(
+        "--step-depth-limit",
+        type=float,
+        default=default,
+        help="[solver] step_depth_limit: the deepest penetration (in slave facet sizes) one "
+        f"Newton step may give a slave node out of contact; 0 = off [{default:g}]",
+    )
 
 
 def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD, **hooks) -> tuple[dict, float]:

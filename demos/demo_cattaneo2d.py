@@ -172,12 +172,7 @@ def main(argv=None) -> dict:
         default="lumped",
         help="recovery of the tangential traction [lumped]",
     )
-    ap.add_argument(
-        "--step-depth-limit",
-        type=float,
-        default=0.0,
-        help="[solver] step_depth_limit (slave facet sizes; 0 = off) [0]",
-    )
+    cm.add_step_depth_limit(ap, 0.0)
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine

@@ -264,13 +264,7 @@ def main(argv=None) -> dict:
         default="slab",
         help="slave surface: slab_top (master die_surface) or die_surface (master slab_top) [slab]",
     )
-    ap.add_argument(
-        "--step-depth-limit",
-        type=float,
-        default=STEP_DEPTH_LIMIT,
-        help="[solver] step_depth_limit: the deepest penetration (in slave facet sizes) one "
-        f"Newton step may give a slave node out of contact; 0 = off [{STEP_DEPTH_LIMIT}]",
-    )
+    cm.add_step_depth_limit(ap, STEP_DEPTH_LIMIT)
     ap.add_argument("--plot", action="store_true", help="write F_x, F_y against u_x")
     ap.add_argument(
         "--tangential-weights",

@@ -165,12 +165,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--press", type=float, default=PRESS, help=f"die indentation [{PRESS}]")
     ap.add_argument("--slide", type=float, default=SLIDE, help=f"die travel [{SLIDE}]")
     ap.add_argument("--uzawa-tol", type=float, default=1e-2, help="Uzawa tolerance [1e-2]")
-    ap.add_argument(
-        "--step-depth-limit",
-        type=float,
-        default=STEP_DEPTH_LIMIT,
-        help=f"[solver] step_depth_limit (slave facet sizes; 0 = off) [{STEP_DEPTH_LIMIT}]",
-    )
+    cm.add_step_depth_limit(ap, STEP_DEPTH_LIMIT)
     ap.add_argument("--plot", action="store_true", help="write F_x, F_z against u_x")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
