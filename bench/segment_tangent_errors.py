@@ -47,9 +47,7 @@ FRICTION = [  # (case, normal recovery, tangential weights, tangential recovery)
 def _errors(problem, term):
     u0 = problem.u.vector.copy()
     A = problem.create_matrix()
-    A.zeroEntries()
-    term.add_jacobian(A)
-    A.assemble()
+    problem.contact_jacobian(A)
     return {h: max(tc.fd_errors(problem, term, A, u0, n=2, h=h)) for h in (1e-5, 1e-6)}
 
 

@@ -33,7 +33,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import MatrixPattern
+from .assembly import MatrixPattern, RecordedValues
 from .bulk import internal_residual
 
 log = logging.getLogger(__name__)
@@ -243,17 +243,43 @@ class ContactProblem:
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective)."""
+        self._assemble_bulk_jacobian(A)
+        self._add_contact_jacobian(A, bulk=True)
+
+    def contact_jacobian(self, A: PETSc.Mat) -> None:
+        """A = the contact terms' part of the Jacobian alone, at the state of their last
+        update (collective; ``A`` from :meth:`create_matrix`). For checks against finite
+        differences of the contact residual."""
+        A.zeroEntries()
+        self._add_contact_jacobian(A, bulk=False)
+
+    def _add_contact_jacobian(self, A: PETSc.Mat, bulk: bool) -> None:
+        """A += the contact terms' tangent; assembles A (collective). The values are kept
+        until the pattern covers them all (:meth:`MatrixPattern.grow`): a coupling new to
+        the pattern would otherwise make PETSc reallocate the matrix inside MatSetValues.
+        Where the pattern grows, A loses its values, and the bulk part (``bulk``) is
+        assembled again."""
+        t0 = perf_counter()
+        values = RecordedValues(self.V.dofmap.index_map_bs, self._pattern.nblocks)
+        for term in self.contacts:
+            term.add_jacobian(values)
+        grown = self._pattern.grow(A, values.block_keys())
+        self.timings["contact_assembly"] += perf_counter() - t0
+        if grown and bulk:
+            self._assemble_bulk_jacobian(A)
+        t0 = perf_counter()
+        values.replay(A)
+        A.assemble()
+        self.timings["contact_assembly"] += perf_counter() - t0
+
+    def _assemble_bulk_jacobian(self, A: PETSc.Mat) -> None:
+        """A = the bulk Jacobian with the Dirichlet rows (collective; flush-assembled)."""
         t0 = perf_counter()
         A.zeroEntries()
         assemble_matrix(A, self.J_form, self.bcs)
         A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
         A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
         self.timings["bulk_assembly"] += perf_counter() - t0
-        t0 = perf_counter()
-        for term in self.contacts:
-            term.add_jacobian(A)
-        A.assemble()
-        self.timings["contact_assembly"] += perf_counter() - t0
 
     # ---------------------------------------------------------------- matrix
     def _contact_couplings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -219,11 +219,44 @@ def test_contact_tangent_matches_finite_differences(case, integration, recovery)
         assert rec.tangent_nodes.size >= 3
         assert rec.right.nnz > 3 * rec.tangent_nodes.size
     A = problem.create_matrix()
-    A.zeroEntries()
-    term.add_jacobian(A)
-    A.assemble()
+    problem.contact_jacobian(A)
     errs = fd_errors(problem, term, A, u0)
     assert max(errs) < 1e-5, errs
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_pattern_grows_before_the_values_go_in(case):
+    """problem.jacobian / contact_jacobian (assembly.RecordedValues, MatrixPattern.grow):
+    couplings of the unconstrained tangent (through M⁻¹, several node rings apart) that
+    the matrix was not made for grow its pattern before any value is inserted, so PETSc
+    never reallocates inside MatSetValues (a whole-matrix copy per overflowing row), and
+    the values are those of a direct insertion."""
+    problem = _problem(case, "element", "unconstrained")
+    term = problem.contacts[0]
+    _set_state(problem, {2: 0.05, 3: 0.04}[problem.gdim], CASES[case][4][0])
+    term.update(problem.u)
+    A = problem.create_matrix()  # no learned couplings yet: the mixed ones are new
+    before = problem._pattern.key_set.size
+    problem.contact_jacobian(A)
+    comm = MPI.COMM_WORLD
+    assert comm.allreduce(problem._pattern.key_set.size - before) > 0
+    assert A.getInfo()["mallocs"] == 0
+    direct = problem.create_matrix()
+    direct.zeroEntries()
+    term.add_jacobian(direct)  # straight into the matrix: PETSc reallocates as needed
+    direct.assemble()
+    direct.axpy(-1.0, A)
+    assert direct.norm() <= 1e-13 * A.norm()
+    # the full Jacobian on a matrix made before the couplings were learned: no
+    # reallocation either, and the bulk part is there
+    term._learned = np.empty(0, np.int64)
+    J = problem.create_matrix()
+    problem.jacobian(problem.u.vector, J)
+    assert J.getInfo()["mallocs"] == 0
+    assert J.norm() > A.norm()
+    for mat in (A, direct, J):
+        mat.destroy()
 
 
 @pytest.mark.mpi
@@ -251,9 +284,7 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
 
     def jacobian():
         A = problem.create_matrix()
-        A.zeroEntries()
-        term.add_jacobian(A)
-        A.assemble()
+        problem.contact_jacobian(A)
         return A
 
     term.begin_solve()
@@ -345,9 +376,7 @@ def test_pinned_points_keep_their_facet_and_an_exact_tangent(case):
     for f, q in pins:
         assert term.qp_m[f, q] == term.qp_pinned[f, q] != free[f, q]
     A = problem.create_matrix()
-    A.zeroEntries()
-    term.add_jacobian(A)
-    A.assemble()
+    problem.contact_jacobian(A)
     errs = fd_errors(problem, term, A, u0, check=lambda t: None)
     for f, q in pins:  # still pinned after the perturbed updates
         assert term.qp_m[f, q] == term.qp_pinned[f, q]

@@ -412,9 +412,7 @@ def _check_tangent(problem, term):
     assert counts[fr.STICK] >= 1 and counts[fr.SLIP] >= 1, counts
     u0 = problem.u.vector.copy()
     A = problem.create_matrix()
-    A.zeroEntries()
-    term.add_jacobian(A)
-    A.assemble()
+    problem.contact_jacobian(A)
     frozen = term.fstate.copy()
 
     def same_states(t):
