@@ -1,7 +1,8 @@
 #!/bin/sh
 # Install whatever is missing for dolfinx_mortar on Debian bookworm (run as root).
 # Idempotent: when everything is present it only checks, in about a second.
-#   - Debian packages of the stack (DESIGN.md): dolfinx 0.5.2, PETSc, MPI, gmsh, numba, ...
+#   - Debian packages of the stack (DESIGN.md): dolfinx 0.5.2, PETSc, MPI, gmsh, numba, ...,
+#     and pytest-xdist (the serial tests run on every core: scripts/test.sh)
 #   - Debian's OpenBLAS (serial build): it replaces the reference BLAS behind MUMPS and
 #     numpy through Debian's alternatives; MUMPS factorizes 2.6 times faster with it
 #     (peers problem A, level 3, 36736 dofs: 0.26 s -> 0.10 s a factorization)
@@ -13,7 +14,7 @@ REPO=$(cd "$(dirname "$0")/.." && pwd)
 PY=/usr/bin/python3
 RUFF_VERSION=0.17.6
 PKGS="python3-dolfinx-real python3-petsc4py python3-mpi4py python3-gmsh python3-numba
-python3-scipy python3-matplotlib python3-pytest python3-pip python3-setuptools python3-wheel
+python3-scipy python3-matplotlib python3-pytest python3-pytest-xdist python3-pip python3-setuptools python3-wheel
 openmpi-bin libopenblas0-serial"
 
 missing=""

@@ -29,7 +29,11 @@ $PY -m ruff format --check .
 # Tests marked mpi2 (long 3D demos) run on 2 ranks only: serially they would repeat the
 # 2-rank run's assertions, and 3 ranks on the 2 cores would add minutes to the 15-minute
 # budget.
-run_pytest "pytest -m 'not mpi2' (serial)" $PY -m pytest -q -p no:cacheprovider -m "not mpi2" tests
+# The serial tests run in one process per core (pytest-xdist), a test file per process at
+# a time (--dist loadfile: the module fixtures that run demos are made once); the 10
+# slowest are listed.
+run_pytest "pytest -m 'not mpi2' (serial, -n auto)" $PY -m pytest -q -p no:cacheprovider \
+    -n auto --dist loadfile --durations=10 -m "not mpi2" tests
 for n in 2 3; do
     marks="mpi"
     if [ "$n" -eq 2 ]; then marks="mpi or mpi2"; fi

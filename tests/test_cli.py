@@ -28,7 +28,10 @@ ERROR_LINE = re.compile(r"^dolfinx-mortar: error: (?P<key>[^:]*): (?P<reason>\S.
 
 # Environment variables that tie a process to a running MPI job (an Open MPI singleton
 # or an mpirun): a child must not inherit them, or it would try to join that job.
-_MPI_JOB_PREFIXES = ("PMIX_", "PMI_", "OMPI_COMM_WORLD_", "OMPI_MCA_ess_", "OMPI_MCA_orte_")
+# A pytest-xdist worker starts with the C-level environ of the controller, which the MPI
+# singleton extended (OMPI_MCA_ess=singleton, OMPI_MCA_pmix, OMPI_APP_CTX_NUM_PROCS,
+# ORTE_SCHIZO_DETECTION): an mpirun started with those exits 1 without a word.
+_MPI_JOB_PREFIXES = ("PMIX_", "PMI_", "OMPI_", "ORTE_")
 
 
 def _env(**extra: str) -> dict[str, str]:
@@ -58,7 +61,13 @@ def cli(cwd: Path, *args: str, ranks: int = 0, **env: str) -> subprocess.Complet
         # banner, so that stderr holds only what the ranks print
         cmd = [mpirun, "-q", "-n", str(ranks), *cmd]
     return subprocess.run(
-        cmd, cwd=cwd, env=_env(**env), capture_output=True, text=True, timeout=TIMEOUT
+        cmd,
+        cwd=cwd,
+        env=_env(**env),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
     )
 
 

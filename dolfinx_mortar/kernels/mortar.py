@@ -41,6 +41,9 @@ import numpy as np
 from .gap import gap_and_derivatives, gap_only, project, unit_normal
 from .shape import shape, tdim
 
+#: Newton iterations of the closest-point projection of a slave point
+PROJECT_MAXIT = 30
+
 
 @numba.njit(cache=True)
 def reference_weights(ftype_s, Xs, qpts, qw, qp_xi, qp_w):
@@ -154,7 +157,7 @@ def pair_points(
                     dbox += e * e
                 if dbox > min(best_dist, reach[f]) ** 2:
                     continue
-                project(x1, xm[m], ftype_m, z0, zeta, 1e-13, 30)
+                project(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT))
                 out = _outside(ftype_m, zeta)
                 if out > OUTSIDE_TOL or out > best_out:
                     continue
@@ -206,7 +209,7 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
             if m < 0:
                 continue
             _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
-            project(x1, xm[m], ftype_m, z0, zeta, 1e-13, 30)
+            project(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT))
             qp_g[f, q] = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
             for a in range(km):
                 qp_zeta[f, q, a] = zeta[a]
@@ -377,7 +380,9 @@ def contact_terms(
     nm = xm.shape[1]
     nphi = node_of.shape[1]
     nloc = (ns + nm) * d
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, True)
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
+        ftype_s, ns, nm, d, np.bool_(True)
+    )
     row = -1
     for f in range(nsf):
         for q in range(nq):
@@ -456,7 +461,9 @@ def node_rows(
     nm = xm.shape[1]
     nphi = node_of.shape[1]
     nloc = (ns + nm) * d
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, False)
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
+        ftype_s, ns, nm, d, np.bool_(False)
+    )
     fill = b_off[:-1].copy()
     for f in range(nsf):
         for q in range(nq):
@@ -478,7 +485,7 @@ def node_rows(
                 msign[m],
                 qp_xi[f, q],
                 qp_zeta[f, q],
-                False,
+                np.bool_(False),
                 dg_loc,
                 d2g_loc,
                 dg,
@@ -570,7 +577,9 @@ def point_xi_terms(
     nm = xm.shape[1]
     k = qp_xi.shape[2]
     nphi = phi.shape[1]
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(ftype_s, ns, nm, d, False)
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
+        ftype_s, ns, nm, d, np.bool_(False)
+    )
     xp = np.empty((k, d))
     row = -1
     for f in range(nsf):
@@ -587,7 +596,7 @@ def point_xi_terms(
                 msign[m],
                 qp_xi[f, q],
                 qp_zeta[f, q],
-                False,
+                np.bool_(False),
                 dg_loc,
                 d2g_loc,
                 dg,

@@ -181,7 +181,7 @@ def _faces(ftype_s, xsf, ss, ftype_m, xmm, ms, xi):
     unit_normal(xsf, ftype_s, ss, xi, nus)
     z0 = np.full(km, np.nan)
     z = np.empty(km)
-    project(x, xmm, ftype_m, z0, z, PROJ_TOL, PROJ_MAXIT)
+    project(x, xmm, ftype_m, z0, z, PROJ_TOL, np.int64(PROJ_MAXIT))
     for a in range(km):
         if not math.isfinite(z[a]):
             reference_centre(ftype_m, z)
@@ -279,9 +279,9 @@ def _segments_1d(
     cnt = 0
     for j in range(cand_off[f], cand_off[f + 1]):
         m = cand[j]
-        project(xm[m, 0], xsf, ftype_s, z0, t, PROJ_TOL, PROJ_MAXIT)
+        project(xm[m, 0], xsf, ftype_s, z0, t, PROJ_TOL, np.int64(PROJ_MAXIT))
         t0 = t[0]
-        project(xm[m, 1], xsf, ftype_s, z0, t, PROJ_TOL, PROJ_MAXIT)
+        project(xm[m, 1], xsf, ftype_s, z0, t, PROJ_TOL, np.int64(PROJ_MAXIT))
         t1 = t[0]
         if not (math.isfinite(t0) and math.isfinite(t1)):
             continue
@@ -294,8 +294,8 @@ def _segments_1d(
         if not _faces(ftype_s, xsf, ssign[f], ftype_m, xm[m], msign[m], xi):
             continue
         if want:
-            _end_derivative(ftype_s, xsf, xm[m, 0], t0, 0, dt[0])
-            _end_derivative(ftype_s, xsf, xm[m, 1], t1, 1, dt[1])
+            _end_derivative(ftype_s, xsf, xm[m, 0], t0, np.int64(0), dt[0])
+            _end_derivative(ftype_s, xsf, xm[m, 1], t1, np.int64(1), dt[1])
             ilo = 0 if t0 <= t1 else 1
             lo_moves = min(t0, t1) > ON_EDGE_TOL
             hi_moves = max(t0, t1) < 1.0 - ON_EDGE_TOL
@@ -1053,7 +1053,7 @@ def segment_points(
             qp_xi,
             qp_w,
             qp_m,
-            0,
+            np.int64(0),  # not the literal 0: one compiled chain for both callers
             no_dxi,
             no_dw,
         )
