@@ -6,9 +6,9 @@ pattern is the union of dolfinx's bulk sparsity (block level) and a list of
 contact couplings given as global block-row/block-column pairs; rows owned by
 other ranks are sent to their owner. The matrix is AIJ with block size gdim and
 the local-to-global map of the displacement space (so dolfinx's bulk assembly
-with ``MatSetValuesLocal`` works unchanged). Couplings found while a Jacobian is
-assembled grow the pattern in place before their values go in (:class:`RecordedValues`,
-:meth:`MatrixPattern.grow`).
+with ``MatSetValuesLocal`` works unchanged). Couplings that the contact terms learn
+while a Jacobian is assembled grow the pattern in place before the values go in
+(:class:`RecordedValues`, :meth:`MatrixPattern.grow`).
 """
 
 from __future__ import annotations
@@ -174,28 +174,16 @@ def _sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
 
 class RecordedValues:
     """Stand-in for a PETSc Mat that keeps ``setValues(rows, cols, values, ADD_VALUES)``
-    calls (global scalar indices, negative ones ignored as PETSc does) for
-    :meth:`replay` (local). Lets the caller grow the matrix pattern
-    (:meth:`MatrixPattern.grow`) before any value goes in."""
+    calls (global indices) for :meth:`replay` (local). Lets the caller grow the matrix
+    pattern (:meth:`MatrixPattern.grow`) before any value goes in."""
 
-    def __init__(self, bs: int, nblocks: int):
-        self.bs, self.nblocks = bs, nblocks
+    def __init__(self):
         self._calls = []
 
     def setValues(self, rows, cols, values, addv=None) -> None:  # noqa: N802 (PETSc's name)
         if addv != PETSc.InsertMode.ADD_VALUES:
             raise ValueError("RecordedValues records ADD_VALUES only")
         self._calls.append((rows, cols, values))
-
-    def block_keys(self) -> np.ndarray:
-        """Global block couplings (block row × N_blocks + block column) of the calls."""
-        out = [np.empty(0, np.int64)]
-        for rows, cols, _ in self._calls:
-            rb = np.unique(np.asarray(rows, np.int64) // self.bs)
-            cb = np.unique(np.asarray(cols, np.int64) // self.bs)
-            rb, cb = rb[rb >= 0], cb[cb >= 0]
-            out.append((rb[:, None] * self.nblocks + cb[None, :]).ravel())
-        return np.concatenate(out)
 
     def replay(self, A: PETSc.Mat) -> None:
         """The recorded calls, in order, on ``A`` (local; ``A.assemble()`` is the caller's)."""

@@ -1831,6 +1831,13 @@ class MortarContact:
         self._learned_t = np.unique(np.concatenate(keys)) if keys else np.empty(0, np.int64)
 
     # ------------------------------------------------------------------ sparsity
+    def learned_couplings(self) -> np.ndarray:
+        """Global block couplings (block row × N_blocks + block column, any rows; local)
+        of the last assembled tangent that :meth:`block_couplings` does not derive from
+        the facets: those of the unconstrained/constrained recoveries (through M⁻¹,
+        several node rings apart) and of the mixed tangential tangent."""
+        return np.concatenate([self._learned, self._learned_t])
+
     def block_couplings(self) -> tuple[np.ndarray, np.ndarray]:
         """Global (block row, block col) pairs the contact terms may fill: for every owned
         node, all nodes of its slave facets and of their candidate master facets."""
