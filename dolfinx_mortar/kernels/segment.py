@@ -1094,7 +1094,7 @@ def segment_derivatives(
     sxi = np.zeros((nsf, nq, k))
     sw = np.zeros((nsf, nq))
     sm = np.full((nsf, nq), -1, dtype=np.int64)
-    row = 0
+    row = np.int64(0)  # not the literal 0 (see segment_points)
     for f in range(nsf):
         cnt = _facet_points(
             k,
