@@ -184,7 +184,7 @@ def main(argv=None) -> dict:
         tangential_recovery=args.tangential_recovery,
     )
     if args.step_depth_limit > 0.0:
-        sc["solver"] = {"step_depth_limit": args.step_depth_limit}
+        sc.setdefault("solver", {})["step_depth_limit"] = args.step_depth_limit
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
