@@ -26,22 +26,9 @@ echo "== ruff"
 $PY -m ruff check .
 $PY -m ruff format --check .
 
-# The numba kernels compile on first use into their on-disk cache
-# (dolfinx_mortar/kernels/__pycache__, empty in a fresh clone). Left to the tests, both
-# pytest-xdist workers compile the same kernels at once, about 110 s each. Two tiny
-# benchmark runs that need different kernels fill the cache first, side by side: segment
-# integration (its clipping kernels take 70 s) and element integration with friction
-# (40 s; the segment run then loads the kernels they share from the cache). A failed
-# warm-up only costs time: the tests compile what is missing and report the failure.
-warm=$(mktemp -d)
-echo "== numba warm-up (two processes)"
-$PY -m dolfinx_mortar bench hertz2d --tiny --levels 1 --integration segment \
-    --out "$warm/segment" > "$warm/segment.log" 2>&1 &
-segment_pid=$!
-$PY -m dolfinx_mortar bench cattaneo2d --tiny --levels 1 --integration element \
-    --out "$warm/element" > "$warm/element.log" 2>&1 || tail -n 20 "$warm/element.log"
-wait $segment_pid || tail -n 20 "$warm/segment.log"
-rm -rf "$warm"
+# The numba kernels compile on first use; fill their cache first, in two processes
+# (scripts/warm_cache.sh), or both xdist workers below compile the same kernels at once.
+sh "$REPO/scripts/warm_cache.sh"
 
 # Tests marked mpi2 (long 3D demos) run on 2 ranks only: serially they would repeat the
 # 2-rank run's assertions, and 3 ranks on the 2 cores would add minutes to the 15-minute

@@ -1,0 +1,23 @@
+#!/bin/sh
+# Fill the on-disk caches of the numba kernels (dolfinx_mortar/kernels/__pycache__) and
+# of FFCx (~/.cache/fenics) with two tiny benchmark runs side by side: segment
+# integration (its clipping kernels take about 70 s to compile on one core) and element
+# integration with friction (about 40 s; the segment run then loads the kernels they
+# share from the cache). Without it, each process that first needs a kernel compiles it:
+# both pytest-xdist workers of scripts/test.sh at once (about 110 s each), and every
+# `docker run` of an image built without this step (29 s instead of 4 s for the default
+# Hertz demo on 2 ranks). A failed run prints the tail of its log and the script goes on
+# (exit status 0): what it did not compile is compiled on first use.
+set -eu
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+. "$REPO/scripts/env.sh"
+cd "$REPO"
+warm=$(mktemp -d)
+echo "== warm_cache.sh: compiling the numba kernels (two processes)"
+$PY -m dolfinx_mortar bench hertz2d --tiny --levels 1 --integration segment \
+    --out "$warm/segment" > "$warm/segment.log" 2>&1 &
+segment_pid=$!
+$PY -m dolfinx_mortar bench cattaneo2d --tiny --levels 1 --integration element \
+    --out "$warm/element" > "$warm/element.log" 2>&1 || tail -n 20 "$warm/element.log"
+wait $segment_pid || tail -n 20 "$warm/segment.log"
+rm -rf "$warm"
