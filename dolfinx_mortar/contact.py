@@ -511,6 +511,8 @@ class MortarContact:
         self.dissipation = 0.0
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
+        self.carry_states = False  # see the docstring of uzawa_update
+        self._carried = None  # the states the last Uzawa round hands to the next solve
         self._jacobians = 0
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
@@ -1895,8 +1897,16 @@ class MortarContact:
         default) and λ is kept ≥ 0. With friction the change counts max |τ − λ_T| too,
         and a solve that ended with frozen stick/slip states (chattering control) is not
         accepted when the free states differ: another solve follows with the states free.
+
+        With ``carry_states`` (set by the load-stepping driver for the retry of a step that
+        failed with :class:`~dolfinx_mortar.errors.FrozenStatesError`) the next solve
+        instead starts with the states and slip directions of the free law at this
+        converged state (before the multipliers move), frozen for the whole solve and
+        re-checked at its convergence: the states then change between rounds only, as in
+        a primal-dual active-set iteration (docs/method-notes.md, "Chattering control").
         """
         comm = self.comm
+        self._carried, carry = None, None
         d = self.p_hat - self.lmbda
         pmax = comm.allreduce(self.p_hat.max(initial=0.0), op=MPI.MAX)
         change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
@@ -1933,6 +1943,9 @@ class MortarContact:
             dt = np.linalg.norm(tau_law - self.lmbda_t, axis=1).max(initial=0.0)
             rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
             info["tangential_change"] = rel_t
+            if self.carry_states:
+                norm = np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)
+                carry = (fstate.copy(), tau_law / norm[:, None])
         # the pinned points of the solve that ended (chattering control of the pairing), and
         # how far outside their pinned facet they converged (reference coordinates)
         pinned = np.zeros(0, bool)
@@ -1948,8 +1961,11 @@ class MortarContact:
             self._recover()
             changed += int(np.count_nonzero(frozen != self._recovered.free))
             info["unfrozen_qp_nodes"] = changed
+        # the final full-tolerance solve after converged rounds keeps free states
+        self._carried = carry if changed else None
         if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
             return changed == 0, info
+        self._carried = carry
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
         x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
         f = np.concatenate([d, (tau_law - self.lmbda_t).ravel()]) if self.frictional else d
@@ -1964,14 +1980,16 @@ class MortarContact:
         return False, info
 
     def begin_solve(self) -> None:
-        """A Newton solve starts: the stick/slip states, the constrained recovery's
-        active set and the pairing are free again (chattering control)."""
+        """A Newton solve starts: the constrained recovery's active set and the pairing
+        are free again (chattering control), the stick/slip states too unless the last
+        Uzawa round carried them (``carry_states``, :meth:`uzawa_update`): then they are
+        frozen from the start."""
         self._jacobians = 0
         self.qp_frozen = None
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
         self._jac_active = None
         if self.frictional:
-            self.frozen = None
+            self.frozen = self._carried
 
     def _max_penetration(self) -> float:
         active = self.p_hat > 0
@@ -1981,6 +1999,7 @@ class MortarContact:
         """Reset the Uzawa acceleration's history (multipliers carry over from the last step); with
         friction, the last committed state becomes the slip reference t_n."""
         self.uzawa_acceleration.reset()
+        self._carried = None
         if self.frictional:
             if self._pending is not None:
                 u_n, tau = self._pending
@@ -2013,6 +2032,7 @@ class MortarContact:
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()
+        self._carried = None
         self.uzawa_acceleration.reset()
         if self.frictional:
             self.lmbda_t = self.lmbda_t_committed.copy()

@@ -336,6 +336,14 @@ class ContactProblem:
         for term in self.contacts:
             term.begin_step()
 
+    def carry_states(self, on: bool) -> None:
+        """Carry the stick/slip states between the Uzawa rounds of the next attempts
+        (``on``) or not (the default) in every frictional contact term (local;
+        :meth:`MortarContact.uzawa_update <dolfinx_mortar.contact.MortarContact.uzawa_update>`)."""
+        for term in self.contacts:
+            if getattr(term, "frictional", False):
+                term.carry_states = bool(on)
+
     def commit_step(self) -> None:
         """Accept the converged step: contact history and multipliers become the new reference."""
         for term in self.contacts:

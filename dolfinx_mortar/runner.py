@@ -167,6 +167,7 @@ def step_record(problem, res) -> dict:
         "full_step_solves": res.full_step_solves,
         "backtracked_solves": res.backtracked_solves,
         "predictor_failures": res.predictor_failures,
+        "carried_retries": res.carried_retries,
         "reused_factorizations": res.reused_factorizations,
         "failed_reuses": res.failed_reuses,
         "limited_steps": res.limited_steps,

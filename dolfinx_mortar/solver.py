@@ -24,7 +24,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, SceneError
+from .errors import ConvergenceError, FrozenStatesError, SceneError
 
 log = logging.getLogger(__name__)
 
@@ -480,6 +480,9 @@ class StepResult:
     #: Newton steps of this step shortened by the penetration limit
     #: (SolverSettings.step_depth_limit; failed attempts included)
     limited_steps: int = 0
+    #: attempts of this step that failed with wrong frozen stick/slip states and were
+    #: retried with the states carried between Uzawa rounds (see FROZEN_RETRY_ROUNDS)
+    carried_retries: int = 0
 
 
 def solve_step(
@@ -541,7 +544,7 @@ def solve_step(
         growing = len(changes) >= 2 and changes[-1] >= changes[-2]
         inconsistent = inconsistent + 1 if unfrozen and growing else 0
         if inconsistent >= FROZEN_RETRY_ROUNDS:
-            raise ConvergenceError(
+            raise FrozenStatesError(
                 f"the stick/slip states frozen by the chattering control were wrong at "
                 f"convergence, and the multiplier change grew, in {inconsistent} Uzawa "
                 f"rounds in a row ({info})"
@@ -619,6 +622,7 @@ class LoadStepper:
         cutbacks = 0
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
+        carrying, carried_retries = False, 0  # see FROZEN_RETRY_ROUNDS
         marks = {k: getattr(self.newton, k) for k in _SOLVE_COUNTERS}
         wall0 = None
         while pending:
@@ -651,6 +655,19 @@ class LoadStepper:
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
+                p.carry_states(False)
+                if isinstance(exc, FrozenStatesError) and not carrying:
+                    # the same step again, the stick/slip states carried between rounds
+                    log.warning(
+                        "step to t = %g failed (%s); retrying with the stick/slip states "
+                        "carried between Uzawa rounds",
+                        t_new,
+                        exc,
+                    )
+                    carrying, carried_retries = True, carried_retries + 1
+                    p.carry_states(True)
+                    continue
+                carrying = False
                 if predicted:
                     # an extrapolated start can be far off (e.g. deep penetration with
                     # friction): retry the same step from the last converged state first
@@ -679,6 +696,8 @@ class LoadStepper:
                 )
                 continue
             pending.pop(0)
+            p.carry_states(False)
+            carrying = False
             if predicted:
                 backoff = 1
             elif predictable and use_predictor and skip > 0:
@@ -697,6 +716,7 @@ class LoadStepper:
                 setattr(res, k, getattr(self.newton, k) - marks[k])
                 marks[k] = getattr(self.newton, k)
             res.predictor_failures, predictor_failures = predictor_failures, 0
+            res.carried_retries, carried_retries = carried_retries, 0
             self.results.append(res)
             cutbacks = 0
             wall0 = None

@@ -451,6 +451,40 @@ def test_uzawa_update_after_frozen_states_takes_the_free_law():
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("carry", [False, True])
+def test_carried_states_freeze_the_next_solve(carry):
+    """With carry_states, the solve after an Uzawa round starts with the states and slip
+    directions of the free law at the round's converged state (taken before the
+    multipliers move), frozen; without it, free. The next step starts free either way."""
+    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    term = _frictional_state(problem, "hertz2d-P1")
+    term.uzawa_tol = 1e-12
+    term.carry_states = carry
+    comm = MPI.COMM_WORLD
+    slip = term.fstate == fr.SLIP
+    assert comm.allreduce(int(slip.sum())) >= 1
+    # wrong frozen states (every slipping node in stick): the carried states are the free ones
+    term.frozen = (np.where(slip, fr.STICK, term.fstate), np.zeros_like(term.lmbda_t))
+    term._recover_tangential()
+    free_state, free_tau = term._recover_tangential(frozen=None)
+    done, _ = term.uzawa_update()
+    assert not done and term.frozen is None
+    term.begin_solve()
+    if not carry:
+        assert term.frozen is None
+    else:
+        states, directions = term.frozen
+        assert np.array_equal(states, free_state)
+        s = free_tau[slip] / np.linalg.norm(free_tau[slip], axis=1)[:, None]
+        assert np.allclose(directions[slip], s, rtol=0, atol=1e-12)
+        term._recover_tangential()  # the frozen states are the ones the law now uses
+        assert np.array_equal(term.fstate, free_state)
+    term.begin_step()
+    term.begin_solve()
+    assert term.frozen is None
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("tol, counted", [(1e-3, False), (1e-9, True)])
 def test_frozen_states_count_only_where_the_traction_differs(tol, counted):
     """Slip directions frozen 1e-5 off the free ones: the frozen and free laws give

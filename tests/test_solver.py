@@ -7,7 +7,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dolfinx_mortar import solver as solver_module
-from dolfinx_mortar.errors import ConvergenceError
+from dolfinx_mortar.errors import ConvergenceError, FrozenStatesError
 from dolfinx_mortar.solver import MIN_STEP_FRACTION, LoadStepper, NewtonSolver, SolverSettings
 
 
@@ -44,6 +44,9 @@ class _Problem:
 
     def restore_step(self):
         pass
+
+    def carry_states(self, on):
+        self.carrying = on
 
 
 class _Newton:
@@ -217,6 +220,47 @@ def test_wrong_frozen_states_in_a_row_fail_the_step():
         p.set_time(0.5)
         solver_module.solve_step(p, _Newton(p, lambda t0: 1.0), uzawa_max=30)
         assert p.rounds == n + 1
+
+
+class _FrozenUnlessCarried(_Newton):
+    """Fails with wrong frozen states at the steps to the times in ``bad`` unless the
+    states are carried (all of them when ``always``); records (t, carrying) per solve."""
+
+    def __init__(self, problem, bad, always=False):
+        super().__init__(problem, lambda t0: 1.0)
+        self.bad, self.always, self.calls = bad, always, []
+
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+        p = self.problem
+        carrying = getattr(p, "carrying", False)
+        self.calls.append((round(p.t, 12), carrying))
+        if round(p.t, 12) in self.bad and (self.always or not carrying):
+            raise FrozenStatesError("wrong frozen states")
+        return super().solve(rtol, dtol, rescue, reuse, force)
+
+
+def test_wrong_frozen_states_retry_the_step_with_carried_states():
+    """A step that fails with FrozenStatesError is tried again at the same size with the
+    stick/slip states carried between Uzawa rounds, and only then cut back; the retry
+    is counted and carrying ends with the step."""
+    p = _Problem()
+    newton = _FrozenUnlessCarried(p, bad={0.5})
+    results = LoadStepper(p, newton, 1.0, 2, max_cutbacks=3).run()
+    assert [r.t for r in results] == [0.5, 1.0]
+    assert [r.cutbacks for r in results] == [0, 0]
+    assert [r.carried_retries for r in results] == [1, 0]
+    assert [c for c in newton.calls if c[0] == 0.5] == [(0.5, False), (0.5, True)]
+    assert newton.calls[-1] == (1.0, False) and p.carrying is False
+    # the retry fails too: the step is cut back, the half starts without carrying (t = 0.5
+    # always fails here, so the run ends on the cutback limit, the finished steps kept)
+    p = _Problem()
+    newton = _FrozenUnlessCarried(p, bad={0.5}, always=True)
+    stepper = LoadStepper(p, newton, 1.0, 2, max_cutbacks=3)
+    with pytest.raises(ConvergenceError, match="wrong frozen states"):
+        stepper.run()
+    first = stepper.results[0]
+    assert first.t == pytest.approx(0.25) and first.cutbacks == 1 and first.carried_retries == 1
+    assert newton.calls[:3] == [(0.5, False), (0.5, True), (0.25, False)]
 
 
 class _Cubic:
