@@ -36,6 +36,7 @@ class ConvergenceError(DolfinxMortarError):
 class FrozenStatesError(ConvergenceError):
     """The Uzawa rounds of a step stopped because the stick/slip states frozen by the
     chattering control were wrong at convergence, with a growing multiplier change,
-    several rounds in a row (``solver.FROZEN_RETRY_ROUNDS``). The load-stepping driver
+    several rounds in a row (``solver.FROZEN_RETRY_ROUNDS_FREE``, or
+    ``solver.FROZEN_RETRY_ROUNDS`` with carried states). The load-stepping driver
     first retries the step with the states carried between rounds
     (``contact.MortarContact.carry_states``), then cuts it back."""
