@@ -587,8 +587,11 @@ def _path_bends(problem, t0: float, t1: float, t2: float) -> bool:
 class LoadStepper:
     """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective).
 
-    A step that raises ConvergenceError from the extrapolated predictor is first
-    retried from the last converged state (and the next steps do without the predictor:
+    A step that raises FrozenStatesError (wrong frozen stick/slip states, see
+    :data:`FROZEN_RETRY_ROUNDS`) is first retried at the same size with the states
+    carried between Uzawa rounds (``problem.carry_states``). A step that raises
+    ConvergenceError from the extrapolated predictor is retried from the last converged
+    state (and the next steps do without the predictor:
     :data:`PREDICTOR_MAX_BACKOFF`); then it is retried with half the time
     increment, at most ``max_cutbacks`` times in a row; then the ConvergenceError
     propagates (every finished step has been passed to
