@@ -168,6 +168,7 @@ def step_record(problem, res) -> dict:
         "backtracked_solves": res.backtracked_solves,
         "predictor_failures": res.predictor_failures,
         "carried_retries": res.carried_retries,
+        "failed_attempt_iterations": res.all_iterations - int(np.sum(res.newton_iterations)),
         "reused_factorizations": res.reused_factorizations,
         "failed_reuses": res.failed_reuses,
         "limited_steps": res.limited_steps,

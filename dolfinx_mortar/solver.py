@@ -140,6 +140,7 @@ _STALLED = (
 _NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
 #: NewtonSolver counters that StepResult reports per step
 _SOLVE_COUNTERS = (
+    "all_iterations",
     "limited_steps",
     "full_step_solves",
     "backtracked_solves",
@@ -243,6 +244,8 @@ class NewtonSolver:
         #: linear solves done with a reused factorization, and those that fell back
         self.reused_factorizations = 0
         self.failed_reuses = 0
+        #: Newton iterations of all solves, failed ones included
+        self.all_iterations = 0
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -385,6 +388,7 @@ class NewtonSolver:
                 its, norms = its + len(more), norms + more
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
+        self.all_iterations += its
         if reason <= 0 or not np.all(np.isfinite(norms)):
             x.destroy()
             raise ConvergenceError(
@@ -490,6 +494,9 @@ class StepResult:
     #: attempts of this step that failed with wrong frozen stick/slip states and were
     #: retried with the states carried between Uzawa rounds (see FROZEN_RETRY_ROUNDS)
     carried_retries: int = 0
+    #: Newton iterations of all attempts of this step, the failed ones included
+    #: (``newton_iterations`` lists those of the accepted attempt)
+    all_iterations: int = 0
 
 
 def solve_step(

@@ -61,6 +61,7 @@ class _Newton:
         self.reused_factorizations = 0
         self.failed_reuses = 0
         self.limited_steps = 0
+        self.all_iterations = 0
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         p = self.problem
@@ -68,6 +69,7 @@ class _Newton:
         if p.t - t0 > self.limit(t0):
             raise ConvergenceError("too big a step")
         p.u.x.array[:] = p.t
+        self.all_iterations += 1
         return 1, [1.0, 1e-12]
 
 
@@ -239,6 +241,7 @@ class _FrozenUnlessCarried(_Newton):
         carrying = getattr(p, "carrying", False)
         self.calls.append((round(p.t, 12), carrying))
         if round(p.t, 12) in self.bad and (self.always or not carrying):
+            self.all_iterations += 3  # the rounds before the failure
             raise FrozenStatesError("wrong frozen states")
         return super().solve(rtol, dtol, rescue, reuse, force)
 
@@ -253,6 +256,8 @@ def test_wrong_frozen_states_retry_the_step_with_carried_states():
     assert [r.t for r in results] == [0.5, 1.0]
     assert [r.cutbacks for r in results] == [0, 0]
     assert [r.carried_retries for r in results] == [1, 0]
+    # the failed attempt's iterations count in all_iterations, not in newton_iterations
+    assert [r.all_iterations - sum(r.newton_iterations) for r in results] == [3, 0]
     assert [c for c in newton.calls if c[0] == 0.5] == [(0.5, False), (0.5, True)]
     assert newton.calls[-1] == (1.0, False) and p.carrying is False
     # the retry fails too: the step is cut back, the half starts without carrying (t = 0.5
