@@ -1906,7 +1906,7 @@ class MortarContact:
         a primal-dual active-set iteration (docs/method-notes.md, "Chattering control").
         """
         comm = self.comm
-        self._carried, carry = None, None
+        carry = None
         d = self.p_hat - self.lmbda
         pmax = comm.allreduce(self.p_hat.max(initial=0.0), op=MPI.MAX)
         change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
@@ -1961,11 +1961,12 @@ class MortarContact:
             self._recover()
             changed += int(np.count_nonzero(frozen != self._recovered.free))
             info["unfrozen_qp_nodes"] = changed
-        # the final full-tolerance solve after converged rounds keeps free states
-        self._carried = carry if changed else None
-        if self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol:
+        done = self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol
+        # the next solve starts with the carried states, except the final full-tolerance
+        # solve after converged rounds (it keeps free states)
+        self._carried = carry if changed or not done else None
+        if done:
             return changed == 0, info
-        self._carried = carry
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
         x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
         f = np.concatenate([d, (tau_law - self.lmbda_t).ravel()]) if self.frictional else d

@@ -118,8 +118,6 @@ class ContactProblem:
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
         self._collect_bcs()
         self.contacts: list = []
-        #: the stick/slip states are carried between Uzawa rounds (:meth:`carry_states`)
-        self.carrying_states = False
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
@@ -342,10 +340,15 @@ class ContactProblem:
         """Carry the stick/slip states between the Uzawa rounds of the next attempts
         (``on``) or not (the default) in every frictional contact term (local;
         :meth:`MortarContact.uzawa_update <dolfinx_mortar.contact.MortarContact.uzawa_update>`)."""
-        self.carrying_states = bool(on)
         for term in self.contacts:
             if getattr(term, "frictional", False):
                 term.carry_states = bool(on)
+
+    @property
+    def carrying_states(self) -> bool:
+        """Whether a frictional contact term carries its stick/slip states between Uzawa
+        rounds (:meth:`carry_states`; local)."""
+        return any(getattr(term, "carry_states", False) for term in self.contacts)
 
     def commit_step(self) -> None:
         """Accept the converged step: contact history and multipliers become the new reference."""

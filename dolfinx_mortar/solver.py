@@ -640,7 +640,7 @@ class LoadStepper:
         cutbacks = 0
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
-        carrying, carried_retries = False, 0  # see FROZEN_RETRY_ROUNDS
+        carried_retries = 0  # see FROZEN_RETRY_ROUNDS
         marks = {k: getattr(self.newton, k) for k in _SOLVE_COUNTERS}
         wall0 = None
         while pending:
@@ -673,19 +673,19 @@ class LoadStepper:
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
-                p.carry_states(False)
-                if isinstance(exc, FrozenStatesError) and not carrying:
-                    # the same step again, the stick/slip states carried between rounds
+                # wrong frozen states with free ones: the same step again, the stick/slip
+                # states carried between rounds (once; then as any other failure)
+                retry = isinstance(exc, FrozenStatesError) and not p.carrying_states
+                p.carry_states(retry)
+                if retry:
                     log.warning(
                         "step to t = %g failed (%s); retrying with the stick/slip states "
                         "carried between Uzawa rounds",
                         t_new,
                         exc,
                     )
-                    carrying, carried_retries = True, carried_retries + 1
-                    p.carry_states(True)
+                    carried_retries += 1
                     continue
-                carrying = False
                 if predicted:
                     # an extrapolated start can be far off (e.g. deep penetration with
                     # friction): retry the same step from the last converged state first
@@ -715,7 +715,6 @@ class LoadStepper:
                 continue
             pending.pop(0)
             p.carry_states(False)
-            carrying = False
             if predicted:
                 backoff = 1
             elif predictable and use_predictor and skip > 0:

@@ -29,6 +29,7 @@ class _Problem:
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
         self.committed = []
+        self.carrying_states = False
 
     def set_time(self, t):
         self.t = t
@@ -46,7 +47,7 @@ class _Problem:
         pass
 
     def carry_states(self, on):
-        self.carrying = on
+        self.carrying_states = on
 
 
 class _Newton:
@@ -238,7 +239,7 @@ class _FrozenUnlessCarried(_Newton):
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         p = self.problem
-        carrying = getattr(p, "carrying", False)
+        carrying = getattr(p, "carrying_states", False)
         self.calls.append((round(p.t, 12), carrying))
         if round(p.t, 12) in self.bad and (self.always or not carrying):
             self.all_iterations += 3  # the rounds before the failure
@@ -259,7 +260,7 @@ def test_wrong_frozen_states_retry_the_step_with_carried_states():
     # the failed attempt's iterations count in all_iterations, not in newton_iterations
     assert [r.all_iterations - sum(r.newton_iterations) for r in results] == [3, 0]
     assert [c for c in newton.calls if c[0] == 0.5] == [(0.5, False), (0.5, True)]
-    assert newton.calls[-1] == (1.0, False) and p.carrying is False
+    assert newton.calls[-1] == (1.0, False) and p.carrying_states is False
     # the retry fails too: the step is cut back, the half starts without carrying (t = 0.5
     # always fails here, so the run ends on the cutback limit, the finished steps kept)
     p = _Problem()
