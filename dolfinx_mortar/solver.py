@@ -110,8 +110,8 @@ FULL_STEP_ITERATIONS = 10
 #: changes by 0.4 and the rounds between by 0.1 … 0.002) otherwise run all
 #: ``uzawa_max`` rounds before the cutback.
 UZAWA_STALL_ROUNDS = 8
-#: A step fails (and is cut back) when this many Uzawa rounds in a row end with frozen
-#: stick/slip states (the chattering control, contact.FREEZE_AFTER) that the free law
+#: An attempt at a step fails (FrozenStatesError) when this many Uzawa rounds in a row
+#: end with frozen stick/slip states (the chattering control, contact.FREEZE_AFTER) that the free law
 #: contradicts (summary.json ``unfrozen_states`` > 0) AND a multiplier change larger
 #: than the round before. A solve whose frozen slip directions were wrong converges to a
 #: state where those nodes slip the other way, and the multipliers taken from it reverse
