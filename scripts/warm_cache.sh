@@ -1,8 +1,8 @@
 #!/bin/sh
 # Fill the on-disk caches of the numba kernels (dolfinx_mortar/kernels/__pycache__) and
 # of FFCx (~/.cache/fenics) with two tiny benchmark runs side by side: segment
-# integration (its clipping kernels take about 70 s to compile on one core) and element
-# integration with friction (about 40 s; the segment run then loads the kernels they
+# integration (about 80 s on this project's 2-core machine, mostly compiling the clipping
+# kernels) and element integration with friction (about 40 s; the segment run then loads the kernels they
 # share from the cache). Without it, each process that first needs a kernel compiles it:
 # both pytest-xdist workers of scripts/test.sh at once (about 110 s each), and every
 # `docker run` of an image built without this step (29 s instead of 4 s for the default
