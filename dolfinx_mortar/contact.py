@@ -101,6 +101,18 @@ ACCELERATIONS = UZAWA_ACCELERATIONS
 #: solve (re-checked against the plain QP at convergence).
 FREEZE_AFTER = 8
 FROZEN_DIRECTION_TOL = 1e-6
+#: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
+#: it can only grow. A node in contact at one of these Jacobians is held in contact for
+#: the rest of the solve (p^I = λ^I − εγ^I, tension allowed, so the residual stays smooth
+#: along the Newton steps). At convergence a held node whose law pressure ⟨λ^I − εγ^I⟩
+#: differs from p^I by more than uzawa_tol × max p (it is in tension) counts as a changed
+#: state, and another solve follows, free. A single node entering and leaving contact at
+#: every iterate made solves on the ironing2d path 2-cycle until max_it. Later than
+#: FREEZE_AFTER: from the 8th Jacobian on, the first solve of peers problem B's level 3
+#: (still shrinking its contact zone there) held 2 nodes that then had to be released,
+#: 20 Newton iterations instead of 17 (docs/method-notes.md, "The contact set held after
+#: the freeze").
+HOLD_AFTER = 12
 #: Chattering control of the pairing (element and node integration): from the
 #: FREEZE_AFTER-th Jacobian of a Newton solve on, a slave quadrature point whose master
 #: facet went A → B → A over the last three Jacobians (B may be "none") stays paired with
@@ -419,6 +431,11 @@ class MortarContact:
         self._learned_t = np.empty(0, np.int64)  # ... and of the consistent tangential one
         self.qp_frozen = None  # constrained recovery: the QP free set, once frozen
         self._jacobians = 0
+        # lumped recovery: the nodes held in contact (HOLD_AFTER), and the Jacobians of
+        # this solve that count towards it
+        self.held = None
+        self._set_jacobians = 0
+        self.hold_after = HOLD_AFTER
         self.freeze_after = FREEZE_AFTER
         # chattering control of the pairing (PIN_OUTSIDE_TOL): pinned master facet per
         # slave quadrature point (−1: free), the pairings of the last two Jacobians, the
@@ -756,6 +773,13 @@ class MortarContact:
         flags = self.comm.allreduce(int(moved) | int(depth > DEEP_PENETRATION_TOL) << 1, op=MPI.BOR)
         return bool(flags & 1) and (self._first_contact or bool(flags & 2))
 
+    def _watch_contact_set(self) -> None:
+        """Chattering control of the lumped contact set at a Jacobian (see HOLD_AFTER;
+        local: the nodal states are the owned nodes')."""
+        self._set_jacobians += 1
+        if self._set_jacobians >= self.hold_after:
+            self.held = self.active.copy() if self.held is None else self.held | self.active
+
     def _watch_pairing(self) -> None:
         """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL)."""
         if self.integration == "segment" or not self.slave.num_facets:
@@ -939,9 +963,12 @@ class MortarContact:
             gamma = np.where(has, self.G / safe_A, 0.0)
             trial = self.lmbda - eps * gamma
             active = has & (trial >= 0.0)
+            # the nodes held in contact by the chattering control keep p = trial < 0 too
+            closed = active if self.held is None else active | (has & self.held)
             self.gamma = gamma
-            self.p = self.p_hat = np.where(active, trial, 0.0)
-            self.kcoef = np.where(active, eps / safe_A, 0.0)
+            self.p_hat = np.where(active, trial, 0.0)
+            self.p = np.where(closed, trial, 0.0)
+            self.kcoef = np.where(closed, eps / safe_A, 0.0)
         else:
             self._recover_mixed(has)
             active = self.p_hat > 0.0
@@ -1202,6 +1229,8 @@ class MortarContact:
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
         self._watch_pairing()
+        if self.recovery == "lumped":
+            self._watch_contact_set()
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
         drop = self._drop_geometric_tangent()  # collective: called at every Jacobian
         geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
@@ -1961,6 +1990,17 @@ class MortarContact:
             self._recover()
             changed += int(np.count_nonzero(frozen != self._recovered.free))
             info["unfrozen_qp_nodes"] = changed
+        if self.recovery == "lumped":
+            # held in contact, but in tension beyond the tolerance: the law opens it (the
+            # held set is per rank, the count collective)
+            local = 0
+            if self.held is not None:
+                wrong = self.held & ~self.active & (self.p < -self.uzawa_tol * pmax)
+                local = int(np.count_nonzero(wrong))
+            released = comm.allreduce(local)
+            if released:
+                info["released_nodes"] = released
+                changed += released
         done = self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol
         # the next solve starts with the carried states, except the final full-tolerance
         # solve after converged rounds (it keeps free states)
@@ -1987,6 +2027,7 @@ class MortarContact:
         frozen from the start."""
         self._jacobians = 0
         self.qp_frozen = None
+        self.held, self._set_jacobians = None, 0
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
         self._jac_active = None
         if self.frictional:

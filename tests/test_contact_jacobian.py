@@ -406,3 +406,56 @@ def test_a_point_switching_back_is_pinned():
     assert term.qp_pinned.flat[0] == 0 and term.qp_pinned.flat[1] == 0
     assert term.qp_pinned.flat[2] == -1
     assert np.count_nonzero(term.qp_pinned >= 0) == 2
+
+
+@pytest.mark.mpi
+def test_the_held_contact_set_keeps_nodes_in_tension_until_the_recheck(monkeypatch):
+    """Chattering control of the lumped contact set (contact.HOLD_AFTER): a node in
+    contact at a Jacobian from the HOLD_AFTER-th of a solve on stays in contact when a
+    later iterate opens it, with p = λ − εγ < 0 and an exact tangent, while the law's
+    pressure p̂ stays ⟨λ − εγ⟩ = 0; a node in contact at an earlier Jacobian only is not
+    held. uzawa_update counts a held node in tension as a changed state
+    (``released_nodes``) and does not accept the round; the next solve starts free."""
+    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)  # exact tangents only
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    body = CASES["hertz2d-P1"][4][0]
+
+    def jacobian_at(depth):
+        _set_state(problem, depth, body)
+        term.update(problem.u)
+        problem.contact_jacobian(problem.create_matrix())
+        return term.p_hat > 0.0
+
+    def held_set():
+        return term.held if term.held is not None else np.zeros_like(term.active)
+
+    term.begin_solve()
+    term.hold_after = 2
+    deep = jacobian_at(0.05)
+    assert term.held is None
+    shallow = jacobian_at(0.035)  # from the 2nd Jacobian on, the contact set is held
+    assert comm.allreduce(int((deep & ~shallow).sum())) >= 1  # in contact at the 1st only
+    assert np.array_equal(held_set(), shallow)
+    jacobian_at(0.05)
+    assert np.array_equal(held_set(), deep)
+    _set_state(problem, 0.035, body)  # shallower: the free law opens held nodes
+    term.update(problem.u)
+    opened = held_set() & (term.p_hat == 0.0)
+    n_opened = comm.allreduce(int(opened.sum()))
+    assert n_opened >= 1
+    assert np.all(term.p[opened] < 0.0) and np.all(term.kcoef[opened] > 0.0)
+    assert np.array_equal(term.p[~opened], term.p_hat[~opened])
+    u0 = problem.u.vector.copy()
+    A = problem.create_matrix()
+    problem.contact_jacobian(A)
+    errs = fd_errors(problem, term, A, u0, n=2)
+    assert max(errs) < 1e-5, errs
+    term.update(problem.u)
+    term.uzawa_tol = 1e-12
+    done, info = term.uzawa_update()
+    assert not done and info["released_nodes"] == n_opened
+    term.begin_solve()
+    term.update(problem.u)
+    assert np.all(term.p[opened] == 0.0) and np.all(term.kcoef[opened] == 0.0)
