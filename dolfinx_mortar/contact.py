@@ -48,6 +48,7 @@ non-symmetric tangent, tangential multipliers to the Uzawa rounds, a slip histor
 
 from __future__ import annotations
 
+import copy
 import logging
 
 import numpy as np
@@ -530,6 +531,7 @@ class MortarContact:
         self.frozen = None  # imposed stick/slip states (chattering control)
         self.carry_states = False  # see the docstring of uzawa_update
         self._carried = None  # the states the last Uzawa round hands to the next solve
+        self._carry_candidate = None  # ... or would hand with carry_states (round_state)
         self._jacobians = 0
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
@@ -1972,9 +1974,8 @@ class MortarContact:
             dt = np.linalg.norm(tau_law - self.lmbda_t, axis=1).max(initial=0.0)
             rel_t = comm.allreduce(dt, op=MPI.MAX) / pmax if pmax > 0 else 0.0
             info["tangential_change"] = rel_t
-            if self.carry_states:
-                norm = np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)
-                carry = (fstate.copy(), tau_law / norm[:, None])
+            norm = np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)
+            carry = (fstate.copy(), tau_law / norm[:, None])
         # the pinned points of the solve that ended (chattering control of the pairing), and
         # how far outside their pinned facet they converged (reference coordinates)
         pinned = np.zeros(0, bool)
@@ -2003,8 +2004,10 @@ class MortarContact:
                 changed += released
         done = self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol
         # the next solve starts with the carried states, except the final full-tolerance
-        # solve after converged rounds (it keeps free states)
-        self._carried = carry if changed or not done else None
+        # solve after converged rounds (it keeps free states); what it would carry is
+        # kept for round_state either way
+        self._carry_candidate = carry if changed or not done else None
+        self._carried = self._carry_candidate if self.frictional and self.carry_states else None
         if done:
             return changed == 0, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
@@ -2019,6 +2022,29 @@ class MortarContact:
         if self.frictional:
             self.lmbda_t = x[n:].reshape(self.lmbda_t.shape)
         return False, info
+
+    def round_state(self) -> dict:
+        """What the next Uzawa round starts from, after :meth:`uzawa_update` (local): the
+        multipliers, the acceleration's history and the stick/slip states the round would
+        carry with ``carry_states`` (copies). :meth:`resume_round` restores it."""
+        acc = {k: v for k, v in vars(self.uzawa_acceleration).items() if k != "comm"}
+        return {
+            "lmbda": self.lmbda.copy(),
+            "lmbda_t": self.lmbda_t.copy() if self.frictional else None,
+            "acceleration": copy.deepcopy(acc),
+            "carry": copy.deepcopy(self._carry_candidate),
+        }
+
+    def resume_round(self, state: dict) -> None:
+        """Go back to a :meth:`round_state` of this step (local; after :meth:`begin_step`):
+        the next solve then starts as the round after that state's update did, with the
+        states carried if ``carry_states`` is set."""
+        self.lmbda = state["lmbda"].copy()
+        vars(self.uzawa_acceleration).update(copy.deepcopy(state["acceleration"]))
+        if self.frictional:
+            self.lmbda_t = state["lmbda_t"].copy()
+            self.frozen = None
+            self._carried = copy.deepcopy(state["carry"]) if self.carry_states else None
 
     def begin_solve(self) -> None:
         """A Newton solve starts: the constrained recovery's active set and the pairing

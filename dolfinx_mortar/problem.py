@@ -350,6 +350,23 @@ class ContactProblem:
         rounds (:meth:`carry_states`; local)."""
         return any(getattr(term, "carry_states", False) for term in self.contacts)
 
+    def round_state(self) -> dict:
+        """The state an Uzawa round of the current step starts from (local copies): u and
+        each contact term's :meth:`round_state
+        <dolfinx_mortar.contact.MortarContact.round_state>`."""
+        return {
+            "u": self.u.x.array.copy(),
+            "terms": [term.round_state() for term in self.contacts],
+        }
+
+    def resume_round(self, state: dict) -> None:
+        """Go back to a :meth:`round_state` of the current step (after :meth:`begin_step`;
+        local)."""
+        self.u.x.array[:] = state["u"]
+        self._contact_x = None
+        for term, ts in zip(self.contacts, state["terms"], strict=True):
+            term.resume_round(ts)
+
     def commit_step(self) -> None:
         """Accept the converged step: contact history and multipliers become the new reference."""
         for term in self.contacts:

@@ -499,8 +499,27 @@ class StepResult:
     all_iterations: int = 0
 
 
+@dataclass
+class RoundResume:
+    """Where an attempt at a step stood after its first Uzawa round (see
+    :func:`solve_step`): the first round's results and the problem's
+    ``round_state()`` after its multiplier update."""
+
+    its: list
+    norms: list
+    info: list
+    rtol: float | None
+    changes: list
+    state: dict
+
+
 def solve_step(
-    problem, newton: NewtonSolver, uzawa_max: int, inexact: bool = True, dtol=None
+    problem,
+    newton: NewtonSolver,
+    uzawa_max: int,
+    inexact: bool = True,
+    dtol=None,
+    resume: RoundResume | None = None,
 ) -> tuple[list[int], list[list[float]], list[dict]]:
     """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle.
 
@@ -518,12 +537,23 @@ def solve_step(
     the first solve
     (see :data:`PREDICTOR_DIVERGENCE_TOLERANCE`), which is then a start from the predictor
     and gets no "bt" restart (:meth:`NewtonSolver.solve`). Raises ConvergenceError.
+
+    A FrozenStatesError raised with free states carries, as ``resume``, a
+    :class:`RoundResume` of the attempt after its first round (when the problem has
+    ``round_state``). With ``resume`` (the problem already put back into that state with
+    ``resume_round``) the rounds go on from the second: the retry with carried states
+    does not solve the first round again, whose solve starts free in either attempt.
     """
     its_all, norms_all, info_all = [], [], []
     rtol = None
     changes = []  # per round: the largest relative multiplier change, normal or tangential
     inconsistent = 0  # rounds in a row whose frozen stick/slip states were wrong
-    for k in range(max(uzawa_max, 1)):
+    first = 0
+    if resume is not None:
+        its_all, norms_all, info_all = list(resume.its), list(resume.norms), list(resume.info)
+        rtol, changes, first = resume.rtol, list(resume.changes), 1
+    after_first = None  # RoundResume after the first round
+    for k in range(first, max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
         its, norms = newton.solve(
             rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0, force=k > 0
@@ -558,12 +588,19 @@ def solve_step(
         growing = len(changes) >= 2 and changes[-1] >= changes[-2]
         inconsistent = inconsistent + 1 if unfrozen and growing else 0
         carrying = getattr(problem, "carrying_states", False)
+        if k == 0 and not carrying and hasattr(problem, "round_state"):
+            state = problem.round_state()
+            after_first = RoundResume(
+                its_all[:], norms_all[:], info_all[:], rtol, changes[:], state
+            )
         if inconsistent >= (FROZEN_RETRY_ROUNDS if carrying else FROZEN_RETRY_ROUNDS_FREE):
-            raise FrozenStatesError(
+            exc = FrozenStatesError(
                 f"the stick/slip states frozen by the chattering control were wrong at "
                 f"convergence, and the multiplier change grew, in {inconsistent} Uzawa "
                 f"rounds in a row ({info})"
             )
+            exc.resume = after_first
+            raise exc
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
     )
@@ -641,6 +678,7 @@ class LoadStepper:
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
         carried_retries = 0  # see FROZEN_RETRY_ROUNDS
+        resume = None  # RoundResume for the carried retry (solve_step)
         marks = {k: getattr(self.newton, k) for k in _SOLVE_COUNTERS}
         wall0 = None
         while pending:
@@ -662,21 +700,27 @@ class LoadStepper:
                 p.u.x.array[:] = saved + (t_new - t) / (t - t_prev) * (saved - u_prev)
             p.set_time(t_new)
             p.begin_step()
+            if resume is not None:
+                p.resume_round(resume.state)
             try:
                 its, norms, info = solve_step(
                     p,
                     self.newton,
                     self.uzawa_max,
                     dtol=PREDICTOR_DIVERGENCE_TOLERANCE if predicted else None,
+                    resume=resume,
                 )
             except ConvergenceError as exc:
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
                 # wrong frozen states with free ones: the same step again, the stick/slip
-                # states carried between rounds (once; then as any other failure)
+                # states carried between rounds (once; then as any other failure), from
+                # the state after the failed attempt's first round (its solve is free in
+                # either attempt)
                 retry = isinstance(exc, FrozenStatesError) and not p.carrying_states
                 p.carry_states(retry)
+                resume = getattr(exc, "resume", None) if retry else None
                 if retry:
                     log.warning(
                         "step to t = %g failed (%s); retrying with the stick/slip states "
@@ -715,6 +759,7 @@ class LoadStepper:
                 continue
             pending.pop(0)
             p.carry_states(False)
+            resume = None
             if predicted:
                 backoff = 1
             elif predictable and use_predictor and skip > 0:

@@ -485,6 +485,31 @@ def test_carried_states_freeze_the_next_solve(carry):
 
 
 @pytest.mark.mpi
+def test_round_state_brings_back_multipliers_and_carried_states():
+    """MortarContact.round_state after an Uzawa update, then resume_round after the
+    step began again: the multipliers, the acceleration's history and, with
+    carry_states, the states the next solve starts frozen with are those of the round."""
+    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    term = _frictional_state(problem, "hertz2d-P1")
+    term.uzawa_tol = 1e-12
+    done, _ = term.uzawa_update()
+    assert not done
+    state = term.round_state()
+    lmbda, lmbda_t = term.lmbda.copy(), term.lmbda_t.copy()
+    free_state, free_dirs = term._carry_candidate
+    term.uzawa_update()  # the attempt goes on and fails; the step starts again
+    term.restore_step()
+    term.begin_step()
+    term.carry_states = True
+    term.resume_round(state)
+    assert np.array_equal(term.lmbda, lmbda) and np.array_equal(term.lmbda_t, lmbda_t)
+    assert term.uzawa_acceleration._f_prev is not None
+    term.begin_solve()
+    states, dirs = term.frozen
+    assert np.array_equal(states, free_state) and np.array_equal(dirs, free_dirs)
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("tol, counted", [(1e-3, False), (1e-9, True)])
 def test_frozen_states_count_only_where_the_traction_differs(tol, counted):
     """Slip directions frozen 1e-5 off the free ones: the frozen and free laws give

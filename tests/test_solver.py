@@ -273,6 +273,58 @@ def test_wrong_frozen_states_retry_the_step_with_carried_states():
     assert newton.calls[:3] == [(0.5, False), (0.5, True), (0.25, False)]
 
 
+class _Resumable(_Problem):
+    """Fails with wrong frozen states from its second Uzawa round on unless the states
+    are carried (then the round converges); has round_state / resume_round."""
+
+    def __init__(self):
+        super().__init__()
+        self.rounds, self.resumed = 0, []
+
+    def begin_step(self):
+        self.rounds = 0
+
+    def uzawa_update(self):
+        k, self.rounds = self.rounds, self.rounds + 1
+        if self.carrying_states:
+            return True, {"pair": {"multiplier_change": 0.0}}
+        info = {"multiplier_change": 2.0**k, "unfrozen_states": int(k > 0)}
+        return False, {"pair": info}
+
+    def round_state(self):
+        return {"u": self.u.x.array.copy(), "rounds": self.rounds}
+
+    def resume_round(self, state):
+        self.resumed.append(state["rounds"])
+        self.rounds = state["rounds"]
+        self.u.x.array[:] = state["u"]
+
+
+def test_the_carried_retry_resumes_after_the_first_round():
+    """The FrozenStatesError of an attempt with free states carries the state after its
+    first Uzawa round (solve_step's RoundResume); the carried retry starts from there and
+    does not solve the first round again, whose iterations count in the accepted step."""
+    p = _Resumable()
+    p.set_time(1.0)
+    newton = _Newton(p, lambda t0: 1.0)
+    with pytest.raises(FrozenStatesError) as info:
+        solver_module.solve_step(p, newton, uzawa_max=30)
+    k = solver_module.FROZEN_RETRY_ROUNDS_FREE
+    assert p.rounds == 1 + k
+    resume = info.value.resume
+    assert resume.its == [1] and resume.state["rounds"] == 1
+    assert resume.changes == [1.0] and resume.rtol == pytest.approx(1e-3)
+    p = _Resumable()
+    newton = _Newton(p, lambda t0: 1.0)
+    (result,) = LoadStepper(p, newton, 1.0, 1, uzawa_max=30).run()
+    assert p.resumed == [1] and result.carried_retries == 1 and result.cutbacks == 0
+    # the first round (1 solve) once, the failed rounds (k), the carried round and the
+    # final full-tolerance solve
+    assert newton.all_iterations == 1 + k + 2
+    assert result.newton_iterations == [1, 1, 1]
+    assert result.all_iterations - sum(result.newton_iterations) == k
+
+
 class _Cubic:
     """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
 
