@@ -600,7 +600,10 @@ class MortarContact:
                 if self.recovery == "constrained"
                 else {"mortar_matrix": "consistent, gathered on every rank (scipy SuperLU)"}
                 if self.recovery == "unconstrained"
-                else {}
+                else {
+                    "contact_set": f"may only grow after {self.hold_after} Newton iterations, "
+                    "re-checked at convergence"
+                }
             ),
         }
 
