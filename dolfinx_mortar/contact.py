@@ -530,8 +530,8 @@ class MortarContact:
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
         self.carry_states = False  # see the docstring of uzawa_update
-        self._carried = None  # the states the last Uzawa round hands to the next solve
-        self._carry_candidate = None  # ... or would hand with carry_states (round_state)
+        # the states the last Uzawa round hands to the next solve (used with carry_states)
+        self._carried = None
         self._jacobians = 0
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
@@ -780,7 +780,8 @@ class MortarContact:
 
     def _watch_contact_set(self) -> None:
         """Chattering control of the lumped contact set at a Jacobian (see HOLD_AFTER;
-        local: the nodal states are the owned nodes')."""
+        local: the nodal states are the owned nodes'). ``held`` becomes an array at the
+        same Jacobian on every rank (Jacobians are collective), possibly without a node."""
         self._set_jacobians += 1
         if self._set_jacobians >= self.hold_after:
             self.held = self.active.copy() if self.held is None else self.held | self.active
@@ -972,7 +973,7 @@ class MortarContact:
             closed = active if self.held is None else active | (has & self.held)
             self.gamma = gamma
             self.p_hat = np.where(active, trial, 0.0)
-            self.p = np.where(closed, trial, 0.0)
+            self.p = self.p_hat if self.held is None else np.where(closed, trial, 0.0)
             self.kcoef = np.where(closed, eps / safe_A, 0.0)
         else:
             self._recover_mixed(has)
@@ -1994,23 +1995,19 @@ class MortarContact:
             self._recover()
             changed += int(np.count_nonzero(frozen != self._recovered.free))
             info["unfrozen_qp_nodes"] = changed
-        if self.recovery == "lumped":
-            # held in contact, but in tension beyond the tolerance: the law opens it (the
-            # held set is per rank, the count collective)
-            local = 0
-            if self.held is not None:
-                wrong = self.held & ~self.active & (self.p < -self.uzawa_tol * pmax)
-                local = int(np.count_nonzero(wrong))
-            released = comm.allreduce(local)
+        if self.held is not None:
+            # held in contact, but in tension beyond the tolerance: the law opens it (held
+            # is set at the same Jacobian on every rank, so the count is collective)
+            wrong = self.held & ~self.active & (self.p < -self.uzawa_tol * pmax)
+            released = comm.allreduce(int(np.count_nonzero(wrong)))
             if released:
                 info["released_nodes"] = released
                 changed += released
         done = self.uzawa_tol == 0.0 or max(rel, rel_t) <= self.uzawa_tol
-        # the next solve starts with the carried states, except the final full-tolerance
-        # solve after converged rounds (it keeps free states); what it would carry is
-        # kept for round_state either way
-        self._carry_candidate = carry if changed or not done else None
-        self._carried = self._carry_candidate if self.frictional and self.carry_states else None
+        # what the next solve starts with when the states are carried (begin_solve), kept
+        # for round_state either way; the final full-tolerance solve after converged
+        # rounds keeps free states
+        self._carried = carry if changed or not done else None
         if done:
             return changed == 0, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
@@ -2035,7 +2032,7 @@ class MortarContact:
             "lmbda": self.lmbda.copy(),
             "lmbda_t": self.lmbda_t.copy() if self.frictional else None,
             "acceleration": copy.deepcopy(acc),
-            "carry": copy.deepcopy(self._carry_candidate),
+            "carry": copy.deepcopy(self._carried),
         }
 
     def resume_round(self, state: dict) -> None:
@@ -2047,7 +2044,7 @@ class MortarContact:
         if self.frictional:
             self.lmbda_t = state["lmbda_t"].copy()
             self.frozen = None
-            self._carried = copy.deepcopy(state["carry"]) if self.carry_states else None
+            self._carried = copy.deepcopy(state["carry"])
 
     def begin_solve(self) -> None:
         """A Newton solve starts: the constrained recovery's active set and the pairing
@@ -2060,7 +2057,7 @@ class MortarContact:
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
         self._jac_active = None
         if self.frictional:
-            self.frozen = self._carried
+            self.frozen = self._carried if self.carry_states else None
 
     def _max_penetration(self) -> float:
         active = self.p_hat > 0

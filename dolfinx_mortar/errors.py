@@ -39,4 +39,10 @@ class FrozenStatesError(ConvergenceError):
     several rounds in a row (``solver.FROZEN_RETRY_ROUNDS_FREE``, or
     ``solver.FROZEN_RETRY_ROUNDS`` with carried states). The load-stepping driver
     first retries the step with the states carried between rounds
-    (``contact.MortarContact.carry_states``), then cuts it back."""
+    (``contact.MortarContact.carry_states``), from ``resume`` (a
+    ``solver.RoundResume`` of the attempt after its first round, or None), then cuts it
+    back."""
+
+    def __init__(self, message: str, resume=None):
+        super().__init__(message)
+        self.resume = resume

@@ -350,10 +350,14 @@ class ContactProblem:
         rounds (:meth:`carry_states`; local)."""
         return any(getattr(term, "carry_states", False) for term in self.contacts)
 
-    def round_state(self) -> dict:
+    def round_state(self) -> dict | None:
         """The state an Uzawa round of the current step starts from (local copies): u and
         each contact term's :meth:`round_state
-        <dolfinx_mortar.contact.MortarContact.round_state>`."""
+        <dolfinx_mortar.contact.MortarContact.round_state>`; None without a frictional
+        term (no stick/slip states to carry, so nothing to resume: the copies are not
+        made)."""
+        if not any(getattr(term, "frictional", False) for term in self.contacts):
+            return None
         return {
             "u": self.u.x.array.copy(),
             "terms": [term.round_state() for term in self.contacts],

@@ -589,18 +589,18 @@ def solve_step(
         inconsistent = inconsistent + 1 if unfrozen and growing else 0
         carrying = getattr(problem, "carrying_states", False)
         if k == 0 and not carrying and hasattr(problem, "round_state"):
-            state = problem.round_state()
-            after_first = RoundResume(
-                its_all[:], norms_all[:], info_all[:], rtol, changes[:], state
-            )
+            state = problem.round_state()  # None: nothing could be carried
+            if state is not None:
+                after_first = RoundResume(
+                    its_all[:], norms_all[:], info_all[:], rtol, changes[:], state
+                )
         if inconsistent >= (FROZEN_RETRY_ROUNDS if carrying else FROZEN_RETRY_ROUNDS_FREE):
-            exc = FrozenStatesError(
+            raise FrozenStatesError(
                 f"the stick/slip states frozen by the chattering control were wrong at "
                 f"convergence, and the multiplier change grew, in {inconsistent} Uzawa "
-                f"rounds in a row ({info})"
+                f"rounds in a row ({info})",
+                resume=after_first,
             )
-            exc.resume = after_first
-            raise exc
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
     )
@@ -720,7 +720,7 @@ class LoadStepper:
                 # either attempt)
                 retry = isinstance(exc, FrozenStatesError) and not p.carrying_states
                 p.carry_states(retry)
-                resume = getattr(exc, "resume", None) if retry else None
+                resume = exc.resume if retry else None
                 if retry:
                     log.warning(
                         "step to t = %g failed (%s); retrying with the stick/slip states "

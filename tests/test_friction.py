@@ -496,7 +496,7 @@ def test_round_state_brings_back_multipliers_and_carried_states():
     assert not done
     state = term.round_state()
     lmbda, lmbda_t = term.lmbda.copy(), term.lmbda_t.copy()
-    free_state, free_dirs = term._carry_candidate
+    free_state, free_dirs = term._carried  # what the next round would carry
     term.uzawa_update()  # the attempt goes on and fails; the step starts again
     term.restore_step()
     term.begin_step()
