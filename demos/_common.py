@@ -64,13 +64,15 @@ def parser(
 def add_step_depth_limit(ap: argparse.ArgumentParser, default: float) -> None:
     """The option ``--step-depth-limit`` (``[solver] step_depth_limit``: the deepest
     penetration, in slave facet sizes, that one Newton step may give a slave node out of
-    contact; 0 = off) with the demo's ``default``."""
+    contact, in every solve; 0 = in first-contact solves only, with the library's
+    ``solver.FIRST_CONTACT_DEPTH_LIMIT``) with the demo's ``default``."""
     ap.add_argument(
         "--step-depth-limit",
         type=float,
         default=default,
         help="[solver] step_depth_limit: the deepest penetration (in slave facet sizes) one "
-        f"Newton step may give a slave node out of contact; 0 = off [{default:g}]",
+        "Newton step may give a slave node out of contact, in every solve; 0 = in "
+        f"first-contact solves only, 0.5 [{default:g}]",
     )
 
 

@@ -446,7 +446,9 @@ class MortarContact:
         self._pair_jacobians = 0
         self._pin_exchange = -1
         self._jac_active = None  # the active set at the previous Jacobian of the solve
-        self._first_contact = False  # the solve started with no active node
+        #: whether the current Newton solve started with no active node on the pair (first
+        #: contact; decided at the solve's first Jacobian, the same on every rank)
+        self.first_contact = False
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
@@ -772,11 +774,11 @@ class MortarContact:
         act = self.p_hat > 0.0
         prev, self._jac_active = self._jac_active, act.copy()
         if prev is None:
-            self._first_contact = self.comm.allreduce(int(act.sum())) == 0
+            self.first_contact = self.comm.allreduce(int(act.sum())) == 0
         moved = prev is None or (prev.shape == act.shape and bool(np.any(prev != act)))
         depth = float(np.max(-self.gamma[act] / self.h_node[act], initial=0.0))
         flags = self.comm.allreduce(int(moved) | int(depth > DEEP_PENETRATION_TOL) << 1, op=MPI.BOR)
-        return bool(flags & 1) and (self._first_contact or bool(flags & 2))
+        return bool(flags & 1) and (self.first_contact or bool(flags & 2))
 
     def _watch_contact_set(self) -> None:
         """Chattering control of the lumped contact set at a Jacobian (see HOLD_AFTER;

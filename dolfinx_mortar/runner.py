@@ -67,6 +67,8 @@ def prepare(scene: Scene, comm, setup=None):
 
 def modelled(scene: Scene, problem) -> dict:
     """What the run models (summary.json ``modelled``)."""
+    from .solver import FIRST_CONTACT_DEPTH_LIMIT
+
     return {
         "dimension": problem.gdim,
         "kinematics": scene.kinematics,
@@ -76,6 +78,10 @@ def modelled(scene: Scene, problem) -> dict:
         "contact_pairs": {c.name: c.describe() for c in problem.contacts},
         "friction": any(getattr(c, "frictional", False) for c in problem.contacts),
         "step_depth_limit": scene.solver.step_depth_limit,
+        # the limit of first-contact solves, where step_depth_limit is 0 (solver docs)
+        "first_contact_depth_limit": (
+            0.0 if scene.solver.step_depth_limit > 0.0 else FIRST_CONTACT_DEPTH_LIMIT
+        ),
     }
 
 

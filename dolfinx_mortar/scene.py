@@ -65,7 +65,8 @@ Schema (``*`` = required; defaults in brackets)::
       line_search  "basic" | "bt" | "l2" | "cp"               ["l2"]
       step_depth_limit  float >= 0: the deepest penetration, in units of the
                    slave facet size h_I, that one Newton step may give a slave node
-                   out of contact (the step is shortened); 0 = off          [0]
+                   out of contact (the step is shortened), in every solve; 0 =
+                   in first-contact solves only, with solver.FIRST_CONTACT_DEPTH_LIMIT [0]
       [solver.petsc]  table of PETSc options: string / int / float / bool values
                       (true: a bare flag, e.g. snes_monitor = true)
 
@@ -370,9 +371,10 @@ class SolverOptions:
     petsc:
         Extra PETSc options, names without the leading ``-`` (``{"ksp_type": "gmres"}``).
     step_depth_limit:
-        Penetration-limited Newton steps (dimensionless, >= 0; 0 = off): a Newton step
-        is shortened so that no slave node out of contact penetrates deeper than
-        ``step_depth_limit`` × h_I (the nodal facet size).
+        Penetration-limited Newton steps (dimensionless, >= 0): a Newton step is
+        shortened so that no slave node out of contact penetrates deeper than
+        ``step_depth_limit`` × h_I (the nodal facet size), in every solve; 0: only in
+        first-contact solves, with ``solver.FIRST_CONTACT_DEPTH_LIMIT``.
     """
 
     rtol: float = 1e-9

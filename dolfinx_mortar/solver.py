@@ -69,8 +69,24 @@ class SolverSettings:
     prefix: str = "dm_"
     #: penetration-limited Newton steps (:meth:`NewtonSolver._limit_step`): the largest
     #: penetration, in units of the nodal facet size h_I, that one Newton step may give a
-    #: slave node that is out of contact; 0 = off
+    #: slave node that is out of contact; 0 = only in first-contact solves, with
+    #: FIRST_CONTACT_DEPTH_LIMIT
     step_depth_limit: float = 0.0
+
+
+#: The penetration limit of the Newton steps of a first-contact solve (a solve that starts
+#: with no active node on the pair: ``MortarContact.first_contact``) when the settings'
+#: ``step_depth_limit`` is 0; in units of h_I; 0 = off. A displacement-driven press from
+#: the open state otherwise plunges the slave body into the master at the first Newton
+#: step (peers problem B, level 3: 2.6 h deep, 13 → 22 → 35 → 6 → 34 active nodes over
+#: the next iterates). Measured on the first Uzawa round of the peers' one-step presses
+#: (problem A / B, levels 1 / 2 / 3, single serial runs): 6 / 7 / 10 and 6 / 7 / 12 Newton
+#: iterations without the limit, 6 / 7 / 8 and 6 / 7 / 8 with 0.5 (0.4 the same; 0.25:
+#: A level 3 9, B level 2 8; 0.75: 11 and 10 at level 3). Later solves are not limited:
+#: with 0.5 in every solve the cattaneo2d demo's second press step (from a closed contact
+#: zone) took 32 Newton iterations instead of 21 (docs/method-notes.md,
+#: "Penetration-limited Newton steps").
+FIRST_CONTACT_DEPTH_LIMIT = 0.5
 
 
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
@@ -227,7 +243,10 @@ class NewtonSolver:
         self.snes.setMonitor(self._remember_finite)
         #: Newton steps shortened by the penetration limit (settings.step_depth_limit)
         self.limited_steps = 0
-        if settings.step_depth_limit > 0.0 and problem.contacts:
+        #: the limit of first-contact solves (FIRST_CONTACT_DEPTH_LIMIT; 0 = off), used
+        #: where ``settings.step_depth_limit`` is 0
+        self.first_contact_depth_limit = FIRST_CONTACT_DEPTH_LIMIT
+        if problem.contacts:
             self.snes.setLineSearchPreCheck(self._limit_step)
         self._n_solves = 0
         self._dtol = None
@@ -253,20 +272,38 @@ class NewtonSolver:
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.residual(x, b)
 
+    def _depth_limits(self) -> list[float]:
+        """Per contact term, the penetration limit of this Newton step in units of h_I
+        (0 = none): ``settings.step_depth_limit`` where set, otherwise
+        :attr:`first_contact_depth_limit` in a first-contact solve of the term. The same
+        on every rank (``first_contact`` is a collective decision)."""
+        depth = self.settings.step_depth_limit
+        if depth > 0.0:
+            return [depth] * len(self.problem.contacts)
+        fc = self.first_contact_depth_limit
+        return [fc if term.first_contact else 0.0 for term in self.problem.contacts]
+
     def _limit_step(self, x, y):
         """Line-search pre-check (collective): shorten the Newton step in place so that no
-        slave node out of contact penetrates deeper than ``settings.step_depth_limit`` h_I
-        (:meth:`~dolfinx_mortar.contact.MortarContact.step_limit`; docs/method-notes.md,
-        "Penetration-limited Newton steps"). x (ndofs,) is the iterate and x − y the full
-        Newton step's end (PETSc's sign convention); y is scaled by
-        λ = min(1, min over the contact terms and ranks of their step limits)."""
+        slave node out of contact penetrates deeper than the term's limit × h_I
+        (:meth:`_depth_limits`, :meth:`~dolfinx_mortar.contact.MortarContact.step_limit`;
+        docs/method-notes.md, "Penetration-limited Newton steps"). x (ndofs,) is the
+        iterate and x − y the full Newton step's end (PETSc's sign convention); y is
+        scaled by λ = min(1, min over the limited contact terms and ranks of their step
+        limits)."""
+        limits = self._depth_limits()
+        if not any(d > 0.0 for d in limits):
+            return
         t0 = perf_counter()
         p = self.problem
         p.ensure_contact_at(x)
         x.copy(self._trial)
         self._trial.axpy(-1.0, y)
-        depth = self.settings.step_depth_limit
-        lam = min(term.step_limit(self._trial, depth) for term in p.contacts)
+        lam = min(
+            term.step_limit(self._trial, d)
+            for term, d in zip(p.contacts, limits, strict=True)
+            if d > 0.0
+        )
         lam = p.comm.allreduce(lam, op=MPI.MIN)
         p.timings["search"] += perf_counter() - t0  # a search at the step's end
         if lam < 1.0:

@@ -329,6 +329,7 @@ class _Cubic:
     """R(x) = x³ − 8 per entry (root 2), J = diag(3x²): the NewtonSolver's problem hooks."""
 
     n = 3
+    contacts = ()  # no contact term (so no penetration-limited steps)
 
     def __init__(self, x0):
         self.comm = MPI.COMM_SELF

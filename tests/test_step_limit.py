@@ -1,8 +1,10 @@
-"""Penetration-limited Newton steps (``[solver] step_depth_limit``).
+"""Penetration-limited Newton steps (``[solver] step_depth_limit``, and
+``solver.FIRST_CONTACT_DEPTH_LIMIT`` in first-contact solves).
 
 ``MortarContact.step_limit`` against the closed form on a flat interface (gaps linear in
 a rigid translation), and a displacement-driven press from the open state solved with
-and without the limit: the same converged state, reached by shortened steps. Serially
+and without the limit: the same converged state, reached by shortened steps; the
+first-contact limit shortens the steps of the solve that starts open only. Serially
 and under MPI.
 """
 
@@ -12,6 +14,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from test_contact_parallel import HERTZ2D
 
+from dolfinx_mortar import solver
 from dolfinx_mortar.runner import prepare, run
 from dolfinx_mortar.scene import SceneError, parse_scene
 
@@ -89,34 +92,80 @@ PRESS = {
 }
 
 
+def _press(shared_tmp, name, data):
+    """Run ``data``; (summary, the slave node table of step ``n``, rank 0's broadcast)."""
+    d = shared_tmp / name
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=d)
+    assert s["status"] == "ok"
+    n = len(s["steps"])
+    table = None
+    if MPI.COMM_WORLD.rank == 0:
+        table = np.genfromtxt(d / f"contact_cylinder_surface_{n}.csv", delimiter=",", names=True)
+    return s, MPI.COMM_WORLD.bcast(table, root=0)
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("integration", ["element", "segment", "node"])
-def test_a_depth_limited_press_reaches_the_same_state(shared_tmp, integration):
+def test_a_depth_limited_press_reaches_the_same_state(shared_tmp, integration, monkeypatch):
     """The limit changes the path of Newton, not its solution: nodal pressures and the
     contact force agree with the unlimited run to 1e-8 (measured 3e-13 with element
-    integration), for each integration; the limited run shortened some of its steps
-    (4), the unlimited one none."""
+    integration), for each integration, with ``step_depth_limit = 0.25`` and with the
+    default (0: the first-contact limit, this press being a first contact); the limited
+    runs shortened some of their steps (4 at 0.25), the unlimited one none."""
     out = {}
-    for depth in (0.0, 0.25):
+    for name, depth, first in (("off", 0.0, 0.0), ("first", 0.0, 0.5), ("all", 0.25, 0.5)):
+        monkeypatch.setattr(solver, "FIRST_CONTACT_DEPTH_LIMIT", first)
         data = {**PRESS, "solver": {"step_depth_limit": depth}}
         data["contact"] = [{**PRESS["contact"][0], "integration": integration}]
-        d = shared_tmp / f"press{depth}"
-        s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=d)
-        assert s["status"] == "ok"
-        table = None
-        if MPI.COMM_WORLD.rank == 0:
-            table = np.genfromtxt(d / "contact_cylinder_surface_1.csv", delimiter=",", names=True)
-        out[depth] = (s, MPI.COMM_WORLD.bcast(table, root=0))
-    (s0, t0), (s1, t1) = out[0.0], out[0.25]
-    assert s0["steps"][0]["limited_steps"] == 0
-    assert s1["steps"][0]["limited_steps"] >= 1
+        out[name] = _press(shared_tmp, f"press_{name}", data)
+    s0, t0 = out["off"]
     p0 = t0["p_N"]
+    assert s0["steps"][0]["limited_steps"] == 0
     assert np.max(p0) > 0.0 and np.count_nonzero(p0) >= 3
-    assert np.max(np.abs(t1["p_N"] - p0)) <= 1e-8 * np.max(p0)
     f0 = np.asarray(s0["steps"][0]["contact_force"]["cylinder_surface:block_top"])
-    f1 = np.asarray(s1["steps"][0]["contact_force"]["cylinder_surface:block_top"])
-    assert np.linalg.norm(f1 - f0) <= 1e-8 * np.linalg.norm(f0)
-    assert s1["modelled"]["step_depth_limit"] == 0.25
+    for name in ("first", "all"):
+        s1, t1 = out[name]
+        assert s1["steps"][0]["limited_steps"] >= 1, name
+        assert np.max(np.abs(t1["p_N"] - p0)) <= 1e-8 * np.max(p0), name
+        f1 = np.asarray(s1["steps"][0]["contact_force"]["cylinder_surface:block_top"])
+        assert np.linalg.norm(f1 - f0) <= 1e-8 * np.linalg.norm(f0), name
+    assert s0["modelled"]["first_contact_depth_limit"] == 0.0
+    assert out["first"][0]["modelled"]["step_depth_limit"] == 0.0
+    assert out["first"][0]["modelled"]["first_contact_depth_limit"] == 0.5
+    assert out["all"][0]["modelled"]["step_depth_limit"] == 0.25
+    assert out["all"][0]["modelled"]["first_contact_depth_limit"] == 0.0
+
+
+@pytest.mark.mpi
+def test_the_first_contact_limit_leaves_solves_from_a_closed_contact_alone(shared_tmp, monkeypatch):
+    """The same press in two steps, default settings: the Newton steps of the first
+    solve (the step starts open: a first contact) are checked against the 0.5 h limit,
+    those of every later solve (the contact zone is closed when they start) are not,
+    and with ``step_depth_limit = 0.25`` every solve's are (``MortarContact.first_contact``,
+    ``NewtonSolver._depth_limits``)."""
+    seen = []
+
+    def recorded(self):
+        limits = depth_limits(self)
+        seen.append((self.problem.contacts[0].first_contact, limits))
+        return limits
+
+    depth_limits = solver.NewtonSolver._depth_limits
+    monkeypatch.setattr(solver.NewtonSolver, "_depth_limits", recorded)
+    for depth in (0.0, 0.25):
+        seen.clear()
+        data = {**PRESS, "steps": {"n": 2, "max_cutbacks": 0}}
+        data["solver"] = {"step_depth_limit": depth}
+        s, table = _press(shared_tmp, f"press_two_steps_{depth}", data)
+        assert [st["converged"] for st in s["steps"]] == [True, True]
+        assert np.count_nonzero(table["p_N"]) >= 3
+        first = [limits for fc, limits in seen if fc]
+        later = [limits for fc, limits in seen if not fc]
+        # the first solve's Newton steps, then those of the rounds and of step 2
+        assert len(first) >= 3 and len(later) >= 3
+        assert seen[0][0] and not seen[-1][0]
+        assert first == [[depth or 0.5]] * len(first)
+        assert later == [[depth]] * len(later)
 
 
 def test_step_depth_limit_scene_key(tmp_path):
