@@ -118,6 +118,13 @@ class ContactProblem:
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
         self._collect_bcs()
         self.contacts: list = []
+        #: whether the last :meth:`uzawa_update` moved u with the multipliers (the exact
+        #: update): the next round needs no forced Newton iteration
+        self.moved_with_multipliers = False
+        #: ``(b, x) -> bool``: x = J⁻¹ b with the solver's last factorized Jacobian
+        #: (collective; False when there is none), for the exact multiplier update
+        #: (``uzawa_acceleration = "newton"``); set by the Newton solver, else None
+        self.linear_inverse = None
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
@@ -315,14 +322,34 @@ class ContactProblem:
 
     # ---------------------------------------------------------------- steps
     def uzawa_update(self) -> tuple[bool, dict]:
-        """Update the multipliers of every contact term; True when all have converged (collective)."""
+        """Update the multipliers of every contact term; True when all have converged
+        (collective). A term that updated its multipliers exactly (``uzawa_acceleration =
+        "newton"``) also gives the displacement change they imply
+        (``MortarContact.displacement_update``, owned dofs), which is added to u: the next
+        round starts near its solution."""
         self._contact_x = None  # the multipliers change: the contact state is stale
         done, info = True, {}
         for term in self.contacts:
             ok, i = term.uzawa_update()
             done = done and ok
             info[term.name] = i
+        moved = False
+        for term in self.contacts:
+            du = getattr(term, "displacement_update", None)
+            if du is not None:
+                self.u.vector.array[:] += du
+                term.displacement_update = None
+                moved = True
+        self.moved_with_multipliers = bool(self.comm.allreduce(int(moved), op=MPI.MAX))
+        if self.moved_with_multipliers:
+            self.u.x.scatter_forward()
         return done, info
+
+    @property
+    def exact_multiplier_update(self) -> bool:
+        """Whether a contact term updates its multipliers exactly (``uzawa_acceleration =
+        "newton"``): its Uzawa rounds then need fully converged solves (local)."""
+        return any(t.uzawa_acceleration.method == "newton" for t in self.contacts)
 
     def begin_solve(self) -> None:
         """A Newton solve starts (contact terms reset their per-solve state)."""

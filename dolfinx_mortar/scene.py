@@ -39,7 +39,8 @@ Schema (``*`` = required; defaults in brackets)::
       tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
-      uzawa_acceleration  "aitken" | "anderson" | "none"       ["aitken"]
+      uzawa_acceleration  "aitken" | "anderson" | "none" | "newton"  ["aitken"]
+                 ("newton": friction = 0 and recovery = "lumped" only)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -156,7 +157,7 @@ INTEGRATIONS = ("element", "segment", "node")
 TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
 #: augmentation"; the first is the default).
-UZAWA_ACCELERATIONS = ("aitken", "anderson", "none")
+UZAWA_ACCELERATIONS = ("aitken", "anderson", "none", "newton")
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
 #: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
@@ -255,7 +256,9 @@ class ContactPair:
         Maximum number of Uzawa augmentations per load step, >= 1.
     uzawa_acceleration:
         Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
-        relaxation, default), ``"anderson"`` (Anderson, depth 5) or ``"none"`` (plain).
+        relaxation, default), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain) or
+        ``"newton"`` (the exact update of the active nodes' multipliers; frictionless
+        pairs with the lumped recovery only).
     """
 
     slave: str
@@ -824,6 +827,12 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "uzawa_acceleration"),
         UZAWA_ACCELERATIONS,
     )
+    if acceleration == "newton" and (friction > 0.0 or recovery != "lumped"):
+        raise SceneError(
+            _key(prefix, "uzawa_acceleration"),
+            '"newton" (the exact multiplier update) needs friction = 0 and recovery = '
+            f'"lumped", got friction = {friction:g} and recovery = {recovery!r}',
+        )
     return ContactPair(
         slave=slave,
         master=master,
