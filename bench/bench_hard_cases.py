@@ -46,6 +46,8 @@ peak error against Hertz with the measured load and the pressure oscillation ind
 (``demos/demo_hertz2d.evaluate``); patch2d: max |p/p0 − 1| over the slave nodes; the
 largest penetration of the last step (summary ``max_penetration``). ``--recovery`` sets the recovery of every contact pair (the scenes are rewritten under
 ``OUT/scenes``); friction refuses ``unconstrained``, which then shows as a clean failure.
+``--uzawa-acceleration`` sets the multiplier update of every pair (``newton``, the exact
+update, only of the frictionless pairs with the lumped recovery).
 Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
@@ -243,8 +245,16 @@ def evaluate(reference: str | None, summary: dict, out_dir: Path) -> dict:
     return {}
 
 
-def run_case(case: str, out: Path, timeout: float, recovery: str | None = None) -> dict:
-    """Run one case (``recovery``: set on every contact pair, scene rewritten under OUT)."""
+def run_case(
+    case: str,
+    out: Path,
+    timeout: float,
+    recovery: str | None = None,
+    acceleration: str | None = None,
+) -> dict:
+    """Run one case (``recovery``: set on every contact pair; ``acceleration``: the
+    ``uzawa_acceleration`` of every pair, "newton" only of the frictionless lumped ones;
+    either rewrites the scene under OUT)."""
     import tomllib
 
     from dolfinx_mortar.scene import dump_scene
@@ -256,13 +266,16 @@ def run_case(case: str, out: Path, timeout: float, recovery: str | None = None) 
         stem, reference, what = CASES[case]
         data, shown = None, f"bench/scenes/{stem}.toml"
         scene = SCENES / f"{stem}.toml"
-        if recovery is not None:
+        if recovery is not None or acceleration is not None:
             data = tomllib.loads(scene.read_text())
             data.get("output", {}).pop("dir", None)  # relative to bench/scenes
             shown = f"{shown} (rewritten)"
-    if recovery is not None:
-        for pair in data.get("contact", []):
+    for pair in data.get("contact", []) if data is not None else []:
+        if recovery is not None:
             pair["recovery"] = recovery
+        exact_ok = pair.get("friction", 0.0) == 0 and pair.get("recovery", "lumped") == "lumped"
+        if acceleration is not None and (acceleration != "newton" or exact_ok):
+            pair["uzawa_acceleration"] = acceleration
     if data is not None:
         scene = out / "scenes" / f"{case}.toml"
         scene.parent.mkdir(parents=True, exist_ok=True)
@@ -360,6 +373,13 @@ def main(argv=None) -> list[dict]:
         default=None,
         help="set this recovery on every contact pair [the scenes' own: lumped]",
     )
+    ap.add_argument(
+        "--uzawa-acceleration",
+        choices=("aitken", "anderson", "none", "newton"),
+        default=None,
+        help="set uzawa_acceleration on every contact pair (newton: on the frictionless "
+        "lumped ones) [the scenes' own: aitken]",
+    )
     args = ap.parse_args(argv)
     cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)
     out = Path(args.out).resolve()
@@ -369,7 +389,7 @@ def main(argv=None) -> list[dict]:
     )
     rows = []
     for case in cases:
-        row = run_case(case, out, args.timeout, args.recovery)
+        row = run_case(case, out, args.timeout, args.recovery, args.uzawa_acceleration)
         rows.append(row)
         print(
             f"[hard] {case}: completed={row['completed']}, steps={row['steps']}, "
