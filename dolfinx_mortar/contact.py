@@ -187,7 +187,8 @@ class UzawaAcceleration:
     x, f: (n,) local parts of a distributed vector (the stacked multipliers [λ, λ_T] of
     the rank's slave nodes and their plain Uzawa change, stress units). ``method``:
 
-    - "none": plain Uzawa, x + f;
+    - "none": plain Uzawa, x + f (also "newton", whose exact update
+      ``MortarContact._exact_multipliers`` replaces this class's step);
     - "aitken": x + ω f with the Irons–Tuck factor
       ω_k = −ω_{k−1} f_{k−1}·(f_k − f_{k−1}) / |f_k − f_{k−1}|², clamped to [1, OMEGA_MAX];
     - "anderson" (type II, depth m = ANDERSON_DEPTH): with the differences
@@ -258,7 +259,9 @@ class MortarContact:
     penalty: ε_N (stress per length) or "auto" (see :data:`AUTO_PENALTY_FACTOR`).
     recovery, integration: see METHOD.md §3 and §7 ("node" = node-to-segment baseline).
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
-    uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`).
+    uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`;
+        "newton": the exact update of :meth:`_exact_multipliers`, frictionless pairs with
+        the lumped recovery only, otherwise ValueError).
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
@@ -423,6 +426,12 @@ class MortarContact:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
+        if uzawa_acceleration == "newton" and (self.frictional or recovery != "lumped"):
+            raise ValueError(
+                f"{key}: uzawa_acceleration 'newton' (the exact multiplier update) needs "
+                f"friction = 0 and the lumped recovery, got friction {self.mu:g} and "
+                f"recovery {recovery!r}"
+            )
         self.uzawa_acceleration = UzawaAcceleration(comm, uzawa_acceleration)
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)

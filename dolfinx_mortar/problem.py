@@ -333,15 +333,16 @@ class ContactProblem:
             ok, i = term.uzawa_update()
             done = done and ok
             info[term.name] = i
+        # the exact update decides collectively whether it gives a displacement, so
+        # ``moved`` is the same on every rank
         moved = False
         for term in self.contacts:
-            du = getattr(term, "displacement_update", None)
-            if du is not None:
-                self.u.vector.array[:] += du
+            if term.displacement_update is not None:
+                self.u.vector.array[:] += term.displacement_update
                 term.displacement_update = None
                 moved = True
-        self.moved_with_multipliers = bool(self.comm.allreduce(int(moved), op=MPI.MAX))
-        if self.moved_with_multipliers:
+        self.moved_with_multipliers = moved
+        if moved:
             self.u.x.scatter_forward()
         return done, info
 

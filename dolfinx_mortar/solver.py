@@ -473,23 +473,18 @@ class NewtonSolver:
         """x = J⁻¹ b with the last Jacobian this solver factorized (collective; the
         KSP as the last Newton iteration left it, nothing assembled or factorized again).
         b, x: global vectors of the problem's layout, b zero on constrained dofs. Returns
-        False, x untouched, where no factorization of the current matrix exists (a new
-        sparsity pattern since the last iteration) or the linear solve failed. For the
-        exact multiplier update (``contact.MortarContact.uzawa_update``)."""
+        False where no factorization of the current matrix exists (a new sparsity pattern
+        since the last iteration; x untouched) or the linear solve failed (x undefined).
+        For the exact multiplier update (``contact.MortarContact.uzawa_update``)."""
         if not self._factored:
             return False
         t0 = _ksp_time()
         ksp = self.snes.getKSP()
-        y = x.duplicate()
         try:
-            ksp.solve(b, y)
-            ok = ksp.getConvergedReason() > 0
-            if ok:
-                y.copy(x)
+            ksp.solve(b, x)
         finally:
-            y.destroy()
             self.timings["linear_solve"] += _ksp_time() - t0
-        return ok
+        return ksp.getConvergedReason() > 0
 
     def destroy(self) -> None:
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:

@@ -231,6 +231,9 @@ def test_without_a_factorization_the_exact_update_is_the_plain_one(shared_tmp):
 
 
 def test_the_exact_update_needs_a_frictionless_lumped_pair(tmp_path):
+    """A scene error naming the key, and a ValueError from the Python API."""
+    from dolfinx_mortar.contact import MortarContact
+    from dolfinx_mortar.runner import prepare
     from dolfinx_mortar.scene import SceneError, parse_scene
 
     parse_scene({**_hertz("newton"), "output": {"dir": "x"}}, tmp_path)
@@ -238,3 +241,9 @@ def test_the_exact_update_needs_a_frictionless_lumped_pair(tmp_path):
         data = {**_hertz("newton", **extra), "output": {"dir": "x"}}
         with pytest.raises(SceneError, match=rf"uzawa_acceleration.*{name}"):
             parse_scene(data, tmp_path)
+    problem, _ = prepare(parse_scene(_hertz("aitken"), tmp_path), MPI.COMM_WORLD)
+    for extra in ({"friction": 0.2}, {"recovery": "constrained"}):
+        with pytest.raises(ValueError, match="uzawa_acceleration 'newton'"):
+            MortarContact(
+                problem, "cylinder_surface", "block_top", uzawa_acceleration="newton", **extra
+            )
