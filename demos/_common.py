@@ -31,10 +31,14 @@ ACTIVE_TOL = 0.01
 
 
 def parser(
-    description: str, out: str, integration: bool = True, recovery: bool = False
+    description: str,
+    out: str,
+    integration: bool = True,
+    recovery: bool = False,
+    acceleration: bool = False,
 ) -> argparse.ArgumentParser:
-    """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``
-    and ``--recovery``."""
+    """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``,
+    ``--recovery`` and ``--uzawa-acceleration`` (see :func:`set_acceleration`)."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument(
         "--refine",
@@ -58,7 +62,23 @@ def parser(
             default="lumped",
             help="recovery of the nodal mixed gap and pressure (METHOD.md §3) [lumped]",
         )
+    if acceleration:
+        ap.add_argument(
+            "--uzawa-acceleration",
+            choices=("aitken", "anderson", "none", "newton"),
+            default="aitken",
+            help="update of the multipliers between Uzawa rounds (newton: the exact update, "
+            "frictionless lumped pairs) [aitken]",
+        )
     return ap
+
+
+def set_acceleration(scene: dict, acceleration: str) -> dict:
+    """``scene`` with ``uzawa_acceleration`` set on every contact pair (the option
+    ``--uzawa-acceleration`` of :func:`parser`); returns the scene."""
+    for pair in scene["contact"]:
+        pair["uzawa_acceleration"] = acceleration
+    return scene
 
 
 def add_step_depth_limit(ap: argparse.ArgumentParser, default: float) -> None:

@@ -113,7 +113,9 @@ def evaluate(summary: dict, out_dir, dim: int, slave: str, master: str) -> dict:
 
 
 def main(dim: int, argv=None) -> dict:
-    ap = cm.parser(f"Contact patch test, {dim}D", f"results/demo_patch{dim}d", recovery=True)
+    ap = cm.parser(
+        f"Contact patch test, {dim}D", f"results/demo_patch{dim}d", recovery=True, acceleration=True
+    )
     ap.add_argument(
         "--swap", action="store_true", help="slave = lower_top (the coarser side), master = upper"
     )
@@ -123,6 +125,7 @@ def main(dim: int, argv=None) -> dict:
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sc = scene(dim, args.refine, args.integration, args.swap, not args.tri, args.recovery)
+    cm.set_acceleration(sc, args.uzawa_acceleration)
     slave, master = sc["contact"][0]["slave"], sc["contact"][0]["master"]
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, dim, slave, master, comm=comm)

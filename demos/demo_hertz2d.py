@@ -121,13 +121,16 @@ def evaluate(summary: dict, out_dir, nu: float = NU) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz2d", recovery=True)
+    ap = cm.parser(
+        __doc__.splitlines()[0], "results/demo_hertz2d", recovery=True, acceleration=True
+    )
     ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
     ap.add_argument("--steps", type=int, default=4, help="load steps [4]")
     ap.add_argument("--tri", action="store_true", help="triangles instead of quadrilaterals")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sc = scene(args.refine, args.order, args.integration, args.steps, not args.tri, args.recovery)
+    cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall

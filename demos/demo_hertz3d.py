@@ -199,12 +199,15 @@ def evaluate(summary: dict, out_dir) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser(__doc__.splitlines()[0], "results/demo_hertz3d", recovery=True)
+    ap = cm.parser(
+        __doc__.splitlines()[0], "results/demo_hertz3d", recovery=True, acceleration=True
+    )
     ap.add_argument("--W", type=float, default=10.0, help="block width and height [10]")
     ap.add_argument("--steps", type=int, default=2, help="load steps [2]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery)
+    cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(sc, args.out)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall

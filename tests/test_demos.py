@@ -93,6 +93,22 @@ def test_patch2d(shared_tmp, integration, tol, swap, recovery):
     assert m["open_nodes"] == 0
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("integration,tol", [("segment", 1e-8), ("element", 0.02)])
+def test_patch2d_with_the_exact_update(shared_tmp, integration, tol):
+    """``--uzawa-acceleration newton`` reaches the scene: the same patch-test accuracy in
+    fewer Newton iterations (measured serially: element 4 instead of 7, segment 1
+    instead of 2)."""
+    its = {}
+    for acc in ("aitken", "newton"):
+        argv = ["--integration", integration, "--uzawa-acceleration", acc]
+        m = demo_patch2d.main(argv + ["--out", str(shared_tmp / f"patch2d_{acc}")])
+        assert m["p_err"] <= tol, m["p_err"]
+        assert m["force_err"] <= 1e-8, m["force_err"]
+        its[acc] = sum(m["newton_iterations"])
+    assert its["newton"] < its["aitken"], its
+
+
 @pytest.mark.parametrize("recovery", RECOVERIES)
 @pytest.mark.parametrize("swap", [False, True], ids=["slave-finer", "slave-coarser"])
 @pytest.mark.parametrize("integration,tol", [("segment", 1e-8), ("element", 0.02)])
