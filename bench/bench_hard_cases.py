@@ -375,10 +375,10 @@ def main(argv=None) -> list[dict]:
     )
     ap.add_argument(
         "--uzawa-acceleration",
-        choices=("aitken", "anderson", "none", "newton"),
+        choices=("auto", "aitken", "anderson", "none", "newton"),
         default=None,
         help="set uzawa_acceleration on every contact pair (newton: on the frictionless "
-        "lumped ones) [the scenes' own: aitken]",
+        "lumped ones) [the scenes' own: auto, i.e. newton on those, aitken elsewhere]",
     )
     args = ap.parse_args(argv)
     cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)

@@ -65,10 +65,10 @@ def parser(
     if acceleration:
         ap.add_argument(
             "--uzawa-acceleration",
-            choices=("aitken", "anderson", "none", "newton"),
-            default="aitken",
+            choices=("auto", "aitken", "anderson", "none", "newton"),
+            default="auto",
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
-            "frictionless lumped pairs) [aitken]",
+            "frictionless lumped pairs; auto: newton where it applies, else aitken) [auto]",
         )
     return ap
 

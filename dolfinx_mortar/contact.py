@@ -92,7 +92,8 @@ PARTIAL_FACET_TOL = 1e-9
 OMEGA_MAX = 10.0
 #: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
 ANDERSON_DEPTH = 5
-#: Uzawa update schemes (scene key ``uzawa_acceleration``; the first is the default).
+#: Uzawa update schemes (scene key ``uzawa_acceleration``; the first, "auto", is the
+#: default and resolves per pair, :func:`resolve_acceleration`).
 ACCELERATIONS = UZAWA_ACCELERATIONS
 #: The exact multiplier update (``uzawa_acceleration = "newton"``,
 #: :meth:`MortarContact._exact_multipliers`): relative tolerance and iteration bound of
@@ -177,6 +178,19 @@ def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
             )
 
 
+def resolve_acceleration(method: str, friction: float, recovery: str) -> str:
+    """The Uzawa update of a pair: ``method`` itself, except that "auto" (the default)
+    becomes "newton" (the exact update, :meth:`MortarContact._exact_multipliers`) on a
+    frictionless pair with the lumped recovery and "aitken" on any other (local).
+
+    Why "newton" by default there: the single serial runs of BENCHMARKS.md §3 and §10
+    (session 16): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12 / 13,
+    the hard-case sweep's Hertz cases 24–49 instead of 49–534 with no cutback."""
+    if method != "auto":
+        return method
+    return "newton" if friction == 0.0 and recovery == "lumped" else "aitken"
+
+
 def _plane_modulus(E: float, nu: float) -> float:
     return E / (1.0 - nu**2)
 
@@ -199,9 +213,12 @@ class UzawaAcceleration:
       when a nodal state changes (the map changes) and when |f| grows.
     """
 
-    def __init__(self, comm, method: str = ACCELERATIONS[0], depth: int = ANDERSON_DEPTH):
-        if method not in ACCELERATIONS:
-            raise ValueError(f"unknown Uzawa acceleration {method!r}: one of {ACCELERATIONS}")
+    def __init__(self, comm, method: str = "aitken", depth: int = ANDERSON_DEPTH):
+        if method not in ACCELERATIONS or method == "auto":
+            raise ValueError(
+                f"unknown Uzawa acceleration {method!r}: one of {ACCELERATIONS[1:]} "
+                '("auto" is resolved per pair: resolve_acceleration)'
+            )
         self.comm, self.method, self.depth = comm, method, depth
         self.reset()
 
@@ -261,7 +278,8 @@ class MortarContact:
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
     uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`;
         "newton": the exact update of :meth:`_exact_multipliers`, frictionless pairs with
-        the lumped recovery only, otherwise ValueError).
+        the lumped recovery only, otherwise ValueError; "auto", the default: "newton"
+        where it applies, "aitken" elsewhere, :func:`resolve_acceleration`).
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
@@ -426,6 +444,11 @@ class MortarContact:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
+        if uzawa_acceleration not in ACCELERATIONS:
+            raise ValueError(
+                f"{key}: unknown uzawa_acceleration {uzawa_acceleration!r}: one of {ACCELERATIONS}"
+            )
+        uzawa_acceleration = resolve_acceleration(uzawa_acceleration, self.mu, recovery)
         if uzawa_acceleration == "newton" and (self.frictional or recovery != "lumped"):
             raise ValueError(
                 f"{key}: uzawa_acceleration 'newton' (the exact multiplier update) needs "

@@ -39,8 +39,9 @@ Schema (``*`` = required; defaults in brackets)::
       tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
-      uzawa_acceleration  "aitken" | "anderson" | "none" | "newton"  ["aitken"]
-                 ("newton": friction = 0 and recovery = "lumped" only)
+      uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
+                 ("newton": friction = 0 and recovery = "lumped" only; "auto":
+                 "newton" where it applies, "aitken" elsewhere)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -156,8 +157,8 @@ INTEGRATIONS = ("element", "segment", "node")
 #: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
 TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
-#: augmentation"; the first is the default).
-UZAWA_ACCELERATIONS = ("aitken", "anderson", "none", "newton")
+#: augmentation"; the first is the default: "newton" where it applies, else "aitken").
+UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
 #: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
@@ -256,9 +257,10 @@ class ContactPair:
         Maximum number of Uzawa augmentations per load step, >= 1.
     uzawa_acceleration:
         Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
-        relaxation, default), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain) or
+        relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
         ``"newton"`` (the exact update of the active nodes' multipliers; frictionless
-        pairs with the lumped recovery only).
+        pairs with the lumped recovery only) or ``"auto"`` (default: ``"newton"`` on
+        frictionless pairs with the lumped recovery, ``"aitken"`` on the others).
     """
 
     slave: str
@@ -272,7 +274,7 @@ class ContactPair:
     tangential_recovery: str = "lumped"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
-    uzawa_acceleration: str = "aitken"
+    uzawa_acceleration: str = "auto"
 
     @property
     def name(self) -> str:

@@ -204,7 +204,7 @@ def test_defaults_are_filled():
     assert c.integration == "element"
     assert c.penalty == "auto"
     assert c.penalty_tangential is None and c.penalty_t == "auto"
-    assert c.uzawa_tol == 1e-6 and c.uzawa_max == 20 and c.uzawa_acceleration == "aitken"
+    assert c.uzawa_tol == 1e-6 and c.uzawa_max == 20 and c.uzawa_acceleration == "auto"
     assert s.dirichlet[0].components is None
     assert s.tractions == ()
     assert s.steps == scene_mod.Steps(t_end=1.0, n=10, max_cutbacks=6, output_times=())

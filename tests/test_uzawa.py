@@ -247,3 +247,31 @@ def test_the_exact_update_needs_a_frictionless_lumped_pair(tmp_path):
             MortarContact(
                 problem, "cylinder_surface", "block_top", uzawa_acceleration="newton", **extra
             )
+
+
+def test_auto_is_the_exact_update_where_it_applies(tmp_path):
+    """The default ``uzawa_acceleration = "auto"`` resolves per pair: "newton" on a
+    frictionless lumped pair, "aitken" with friction or another recovery; the resolved
+    update is what the pair reports (summary.json ``modelled``); an unknown name is a
+    ValueError of the Python API."""
+    from dolfinx_mortar.contact import MortarContact, resolve_acceleration
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    assert resolve_acceleration("auto", 0.0, "lumped") == "newton"
+    assert resolve_acceleration("auto", 0.2, "lumped") == "aitken"
+    assert resolve_acceleration("auto", 0.0, "constrained") == "aitken"
+    assert resolve_acceleration("anderson", 0.0, "lumped") == "anderson"
+    data = _hertz("aitken")
+    data["contact"][0].pop("uzawa_acceleration")
+    scene = parse_scene(data, tmp_path)
+    assert scene.contacts[0].uzawa_acceleration == "auto"
+    problem, _ = prepare(scene, MPI.COMM_WORLD)
+    assert problem.contacts[0].describe()["uzawa_acceleration"] == "newton"
+    assert problem.exact_multiplier_update
+    for extra, expected in (({"friction": 0.2}, "aitken"), ({"recovery": "constrained"}, "aitken")):
+        term = MortarContact(problem, "cylinder_surface", "block_top", **extra)
+        assert term.uzawa_acceleration.method == expected
+        term.destroy()
+    with pytest.raises(ValueError, match="unknown uzawa_acceleration 'broyden'"):
+        MortarContact(problem, "cylinder_surface", "block_top", uzawa_acceleration="broyden")
