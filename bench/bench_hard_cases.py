@@ -47,7 +47,7 @@ peak error against Hertz with the measured load and the pressure oscillation ind
 largest penetration of the last step (summary ``max_penetration``). ``--recovery`` sets the recovery of every contact pair (the scenes are rewritten under
 ``OUT/scenes``); friction refuses ``unconstrained``, which then shows as a clean failure.
 ``--uzawa-acceleration`` sets the multiplier update of every pair (``newton``, the exact
-update, only of the frictionless pairs with the lumped recovery).
+update, only of the pairs with lumped recoveries).
 Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
@@ -253,11 +253,11 @@ def run_case(
     acceleration: str | None = None,
 ) -> dict:
     """Run one case (``recovery``: set on every contact pair; ``acceleration``: the
-    ``uzawa_acceleration`` of every pair, "newton" only of the frictionless lumped ones;
+    ``uzawa_acceleration`` of every pair, "newton" only of those with lumped recoveries;
     either rewrites the scene under OUT)."""
     import tomllib
 
-    from dolfinx_mortar.scene import dump_scene
+    from dolfinx_mortar.scene import dump_scene, exact_update_applies
 
     if case in GENERATED:
         build, reference, what = GENERATED[case]
@@ -273,7 +273,11 @@ def run_case(
     for pair in data.get("contact", []) if data is not None else []:
         if recovery is not None:
             pair["recovery"] = recovery
-        exact_ok = pair.get("friction", 0.0) == 0 and pair.get("recovery", "lumped") == "lumped"
+        exact_ok = exact_update_applies(
+            pair.get("friction", 0.0),
+            pair.get("recovery", "lumped"),
+            pair.get("tangential_recovery", "lumped"),
+        )
         if acceleration is not None and (acceleration != "newton" or exact_ok):
             pair["uzawa_acceleration"] = acceleration
     if data is not None:
@@ -377,8 +381,8 @@ def main(argv=None) -> list[dict]:
         "--uzawa-acceleration",
         choices=("auto", "aitken", "anderson", "none", "newton"),
         default=None,
-        help="set uzawa_acceleration on every contact pair (newton: on the frictionless "
-        "lumped ones) [the scenes' own: auto, i.e. newton on those, aitken elsewhere]",
+        help="set uzawa_acceleration on every contact pair (newton: on those with lumped "
+        "recoveries) [the scenes' own: auto, i.e. newton on those, aitken elsewhere]",
     )
     args = ap.parse_args(argv)
     cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)

@@ -68,7 +68,7 @@ def parser(
             choices=("auto", "aitken", "anderson", "none", "newton"),
             default="auto",
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
-            "frictionless lumped pairs; auto: newton where it applies, else aitken) [auto]",
+            "pairs with lumped recoveries; auto: newton where it applies, else aitken) [auto]",
         )
     return ap
 

@@ -40,8 +40,9 @@ Schema (``*`` = required; defaults in brackets)::
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
-                 ("newton": friction = 0 and recovery = "lumped" only; "auto":
-                 "newton" where it applies, "aitken" elsewhere)
+                 ("newton": recovery = "lumped" and, with friction,
+                 tangential_recovery = "lumped" only; "auto": "newton" where it
+                 applies, "aitken" elsewhere)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -159,6 +160,16 @@ TANGENTIAL_WEIGHTS = ("dual", "standard")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
 #: augmentation"; the first is the default: "newton" where it applies, else "aitken").
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
+
+
+def exact_update_applies(friction: float, recovery: str, tangential_recovery: str) -> bool:
+    """Whether ``uzawa_acceleration = "newton"`` (the exact multiplier update) is
+    available for a pair: the lumped normal recovery, and with friction (μ > 0) also the
+    lumped tangential one. "auto" resolves to "newton" exactly there
+    (:func:`dolfinx_mortar.contact.resolve_acceleration`)."""
+    return recovery == "lumped" and (friction == 0.0 or tangential_recovery == "lumped")
+
+
 #: Allowed values of ``solver.linear``.
 LINEAR_SOLVERS = ("mumps", "lu", "superlu_dist", "petsc")
 #: Allowed values of ``solver.line_search`` (PETSc SNES line searches).
@@ -258,9 +269,9 @@ class ContactPair:
     uzawa_acceleration:
         Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
         relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
-        ``"newton"`` (the exact update of the active nodes' multipliers; frictionless
-        pairs with the lumped recovery only) or ``"auto"`` (default: ``"newton"`` on
-        frictionless pairs with the lumped recovery, ``"aitken"`` on the others).
+        ``"newton"`` (the exact update of the multipliers; pairs with the lumped
+        recovery, and with friction the lumped tangential recovery, only) or ``"auto"``
+        (default: ``"newton"`` where it applies, ``"aitken"`` on the other pairs).
     """
 
     slave: str
@@ -829,11 +840,12 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "uzawa_acceleration"),
         UZAWA_ACCELERATIONS,
     )
-    if acceleration == "newton" and (friction > 0.0 or recovery != "lumped"):
+    if acceleration == "newton" and not exact_update_applies(friction, recovery, t_recovery):
         raise SceneError(
             _key(prefix, "uzawa_acceleration"),
-            '"newton" (the exact multiplier update) needs friction = 0 and recovery = '
-            f'"lumped", got friction = {friction:g} and recovery = {recovery!r}',
+            '"newton" (the exact multiplier update) needs recovery = "lumped", and with '
+            f'friction tangential_recovery = "lumped", got recovery = {recovery!r} and '
+            f"tangential_recovery = {t_recovery!r} (friction = {friction:g})",
         )
     return ContactPair(
         slave=slave,

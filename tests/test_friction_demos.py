@@ -139,9 +139,11 @@ def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
 def test_ironing2d_short(shared_tmp):
     """Ironing, short path: press 1.4 in 5 steps, slide 1.4 in 14 steps (0.1 per step,
     one slab element), default mesh, slab as slave, ε_T = E*/h, penetration-limited
-    Newton steps (the demo's defaults). Measured (serial, ~16 s): no cutback, no failed
+    Newton steps (the demo's defaults). Measured (serial, ~14 s): no cutback, no failed
     attempt from the predictor, no solve continued with full steps or restarted after a
-    NaN, at most 21 Newton iterations per solve, 48 steps shortened by the depth limit;
+    NaN, at most 25 Newton iterations per solve (338 in all with the exact multiplier
+    update, the default since session 17; 610 with Aitken), steps shortened by the depth
+    limit;
     F_y 1.95–2.0; F_x/F_y 0.085 → 0.31 while the slab shears under a sticking die
     (u_x ≤ 1), then 0.33–0.34 in gross slip. Without the depth limit
     (``--step-depth-limit 0``): 2 cutbacks (the first press step, 0.28 deep, twice the
