@@ -188,22 +188,66 @@ def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
 
 
 def resolve_acceleration(
-    method: str, friction: float, recovery: str, tangential_recovery: str = "lumped"
+    method: str,
+    friction: float,
+    recovery: str,
+    tangential_recovery: str = "lumped",
+    gdim: int = 2,
 ) -> str:
     """The Uzawa update of a pair: ``method`` itself, except that "auto" (the default)
     becomes "newton" (the exact update: :meth:`MortarContact._exact_multipliers` without
     friction, :meth:`MortarContact._exact_multipliers_fd` with it) on a pair with the
-    lumped recovery (and, with friction, the lumped tangential recovery), and "aitken" on
-    any other (local). :func:`exact_update_applies` says where "newton" is allowed.
+    lumped recovery, without friction or, in 2D (``gdim``), with the lumped tangential
+    recovery; "aitken" on any other (local). :func:`~dolfinx_mortar.scene.exact_update_applies`
+    says where "newton" is allowed (in 3D with friction too, on request).
 
-    Why "newton" by default there: the single serial runs of BENCHMARKS.md §3 and §10
+    Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
     / 13, the hard-case sweep's Hertz cases 24–49 instead of 49–534 with no cutback,
     peers problem B 7 + 4 / 8 + 6 / 9 + 10 (normal + tangential step) instead of 11 + 17
-    / 12 + 25 / 13 + 24."""
+    / 12 + 25 / 13 + 24. Why not with friction in 3D: there the finite-difference
+    products cost a 3D contact search each, and the coarse twist3d path took 97 s
+    instead of 71 s for 98 Newton iterations instead of 107."""
     if method != "auto":
         return method
-    return "newton" if exact_update_applies(friction, recovery, tangential_recovery) else "aitken"
+    if not exact_update_applies(friction, recovery, tangential_recovery):
+        return "aitken"
+    return "newton" if friction == 0.0 or gdim == 2 else "aitken"
+
+
+def _gmres(comm, size: tuple[int, int], product, rhs: np.ndarray, rtol: float, max_it: int):
+    """Solve A x = rhs by unpreconditioned GMRES from x = 0, A given by its product
+    ``product(x, y)`` (y ← A x on PETSc vectors of layout ``size`` = (owned, global)),
+    options prefix ``dm_uzawa_newton_`` (collective; the exact multiplier updates). The
+    shell matrix, KSP and vectors are created and destroyed here. rhs: (owned,).
+    Returns (converged, iterations, x (owned,))."""
+
+    class _Shell:
+        def mult(self_, mat, x, y):  # noqa: N805 (petsc4py shell context)
+            product(x, y)
+
+    A = PETSc.Mat().createPython((size, size), _Shell(), comm=comm)
+    A.setUp()
+    ksp = PETSc.KSP().create(comm)
+    b = PETSc.Vec().createMPI(size, comm=comm)
+    x = b.duplicate()
+    try:
+        ksp.setOptionsPrefix("dm_uzawa_newton_")
+        ksp.setOperators(A)
+        ksp.setType(PETSc.KSP.Type.GMRES)
+        ksp.getPC().setType(PETSc.PC.Type.NONE)
+        ksp.setTolerances(rtol=rtol, atol=0.0, max_it=max_it)
+        b.array[:] = rhs
+        x.set(0.0)
+        ksp.solve(b, x)
+        return (
+            ksp.getConvergedReason() > 0,
+            ksp.getIterationNumber(),
+            x.getArray(readonly=True).copy(),
+        )
+    finally:
+        for obj in (ksp, A, b, x):
+            obj.destroy()
 
 
 def _plane_modulus(E: float, nu: float) -> float:
@@ -465,7 +509,7 @@ class MortarContact:
                 f"{key}: unknown uzawa_acceleration {uzawa_acceleration!r}: one of {ACCELERATIONS}"
             )
         uzawa_acceleration = resolve_acceleration(
-            uzawa_acceleration, self.mu, recovery, tangential_recovery
+            uzawa_acceleration, self.mu, recovery, tangential_recovery, self.gdim
         )
         if uzawa_acceleration == "newton" and not exact_update_applies(
             self.mu, recovery, tangential_recovery
@@ -2146,41 +2190,30 @@ class MortarContact:
         B.assemble()
         t = B.createVecRight()  # (ndofs,): Bᵀ δλ, then K⁻¹ Bᵀ δλ in w
         w = t.duplicate()
+        dlam = B.createVecLeft()
         scale = (self.eps / np.where(self.has_area, self.A, 1.0))[nodes]
         failed = []
 
-        class _Schur:
-            def mult(self_, mat, x, y):  # noqa: N805 (petsc4py shell context)
-                B.multTranspose(x, t)
-                if not solve(t, w):
-                    failed.append(True)
-                    w.set(0.0)
-                B.mult(w, y)
-                y.array[:] *= scale  # owned entries (not localForm: no ghosts here)
+        def schur(x, y):  # y ← diag(ε/A) B K⁻¹ Bᵀ x
+            B.multTranspose(x, t)
+            if not solve(t, w):
+                failed.append(True)
+                w.set(0.0)
+            B.mult(w, y)
+            y.array[:] *= scale  # owned entries (not localForm: no ghosts here)
 
-        S = PETSc.Mat().createPython(((n_loc, n_glob), (n_loc, n_glob)), _Schur(), comm=comm)
-        S.setUp()
-        ksp = PETSc.KSP().create(comm)
-        ksp.setOptionsPrefix("dm_uzawa_newton_")
-        ksp.setOperators(S)
-        ksp.setType(PETSc.KSP.Type.GMRES)
-        ksp.getPC().setType(PETSc.PC.Type.NONE)
-        ksp.setTolerances(rtol=EXACT_UPDATE_RTOL, atol=0.0, max_it=EXACT_UPDATE_MAX_IT)
-        rhs = PETSc.Vec().createMPI((n_loc, n_glob), comm=comm)
-        dlam = rhs.duplicate()
         try:
-            rhs.array[:] = d[nodes]
-            dlam.set(0.0)
-            ksp.solve(rhs, dlam)
-            ok = ksp.getConvergedReason() > 0 and not comm.allreduce(bool(failed), op=MPI.LOR)
-            its = ksp.getIterationNumber()
-            step = dlam.getArray(readonly=True).copy()
+            ok, its, step = _gmres(
+                comm, (n_loc, n_glob), schur, d[nodes], EXACT_UPDATE_RTOL, EXACT_UPDATE_MAX_IT
+            )
+            ok = ok and not comm.allreduce(bool(failed), op=MPI.LOR)
             if ok:  # the displacement the new multipliers move u by: δu = K⁻¹ Bᵀ δλ
+                dlam.array[:] = step
                 B.multTranspose(dlam, t)
                 ok = solve(t, w)
                 du = w.getArray(readonly=True).copy()
         finally:
-            for obj in (ksp, S, B, t, w, rhs, dlam):
+            for obj in (B, t, w, dlam):
                 obj.destroy()
         if not ok:
             info["exact_update"] = "plain (GMRES failed)"
@@ -2209,8 +2242,10 @@ class MortarContact:
         h from :data:`EXACT_FD_STEP`; the bulk residual does not depend on x), one
         back-substitution w = K⁻¹ ∂R/∂x v with the last factorized Jacobian
         (``problem.linear_inverse``), and the nodal law at (u − h w, x + h v). The
-        stick/slip states and slip directions are those of the free law at the converged
-        state, frozen for the differences, so that each is a smooth function. Without
+        stick/slip states are those of the free law at the converged state, frozen for
+        the differences, so that each is a smooth function; the slip directions follow
+        the trial traction (in 3D s depends on λ_T: frozen directions made the update
+        inexact there, 10 rounds per step on twist3d). Without
         friction the same equation is :meth:`_exact_multipliers`' diag(ε/A) B K⁻¹ Bᵀ δλ
         = d. Stick nodes get the λ_T that closes their slip, slip nodes μ p̂ s at the new
         state, and the displacement it implies, δu = −K⁻¹ ∂R/∂x δx, is left in
@@ -2233,8 +2268,7 @@ class MortarContact:
         x0 = prob.u.vector.copy()
         lam0 = np.concatenate([self.lmbda, self.lmbda_t.ravel()])
         saved = (self.lmbda.copy(), self.lmbda_t.copy(), self.frozen)
-        norm = np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)
-        self.frozen = (fstate.copy(), tau_law / norm[:, None])
+        self.frozen = (fstate.copy(), None)  # the states; the slip directions stay free
         xt, r0, r1, w = (x0.duplicate() for _ in range(4))
 
         def law(x: PETSc.Vec, lam: np.ndarray) -> np.ndarray:
@@ -2273,43 +2307,28 @@ class MortarContact:
                 w.set(0.0)
             return h
 
-        class _Jacobian:
-            def mult(self_, mat, xv, yv):  # noqa: N805 (petsc4py shell context)
-                v = xv.getArray(readonly=True).copy()
-                h = dudx(v)
-                if h == 0.0:
-                    yv.set(0.0)
-                    return
-                x0.copy(xt)
-                xt.axpy(-h, w)  # u + h du/dx v
-                yv.array[:] = (law(xt, lam0 + h * v) - T0) / h - v
+        def jacobian(xv, yv):  # y ← J x (forward differences)
+            v = xv.getArray(readonly=True).copy()
+            h = dudx(v)
+            if h == 0.0:
+                yv.set(0.0)
+                return
+            x0.copy(xt)
+            xt.axpy(-h, w)  # u + h du/dx v
+            yv.array[:] = (law(xt, lam0 + h * v) - T0) / h - v
 
-        size = (lam0.size, comm.allreduce(lam0.size))
-        J = PETSc.Mat().createPython((size, size), _Jacobian(), comm=comm)
-        J.setUp()
-        ksp = PETSc.KSP().create(comm)
-        ksp.setOptionsPrefix("dm_uzawa_newton_")
-        ksp.setOperators(J)
-        ksp.setType(PETSc.KSP.Type.GMRES)
-        ksp.getPC().setType(PETSc.PC.Type.NONE)
-        ksp.setTolerances(rtol=EXACT_FD_RTOL, atol=0.0, max_it=EXACT_FD_MAX_IT)
-        rhs = PETSc.Vec().createMPI(size, comm=comm)
-        dx = rhs.duplicate()
         ok = False
         try:
-            rhs.array[:] = lam0 - T0  # −F
-            dx.set(0.0)
-            ksp.solve(rhs, dx)
-            ok = ksp.getConvergedReason() > 0 and not comm.allreduce(bool(failed), op=MPI.LOR)
-            its = ksp.getIterationNumber()
-            step = dx.getArray(readonly=True).copy()
+            size = (lam0.size, comm.allreduce(lam0.size))
+            ok, its, step = _gmres(
+                comm, size, jacobian, lam0 - T0, EXACT_FD_RTOL, EXACT_FD_MAX_IT
+            )  # −F on the right
+            ok = ok and not comm.allreduce(bool(failed), op=MPI.LOR)
             if ok:  # δu = −K⁻¹ ∂R/∂x δx (linear in δx, so one more difference)
                 h = dudx(step)
                 ok = not comm.allreduce(bool(failed), op=MPI.LOR)
                 du = -w.getArray(readonly=True).copy() if h > 0.0 else None
         finally:
-            for obj in (ksp, J, rhs, dx):
-                obj.destroy()
             # back to the converged state (u, x and the states of the solve)
             self.lmbda, self.lmbda_t, self.frozen = saved
             prob.update_contact(x0)

@@ -174,9 +174,11 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     active (n,) the normal active set (a node touching with p = 0 is active: it sticks
     when τ^tr = 0 and otherwise slips with τ = 0 and ∂τ/∂p = μ s);
     mu friction coefficient; eps_t (n,) tangential penalty (stress per length);
-    frozen: None or (states (n,), directions (n, m)) to impose where states ≥ 0 (the
-    chattering control of :class:`~dolfinx_mortar.contact.MortarContact`): a frozen
-    slip node keeps its slip direction s, so τ = μ p_N s is smooth in u; tol (n,) a node
+    frozen: None or (states (n,), directions (n, m) or None) to impose where states ≥ 0
+    (the chattering control of :class:`~dolfinx_mortar.contact.MortarContact`): a frozen
+    slip node keeps its slip direction s, so τ = μ p_N s is smooth in u; with directions
+    None only the states are imposed and s follows the trial traction (the exact
+    multiplier update's differences); tol (n,) a node
     slips only when Φ > tol (round-off in a touching node's slip must not select a
     slip direction).
 
@@ -193,8 +195,9 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
         states, directions = frozen
         imposed = active & (states >= 0)
         slip = np.where(imposed, states == SLIP, slip)
-        fixed = imposed & slip
-        s = np.where(fixed[:, None], directions, s)
+        if directions is not None:
+            fixed = imposed & slip
+            s = np.where(fixed[:, None], directions, s)
     stick = active & ~slip
     tau = np.where(stick[:, None], trial, 0.0) + np.where(slip[:, None], mu * p[:, None] * s, 0.0)
     eye = np.eye(m)

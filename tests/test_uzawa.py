@@ -292,7 +292,8 @@ def test_the_frictional_exact_update_ends_where_aitken_does(tmp_path_factory):
 
 def test_auto_is_the_exact_update_where_it_applies(tmp_path):
     """The default ``uzawa_acceleration = "auto"`` resolves per pair: "newton" on a pair
-    with the lumped recoveries, "aitken" where one is not lumped; the resolved
+    with the lumped recoveries (with friction in 2D only), "aitken" where one is not
+    lumped or on a frictional 3D pair; the resolved
     update is what the pair reports (summary.json ``modelled``); an unknown name is a
     ValueError of the Python API."""
     from dolfinx_mortar.contact import MortarContact, resolve_acceleration
@@ -304,6 +305,8 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
     assert resolve_acceleration("auto", 0.2, "lumped", "constrained") == "aitken"
     assert resolve_acceleration("auto", 0.0, "constrained") == "aitken"
     assert resolve_acceleration("anderson", 0.0, "lumped") == "anderson"
+    assert resolve_acceleration("auto", 0.0, "lumped", gdim=3) == "newton"
+    assert resolve_acceleration("auto", 0.2, "lumped", gdim=3) == "aitken"  # opt-in there
     data = _hertz("aitken")
     data["contact"][0].pop("uzawa_acceleration")
     scene = parse_scene(data, tmp_path)
