@@ -327,12 +327,14 @@ class ContactProblem:
         "newton"``) also gives the displacement change they imply
         (``MortarContact.displacement_update``, owned dofs), which is added to u: the next
         round starts near its solution."""
-        self._contact_x = None  # the multipliers change: the contact state is stale
         done, info = True, {}
         for term in self.contacts:
             ok, i = term.uzawa_update()
             done = done and ok
             info[term.name] = i
+        # the multipliers changed: the contact state is stale (set after the updates: the
+        # exact update evaluates the contact state at trial points on the way)
+        self._contact_x = None
         # the exact update decides collectively whether it gives a displacement, so
         # ``moved`` is the same on every rank
         moved = False
