@@ -127,6 +127,22 @@ def test_return_mapping_derivatives(d):
     slip = state_f == fr.SLIP
     assert np.allclose(tau_f[slip], -MU * p[slip, None] * s_dir[slip])
     assert np.all(D_f[slip] == 0.0)
+    # frozen states only (directions None: the exact multiplier update's differences):
+    # the imposed slip nodes slip along their own trial traction, with its derivative
+    trial = lam + eps[:, None] * gam
+    s_trial = trial / np.linalg.norm(trial, axis=1)[:, None]
+    tau_s, state_s, D_s, _ = fr.return_mapping(lam, gam, p, active, MU, eps, frozen=(flipped, None))
+    assert np.array_equal(state_s, state_f)
+    slip = state_s == fr.SLIP
+    assert np.allclose(tau_s[slip], MU * p[slip, None] * s_trial[slip])
+    stick = state_s == fr.STICK
+    assert np.allclose(tau_s[stick], trial[stick])
+    for j in range(m):
+        e = np.zeros(m)
+        e[j] = h
+        tp = fr.return_mapping(lam, gam + e, p, active, MU, eps, frozen=(flipped, None))[0]
+        tm = fr.return_mapping(lam, gam - e, p, active, MU, eps, frozen=(flipped, None))[0]
+        assert np.allclose((tp - tm) / (2 * h), D_s[:, :, j], atol=1e-6)
 
 
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz2d-P2", "hertz3d-P1", "patch3d-Q1"])

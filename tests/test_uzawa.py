@@ -324,3 +324,47 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
         term.destroy()
     with pytest.raises(ValueError, match="unknown uzawa_acceleration 'broyden'"):
         MortarContact(problem, "cylinder_surface", "block_top", uzawa_acceleration="broyden")
+
+
+@pytest.mark.mpi
+def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
+    """In 3D, ``"auto"`` keeps Aitken on a frictional pair (the finite-difference products
+    cost a 3D search each); ``"newton"`` on request works there: the 3D frictional patch
+    test in uniform sliding (two steps) reaches the same contact forces in each step
+    (the applied traction at the end, [−1, 0, 2], to 1e-12) in fewer rounds, every
+    update exact.
+    Measured serially: 12 + 2 Newton iterations in 7 + 2 rounds with Aitken, 7 + 2 in 3 + 2
+    with the exact update; 1–3 ranks."""
+    import sys
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "demos"))
+    import demo_friction_patch
+
+    comm = MPI.COMM_WORLD
+    out = {}
+    for acc in ("auto", "newton"):
+        data = demo_friction_patch.scene(3, "slide", "element")
+        for pair in data["contact"]:
+            pair["uzawa_acceleration"] = acc
+        path = Path(comm.bcast(str(tmp_path_factory.mktemp(acc)) if comm.rank == 0 else None))
+        out[acc] = run(parse_scene(data, path), comm, path)
+        assert out[acc]["status"] == "ok"
+    resolved = {
+        acc: next(iter(o["modelled"]["contact_pairs"].values()))["uzawa_acceleration"]
+        for acc, o in out.items()
+    }
+    assert resolved == {"auto": "aitken", "newton": "newton"}
+    for sa, sn in zip(out["auto"]["steps"], out["newton"]["steps"], strict=True):
+        assert sn["uzawa_rounds"] <= sa["uzawa_rounds"]
+        updates = [next(iter(r.values())) for r in sn["uzawa"][:-1]]
+        assert all(u["exact_update"].startswith("newton") for u in updates)
+        fa, fn = (np.asarray(next(iter(o["contact_force"].values()))) for o in (sa, sn))
+        assert np.allclose(fn, fa, atol=1e-12), (fa, fn)
+    force = np.asarray(next(iter(out["newton"]["steps"][-1]["contact_force"].values())))
+    assert np.allclose(force, [-1.0, 0.0, 2.0], atol=1e-12), force
+    first = (out["auto"]["steps"][0], out["newton"]["steps"][0])
+    assert first[1]["uzawa_rounds"] < first[0]["uzawa_rounds"]
