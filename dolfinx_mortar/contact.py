@@ -2034,9 +2034,13 @@ class MortarContact:
         """Augment the multipliers unless converged (collective). Returns (converged, info).
 
         Plain Uzawa is λ ← p̂ (the nodal penalty pressure ⟨λ − εγ⟩, = p when lumped), i.e.
-        λ ← λ + d with d = p̂ − λ; with friction also λ_T ← λ_T + (τ − λ_T). The step is
-        accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`, Aitken by
-        default) and λ is kept ≥ 0. With friction the change counts max |τ − λ_T| too,
+        λ ← λ + d with d = p̂ − λ; with friction also λ_T ← λ_T + (τ − λ_T). With
+        ``uzawa_acceleration = "newton"`` (the default "auto" of the lumped pairs,
+        :func:`resolve_acceleration`) the multipliers take the exact update instead
+        (:meth:`_exact_multipliers`, :meth:`_exact_multipliers_fd`; the plain one after a
+        solve whose frozen or held states the free law contradicts); otherwise the step
+        is accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`). λ is
+        kept ≥ 0. With friction the change counts max |τ − λ_T| too,
         and a solve that ended with frozen stick/slip states (chattering control) is not
         accepted when the free states differ: another solve follows with the states free.
 
@@ -2118,14 +2122,17 @@ class MortarContact:
         if done:
             return changed == 0, info
         if self.uzawa_acceleration.method == "newton":  # lumped (exact_update_applies)
-            if self.frictional and changed:
-                # the solve ended with frozen states or a held set that the free law
-                # contradicts: the round's map at fixed states, which the exact update
-                # linearises, is not the next round's. Plain update (on the ironing2d
-                # short path's first press step the exact one led to a 30-iteration
-                # solve that crawled on a kink; with the plain one 22)
+            if changed:
+                # the solve ended with frozen states, a frozen QP set or a held contact
+                # set that the free law contradicts: the round's map at fixed states,
+                # which the exact update linearises, is not the next round's. Plain
+                # update (on the ironing2d short path's first press step the exact one
+                # led to a 30-iteration solve that crawled on a kink; with the plain one
+                # 22; hertz2d_nu049_p1's released nodes: the same iterations either way)
                 info["exact_update"] = "plain (states changed)"
-                self.lmbda, self.lmbda_t = np.maximum(self.p_hat, 0.0), tau_law.copy()
+                self.lmbda = np.maximum(self.p_hat, 0.0)
+                if self.frictional:
+                    self.lmbda_t = tau_law.copy()
             elif self.frictional:
                 self.lmbda, self.lmbda_t = self._exact_multipliers_fd(fstate, tau_law, info)
             else:
@@ -2143,6 +2150,18 @@ class MortarContact:
         if self.frictional:
             self.lmbda_t = x[n:].reshape(self.lmbda_t.shape)
         return False, info
+
+    def _exact_outcome(self, ok: bool, its: int, du, info: dict) -> bool:
+        """Record how an exact update ended (local; ``ok`` is collective): with GMRES
+        converged after ``its`` products, the displacement ``du`` (owned dofs) becomes
+        :attr:`displacement_update` and True is returned; otherwise False (the caller
+        takes the plain update)."""
+        if not ok:
+            info["exact_update"] = "plain (GMRES failed)"
+            return False
+        info["exact_update"] = f"newton ({its} products)"
+        self.displacement_update = du
+        return True
 
     def _exact_multipliers(self, d: np.ndarray, info: dict) -> np.ndarray:
         """The exact (Newton) update of the multipliers of the active nodes (collective;
@@ -2202,6 +2221,7 @@ class MortarContact:
             B.mult(w, y)
             y.array[:] *= scale  # owned entries (not localForm: no ghosts here)
 
+        du = None
         try:
             ok, its, step = _gmres(
                 comm, (n_loc, n_glob), schur, d[nodes], EXACT_UPDATE_RTOL, EXACT_UPDATE_MAX_IT
@@ -2215,11 +2235,8 @@ class MortarContact:
         finally:
             for obj in (B, t, w, dlam):
                 obj.destroy()
-        if not ok:
-            info["exact_update"] = "plain (GMRES failed)"
+        if not self._exact_outcome(ok, its, du, info):
             return plain
-        info["exact_update"] = f"newton ({its} products)"
-        self.displacement_update = du
         out = plain.copy()
         out[nodes] = np.maximum(self.lmbda[nodes] + step, 0.0)
         return out
@@ -2317,7 +2334,7 @@ class MortarContact:
             xt.axpy(-h, w)  # u + h du/dx v
             yv.array[:] = (law(xt, lam0 + h * v) - T0) / h - v
 
-        ok = False
+        du = None
         try:
             size = (lam0.size, comm.allreduce(lam0.size))
             ok, its, step = _gmres(
@@ -2334,11 +2351,8 @@ class MortarContact:
             prob.update_contact(x0)
             for vec in (xt, r0, r1, w, x0):
                 vec.destroy()
-        if not ok:
-            info["exact_update"] = "plain (GMRES failed)"
+        if not self._exact_outcome(ok, its, du, info):
             return plain
-        info["exact_update"] = f"newton ({its} products)"
-        self.displacement_update = du
         lam = lam0 + step
         return np.maximum(lam[:n], 0.0), lam[n:].reshape(n, m)
 

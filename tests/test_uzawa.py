@@ -368,3 +368,25 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     assert np.allclose(force, [-1.0, 0.0, 2.0], atol=1e-12), force
     first = (out["auto"]["steps"][0], out["newton"]["steps"][0])
     assert first[1]["uzawa_rounds"] < first[0]["uzawa_rounds"]
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.2])
+def test_a_failed_exact_update_falls_back_to_the_plain_one(friction, tmp_path, monkeypatch):
+    """GMRES of the exact update limited to one product (it then fails: the tolerance is
+    not met): every update says "plain (GMRES failed)", moves no displacement, and the
+    rounds still converge to the Uzawa tolerance (serial)."""
+    from dolfinx_mortar import contact
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    monkeypatch.setattr(contact, "EXACT_UPDATE_MAX_IT", 1)
+    monkeypatch.setattr(contact, "EXACT_FD_MAX_IT", 1)
+    out = run(parse_scene(_hertz("newton", friction=friction), tmp_path), MPI.COMM_WORLD, tmp_path)
+    assert out["status"] == "ok"
+    for st in out["steps"]:
+        rounds = [next(iter(r.values())) for r in st["uzawa"]]
+        updates = [r["exact_update"] for r in rounds if "exact_update" in r]
+        assert updates and all(u.startswith("plain") for u in updates), updates
+        assert "plain (GMRES failed)" in updates
+        last = rounds[-1]
+        assert max(last["multiplier_change"], last.get("tangential_change", 0.0)) <= 1e-8
