@@ -122,7 +122,7 @@ def _coarse_cattaneo(acceleration: str) -> dict:
 
 def test_scene_key_selects_the_acceleration(tmp_path_factory):
     """(Serial only: the distributed update is checked above on 1–3 ranks; two runs of
-    this scene take 25 s.) ``uzawa_acceleration`` reaches the contact term; on the frictional shift step,
+    this scene take about 2 s now, 25 s in session 9.) ``uzawa_acceleration`` reaches the contact term; on the frictional shift step,
     whose tangential rounds are slow, Anderson needs fewer rounds than Aitken, and both
     end at the same state."""
     from pathlib import Path
