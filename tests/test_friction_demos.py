@@ -141,9 +141,9 @@ def test_ironing2d_short(shared_tmp):
     one slab element), default mesh, slab as slave, ε_T = E*/h, penetration-limited
     Newton steps (the demo's defaults). Measured (serial, ~14 s): no cutback, no failed
     attempt from the predictor, no solve continued with full steps or restarted after a
-    NaN, at most 25 Newton iterations per solve (338 in all with the exact multiplier
-    update, the default since session 17; 610 with Aitken), steps shortened by the depth
-    limit;
+    NaN, at most 25 Newton iterations per solve (20, 291 in all, since the blind-spot
+    pairing of session 18; 25 and 338 before it; 610 with Aitken), steps shortened by
+    the depth limit;
     F_y 1.95–2.0; F_x/F_y 0.085 → 0.31 while the slab shears under a sticking die
     (u_x ≤ 1), then 0.33–0.34 in gross slip. Without the depth limit
     (``--step-depth-limit 0``): 2 cutbacks (the first press step, 0.28 deep, twice the

@@ -436,3 +436,82 @@ def test_project_robust_strongly_curved():
                 H = A @ A.T - np.einsum("i,abi->ab", w, np.einsum("nab,ni->abi", ddN, xm))
                 assert np.abs(A @ w).max() < 1e-10
                 assert np.linalg.eigvalsh(H).min() > -1e-10
+
+
+def _pair_one(ftype_s, xs, xi, ftype_m, xm, msign):
+    """kernels.mortar.pair_points for one slave point (slave facet xs (ns, d) at ξ = xi)
+    against master facets xm (nmf, nm, d): (master facet or −1, gap). The slave normal
+    is oriented towards +z (2D: +y), the masters' normals by ``msign``."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    d = xs.shape[1]
+    nus = np.empty(d)
+    ssign = np.ones(1)
+    unit_normal(xs, ftype_s, 1.0, np.asarray(xi, float), nus)
+    if nus[-1] < 0.0:
+        ssign[0] = -1.0
+    nmf = xm.shape[0]
+    qp_m, qp_zeta, qp_g = np.empty((1, 1), np.int64), np.empty((1, 1, d - 1)), np.empty((1, 1))
+    kmortar.pair_points(
+        ftype_s, ftype_m, xs[None], ssign, np.asarray(xi, float)[None, None], np.ones((1, 1)),
+        xm, msign, np.array([0, nmf]), np.arange(nmf), np.full(1, 1.0), np.full(1, 10.0),
+        qp_m, qp_zeta, qp_g,
+    )  # fmt: skip
+    return int(qp_m[0, 0]), float(qp_g[0, 0])
+
+
+def _down(ftype, xm):
+    """Signs that turn each master facet's normal towards −z (2D: −y)."""
+    k = tdim(ftype)
+    nu = np.empty(xm.shape[2])
+    out = np.empty(len(xm))
+    for m, x in enumerate(xm):
+        unit_normal(x, ftype, 1.0, np.full(k, 1.0 / 3.0), nu)
+        out[m] = -1.0 if nu[-1] > 0.0 else 1.0
+    return out
+
+
+@pytest.mark.parametrize("g", [0.05, 0.1])
+def test_open_point_in_the_blind_spot_of_a_convex_vertex_is_paired(g):
+    """2D: a master of two segments meeting at a convex vertex (kink 2 × 2.9°, as a
+    faceted die seen from below) and a slave point g below the vertex. Its projections
+    onto both segments lie outside them, by ≈ g sin(2.9°)/|facet| = 2.5e-3 in ζ at g = 0.05,
+    more than OUTSIDE_TOL: it is paired all the same (kernels.mortar.BLIND_SPOT_SLOPE) with
+    the gap to the facet's extension, ≈ g. Before, it dropped out of the pairing, and
+    with it its share of the lumped A^I, G^I of its nodes (the nodal gap of a neighbour
+    node in contact jumped: ironing2d). The point beyond the master's free end, as far
+    outside, stays unpaired."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    xm = np.array([[[-1.0, 0.05], [0.0, 0.0]], [[0.0, 0.0], [1.0, 0.05]]])
+    msign = _down(INTERVAL1, xm)
+    xs = np.array([[-0.5, -g], [0.5, -g]])
+    m, gap = _pair_one(INTERVAL1, xs, [0.5], INTERVAL1, xm, msign)
+    assert m in (0, 1)
+    assert gap == pytest.approx(g, rel=0.01)
+    out = g * np.sin(np.arctan(0.05)) / np.hypot(1.0, 0.05)
+    assert out > kmortar.OUTSIDE_TOL  # the case the ζ tolerance alone rejected
+    # g below the extension of the master's free end, 0.3 g beyond it (≈ 0.25 g from the
+    # facet, more than BLIND_SPOT_SLOPE g): no pairing
+    xs_end = xs + np.array([1.0 + 0.3 * g, 0.05])
+    assert _pair_one(INTERVAL1, xs_end, [0.5], INTERVAL1, xm[1:], msign[1:])[0] == -1
+
+
+def test_open_point_above_a_convex_ridge_is_paired_3d():
+    """3D: two triangles meeting along a convex ridge (the x axis, 2.9° each way), a slave
+    point g = 0.05 below the ridge: paired, gap ≈ g."""
+    xm = np.array(
+        [
+            [[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.05]],
+            [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.05]],
+        ]
+    )
+    msign = _down(TRIANGLE1, xm)
+    g = 0.05
+    xs = np.array([[-0.5, -0.5, -g], [0.5, -0.5, -g], [0.0, 1.0, -g]])
+    xi = np.array([1.0 / 3.0, 1.0 / 3.0])
+    x1 = xs.T @ np.array([1.0 / 3.0] * 3)
+    assert abs(x1[1]) < 1e-12  # the point lies under the ridge
+    m, gap = _pair_one(TRIANGLE1, xs, xi, TRIANGLE1, xm, msign)
+    assert m in (0, 1)
+    assert gap == pytest.approx(g, rel=0.01)
