@@ -758,6 +758,16 @@ class MortarContact:
             self._friction_integrals()
         self._recover()
 
+    def forget_search(self) -> None:
+        """Forget what the search and the Jacobians have learned so far (local;
+        ``ContactProblem.warm_up``): the next :meth:`update` exchanges the master facets
+        afresh, as the first one does, and the couplings learned by the mixed tangents
+        are dropped, so the candidates, the sums and the matrix pattern are those of a
+        run without the warm-up."""
+        self._u_exchange = None
+        self._learned = np.empty(0, np.int64)
+        self._learned_t = np.empty(0, np.int64)
+
     def step_limit(self, trial: PETSc.Vec, depth: float) -> float:
         """The largest fraction λ ∈ (0, 1] of the Newton step from the current state to the
         displacement ``trial`` (a global vector, (ndofs,)) along which no slave node that

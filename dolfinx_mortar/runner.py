@@ -126,6 +126,7 @@ def run(scene: Scene, comm, out_dir: Path | None = None, progress=None, setup=No
         "total": 0.0,
     }
     problem.set_time(0.0)
+    problem.warm_up()
     writer.start()
     totals["setup"] = perf_counter() - t_setup
 
