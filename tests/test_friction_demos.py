@@ -141,7 +141,7 @@ def test_ironing2d_short(shared_tmp):
     one slab element), default mesh, slab as slave, ε_T = E*/h, penetration-limited
     Newton steps (the demo's defaults). Measured (serial, ~14 s): no cutback, no failed
     attempt from the predictor, no solve continued with full steps or restarted after a
-    NaN, at most 25 Newton iterations per solve (20, 291 in all, since the blind-spot
+    NaN, at most 25 Newton iterations per solve (24, 308 in all, since the blind-spot
     pairing of session 18; 25 and 338 before it; 610 with Aitken), steps shortened by
     the depth limit;
     F_y 1.95–2.0; F_x/F_y 0.085 → 0.31 while the slab shears under a sticking die
