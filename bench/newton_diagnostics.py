@@ -13,9 +13,16 @@ solve (the main one; the later Uzawa rounds start near the solution) this prints
   and an exact tangent this is constant: the remainder of the Newton step is quadratic
   in t. It is the residual the full step leaves.
 
+With ``--polish N`` it also takes N more exact Newton steps from the state where that
+solve converged (on a copy: the run goes on from its own state) and prints the residual
+norms they leave, the round-off plateau of ‖R‖, and the errors e_k = ‖u_k − u*‖ of the
+solve's iterates against the polished state u*, with the order of convergence
+log(e_k/e_{k−1}) / log(e_{k−1}/e_{k−2}) of its last three (BENCHMARKS §2, "Session 18").
+
 Run (serial)::
 
     /usr/bin/python3 bench/newton_diagnostics.py [--step 4] [--integration segment] [--tri]
+    /usr/bin/python3 bench/newton_diagnostics.py --step 1 --polish 5
 
 An iterate that the l2 line search placed on a kink of the residual (an active-set or
 pairing switch; the search minimises ‖R‖ along the step, and minima sit at kinks) shows a
@@ -86,6 +93,43 @@ def check(problem, log) -> None:
         v.destroy()
 
 
+def polish(problem, n: int) -> tuple[list[float], PETSc.Vec]:
+    """n exact Newton steps (a new Jacobian and MUMPS factorization each) from the
+    problem's current state, on a copy (collective). Returns the residual norm after each
+    step and the last iterate; the problem's contact state is restored."""
+    u = problem.u.vector.copy()
+    K = problem.create_matrix()
+    ksp = PETSc.KSP().create(problem.comm)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    du = u.copy()
+    norms = []
+    for _ in range(n):
+        r = _residual(problem, u)
+        K.zeroEntries()
+        problem.jacobian(u, K)
+        ksp.setOperators(K)
+        ksp.solve(r, du)
+        u.axpy(-1.0, du)
+        r.destroy()
+        r = _residual(problem, u)
+        norms.append(r.norm())
+        r.destroy()
+    problem.update_contact(problem.u.vector)
+    for v in (K, ksp, du):
+        v.destroy()
+    return norms, u
+
+
+def error_orders(errors: list[float]) -> float:
+    """Order of convergence from the last three errors (nan if fewer, or not decreasing)."""
+    e = [x for x in errors if x > 0.0]
+    if len(e) < 3 or not e[-1] < e[-2] < e[-3]:
+        return float("nan")
+    return float(np.log(e[-1] / e[-2]) / np.log(e[-2] / e[-3]))
+
+
 def main(argv=None) -> list:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--step", type=int, default=4, help="load step to watch (1-based) [4]")
@@ -93,21 +137,35 @@ def main(argv=None) -> list:
     ap.add_argument("--recovery", default="lumped", help="[lumped]")
     ap.add_argument("--tri", action="store_true", help="the demo's --tri mesh (triangles)")
     ap.add_argument("--out", default="/tmp/newton_diagnostics", help="run directory")
+    ap.add_argument("--polish", type=int, default=0, help="exact Newton steps after the solve [0]")
     args = ap.parse_args(argv)
     box, log, state = {}, [], {"step": 0, "solve": 0}
+    iterates, polished = [], {}
     newton_cls = solver_module.NewtonSolver
     orig_j, orig_solve, orig_begin = newton_cls._J, newton_cls.solve, None
 
     def watched_j(self, snes, x, A, P):
         orig_j(self, snes, x, A, P)
         if state["step"] == args.step and state["solve"] == 1:
+            iterates.append(x.copy())
             self.problem.ensure_contact_at(x)
             check(self.problem, log)
             self.problem.ensure_contact_at(x)
 
     def counted_solve(self, *a, **k):
         state["solve"] += 1
-        return orig_solve(self, *a, **k)
+        out = orig_solve(self, *a, **k)
+        if state["step"] == args.step and state["solve"] == 1 and args.polish > 0:
+            iterates.append(self.problem.u.vector.copy())
+            norms, u_star = polish(self.problem, args.polish)
+            errors = []
+            for v in iterates:
+                v.axpy(-1.0, u_star)
+                errors.append(v.norm())
+                v.destroy()
+            polished.update(solve=out[1], plateau=norms, errors=errors)
+            u_star.destroy()
+        return out
 
     def setup(problem):
         nonlocal orig_begin
@@ -136,6 +194,20 @@ def main(argv=None) -> list:
         if len(steps) >= 3:
             c = [steps[k + 1] / steps[k] ** 2 for k in range(len(steps) - 1)]
             print("  |du_k+1|/|du_k|^2:", ", ".join(f"{v:.3g}" for v in c))
+        if polished:
+            print(
+                "  residual norms of the solve:", ", ".join(f"{v:.3g}" for v in polished["solve"])
+            )
+            print(
+                "  after",
+                args.polish,
+                "more exact steps:",
+                ", ".join(f"{v:.3g}" for v in polished["plateau"]),
+            )
+            print("  e_k = |u_k - u*|:", ", ".join(f"{v:.3g}" for v in polished["errors"]))
+            print(f"  order from the last three errors: {error_orders(polished['errors']):.2f}")
+    if args.polish > 0:
+        return log, polished
     return log
 
 

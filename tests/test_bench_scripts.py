@@ -235,3 +235,21 @@ def test_newton_diagnostics_hertz2d(tmp_path, mesh):
         if ok or mesh:  # triangles: at every iterate
             assert fd < 1e-5, (r, fd)
     assert log[-1][0] < 1e-2 * log[0][0]
+
+
+def test_newton_diagnostics_round_off_plateau(tmp_path):
+    """``--polish``: after the main solve of hertz2d's step 1, more exact Newton steps leave
+    ‖R‖ on a plateau of round-off (measured 0.6–1.7e-13), and the solve's last norm
+    (3.4e-13) already lies within a few times of it: the three-norm order of step 1 (1.67)
+    reads round-off, not the tangent. The errors against the polished state fall
+    superlinearly (order 2.2 measured over the last three iterates)."""
+    log, pol = _load("newton_diagnostics").main(
+        ["--step", "1", "--polish", "3", "--out", str(tmp_path)]
+    )
+    assert log and len(pol["plateau"]) == 3
+    last = pol["solve"][-1]
+    assert max(pol["plateau"]) <= 1e-11
+    assert max(pol["plateau"]) >= 0.1 * last, (last, pol["plateau"])
+    e = pol["errors"]
+    assert e[-1] < e[-2] < e[-3]
+    assert e[-1] / e[-2] < 0.1 * e[-2] / e[-3]  # faster than linear
