@@ -120,22 +120,29 @@ def _coarse_cattaneo(acceleration: str) -> dict:
     }
 
 
-def test_scene_key_selects_the_acceleration(tmp_path_factory):
-    """(Serial only: the distributed update is checked above on 1–3 ranks; two runs of
-    this scene take about 2 s now, 25 s in session 9.) ``uzawa_acceleration`` reaches the contact term; on the frictional shift step,
-    whose tangential rounds are slow, Anderson needs fewer rounds than Aitken, and both
-    end at the same state."""
+def _run_scene(data: dict, tmp_path_factory, name: str) -> dict:
+    """Run the scene ``data`` into a fresh directory shared by all ranks (collective);
+    the summary, its status asserted "ok"."""
     from pathlib import Path
 
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
     comm = MPI.COMM_WORLD
+    path = Path(comm.bcast(str(tmp_path_factory.mktemp(name)) if comm.rank == 0 else None))
+    summary = run(parse_scene(data, path), comm, path)
+    assert summary["status"] == "ok", summary.get("error")
+    return summary
+
+
+def test_scene_key_selects_the_acceleration(tmp_path_factory):
+    """(Serial only: the distributed update is checked above on 1–3 ranks; two runs of
+    this scene take about 2 s now, 25 s in session 9.) ``uzawa_acceleration`` reaches the contact term; on the frictional shift step,
+    whose tangential rounds are slow, Anderson needs fewer rounds than Aitken, and both
+    end at the same state."""
     out = {}
     for acc in ("aitken", "anderson"):
-        path = Path(comm.bcast(str(tmp_path_factory.mktemp(acc)) if comm.rank == 0 else None))
-        out[acc] = run(parse_scene(_coarse_cattaneo(acc), path), comm, path)
-        assert out[acc]["status"] == "ok"
+        out[acc] = _run_scene(_coarse_cattaneo(acc), tmp_path_factory, acc)
         pair = next(iter(out[acc]["modelled"]["contact_pairs"].values()))
         assert pair["uzawa_acceleration"] == acc
     shift = {acc: out[acc]["steps"][-1] for acc in out}
@@ -266,17 +273,10 @@ def test_the_frictional_exact_update_ends_where_aitken_does(tmp_path_factory):
     tolerance, and fewer rounds and Newton iterations in each step. Measured (press,
     shift): 9 + 7 Newton iterations in 3 + 4 rounds serially (8 + 7 on 3 ranks) against
     12 + 24 in 6 + 13 with Aitken; 1–3 ranks."""
-    from pathlib import Path
-
-    from dolfinx_mortar.runner import run
-    from dolfinx_mortar.scene import parse_scene
-
-    comm = MPI.COMM_WORLD
-    out = {}
-    for acc in ("aitken", "newton"):
-        path = Path(comm.bcast(str(tmp_path_factory.mktemp(acc)) if comm.rank == 0 else None))
-        out[acc] = run(parse_scene(_coarse_cattaneo(acc), path), comm, path)
-        assert out[acc]["status"] == "ok"
+    out = {
+        acc: _run_scene(_coarse_cattaneo(acc), tmp_path_factory, acc)
+        for acc in ("aitken", "newton")
+    }
     for sa, sn in zip(out["aitken"]["steps"], out["newton"]["steps"], strict=True):
         assert sn["uzawa_rounds"] < sa["uzawa_rounds"]
         assert sum(sn["newton_iterations"]) < sum(sa["newton_iterations"])
@@ -338,21 +338,15 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     import sys
     from pathlib import Path
 
-    from dolfinx_mortar.runner import run
-    from dolfinx_mortar.scene import parse_scene
-
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "demos"))
     import demo_friction_patch
 
-    comm = MPI.COMM_WORLD
     out = {}
     for acc in ("auto", "newton"):
         data = demo_friction_patch.scene(3, "slide", "element")
         for pair in data["contact"]:
             pair["uzawa_acceleration"] = acc
-        path = Path(comm.bcast(str(tmp_path_factory.mktemp(acc)) if comm.rank == 0 else None))
-        out[acc] = run(parse_scene(data, path), comm, path)
-        assert out[acc]["status"] == "ok"
+        out[acc] = _run_scene(data, tmp_path_factory, acc)
     resolved = {
         acc: next(iter(o["modelled"]["contact_pairs"].values()))["uzawa_acceleration"]
         for acc, o in out.items()
@@ -401,20 +395,13 @@ def test_the_warm_up_leaves_no_state_behind(tmp_path_factory, monkeypatch):
     frictional Cattaneo press-and-shift scene. Serial: on 2 ranks two runs of this scene
     with the same code already differ at round-off (the first norm of an Uzawa round,
     1.7e-6, in its 4th digit; MUMPS), and that can move a round's iteration count by 1."""
-    from pathlib import Path
-
     from dolfinx_mortar.problem import ContactProblem
-    from dolfinx_mortar.runner import run
-    from dolfinx_mortar.scene import parse_scene
 
-    comm = MPI.COMM_WORLD
     out = {}
     for warm in (True, False):
         if not warm:
             monkeypatch.setattr(ContactProblem, "warm_up", lambda self: None)
-        path = Path(comm.bcast(str(tmp_path_factory.mktemp("warm")) if comm.rank == 0 else None))
-        out[warm] = run(parse_scene(_coarse_cattaneo("auto"), path), comm, path)
-        assert out[warm]["status"] == "ok"
+        out[warm] = _run_scene(_coarse_cattaneo("auto"), tmp_path_factory, "warm")
     for sw, sc in zip(out[True]["steps"], out[False]["steps"], strict=True):
         assert sw["newton_iterations"] == sc["newton_iterations"]
         for rw, rc in zip(sw["residual_norms"], sc["residual_norms"], strict=True):
