@@ -139,6 +139,8 @@ def main(argv=None) -> list:
     ap.add_argument("--out", default="/tmp/newton_diagnostics", help="run directory")
     ap.add_argument("--polish", type=int, default=0, help="exact Newton steps after the solve [0]")
     args = ap.parse_args(argv)
+    if args.polish < 0:
+        ap.error(f"--polish must be 0 or more, not {args.polish}")
     box, log, state = {}, [], {"step": 0, "solve": 0}
     iterates, polished = [], {}
     newton_cls = solver_module.NewtonSolver

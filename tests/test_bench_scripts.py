@@ -253,3 +253,11 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     e = pol["errors"]
     assert e[-1] < e[-2] < e[-3]
     assert e[-1] / e[-2] < 0.1 * e[-2] / e[-3]  # faster than linear
+
+
+def test_newton_diagnostics_rejects_a_negative_polish(capsys):
+    with pytest.raises(SystemExit) as exc:
+        _load("newton_diagnostics").main(["--polish", "-1"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].endswith("--polish must be 0 or more, not -1")
