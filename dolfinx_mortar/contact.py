@@ -85,6 +85,35 @@ AUTO_PENALTY_FACTOR = 100.0
 #: nodes whose trial traction sits near the Coulomb cone (Cattaneo–Mindlin first
 #: contact); the Uzawa rounds remove the elastic stick slip that the softer penalty allows.
 AUTO_PENALTY_T_FACTOR = 10.0
+#: Penalties stiffer than "auto": a pair whose largest ε^I (or ε_T^I) exceeds the largest
+#: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I is stiff (:attr:`MortarContact.soft_start`).
+#: Three rules follow (docs/method-notes.md, "Stiff penalties"); pairs at or below the
+#: auto penalty are not affected:
+#:
+#: - the contact predictor (the tangent-only stiffness of the nodes nearest to contact
+#:   while none is active; lumped and constrained recoveries) uses ε_soft^I = min(ε^I,
+#:   ε_auto^I): with ε = 1e3 ε_auto its springs held the floating body where it stood,
+#:   and Newton crawled towards contact;
+#: - where that ratio exceeds SOFT_START_RATIO, every load step starts with a Newton
+#:   solve under ε_soft (and
+#:   ε_T,soft = min(ε_T, ε_auto) with friction; :meth:`MortarContact.soft_penalty`,
+#:   ``solver.solve_step``) and goes on from its solution with the pair's own
+#:   penalties: a penalty continuation. From the open state or an extrapolated
+#:   predictor the first iterate penetrates by a fraction of h, where ε = 1e3 ε_auto
+#:   gives pressures of 1e4 E* and more, and the l2 line search stalled; from the soft
+#:   solution the active set is already nearly that of the stiff one;
+#: - the absolute Newton tolerance is multiplied by
+#:   :attr:`MortarContact.round_off_scale`, max ε / max ε_auto or max ε_T / max ε_auto
+#:   (≥ 1; the normal auto value in both). The round-off floor of the contact residual
+#:   is ε times the round-off of the gaps: on hertz2d about 1e-13 with the auto penalty
+#:   and 1.5e-10 with 1e3 × auto, above the default atol of 1e-10, which Newton then
+#:   met only by chance.
+#:
+#: SOFT_START_RATIO: on the hard-case sweep's hertz2d (force control), the plain Newton
+#: solves converged at 100 × auto (47 Newton iterations in 4 steps; 54 with the soft
+#: start) and failed at 1e3 × auto and beyond (6 cutbacks in the first step). ``inf``
+#: switches the soft start off.
+SOFT_START_RATIO = 100.0
 #: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
 #: × its area enters the mortar mass matrix lumped.
 PARTIAL_FACET_TOL = 1e-9
@@ -486,10 +515,26 @@ class MortarContact:
         else:
             self.eps = np.full(n, float(penalty))
             self.penalty_description = float(penalty)
+        eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+        #: ε_soft^I = min(ε^I, ε_auto^I) (n,): the contact predictor's stiffness and the
+        #: penalty of a stiff pair's first solve in a step (SOFT_START_RATIO)
+        self.eps_soft = np.minimum(self.eps, eps_auto)
+        self._eps_own = self.eps
+        self._soft = False  # soft_penalty
         self.penalty_range = (
             comm.allreduce(float(self.eps.min(initial=np.inf)), op=MPI.MIN),
             comm.allreduce(float(self.eps.max(initial=0.0)), op=MPI.MAX),
         )
+        #: the largest auto value max_I ε_auto^I over the ranks
+        self._eps_auto_max = max(
+            comm.allreduce(float(eps_auto.max(initial=0.0)), op=MPI.MAX), 1e-300
+        )
+        #: max_I ε^I / max_I ε_auto^I (collective at set-up): > 1 for a stiff pair. The
+        #: peaks, not the nodewise ratio: a constant ε equal to the auto value in the
+        #: contact zone would otherwise be "stiff" at the coarse slave facets far from it
+        #: (16.7 on the hard-case sweep's hertz2d mesh)
+        self.penalty_ratio = self.penalty_range[1] / self._eps_auto_max
+        self._penalty_t_ratio = 0.0
         self.mu = float(friction)
         self.frictional = self.mu > 0.0
         if self.frictional and recovery == "unconstrained":
@@ -605,7 +650,15 @@ class MortarContact:
         else:
             self.eps_t = np.full(n, float(penalty_t))
             self.penalty_t_description = float(penalty_t)
+        # against the NORMAL auto value, as the tolerance was set for it: "auto" and
+        # None (= the normal penalty) give ratios ≤ 1
+        eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+        eps_t_max = self.comm.allreduce(float(self.eps_t.max(initial=0.0)), op=MPI.MAX)
+        self._penalty_t_ratio = eps_t_max / self._eps_auto_max
         self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
+        #: ε_T,soft^I = min(ε_T^I, ε_auto^I) (n,), used with ε_soft (SOFT_START_RATIO)
+        self.eps_t_soft = np.minimum(self.eps_t, eps_auto)
+        self._eps_t_own = (self.eps_t, self._slip_tol)
         self.frames = fr.NodalFrames(
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
@@ -1110,7 +1163,7 @@ class MortarContact:
             gmin = self.comm.allreduce(float(gamma[has].min(initial=np.inf)), op=MPI.MIN)
             near = rc.near_contact(gamma, has, gmin, self.predictor_tol, self.h_node)
             if self.recovery != "unconstrained":
-                self.kcoef = np.where(near, eps / safe_A, 0.0)
+                self.kcoef = np.where(near, self.eps_soft / safe_A, 0.0)
             self.predictor_nodes = int(near.sum())
             self.active = np.zeros_like(active)
         if self.frictional:
@@ -2405,6 +2458,32 @@ class MortarContact:
     def _max_penetration(self) -> float:
         active = self.p_hat > 0
         return self.comm.allreduce(float(np.max(-self.gamma[active], initial=0.0)), op=MPI.MAX)
+
+    def soft_penalty(self, on: bool) -> None:
+        """Use ε_soft and ε_T,soft (``on``) or the pair's own ε and ε_T (local). The nodal
+        state follows at the next :meth:`update`. See SOFT_START_RATIO."""
+        self._soft = bool(on)
+        self.eps = self.eps_soft if on else self._eps_own
+        if self.frictional:
+            own, tol = self._eps_t_own
+            self.eps_t = self.eps_t_soft if on else own
+            self._slip_tol = SLIP_TOL * self.eps_t * self.h_node if on else tol
+
+    @property
+    def soft_start(self) -> bool:
+        """Whether a load step starts with a solve under ε_soft (a penalty ratio above
+        SOFT_START_RATIO; the same on every rank)."""
+        return max(self.penalty_ratio, self._penalty_t_ratio) > SOFT_START_RATIO
+
+    @property
+    def round_off_scale(self) -> float:
+        """The factor ≥ 1 on the absolute Newton tolerance: the ratios of the largest
+        penalties to the largest normal auto value, ε/ε_auto and ε_T/ε_auto (1 while
+        :meth:`soft_penalty` is on). Local; the same on every rank (the ratios are reduced
+        at set-up)."""
+        if self._soft:
+            return 1.0
+        return max(1.0, self.penalty_ratio, self._penalty_t_ratio)
 
     def begin_step(self) -> None:
         """Reset the Uzawa acceleration's history (multipliers carry over from the last step); with

@@ -16,6 +16,7 @@ boundary's dofs, per component.
 from __future__ import annotations
 
 import logging
+from contextlib import contextmanager
 from dataclasses import dataclass
 from time import perf_counter
 
@@ -405,6 +406,37 @@ class ContactProblem:
         """Whether a frictional contact term carries its stick/slip states between Uzawa
         rounds (:meth:`carry_states`; local)."""
         return any(getattr(term, "carry_states", False) for term in self.contacts)
+
+    @property
+    def soft_start(self) -> bool:
+        """Whether a load step starts with a solve under the soft penalties (a contact term
+        with a penalty ratio above :data:`dolfinx_mortar.contact.SOFT_START_RATIO`;
+        the same on every rank)."""
+        return any(getattr(term, "soft_start", False) for term in self.contacts)
+
+    @contextmanager
+    def soft_penalties(self):
+        """Within the block, every stiff contact term uses ε_soft = min(ε, ε_auto)
+        (:meth:`MortarContact.soft_penalty
+        <dolfinx_mortar.contact.MortarContact.soft_penalty>`); its own ε afterwards, also
+        when the block raises (local; the next contact update recomputes the state)."""
+        stiff = [term for term in self.contacts if getattr(term, "soft_start", False)]
+        for term in stiff:
+            term.soft_penalty(True)
+        self._contact_x = None
+        try:
+            yield
+        finally:
+            for term in stiff:
+                term.soft_penalty(False)
+            self._contact_x = None
+
+    @property
+    def round_off_scale(self) -> float:
+        """Factor ≥ 1 on the absolute Newton tolerance: the largest
+        :attr:`round_off_scale <dolfinx_mortar.contact.MortarContact.round_off_scale>` of
+        the contact terms (1 without contact; the same on every rank)."""
+        return max((getattr(t, "round_off_scale", 1.0) for t in self.contacts), default=1.0)
 
     def round_state(self) -> dict | None:
         """The state an Uzawa round of the current step starts from (local copies): u and

@@ -162,6 +162,7 @@ _SOLVE_COUNTERS = (
     "backtracked_solves",
     "reused_factorizations",
     "failed_reuses",
+    "soft_start_solves",
 )
 #: Direct linear solvers (``linear`` = "mumps", "lu", "superlu_dist", with no
 #: ``ksp_type``/``pc_type`` of the user's): the first Newton iteration of an Uzawa round
@@ -267,6 +268,8 @@ class NewtonSolver:
         self.failed_reuses = 0
         #: Newton iterations of all solves, failed ones included
         self.all_iterations = 0
+        #: solves under the soft penalties that started a load step (solve_step)
+        self.soft_start_solves = 0
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -374,7 +377,9 @@ class NewtonSolver:
             opts[key] = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
             self.snes.setFromOptions()
             self._dtol = dtol
-        self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=s.atol)
+        # the residual's round-off floor grows with stiff penalties (contact.SOFT_START_RATIO)
+        atol = s.atol * getattr(self.problem, "round_off_scale", 1.0)
+        self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol)
         self.snes.setForceIteration(force)
         p = self.problem
         p.begin_solve()
@@ -555,6 +560,9 @@ class StepResult:
     #: Newton iterations of all attempts of this step, the failed ones included
     #: (``newton_iterations`` lists those of the accepted attempt)
     all_iterations: int = 0
+    #: solves under the soft penalties that started an attempt of this step (stiff
+    #: pairs: contact.SOFT_START_RATIO; their iterations open the first round's record)
+    soft_start_solves: int = 0
 
 
 @dataclass
@@ -602,6 +610,12 @@ def solve_step(
     ``round_state``). With ``resume`` (the problem already put back into that state with
     ``resume_round``) the rounds go on from the second: the retry with carried states
     does not solve the first round again, whose solve starts free in either attempt.
+
+    A problem with a stiff contact pair (``problem.soft_start``: a penalty more than
+    :data:`dolfinx_mortar.contact.SOFT_START_RATIO` × "auto") first solves under the soft penalties
+    ε_soft = min(ε, ε_auto) (``problem.soft_penalties``); the first round's solve starts
+    from that solution, and its iterations and norms are recorded after the soft solve's
+    (the first ``soft_its + 1`` norms of the first round are the soft solve's).
     """
     # the exact multiplier update reads the gaps of the round's solution: an inexact solve
     # (relative 1e-3) left it as far from closed as before (peers problem A: changes 2e-6
@@ -616,6 +630,14 @@ def solve_step(
         its_all, norms_all, info_all = list(resume.its), list(resume.norms), list(resume.info)
         rtol, changes, first = resume.rtol, list(resume.changes), 1
     after_first = None  # RoundResume after the first round
+    soft_its, soft_norms = 0, []
+    if resume is None and getattr(problem, "soft_start", False):
+        # penalty continuation of stiff pairs (contact.SOFT_START_RATIO): the soft penalties
+        # first; the first round goes on from that solution, which is no prediction
+        newton.soft_start_solves += 1
+        with problem.soft_penalties():
+            soft_its, soft_norms = newton.solve(None, dtol, rescue=dtol is None)
+        dtol = None
     for k in range(first, max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
         # a later round iterates at least once, unless the update moved u with the
@@ -624,6 +646,9 @@ def solve_step(
         its, norms = newton.solve(
             rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0, force=force
         )
+        if k == 0 and soft_norms:
+            # the first round's record starts with the soft solve (StepResult)
+            its, norms = soft_its + its, soft_norms + norms
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()
