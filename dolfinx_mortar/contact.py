@@ -94,14 +94,16 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #:   while none is active; lumped and constrained recoveries) uses ε_soft^I = min(ε^I,
 #:   ε_auto^I): with ε = 1e3 ε_auto its springs held the floating body where it stood,
 #:   and Newton crawled towards contact;
-#: - where that ratio exceeds SOFT_START_RATIO, every load step starts with a Newton
-#:   solve under ε_soft (and
-#:   ε_T,soft = min(ε_T, ε_auto) with friction; :meth:`MortarContact.soft_penalty`,
-#:   ``solver.solve_step``) and goes on from its solution with the pair's own
-#:   penalties: a penalty continuation. From the open state or an extrapolated
+#: - with Uzawa (uzawa_tol > 0), or as pure penalty where the ratio exceeds
+#:   SOFT_START_RATIO, every load step first goes through its Uzawa rounds under ε_soft
+#:   (and ε_T,soft = min(ε_T, ε_auto) with friction; :meth:`MortarContact.soft_penalty`,
+#:   ``solver.solve_step``), then through them again from that solution with the pair's
+#:   own penalties: a penalty continuation. From the open state or an extrapolated
 #:   predictor the first iterate penetrates by a fraction of h, where ε = 1e3 ε_auto
-#:   gives pressures of 1e4 E* and more, and the l2 line search stalled; from the soft
-#:   solution the active set is already nearly that of the stiff one;
+#:   gives pressures of 1e4 E* and more, and the l2 line search stalled. With Uzawa the
+#:   second pass starts at the augmented-Lagrangian solution, which does not depend on
+#:   ε, and takes 0–2 Newton iterations; as pure penalty it starts where the active set
+#:   is nearly the stiff one's;
 #: - the absolute Newton tolerance is multiplied by
 #:   :attr:`MortarContact.round_off_scale`, max ε / max ε_auto or max ε_T / max ε_auto
 #:   (≥ 1; the normal auto value in both). The round-off floor of the contact residual
@@ -109,10 +111,10 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #:   and 1.5e-10 with 1e3 × auto, above the default atol of 1e-10, which Newton then
 #:   met only by chance.
 #:
-#: SOFT_START_RATIO: on the hard-case sweep's hertz2d (force control), the plain Newton
-#: solves converged at 100 × auto (47 Newton iterations in 4 steps; 54 with the soft
-#: start) and failed at 1e3 × auto and beyond (6 cutbacks in the first step). ``inf``
-#: switches the soft start off.
+#: SOFT_START_RATIO (pure penalty): on the hard-case sweep's hertz2d (force control),
+#: plain Newton converged at 100 × auto (44 Newton iterations in 4 steps; 55 with the
+#: soft pass) and failed at 1e3 × auto and beyond (6 cutbacks in the first step). With
+#: Uzawa the soft pass pays at any ratio (100 × auto: 27 iterations against 47).
 SOFT_START_RATIO = 100.0
 #: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
 #: × its area enters the mortar mass matrix lumped.
@@ -2461,8 +2463,10 @@ class MortarContact:
 
     def soft_penalty(self, on: bool) -> None:
         """Use ε_soft and ε_T,soft (``on``) or the pair's own ε and ε_T (local). The nodal
-        state follows at the next :meth:`update`. See SOFT_START_RATIO."""
+        state follows at the next :meth:`update`; the Uzawa acceleration's history, taken
+        with the other penalty, is dropped. See SOFT_START_RATIO."""
         self._soft = bool(on)
+        self.uzawa_acceleration.reset()
         self.eps = self.eps_soft if on else self._eps_own
         if self.frictional:
             own, tol = self._eps_t_own
@@ -2471,9 +2475,11 @@ class MortarContact:
 
     @property
     def soft_start(self) -> bool:
-        """Whether a load step starts with a solve under ε_soft (a penalty ratio above
-        SOFT_START_RATIO; the same on every rank)."""
-        return max(self.penalty_ratio, self._penalty_t_ratio) > SOFT_START_RATIO
+        """Whether a load step first goes through its Uzawa rounds under ε_soft: a
+        penalty ratio above 1 with Uzawa, above SOFT_START_RATIO as pure penalty (the
+        same on every rank)."""
+        threshold = 1.0 if self.uzawa_tol > 0.0 else SOFT_START_RATIO
+        return max(self.penalty_ratio, self._penalty_t_ratio) > threshold
 
     @property
     def round_off_scale(self) -> float:

@@ -409,23 +409,24 @@ class ContactProblem:
 
     @property
     def soft_start(self) -> bool:
-        """Whether a load step starts with a solve under the soft penalties (a contact term
-        with a penalty ratio above :data:`dolfinx_mortar.contact.SOFT_START_RATIO`;
-        the same on every rank)."""
+        """Whether a load step first goes through its Uzawa rounds under the soft
+        penalties (a contact term whose :attr:`soft_start
+        <dolfinx_mortar.contact.MortarContact.soft_start>` holds; the same on every rank)."""
         return any(getattr(term, "soft_start", False) for term in self.contacts)
 
     @contextmanager
     def soft_penalties(self):
-        """Within the block, every stiff contact term uses ε_soft = min(ε, ε_auto)
-        (:meth:`MortarContact.soft_penalty
-        <dolfinx_mortar.contact.MortarContact.soft_penalty>`); its own ε afterwards, also
-        when the block raises (local; the next contact update recomputes the state)."""
+        """Within the block, every stiff contact term uses ε_soft = min(ε, ε_auto) and
+        ε_T,soft (:meth:`MortarContact.soft_penalty
+        <dolfinx_mortar.contact.MortarContact.soft_penalty>`); its own penalties
+        afterwards, also when the block raises (local; the next contact update recomputes
+        the state). Yields the names of those terms."""
         stiff = [term for term in self.contacts if getattr(term, "soft_start", False)]
         for term in stiff:
             term.soft_penalty(True)
         self._contact_x = None
         try:
-            yield
+            yield [term.name for term in stiff]
         finally:
             for term in stiff:
                 term.soft_penalty(False)

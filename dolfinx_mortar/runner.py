@@ -179,7 +179,6 @@ def step_record(problem, res) -> dict:
         "reused_factorizations": res.reused_factorizations,
         "failed_reuses": res.failed_reuses,
         "limited_steps": res.limited_steps,
-        "soft_start_solves": res.soft_start_solves,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

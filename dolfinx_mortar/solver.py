@@ -162,7 +162,6 @@ _SOLVE_COUNTERS = (
     "backtracked_solves",
     "reused_factorizations",
     "failed_reuses",
-    "soft_start_solves",
 )
 #: Direct linear solvers (``linear`` = "mumps", "lu", "superlu_dist", with no
 #: ``ksp_type``/``pc_type`` of the user's): the first Newton iteration of an Uzawa round
@@ -268,8 +267,6 @@ class NewtonSolver:
         self.failed_reuses = 0
         #: Newton iterations of all solves, failed ones included
         self.all_iterations = 0
-        #: solves under the soft penalties that started a load step (solve_step)
-        self.soft_start_solves = 0
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -377,7 +374,8 @@ class NewtonSolver:
             opts[key] = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
             self.snes.setFromOptions()
             self._dtol = dtol
-        # the residual's round-off floor grows with stiff penalties (contact.SOFT_START_RATIO)
+        # the residual's round-off floor grows with stiff penalties (contact.SOFT_START_RATIO's
+        # note)
         atol = s.atol * getattr(self.problem, "round_off_scale", 1.0)
         self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol)
         self.snes.setForceIteration(force)
@@ -560,9 +558,6 @@ class StepResult:
     #: Newton iterations of all attempts of this step, the failed ones included
     #: (``newton_iterations`` lists those of the accepted attempt)
     all_iterations: int = 0
-    #: solves under the soft penalties that started an attempt of this step (stiff
-    #: pairs: contact.SOFT_START_RATIO; their iterations open the first round's record)
-    soft_start_solves: int = 0
 
 
 @dataclass
@@ -587,7 +582,47 @@ def solve_step(
     dtol=None,
     resume: RoundResume | None = None,
 ) -> tuple[list[int], list[list[float]], list[dict]]:
-    """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle.
+    """Newton solves with fixed multipliers, then Uzawa updates, until the multipliers settle
+    (:func:`_rounds`), returning per round its Newton iterations, residual norms and
+    update information (collective).
+
+    A problem with a stiff contact pair (``problem.soft_start``: a penalty above "auto"
+    with Uzawa, above :data:`dolfinx_mortar.contact.SOFT_START_RATIO` × "auto" as pure
+    penalty) goes through the rounds twice: first under the soft penalties ε_soft = min(ε, ε_auto)
+    (``problem.soft_penalties``), then from that solution with its own. With Uzawa the
+    second pass starts at the augmented-Lagrangian solution, which does not depend on ε,
+    so it takes 0–2 Newton iterations; as pure penalty it is one solve from the soft
+    state, whose active set is nearly the stiff one's. The soft rounds come first in the
+    returned lists; their ``info`` entries of the stiff pairs carry ``soft_penalty:
+    True``. Each pass may take ``uzawa_max`` rounds. A FrozenStatesError of either pass
+    carries no ``resume``: the retry with carried states starts over, soft pass
+    included.
+    """
+    if resume is not None or not getattr(problem, "soft_start", False):
+        return _rounds(problem, newton, uzawa_max, inexact, dtol, resume)
+    try:
+        with problem.soft_penalties() as stiff:
+            soft = _rounds(problem, newton, uzawa_max, inexact, dtol)
+        for info in soft[2]:
+            for name in stiff:
+                info[name]["soft_penalty"] = True
+        # the second pass starts from a solution, not from the predictor
+        own = _rounds(problem, newton, uzawa_max, inexact)
+    except FrozenStatesError as exc:
+        exc.resume = None
+        raise
+    return soft[0] + own[0], soft[1] + own[1], soft[2] + own[2]
+
+
+def _rounds(
+    problem,
+    newton: NewtonSolver,
+    uzawa_max: int,
+    inexact: bool = True,
+    dtol=None,
+    resume: RoundResume | None = None,
+) -> tuple[list[int], list[list[float]], list[dict]]:
+    """The Uzawa rounds of :func:`solve_step` with the penalties in place (collective).
 
     With ``inexact`` (default; off where ``problem.exact_multiplier_update``), the rounds
     after the first solve Newton only to
@@ -610,12 +645,6 @@ def solve_step(
     ``round_state``). With ``resume`` (the problem already put back into that state with
     ``resume_round``) the rounds go on from the second: the retry with carried states
     does not solve the first round again, whose solve starts free in either attempt.
-
-    A problem with a stiff contact pair (``problem.soft_start``: a penalty more than
-    :data:`dolfinx_mortar.contact.SOFT_START_RATIO` × "auto") first solves under the soft penalties
-    ε_soft = min(ε, ε_auto) (``problem.soft_penalties``); the first round's solve starts
-    from that solution, and its iterations and norms are recorded after the soft solve's
-    (the first ``soft_its + 1`` norms of the first round are the soft solve's).
     """
     # the exact multiplier update reads the gaps of the round's solution: an inexact solve
     # (relative 1e-3) left it as far from closed as before (peers problem A: changes 2e-6
@@ -630,14 +659,6 @@ def solve_step(
         its_all, norms_all, info_all = list(resume.its), list(resume.norms), list(resume.info)
         rtol, changes, first = resume.rtol, list(resume.changes), 1
     after_first = None  # RoundResume after the first round
-    soft_its, soft_norms = 0, []
-    if resume is None and getattr(problem, "soft_start", False):
-        # penalty continuation of stiff pairs (contact.SOFT_START_RATIO): the soft penalties
-        # first; the first round goes on from that solution, which is no prediction
-        newton.soft_start_solves += 1
-        with problem.soft_penalties():
-            soft_its, soft_norms = newton.solve(None, dtol, rescue=dtol is None)
-        dtol = None
     for k in range(first, max(uzawa_max, 1)):
         predicted = k == 0 and dtol is not None
         # a later round iterates at least once, unless the update moved u with the
@@ -646,9 +667,6 @@ def solve_step(
         its, norms = newton.solve(
             rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0, force=force
         )
-        if k == 0 and soft_norms:
-            # the first round's record starts with the soft solve (StepResult)
-            its, norms = soft_its + its, soft_norms + norms
         its_all.append(its)
         norms_all.append(norms)
         done, info = problem.uzawa_update()

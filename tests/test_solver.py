@@ -62,7 +62,6 @@ class _Newton:
         self.reused_factorizations = 0
         self.failed_reuses = 0
         self.limited_steps = 0
-        self.soft_start_solves = 0
         self.all_iterations = 0
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
