@@ -1,5 +1,9 @@
 """Command line: ``dolfinx-mortar run | check | generators | bench`` (or ``python3 -m`` it).
 
+``bench hard`` and ``bench locking`` run the hard-case sweep and the surface-locking
+study of a source checkout (``bench/bench_hard_cases.py``, ``bench/bench_locking.py``);
+the arguments after the name go to the script (``dolfinx-mortar bench hard --help``).
+
 Bad input ends every rank with one line ``dolfinx-mortar: error: KEY: REASON``
 on stderr and exit status 2, without a traceback and before any output is
 written. A run that stops on non-convergence exits with status 1 after writing
@@ -38,7 +42,12 @@ def _parser() -> argparse.ArgumentParser:
     b = sub.add_parser(
         "bench", help="mesh-level sweep of a benchmark: CSV row per run and PNG plots"
     )
-    b.add_argument("name", help="hertz2d, hertz3d, patch2d, cattaneo2d, ironing2d or all")
+    b.add_argument(
+        "name",
+        help="hertz2d, hertz3d, patch2d, cattaneo2d, ironing2d or all; hard or locking run "
+        "the hard-case sweep or the surface-locking study (their own options follow: "
+        "`dolfinx-mortar bench hard --help`)",
+    )
     b.add_argument("--levels", type=int, default=3, help="mesh levels 0 .. K-1 [3]")
     b.add_argument("--out", type=Path, default=Path("bench/out"), help="output dir [bench/out]")
     b.add_argument(
@@ -132,7 +141,43 @@ def _is_number(text: str) -> bool:
     return True
 
 
+#: ``bench NAME`` -> the script of a source checkout that NAME runs, with its own options
+BENCH_SCRIPTS = {"hard": "bench_hard_cases.py", "locking": "bench_locking.py"}
+
+
+def _bench_script(name: str, argv: list[str]) -> int:
+    """Run ``bench/BENCH_SCRIPTS[name]`` of the source checkout with ``argv`` (its main
+    takes them). Returns the exit status: 2 with one error line where the checkout's
+    bench/ directory is missing (an installed package without the sources), or for
+    ``hard`` under mpirun (it runs every case in a serial process of its own)."""
+    import importlib.util
+
+    from mpi4py import MPI
+
+    if name == "hard" and MPI.COMM_WORLD.size > 1:
+        _error_line(
+            "dolfinx-mortar: error: bench hard: it runs each case in a serial process of "
+            "its own; start it without mpirun"
+        )
+        return 2
+    path = Path(__file__).resolve().parents[1] / "bench" / BENCH_SCRIPTS[name]
+    if not path.is_file():
+        _error_line(
+            f"dolfinx-mortar: error: bench {name}: {path} not found; this command runs the "
+            "script of a source checkout (git clone, then scripts/install.sh)"
+        )
+        return 2
+    spec = importlib.util.spec_from_file_location(f"_dolfinx_mortar_bench_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(argv)
+    return 0
+
+
 def main(argv=None) -> int:
+    tokens = list(sys.argv[1:] if argv is None else argv)
+    if len(tokens) >= 2 and tokens[0] == "bench" and tokens[1] in BENCH_SCRIPTS:
+        return _bench_script(tokens[1], tokens[2:])
     parser = _parser()
     args, extra = parser.parse_known_args(argv)
     petsc = {}

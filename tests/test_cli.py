@@ -550,3 +550,39 @@ def test_petsc_arguments_parsing():
     for bad in (["-dm_"], ["ksp_rtol"], ["-ksp_rtol", "1"]):
         with pytest.raises(ValueError):
             petsc_arguments(bad)
+
+
+def test_bench_hard_runs_the_sweep_script(tmp_path):
+    """``dolfinx-mortar bench hard`` is issue 5's name for the hard-case sweep: it runs
+    bench/bench_hard_cases.py with the arguments that follow (one case here)."""
+    out = tmp_path / "hard"
+    res = cli(tmp_path, "bench", "hard", "--cases", "patch2d_ratio4_segment", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    rows = (out / "hard_cases.csv").read_text().splitlines()
+    assert rows[0].startswith("case,") and len(rows) == 2, rows
+    assert rows[1].startswith("patch2d_ratio4_segment,") and ",True," in rows[1], rows
+    assert "| patch2d_ratio4_segment |" in (out / "hard_cases.md").read_text()
+
+
+def test_bench_hard_refuses_mpirun_and_a_missing_script(tmp_path, monkeypatch, capsys):
+    """Under mpirun ``bench hard`` stops with one error line (its cases are serial
+    processes); without the checkout's bench/ script, one line names the missing file."""
+    res = cli(tmp_path, "bench", "hard", "--quick", "--out", str(tmp_path / "x"), ranks=2)
+    lines = res.stderr.splitlines()
+    assert res.returncode != 0 and len(lines) == 2, res.stderr
+    assert all(ERROR_LINE.match(ln) and "without mpirun" in ln for ln in lines), lines
+    assert not (tmp_path / "x").exists()
+
+    from dolfinx_mortar import cli as cli_module
+
+    monkeypatch.setitem(cli_module.BENCH_SCRIPTS, "hard", "no_such_script.py")
+    assert cli_module.main(["bench", "hard", "--quick"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "no_such_script.py not found" in err[0], err
+
+
+def test_bench_locking_takes_the_study_options(tmp_path):
+    """``dolfinx-mortar bench locking`` hands its arguments to bench/bench_locking.py."""
+    res = cli(tmp_path, "bench", "locking", "--help")
+    assert res.returncode == 0, res.stderr
+    assert "--kappas" in res.stdout and "--uzawa-ratios" in res.stdout, res.stdout
