@@ -147,3 +147,25 @@ def test_stiff_normal_and_tangential_penalties_with_friction(tmp_path):
     (fs,) = runs["stiff"]["steps"][-1]["contact_force"].values()
     assert np.max(np.abs(np.subtract(fs, fa))) <= 1e-7 * np.max(np.abs(fa))
     assert abs(fa[0]) > 0.05 * abs(fa[1])  # the shift carries a tangential force
+
+
+def test_a_stiff_penalty_in_3d(tmp_path):
+    """The coarse quarter-model 3D Hertz (segment integration, force control) with ε = 1e3
+    × auto and Uzawa to 1e-8 ends with the auto run's contact force; the second pass of
+    each step takes at most 2 Newton iterations (measured: 1)."""
+    from test_contact_parallel import HERTZ3D
+
+    eps = 1e3 * 100.0 * E_STAR / 0.5  # the scene's contact size is h = 0.5
+    runs = {}
+    for name, pen in (("auto", "auto"), ("stiff", eps)):
+        data = {**HERTZ3D, "contact": [{**HERTZ3D["contact"][0], "penalty": pen}]}
+        runs[name] = _run(data, tmp_path / name)
+        assert runs[name]["status"] == "ok", runs[name].get("error")
+    pair = "sphere_surface:block_top"
+    st = runs["stiff"]["steps"][-1]
+    soft = [bool(r[pair].get("soft_penalty")) for r in st["uzawa"]]
+    k = soft.index(False)
+    assert k >= 1 and sum(st["newton_iterations"][k:]) <= 2, (soft, st["newton_iterations"])
+    fa = np.asarray(runs["auto"]["steps"][-1]["contact_force"][pair])
+    fs = np.asarray(st["contact_force"][pair])
+    assert np.linalg.norm(fs - fa) <= 1e-7 * np.linalg.norm(fa)
