@@ -588,8 +588,8 @@ def solve_step(
 
     A problem with a stiff contact pair (``problem.soft_start``: a penalty above "auto"
     with Uzawa, above :data:`dolfinx_mortar.contact.SOFT_START_RATIO` × "auto" as pure
-    penalty) goes through the rounds twice: first under the soft penalties ε_soft = min(ε, ε_auto)
-    (``problem.soft_penalties``), then from that solution with its own. With Uzawa the
+    penalty) goes through the rounds twice: first under the soft penalties ε_soft =
+    min(ε, ε_auto) (``problem.soft_penalties``), then from that solution with its own. With Uzawa the
     second pass starts at the augmented-Lagrangian solution, which does not depend on ε,
     so it takes 0–2 Newton iterations; as pure penalty it is one solve from the soft
     state, whose active set is nearly the stiff one's. The soft rounds come first in the
@@ -614,15 +614,9 @@ def solve_step(
     return soft[0] + own[0], soft[1] + own[1], soft[2] + own[2]
 
 
-def _rounds(
-    problem,
-    newton: NewtonSolver,
-    uzawa_max: int,
-    inexact: bool = True,
-    dtol=None,
-    resume: RoundResume | None = None,
-) -> tuple[list[int], list[list[float]], list[dict]]:
-    """The Uzawa rounds of :func:`solve_step` with the penalties in place (collective).
+def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tuple:
+    """The Uzawa rounds of :func:`solve_step` with the penalties in place (collective;
+    the arguments and the returned lists as there).
 
     With ``inexact`` (default; off where ``problem.exact_multiplier_update``), the rounds
     after the first solve Newton only to

@@ -30,15 +30,11 @@ def _run(data: dict, out_dir) -> dict:
 
 
 def _pressures(out_dir, step: int) -> np.ndarray:
-    """p_N of the slave nodes at ``step``, sorted by reference x (rank 0 reads, all get)."""
-    comm = MPI.COMM_WORLD
-    p = None
-    if comm.rank == 0:
-        t = np.genfromtxt(
-            out_dir / f"contact_cylinder_surface_{step}.csv", delimiter=",", names=True
-        )
-        p = t["p_N"][np.argsort(t["X"])]
-    return comm.bcast(p, root=0)
+    """p_N of the slave nodes at ``step``, sorted by reference x (every rank)."""
+    from test_uzawa import _node_table
+
+    t = _node_table(out_dir, step)
+    return t["p_N"][np.argsort(t["X"])]
 
 
 @pytest.mark.mpi
