@@ -374,8 +374,8 @@ class NewtonSolver:
             opts[key] = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
             self.snes.setFromOptions()
             self._dtol = dtol
-        # the residual's round-off floor grows with stiff penalties (contact.SOFT_START_RATIO's
-        # note)
+        # the residual's round-off floor grows with stiff penalties (the note before
+        # contact.SOFT_START_RATIO)
         atol = s.atol * getattr(self.problem, "round_off_scale", 1.0)
         self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol)
         self.snes.setForceIteration(force)
@@ -589,10 +589,10 @@ def solve_step(
     A problem with a stiff contact pair (``problem.soft_start``: a penalty above "auto"
     with Uzawa, above :data:`dolfinx_mortar.contact.SOFT_START_RATIO` × "auto" as pure
     penalty) goes through the rounds twice: first under the soft penalties ε_soft =
-    min(ε, ε_auto) (``problem.soft_penalties``), then from that solution with its own. With Uzawa the
-    second pass starts at the augmented-Lagrangian solution, which does not depend on ε,
-    so it takes 0–2 Newton iterations; as pure penalty it is one solve from the soft
-    state, whose active set is nearly the stiff one's. The soft rounds come first in the
+    min(ε, ε_auto) (``problem.soft_penalties``), then from that solution with its own.
+    With Uzawa the second pass starts at the augmented-Lagrangian solution, which does
+    not depend on ε, so it takes 0–2 Newton iterations; as pure penalty it is one solve
+    from the soft state, whose active set is nearly the stiff one's. The soft rounds come first in the
     returned lists; their ``info`` entries of the stiff pairs carry ``soft_penalty:
     True``. Each pass may take ``uzawa_max`` rounds. A FrozenStatesError of either pass
     carries no ``resume``: the retry with carried states starts over, soft pass
