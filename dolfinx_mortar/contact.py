@@ -147,6 +147,21 @@ EXACT_FD_STEP = 1e-7
 #: After as many Jacobians the constrained recovery's QP free set can only grow within the
 #: solve (re-checked against the plain QP at convergence).
 FREEZE_AFTER = 8
+#: Load reversal under the chattering control: a node that slipped in opposite directions
+#: at two consecutive Jacobians before the freeze (s·s_prev < 0) while its multiplier
+#: lies near the Coulomb cone, |λ_T| ≥ REVERSED_SLIP_CONE μ p_N (it slipped at the last
+#: converged state or round), is frozen in STICK: between slip in the old direction and
+#: slip in the new one lies stick. At the unloading step of the hard-case sweep's
+#: stick–slip reversal 2–5 such nodes (|λ_T| = 0.65–1.0 μ p) flipped between slip + and
+#: slip − at every iterate; frozen in slip they were wrong at every convergence, the
+#: Uzawa rounds stalled, and the step cost 369 Newton iterations in failed attempts and
+#: 2 cutbacks; frozen in stick it takes 11 + 2 + 1. Nodes without such a multiplier keep
+#: their slip state: the centre node of the symmetric frictional Hertz (λ_T = 0) flips
+#: too, and frozen in stick (or left free) it made the plain tangential update 2-cycle
+#: (docs/method-notes.md, "Friction", chattering control). Lumped tangential recovery only:
+#: with the constrained one (whose solve freezes the nodal law's states too) the rule
+#: stopped the parallel-test Cattaneo press after 6 cutbacks.
+REVERSED_SLIP_CONE = 0.5
 FROZEN_DIRECTION_TOL = 1e-6
 #: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
 #: it can only grow. A node in contact at one of these Jacobians is held in contact for
@@ -691,6 +706,7 @@ class MortarContact:
         self.dissipation = 0.0
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
+        self._slip_prev, self._reversed = None, None  # REVERSED_SLIP_CONE
         self.carry_states = False  # see the docstring of uzawa_update
         # the states the last Uzawa round hands to the next solve (used with carry_states)
         self._carried = None
@@ -1712,9 +1728,24 @@ class MortarContact:
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
         self._jacobians += 1
+        norm = np.linalg.norm(self.tau_law, axis=1)
+        dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
+        slip = self.fstate == fr.SLIP
+        if self._slip_prev is None:
+            self._reversed = np.zeros(slip.shape, bool)
+        else:  # the slip states and directions of the last Jacobian of this solve
+            was, prev = self._slip_prev
+            self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
+        self._slip_prev = (slip, dirs)
         if self.frozen is None and self._jacobians >= self.freeze_after:
-            norm = np.linalg.norm(self.tau_law, axis=1)
-            self.frozen = (self.fstate.copy(), self.tau_law / np.maximum(norm, 1e-300)[:, None])
+            # load reversal: see REVERSED_SLIP_CONE
+            states = self.fstate.copy()
+            if self.tangential_recovery == "lumped":
+                lam = np.linalg.norm(self.lmbda_t, axis=1)
+                states[self._reversed & slip & (lam >= REVERSED_SLIP_CONE * self.mu * self.p)] = (
+                    fr.STICK
+                )
+            self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None
         mixed = self.tangential_recovery != "lumped" and not self._no_contact
@@ -2456,6 +2487,7 @@ class MortarContact:
         self._jac_active = None
         if self.frictional:
             self.frozen = self._carried if self.carry_states else None
+            self._slip_prev = None  # REVERSED_SLIP_CONE
 
     def _max_penetration(self) -> float:
         active = self.p_hat > 0

@@ -190,6 +190,19 @@ def test_hard_cases_with_the_exact_update(hard, tmp_path):
     assert rows[0]["uzawa_rounds"] <= 12, rows
 
 
+def test_stick_slip_reversal_without_a_cutback(hard, tmp_path):
+    """The sweep's stick–slip reversal (+S, 0, −S): at the unloading step 2–5 nodes with
+    |λ_T| near μ p flipped between slip + and slip − at every iterate and, frozen in
+    slip, were wrong at every convergence; the Uzawa rounds stalled and the step was cut
+    back twice (369 Newton iterations in failed attempts). Such nodes are frozen in stick
+    (contact.REVERSED_SLIP_CONE): no cutback, and the symmetric hysteresis loop as before,
+    |Q(−S) + Q(+S)| / |Q(+S)| (measured 2.7e-5) and Q(0)/Q(+S) = −0.015."""
+    (row,) = hard.main(["--cases", "cattaneo2d_reversal", "--out", str(tmp_path)])
+    assert row["completed"] and row["cutbacks"] == 0, row
+    assert row["newton_max_step"] <= 25, row
+    assert row["reversal_err"] < 1e-3 and -0.02 < row["q_residual"] < -0.01, row
+
+
 def test_plot_peers(tmp_path):
     """bench/plot_peers.py on a synthetic harness directory: Kratos's nominal-traction
     errors are used, our rows of other rank counts are left out, the PNG is written."""
