@@ -24,6 +24,11 @@ as slave and ε_T "auto", the run stops at the onset of gross slip (t ≈ 1.35).
 Segment integration, uzawa_tol 1e-3, 200 slide steps or the basic line search do not
 help either.
 
+The plateau forces are those of the default die mesh, not converged in its size: with
+2 elements through its 0.2 thickness the ring is stiff in bending, and h_die = 0.05 (4
+elements) gives F_y 1.62 instead of 2.07 and F_x 0.51 instead of 0.66, while F_x/F_y
+moves by 1.4 % (BENCHMARKS §8, "Session 19").
+
 The contact zone (half-width ≈ 2.5 at full depth) reaches the slab's free left end
 (x = −2): the dragged top-left corner carries a pressure peak and slips off at once
 at u_x ≈ 1.41 (a step of −5 % in F_x), before the plateau window.
