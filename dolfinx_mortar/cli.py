@@ -170,7 +170,11 @@ def _bench_script(name: str, argv: list[str]) -> int:
     spec = importlib.util.spec_from_file_location(f"_dolfinx_mortar_bench_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    module.main(argv)
+    prog, sys.argv[0] = sys.argv[0], f"dolfinx-mortar bench {name}"  # argparse's usage line
+    try:
+        module.main(argv)
+    finally:
+        sys.argv[0] = prog
     return 0
 
 

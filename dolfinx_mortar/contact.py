@@ -526,25 +526,26 @@ class MortarContact:
         E_s = self._surface_modulus(slave_cells)
         E_m = self._surface_modulus(master_cells)
         self.E_star = 1.0 / (1.0 / E_s + 1.0 / E_m)
+        #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I (n,): the "auto" penalty, and the reference
+        #: of the stiff-penalty rules (SOFT_START_RATIO)
+        self.eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
         if penalty == "auto":
-            self.eps = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+            self.eps = self.eps_auto
             self.penalty_description = f"auto: {AUTO_PENALTY_FACTOR:g} E*/h_I"
         else:
             self.eps = np.full(n, float(penalty))
             self.penalty_description = float(penalty)
-        eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
         #: ε_soft^I = min(ε^I, ε_auto^I) (n,): the contact predictor's stiffness and the
         #: penalty of a stiff pair's first solve in a step (SOFT_START_RATIO)
-        self.eps_soft = np.minimum(self.eps, eps_auto)
-        self._eps_own = self.eps
-        self._soft = False  # soft_penalty
+        self.eps_soft = np.minimum(self.eps, self.eps_auto)
+        self._eps_own = self.eps  # soft_penalty swaps self.eps
         self.penalty_range = (
             comm.allreduce(float(self.eps.min(initial=np.inf)), op=MPI.MIN),
             comm.allreduce(float(self.eps.max(initial=0.0)), op=MPI.MAX),
         )
         #: the largest auto value max_I ε_auto^I over the ranks
         self._eps_auto_max = max(
-            comm.allreduce(float(eps_auto.max(initial=0.0)), op=MPI.MAX), 1e-300
+            comm.allreduce(float(self.eps_auto.max(initial=0.0)), op=MPI.MAX), 1e-300
         )
         #: max_I ε^I / max_I ε_auto^I (collective at set-up): > 1 for a stiff pair. The
         #: peaks, not the nodewise ratio: a constant ε equal to the auto value in the
@@ -669,13 +670,12 @@ class MortarContact:
             self.penalty_t_description = float(penalty_t)
         # against the NORMAL auto value, as the tolerance was set for it: "auto" and
         # None (= the normal penalty) give ratios ≤ 1
-        eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
         eps_t_max = self.comm.allreduce(float(self.eps_t.max(initial=0.0)), op=MPI.MAX)
         self._penalty_t_ratio = eps_t_max / self._eps_auto_max
         self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
         #: ε_T,soft^I = min(ε_T^I, ε_auto^I) (n,), used with ε_soft (SOFT_START_RATIO)
-        self.eps_t_soft = np.minimum(self.eps_t, eps_auto)
-        self._eps_t_own = (self.eps_t, self._slip_tol)
+        self.eps_t_soft = np.minimum(self.eps_t, self.eps_auto)
+        self._eps_t_own = self.eps_t
         self.frames = fr.NodalFrames(
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
@@ -1728,24 +1728,25 @@ class MortarContact:
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
         self._jacobians += 1
-        norm = np.linalg.norm(self.tau_law, axis=1)
-        dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
-        slip = self.fstate == fr.SLIP
-        if self._slip_prev is None:
-            self._reversed = np.zeros(slip.shape, bool)
-        else:  # the slip states and directions of the last Jacobian of this solve
-            was, prev = self._slip_prev
-            self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
-        self._slip_prev = (slip, dirs)
-        if self.frozen is None and self._jacobians >= self.freeze_after:
-            # load reversal: see REVERSED_SLIP_CONE
-            states = self.fstate.copy()
-            if self.tangential_recovery == "lumped":
-                lam = np.linalg.norm(self.lmbda_t, axis=1)
-                states[self._reversed & slip & (lam >= REVERSED_SLIP_CONE * self.mu * self.p)] = (
-                    fr.STICK
-                )
-            self.frozen = (states, dirs)
+        if self.frozen is None:  # the chattering control's freeze is still ahead
+            norm = np.linalg.norm(self.tau_law, axis=1)
+            dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
+            slip = self.fstate == fr.SLIP
+            lumped = self.tangential_recovery == "lumped"
+            if lumped:  # load reversal (REVERSED_SLIP_CONE): slip directions that flipped
+                if self._slip_prev is None:
+                    self._reversed = np.zeros(slip.shape, bool)
+                else:  # the slip states and directions of the last Jacobian of this solve
+                    was, prev = self._slip_prev
+                    self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
+                self._slip_prev = (slip, dirs)
+            if self._jacobians >= self.freeze_after:
+                states = self.fstate.copy()
+                if lumped:
+                    lam = np.linalg.norm(self.lmbda_t, axis=1)
+                    cone = lam >= REVERSED_SLIP_CONE * self.mu * self.p
+                    states[self._reversed & slip & cone] = fr.STICK
+                self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None
         mixed = self.tangential_recovery != "lumped" and not self._no_contact
@@ -2497,13 +2498,11 @@ class MortarContact:
         """Use ε_soft and ε_T,soft (``on``) or the pair's own ε and ε_T (local). The nodal
         state follows at the next :meth:`update`; the Uzawa acceleration's history, taken
         with the other penalty, is dropped. See SOFT_START_RATIO."""
-        self._soft = bool(on)
         self.uzawa_acceleration.reset()
         self.eps = self.eps_soft if on else self._eps_own
         if self.frictional:
-            own, tol = self._eps_t_own
-            self.eps_t = self.eps_t_soft if on else own
-            self._slip_tol = SLIP_TOL * self.eps_t * self.h_node if on else tol
+            self.eps_t = self.eps_t_soft if on else self._eps_t_own
+            self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
 
     @property
     def soft_start(self) -> bool:
@@ -2519,7 +2518,7 @@ class MortarContact:
         penalties to the largest normal auto value, ε/ε_auto and ε_T/ε_auto (1 while
         :meth:`soft_penalty` is on). Local; the same on every rank (the ratios are reduced
         at set-up)."""
-        if self._soft:
+        if self.eps is not self._eps_own:  # soft_penalty is on
             return 1.0
         return max(1.0, self.penalty_ratio, self._penalty_t_ratio)
 

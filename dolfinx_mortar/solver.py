@@ -592,11 +592,11 @@ def solve_step(
     min(ε, ε_auto) (``problem.soft_penalties``), then from that solution with its own.
     With Uzawa the second pass starts at the augmented-Lagrangian solution, which does
     not depend on ε, so it takes 0–2 Newton iterations; as pure penalty it is one solve
-    from the soft state, whose active set is nearly the stiff one's. The soft rounds come first in the
-    returned lists; their ``info`` entries of the stiff pairs carry ``soft_penalty:
-    True``. Each pass may take ``uzawa_max`` rounds. A FrozenStatesError of either pass
-    carries no ``resume``: the retry with carried states starts over, soft pass
-    included.
+    from the soft state, whose active set is nearly the stiff one's. The soft rounds come
+    first in the returned lists; their ``info`` entries of the stiff pairs carry
+    ``soft_penalty: True``. Each pass may take ``uzawa_max`` rounds. A FrozenStatesError
+    of either pass carries no ``resume``: the retry with carried states starts over, soft
+    pass included.
     """
     if resume is not None or not getattr(problem, "soft_start", False):
         return _rounds(problem, newton, uzawa_max, inexact, dtol, resume)
