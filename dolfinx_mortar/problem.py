@@ -206,6 +206,14 @@ class ContactProblem:
         vals += [interpolate_path(path, t) for _, path, _ in self._tractions]
         return np.concatenate(vals) if vals else np.zeros(0)
 
+    def increment_norm(self, u_old: np.ndarray) -> float:
+        """‖u − u_old‖₂ over the owned dofs (collective); u_old is an array like
+        ``u.x.array`` (owned and ghost dofs)."""
+        V = self.u.function_space
+        n = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        d = self.u.x.array[:n] - u_old[:n]
+        return float(np.sqrt(self.comm.allreduce(float(d @ d))))
+
     # ---------------------------------------------------------------- assembly
     def _set_state(self, x: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

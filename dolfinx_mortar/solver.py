@@ -103,6 +103,11 @@ PATH_RATE_TOL = 0.1
 #: pattern, grow and every iteration gets expensive. Other solves keep PETSc's 1e4: a
 #: first contact can grow the residual 20-fold before converging.
 PREDICTOR_DIVERGENCE_TOLERANCE = 1e2
+#: The extrapolated predictor repeats the last increment: where that increment's rate
+#: ‖Δu‖/Δt exceeds this many times the rate of the increment before, the last step held
+#: a jump (a snap: ironing2d's dragged slab corner springs back 0.3 at u_x = 1.44), which
+#: does not repeat, and the next step starts from the converged state.
+PREDICTOR_JUMP_RATIO = 2.0
 #: After a step fails from the predictor, the next steps start from the converged state:
 #: 1 step after the first failure, twice as many after each further failure in a row (at
 #: most this many); a step that converges from the predictor resets the count. On the
@@ -777,6 +782,7 @@ class LoadStepper:
         pending = list(self.targets)
         saved = p.u.x.array.copy()
         previous = None  # (u, t) of the step before the last converged one
+        rates = []  # ‖Δu‖/Δt of the last two converged steps (PREDICTOR_JUMP_RATIO)
         cutbacks = 0
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
@@ -795,6 +801,7 @@ class LoadStepper:
                 and previous is not None
                 and t > previous[1]
                 and not _path_bends(p, previous[1], t, t_new)
+                and not (len(rates) == 2 and rates[1] > PREDICTOR_JUMP_RATIO * rates[0])
             )
             predicted = predictable and use_predictor and skip == 0
             if predicted:
@@ -871,6 +878,8 @@ class LoadStepper:
             p.commit_step()
             step += 1
             previous = (saved, t)
+            if hasattr(p, "increment_norm"):  # a problem without it has no jump rule
+                rates = [*rates[-1:], p.increment_norm(saved) / (t_new - t)]
             t = t_new
             saved = p.u.x.array.copy()
             timings = {k: p.timings[k] - tim0[k] for k in p.timings}

@@ -122,10 +122,11 @@ def test_predictor_backs_off_after_failures():
     assert p.committed[-1] == pytest.approx(1.0) and len(p.committed) == 8
 
 
-def _predicted_solves(p, n):
-    """Run ``n`` steps of ``p`` with a Newton that always converges; returns per solve
-    whether it started from the predictor, and the step results."""
-    newton = _Newton(p, lambda t0: 1.0)
+def _predicted_solves(p, n, newton_type=None):
+    """Run ``n`` steps of ``p`` with a Newton (``newton_type``, default _Newton) that
+    always converges; returns per solve whether it started from the predictor, and the
+    step results."""
+    newton = (newton_type or _Newton)(p, lambda t0: 1.0)
     calls = []
     orig = newton.solve
     newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False: (
@@ -170,6 +171,29 @@ def test_no_predictor_across_a_corner_of_the_load_path():
     predicted, results = _predicted_solves(_Ramp(), 4)
     assert predicted == [False, True, False, True]
     assert all(r.predictor_failures == 0 for r in results)
+
+
+class _Snap(_Problem):
+    """u(t) = t, plus a jump of 1 from t = 0.6 on (a snap in the third of five steps)."""
+
+    def increment_norm(self, u_old):
+        return float(abs(self.u.x.array[0] - u_old[0]))
+
+
+class _SnapNewton(_Newton):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+        out = super().solve(rtol, dtol, rescue)
+        self.problem.u.x.array[:] += 1.0 if self.problem.t > 0.6 - 1e-12 else 0.0
+        return out
+
+
+def test_no_predictor_after_a_jump():
+    """The step after one whose increment rate exceeds PREDICTOR_JUMP_RATIO × the rate
+    before starts from the converged state (the jump does not repeat); the one after
+    that, at the regular rate again, uses the predictor."""
+    predicted, _ = _predicted_solves(_Snap(), 5, _SnapNewton)
+    assert predicted == [False, True, True, False, True]
+    assert solver_module.PREDICTOR_JUMP_RATIO < 6.0  # the jump's rate ratio here
 
 
 class _Cycling(_Problem):
