@@ -162,6 +162,18 @@ FREEZE_AFTER = 8
 #: with the constrained one (whose solve freezes the nodal law's states too) the rule
 #: stopped the parallel-test Cattaneo press after 6 cutbacks.
 REVERSED_SLIP_CONE = 0.5
+#: A node frozen OPEN by the chattering control that closes later is imposed STICK (its
+#: multiplier plus ε_T times its slip since t_n), unless that slip, |γ^I| = |σ^I|/A_T^I,
+#: exceeds this many h_I: it then follows the free law (stick or slip) for the rest of
+#: the solve. It cannot stick to a material point elements away. On the ironing2d path
+#: the slab's dragged corner opened in the first iterates of the step where it springs
+#: back (u_x = 1.44), re-closed after the freeze 0.3 = 3 h from its t_n point and, held
+#: there in stick, pulled the solve back to the vanished pre-snap equilibrium; the next
+#: Uzawa round made the jump in 31 iterations (56 in the step; now 31 + 4 + 1). The nodes
+#: of a press that close after the freeze keep stick: the free law or its state frozen
+#: at their entry put transient iterates' slip into the Cattaneo tests (a 35-iteration
+#: solve, a 26-iteration step; docs/method-notes.md, "Friction", chattering control).
+REENTRY_FREE_SLIP = 0.5
 FROZEN_DIRECTION_TOL = 1e-6
 #: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
 #: it can only grow. A node in contact at one of these Jacobians is held in contact for
@@ -1244,7 +1256,7 @@ class MortarContact:
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
         sigma = np.einsum("nac,nc->na", self.frame_a, self.S)
         sigma[~hasT] = 0.0
-        imposed = self.frozen if frozen == "current" else frozen
+        imposed = self._reentry(self.frozen if frozen == "current" else frozen, sigma, hasT)
         if self.tangential_recovery != "lumped":
             rec = self._recover_tangential_mixed(sigma, hasT, imposed)
             own = slice(self.gid_offset, self.gid_offset + self.node_blocks.size)
@@ -1273,6 +1285,22 @@ class MortarContact:
         self._D, self._Pd = D, Pd
         self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
         return state, None
+
+    def _reentry(self, imposed, sigma: np.ndarray, hasT: np.ndarray):
+        """The frozen states (chattering control) as they are imposed now (local): a node
+        frozen OPEN whose lumped slip since t_n, |σ^I|/A_T^I, exceeds REENTRY_FREE_SLIP ×
+        h_I follows the free law (state −1) instead of the stick that a frozen open node
+        gets when it closes. ``imposed``: None or (states (n,), directions (n, m) or None);
+        with directions None (the exact update's differences) it is returned as is."""
+        if imposed is None or imposed[1] is None:
+            return imposed
+        states, dirs = imposed
+        far = (
+            (states == fr.OPEN)
+            & hasT
+            & (np.linalg.norm(sigma, axis=1) > REENTRY_FREE_SLIP * self.h_node * self.AT)
+        )
+        return (np.where(far, -1, states), dirs) if far.any() else imposed
 
     def _tangential_mass(self) -> np.ndarray:
         """Facet blocks (nsf, nphi, nphi) of the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J

@@ -467,6 +467,31 @@ def test_uzawa_update_after_frozen_states_takes_the_free_law():
 
 
 @pytest.mark.mpi
+def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch):
+    """Chattering control: a node frozen OPEN that is in contact sticks (τ = λ_T + ε_T γ)
+    while its slip since t_n is at most REENTRY_FREE_SLIP × h_I, and follows the free law
+    beyond (the ironing2d corner that springs back 3 h along the die)."""
+    from dolfinx_mortar import contact as contact_module
+
+    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    term = _frictional_state(problem, "hertz2d-P1")
+    comm = MPI.COMM_WORLD
+    free_state, free_tau = term._recover_tangential(frozen=None)
+    active = free_state != fr.OPEN
+    assert comm.allreduce(int(np.count_nonzero(free_state == fr.SLIP))) >= 1
+    term.frozen = (np.full_like(term.fstate, fr.OPEN), np.zeros_like(term.lmbda_t))
+    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
+    term._recover_tangential()
+    assert np.all(term.fstate[active] == fr.STICK)
+    trial = term.lmbda_t + term.eps_t[:, None] * term.gamma_t
+    assert np.allclose(term.tau[active], trial[active], rtol=0, atol=1e-12)
+    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 0.0)
+    term._recover_tangential()
+    assert np.array_equal(term.fstate, free_state)
+    assert np.allclose(term.tau, free_tau, rtol=0, atol=1e-12)
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("carry", [False, True])
 def test_carried_states_freeze_the_next_solve(carry):
     """With carry_states, the solve after an Uzawa round starts with the states and slip
