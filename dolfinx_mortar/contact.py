@@ -192,7 +192,13 @@ HOLD_AFTER = 12
 #: facet went A → B → A over the last three Jacobians (B may be "none") stays paired with
 #: A for the rest of the solve, with the projection onto A extended beyond its edge
 #: (``kernels.mortar.forced_points``), unless that projection lies more than this far
-#: outside A in reference coordinates (the pin is then ignored).
+#: outside A in reference coordinates (the pin is then ignored). From the HOLD_AFTER-th
+#: Jacobian on, when the contact set is held, every paired point is pinned to its facet
+#: so: a point crossing a master vertex turns its normal, hence its contact force, by
+#: the kink, and that jump of the residual stopped the l2 line search short of it for 10
+#: iterates of the ironing2d snap step (t = 1.36; the largest solve of the path 31 → 22,
+#: no solve left to full steps; from the FREEZE_AFTER-th Jacobian the first press step of
+#: the short path got worse: 26 iterations and full steps).
 PIN_OUTSIDE_TOL = 0.1
 #: First contact: in a Newton solve that starts with no active node on the pair, at a
 #: Jacobian whose active set (p̂^I > 0) differs from that of the previous Jacobian, the
@@ -987,7 +993,9 @@ class MortarContact:
             self.held = self.active.copy() if self.held is None else self.held | self.active
 
     def _watch_pairing(self) -> None:
-        """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL)."""
+        """Chattering control of the pairing at a Jacobian (see PIN_OUTSIDE_TOL): pins the
+        points that switched back from the FREEZE_AFTER-th Jacobian of the solve on, and
+        every paired point from the HOLD_AFTER-th on."""
         if self.integration == "segment" or not self.slave.num_facets:
             return
         if self._pin_exchange != self._exchanges:  # facet indices refer to another layer
@@ -1000,7 +1008,8 @@ class MortarContact:
             flip = (cur == h2) & (cur != h1) & ((cur >= 0) | (h1 >= 0))
             if self.qp_pinned is None:
                 self.qp_pinned = np.full_like(cur, -1)
-            new = flip & (self.qp_pinned < 0)
+            every = self._pair_jacobians >= self.hold_after
+            new = (((cur >= 0) & every) | flip) & (self.qp_pinned < 0)
             if new.any():
                 self.qp_pinned[new] = np.where(cur >= 0, cur, h1)[new]
                 log.debug("%s: %d chattering points pinned", self.name, int(new.sum()))

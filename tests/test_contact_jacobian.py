@@ -408,6 +408,27 @@ def test_a_point_switching_back_is_pinned():
     assert np.count_nonzero(term.qp_pinned >= 0) == 2
 
 
+def test_every_paired_point_is_pinned_from_hold_after():
+    """From the HOLD_AFTER-th Jacobian on (when the contact set is held too) every paired
+    point keeps its facet; unpaired points (−1) stay free."""
+    from dolfinx_mortar.contact import HOLD_AFTER
+
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    term.update(problem.u)
+    m = np.arange(term.qp_m.size, dtype=np.int64).reshape(term.qp_m.shape) % 5
+    m.flat[3] = -1
+    term._pin_exchange = term._exchanges
+    term._pair_jacobians = HOLD_AFTER - 3
+    for _k in range(2):  # the (HOLD_AFTER − 2)-th and (HOLD_AFTER − 1)-th Jacobian
+        term.qp_m = m.copy()
+        term._watch_pairing()
+        assert term.qp_pinned is None or not np.any(term.qp_pinned >= 0)
+    term.qp_m = m.copy()
+    term._watch_pairing()
+    assert np.array_equal(term.qp_pinned, np.where(m >= 0, m, -1))
+
+
 @pytest.mark.mpi
 def test_the_held_contact_set_keeps_nodes_in_tension_until_the_recheck(monkeypatch):
     """Chattering control of the lumped contact set (contact.HOLD_AFTER): a node in
