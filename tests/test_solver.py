@@ -196,6 +196,23 @@ def test_no_predictor_after_a_jump():
     assert solver_module.PREDICTOR_JUMP_RATIO < 6.0  # the jump's rate ratio here
 
 
+class _FasterRamp(_Ramp):
+    """The load path's corner at t = 0.5, where u's rate grows 4-fold with the load."""
+
+    def increment_norm(self, u_old):
+        def g(u):
+            return min(u, 0.5) + 4.0 * max(u - 0.5, 0.0)
+
+        return abs(g(self.u.x.array[0]) - g(u_old[0]))
+
+
+def test_a_rate_change_at_a_corner_of_the_load_path_is_no_jump():
+    """The rate that grows with the load at a corner is not a jump: the step after the
+    corner's step uses the predictor again (as without the jump rule)."""
+    predicted, _ = _predicted_solves(_FasterRamp(), 4)
+    assert predicted == [False, True, False, True]
+
+
 class _Cycling(_Problem):
     """Uzawa rounds whose multiplier change cycles (0.3, 0.4, 0.3, ...) and never settles."""
 
