@@ -169,7 +169,8 @@ REVERSED_SLIP_CONE = 0.5
 #: the slab's dragged corner opened in the first iterates of the step where it springs
 #: back (u_x = 1.44), re-closed after the freeze 0.3 = 3 h from its t_n point and, held
 #: there in stick, pulled the solve back to the vanished pre-snap equilibrium; the next
-#: Uzawa round made the jump in 31 iterations (56 in the step; now 31 + 4 + 1). The nodes
+#: Uzawa round made the jump in 31 iterations (56 in the step; 31 + 4 + 1 with this rule,
+#: 18 + 10 + 1 with the pins of PIN_OUTSIDE_TOL as well). The nodes
 #: of a press that close after the freeze keep stick: the free law or its state frozen
 #: at their entry put transient iterates' slip into the Cattaneo tests (a 35-iteration
 #: solve, a 26-iteration step; docs/method-notes.md, "Friction", chattering control).
@@ -193,7 +194,7 @@ HOLD_AFTER = 12
 #: A for the rest of the solve, with the projection onto A extended beyond its edge
 #: (``kernels.mortar.forced_points``), unless that projection lies more than this far
 #: outside A in reference coordinates (the pin is then ignored). From the HOLD_AFTER-th
-#: Jacobian on, when the contact set is held, every paired point is pinned to its facet
+#: Jacobian on (when a lumped contact set is held too), every paired point is pinned to its facet
 #: so: a point crossing a master vertex turns its normal, hence its contact force, by
 #: the kink, and that jump of the residual stopped the l2 line search short of it for 10
 #: iterates of the ironing2d snap step (t = 1.36; the largest solve of the path 31 → 22,
