@@ -175,6 +175,12 @@ REVERSED_SLIP_CONE = 0.5
 #: at their entry put transient iterates' slip into the Cattaneo tests (a 35-iteration
 #: solve, a 26-iteration step; docs/method-notes.md, "Friction", chattering control).
 REENTRY_FREE_SLIP = 0.5
+#: ... or (lumped normal recovery) whose trial traction |λ_T + ε_T γ^I| exceeds this many
+#: μ p^I. On the ironing2d path (t = 1.27) a node at the leading edge of the contact zone
+#: re-closed with p = 0.011 and stuck with 16 μ p: the round converged with it wrong, and
+#: the step took five Uzawa rounds (12 + 11 + 9 + 2 + 1), now 15 + 4 + 2 + 1. With the
+#: constrained normal recovery the Cattaneo press test then took a 31-iteration solve.
+REENTRY_TRIAL_CONE = 3.0
 FROZEN_DIRECTION_TOL = 1e-6
 #: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
 #: it can only grow. A node in contact at one of these Jacobians is held in contact for
@@ -1298,18 +1304,21 @@ class MortarContact:
 
     def _reentry(self, imposed, sigma: np.ndarray, hasT: np.ndarray):
         """The frozen states (chattering control) as they are imposed now (local): a node
-        frozen OPEN whose lumped slip since t_n, |σ^I|/A_T^I, exceeds REENTRY_FREE_SLIP ×
-        h_I follows the free law (state −1) instead of the stick that a frozen open node
-        gets when it closes. ``imposed``: None or (states (n,), directions (n, m) or None);
-        with directions None (the exact update's differences) it is returned as is."""
+        frozen OPEN that is in contact follows the free law (state −1) instead of the
+        stick that a frozen open node gets when it closes, where its lumped slip since
+        t_n, |σ^I|/A_T^I, exceeds REENTRY_FREE_SLIP × h_I or (lumped normal recovery)
+        its trial traction |λ_T + ε_T σ/A_T| exceeds REENTRY_TRIAL_CONE × μ p^I.
+        ``imposed``: None or (states (n,), directions (n, m) or None); with directions
+        None (the exact update's differences) it is returned as is."""
         if imposed is None or imposed[1] is None:
             return imposed
         states, dirs = imposed
-        far = (
-            (states == fr.OPEN)
-            & hasT
-            & (np.linalg.norm(sigma, axis=1) > REENTRY_FREE_SLIP * self.h_node * self.AT)
-        )
+        gamma = sigma / np.where(hasT, self.AT, 1.0)[:, None]
+        slid = np.linalg.norm(gamma, axis=1) > REENTRY_FREE_SLIP * self.h_node
+        if self.recovery == "lumped":
+            trial = np.linalg.norm(self.lmbda_t + self.eps_t[:, None] * gamma, axis=1)
+            slid |= trial > REENTRY_TRIAL_CONE * self.mu * np.maximum(self.p, 0.0)
+        far = (states == fr.OPEN) & hasT & slid
         return (np.where(far, -1, states), dirs) if far.any() else imposed
 
     def _tangential_mass(self) -> np.ndarray:

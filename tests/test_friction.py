@@ -469,8 +469,10 @@ def test_uzawa_update_after_frozen_states_takes_the_free_law():
 @pytest.mark.mpi
 def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch):
     """Chattering control: a node frozen OPEN that is in contact sticks (τ = λ_T + ε_T γ)
-    while its slip since t_n is at most REENTRY_FREE_SLIP × h_I, and follows the free law
-    beyond (the ironing2d corner that springs back 3 h along the die)."""
+    while its slip since t_n is at most REENTRY_FREE_SLIP × h_I and (lumped normal
+    recovery) its trial traction at most REENTRY_TRIAL_CONE × μ p, and follows the free
+    law beyond (the ironing2d corner that springs back 3 h along the die; a leading-edge
+    node that re-closes with 16 μ p)."""
     from dolfinx_mortar import contact as contact_module
 
     problem = _problem("hertz2d-P1", penalty_t=1e3)
@@ -481,6 +483,7 @@ def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch
     assert comm.allreduce(int(np.count_nonzero(free_state == fr.SLIP))) >= 1
     term.frozen = (np.full_like(term.fstate, fr.OPEN), np.zeros_like(term.lmbda_t))
     monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
+    monkeypatch.setattr(contact_module, "REENTRY_TRIAL_CONE", 1e30)
     term._recover_tangential()
     assert np.all(term.fstate[active] == fr.STICK)
     trial = term.lmbda_t + term.eps_t[:, None] * term.gamma_t
@@ -489,6 +492,13 @@ def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch
     term._recover_tangential()
     assert np.array_equal(term.fstate, free_state)
     assert np.allclose(term.tau, free_tau, rtol=0, atol=1e-12)
+    # the trial-traction criterion alone (lumped normal recovery): a cone factor below
+    # every active node's |trial|/(μ p) frees all of them
+    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
+    monkeypatch.setattr(contact_module, "REENTRY_TRIAL_CONE", 0.0)
+    moving = active & (np.linalg.norm(trial, axis=1) > 0.0)
+    term._recover_tangential()
+    assert np.array_equal(term.fstate[moving], free_state[moving])
 
 
 @pytest.mark.mpi

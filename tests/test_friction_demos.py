@@ -174,7 +174,8 @@ def test_ironing2d_snap_of_the_dragged_corner(shared_tmp):
     the chattering control's freeze, and as a node frozen open it was imposed stick at its
     t_n material point 3 h away: the round converged back on the vanished pre-snap side
     and the next made the jump, 18 + 31 + 6 + 1 Newton iterations. It now follows the
-    free law (contact.REENTRY_FREE_SLIP): 31 + 4 + 1 (measured, serial, ~40 s). The step
+    free law (contact.REENTRY_FREE_SLIP): 31 + 4 + 1, and 18 + 10 + 1 with every paired
+    point pinned from the 12th Jacobian (measured, serial, ~30 s). The step
     after the snap starts from the converged state (solver.PREDICTOR_JUMP_RATIO): at most
     20 iterations instead of 27 from the extrapolated snap."""
     out = shared_tmp / "ironing2d-snap"
