@@ -1272,7 +1272,8 @@ class MortarContact:
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
         sigma = np.einsum("nac,nc->na", self.frame_a, self.S)
         sigma[~hasT] = 0.0
-        imposed = self._reentry(self.frozen if frozen == "current" else frozen, sigma, hasT)
+        gam = sigma / np.where(hasT, self.AT, 1.0)[:, None]  # the lumped slip since t_n
+        imposed = self._reentry(self.frozen if frozen == "current" else frozen, gam, hasT)
         if self.tangential_recovery != "lumped":
             rec = self._recover_tangential_mixed(sigma, hasT, imposed)
             own = slice(self.gid_offset, self.gid_offset + self.node_blocks.size)
@@ -1287,8 +1288,6 @@ class MortarContact:
             self._D, self._Pd = rec.D[own], rec.Pd[own]
             self.t_vec = np.einsum("na,nac->nc", self.tau, self.frame_a)
             return self.fstate, None
-        safe = np.where(hasT, self.AT, 1.0)
-        gam = sigma / safe[:, None]
         p = np.where(hasT, self.p, 0.0)
         active = hasT & self.active
         tau, state, D, Pd = fr.return_mapping(
@@ -1302,24 +1301,31 @@ class MortarContact:
         self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
         return state, None
 
-    def _reentry(self, imposed, sigma: np.ndarray, hasT: np.ndarray):
+    def _reentry(self, imposed, gamma: np.ndarray, hasT: np.ndarray):
         """The frozen states (chattering control) as they are imposed now (local): a node
         frozen OPEN that is in contact follows the free law (state −1) instead of the
         stick that a frozen open node gets when it closes, where its lumped slip since
-        t_n, |σ^I|/A_T^I, exceeds REENTRY_FREE_SLIP × h_I or (lumped normal recovery)
-        its trial traction |λ_T + ε_T σ/A_T| exceeds REENTRY_TRIAL_CONE × μ p^I.
-        ``imposed``: None or (states (n,), directions (n, m) or None); with directions
-        None (the exact update's differences) it is returned as is."""
+        t_n, |γ^I| = |σ^I|/A_T^I (``gamma`` (n, m)), exceeds REENTRY_FREE_SLIP × h_I or
+        (lumped normal recovery) its trial traction |λ_T + ε_T γ^I| exceeds
+        REENTRY_TRIAL_CONE × μ p^I. ``imposed``: None or (states (n,), directions (n, m)
+        or None); with directions None (the exact update's differences) it is returned
+        as is."""
         if imposed is None or imposed[1] is None:
             return imposed
         states, dirs = imposed
-        gamma = sigma / np.where(hasT, self.AT, 1.0)[:, None]
-        slid = np.linalg.norm(gamma, axis=1) > REENTRY_FREE_SLIP * self.h_node
+        open_ = np.flatnonzero((states == fr.OPEN) & hasT)
+        if not open_.size:
+            return imposed
+        g = gamma[open_]
+        far = np.linalg.norm(g, axis=1) > REENTRY_FREE_SLIP * self.h_node[open_]
         if self.recovery == "lumped":
-            trial = np.linalg.norm(self.lmbda_t + self.eps_t[:, None] * gamma, axis=1)
-            slid |= trial > REENTRY_TRIAL_CONE * self.mu * np.maximum(self.p, 0.0)
-        far = (states == fr.OPEN) & hasT & slid
-        return (np.where(far, -1, states), dirs) if far.any() else imposed
+            trial = np.linalg.norm(self.lmbda_t[open_] + self.eps_t[open_, None] * g, axis=1)
+            far |= trial > REENTRY_TRIAL_CONE * self.mu * np.maximum(self.p[open_], 0.0)
+        if not far.any():
+            return imposed
+        states = states.copy()
+        states[open_[far]] = -1
+        return states, dirs
 
     def _tangential_mass(self) -> np.ndarray:
         """Facet blocks (nsf, nphi, nphi) of the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J

@@ -762,7 +762,10 @@ class LoadStepper:
     propagates (every finished step has been passed to
     ``on_step`` already). A step's timings include its failed attempts.
     ``on_step(step_index, result)`` is called after each
-    converged step, with the problem holding the converged state.
+    converged step, with the problem holding the converged state. Each step starts from
+    the extrapolated predictor except at a corner of the load path (``problem.load_values``,
+    :data:`PATH_RATE_TOL`) and after a jump (``problem.increment_norm``,
+    :data:`PREDICTOR_JUMP_RATIO`).
     """
 
     def __init__(
@@ -891,8 +894,7 @@ class LoadStepper:
             p.commit_step()
             step += 1
             previous = (saved, t)
-            if hasattr(p, "increment_norm"):  # a problem without it has no jump rule
-                rates = [*rates[-1:], (t, t_new, p.increment_norm(saved) / (t_new - t))]
+            rates = [*rates[-1:], (t, t_new, p.increment_norm(saved) / (t_new - t))]
             t = t_new
             saved = p.u.x.array.copy()
             timings = {k: p.timings[k] - tim0[k] for k in p.timings}

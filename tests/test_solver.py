@@ -34,6 +34,9 @@ class _Problem:
     def set_time(self, t):
         self.t = t
 
+    def increment_norm(self, u_old):
+        return float(abs(self.u.x.array[0] - u_old[0]))
+
     def begin_step(self):
         pass
 
@@ -173,14 +176,9 @@ def test_no_predictor_across_a_corner_of_the_load_path():
     assert all(r.predictor_failures == 0 for r in results)
 
 
-class _Snap(_Problem):
+class _SnapNewton(_Newton):
     """u(t) = t, plus a jump of 1 from t = 0.6 on (a snap in the third of five steps)."""
 
-    def increment_norm(self, u_old):
-        return float(abs(self.u.x.array[0] - u_old[0]))
-
-
-class _SnapNewton(_Newton):
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
         out = super().solve(rtol, dtol, rescue)
         self.problem.u.x.array[:] += 1.0 if self.problem.t > 0.6 - 1e-12 else 0.0
@@ -191,7 +189,7 @@ def test_no_predictor_after_a_jump():
     """The step after one whose increment rate exceeds PREDICTOR_JUMP_RATIO × the rate
     before starts from the converged state (the jump does not repeat); the one after
     that, at the regular rate again, uses the predictor."""
-    predicted, _ = _predicted_solves(_Snap(), 5, _SnapNewton)
+    predicted, _ = _predicted_solves(_Problem(), 5, _SnapNewton)
     assert predicted == [False, True, True, False, True]
     assert solver_module.PREDICTOR_JUMP_RATIO < 6.0  # the jump's rate ratio here
 
