@@ -172,6 +172,7 @@ def step_record(problem, res) -> dict:
         "uzawa": res.uzawa,
         "cutbacks": res.cutbacks,
         "full_step_solves": res.full_step_solves,
+        "full_step_restarts": res.full_step_restarts,
         "backtracked_solves": res.backtracked_solves,
         "predictor_failures": res.predictor_failures,
         "carried_retries": res.carried_retries,

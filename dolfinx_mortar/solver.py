@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from time import perf_counter
 
@@ -123,6 +124,27 @@ PREDICTOR_MAX_BACKOFF = 8
 #: Newton step, and the minimum is the kink. A full step crosses it. (Switching at the
 #: first stall, within max_it, was tried: it stops ironing2d at the onset of gross slip.)
 FULL_STEP_ITERATIONS = 10
+#: The Newton solves of the Uzawa rounds after the first (and the final full-tolerance
+#: solve) take full steps (line search "basic"): they start from the last round's
+#: solution, with only the multipliers moved. If they have not converged within
+#: min(FULL_STEP_ITERATIONS, max_it) steps (or the residual became non-finite or
+#: diverged), the solve starts again from the round's start with the configured line
+#: search; the step's iteration counts include the failed attempt (summary.json
+#: ``full_step_restarts``). The l2 search stops short of every jump of the residual along
+#: the Newton step, and such jumps are what moves between rounds: the slave points that
+#: cross master vertices (the normal turns there) as the multipliers shift the contact.
+#: In the second round of ironing2d's snap step (t = 1.36) it crawled for 6 iterates with
+#: λ = 0.07 … 0.54 and a pairing change at every Jacobian: 18 + 10 + 1 Newton iterations,
+#: with full steps 18 + 6 + 1 (docs/method-notes.md, "Full steps in the later Uzawa
+#: rounds"). Full steps also cost one residual evaluation per iteration instead of about
+#: three.
+ROUND_FULL_STEPS = True
+#: ... and they stop (then the solve starts again with the configured line search) as soon
+#: as ‖R‖ exceeds this many times its value at the round's start (SNES's divergence
+#: tolerance): in hertz2d_nu049_p1 of the hard-case sweep the full steps of the second
+#: round went 10 → 65 → 5.3 → 71 … and failed after 10 iterations (a 52-iteration step
+#: instead of 43).
+ROUND_FULL_STEP_GROWTH = 1.0
 #: The Uzawa rounds of a step stop (ConvergenceError, so the step is cut back) when this
 #: many rounds in a row have not brought the multiplier change, taken as the larger of
 #: two consecutive rounds, below half its smallest value before them. A rate slower than
@@ -165,6 +187,7 @@ _SOLVE_COUNTERS = (
     "all_iterations",
     "limited_steps",
     "full_step_solves",
+    "full_step_restarts",
     "backtracked_solves",
     "reused_factorizations",
     "failed_reuses",
@@ -220,6 +243,7 @@ class NewtonSolver:
         #: monitor's copy), and whether the solve has had one
         self._finite_x = self._b.duplicate()
         self._trial = self._b.duplicate()  # the end of the full Newton step (_limit_step)
+        self._start = self._b.duplicate()  # the start of a solve (full_steps, reuse)
         self._has_finite = False
         self.snes.setFunction(self._F, self._b)
         self.snes.setJacobian(self._J, self._A, self._A)
@@ -244,6 +268,9 @@ class NewtonSolver:
         self._line_search = str(defaults["snes_linesearch_type"])
         #: solves whose line search stalled and that were continued with full steps
         self.full_step_solves = 0
+        #: later-round solves whose full Newton steps failed and that started again with
+        #: the configured line search (ROUND_FULL_STEPS)
+        self.full_step_restarts = 0
         #: solves whose residual became non-finite and that were restarted with "bt"
         self.backtracked_solves = 0
         self.snes.setMonitor(self._remember_finite)
@@ -356,6 +383,7 @@ class NewtonSolver:
         rescue: bool = True,
         reuse: bool = False,
         force: bool = False,
+        full_steps: bool = False,
     ) -> tuple[int, list[float]]:
         """Solve R(u) = 0 from the problem's current ``u`` (collective).
 
@@ -395,30 +423,31 @@ class NewtonSolver:
             self._factored = False
         x = p.u.vector.copy()
         t_ksp0 = _ksp_time()
+        tried = 0, []  # the iterations and norms of a failed full-step attempt
         try:
-            self._has_finite = False
-            reusing = reuse and self._reuse_possible and self._factored
-            if reusing:
-                self._reuse_mode(True, REUSE_RTOL_FACTOR * self.snes.getTolerances()[0])
-            self.snes.solve(None, x)
-            reason = self.snes.getConvergedReason()
-            if reusing:
-                if self._reusing:
-                    self._reuse_mode(False)
-                if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
-                    # GMRES on the old factorization did not converge: start again
-                    self.failed_reuses += 1
-                    log.info("GMRES on the last factorization failed; factorizing")
-                    p.u.vector.copy(x)
-                    p.begin_solve()  # the per-solve chattering control starts afresh
-                    self._has_finite = False
-                    self.snes.solve(None, x)
-                    reason = self.snes.getConvergedReason()
-                else:
-                    self.reused_factorizations += 1
-            self._factored = self._factored or self.snes.getIterationNumber() > 0
-            its = self.snes.getIterationNumber()
-            norms = [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
+            if full_steps and self._line_search != "basic":
+                x.copy(self._start)
+                budget = min(FULL_STEP_ITERATIONS, s.max_it)
+                with self._line_search_as("basic", budget, dtol=ROUND_FULL_STEP_GROWTH):
+                    reason = self._run(x, reuse)
+                its, norms = self._history()
+                if reason > 0 and np.all(np.isfinite(norms)):
+                    return self._accept(x, its, norms)
+                self.full_step_restarts += 1
+                log.info(
+                    "Full Newton steps failed (SNES reason %d, %d iterations); the solve "
+                    "starts again with line search %s",
+                    reason,
+                    its,
+                    self._line_search,
+                )
+                tried = its, norms
+                self._start.copy(x)
+                p.begin_solve()  # the per-solve chattering control starts afresh
+                p.update_contact(x)
+                reuse = False
+            reason = self._run(x, reuse)
+            its, norms = self._history()
             target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
             budget = min(FULL_STEP_ITERATIONS, s.max_it)
             stalled = reason in _STALLED and self._line_search != "basic"
@@ -434,19 +463,86 @@ class NewtonSolver:
                 self.backtracked_solves += 1
                 reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
                 its, norms = its + len(more), norms + more
+            if reason <= 0 or not np.all(np.isfinite(norms)):
+                self.all_iterations += tried[0] + its
+                x.destroy()
+                raise ConvergenceError(
+                    f"Newton did not converge (SNES reason {reason}, {tried[0] + its} "
+                    f"iterations, residual {norms[-1] if norms else float('nan'):.3e})"
+                )
+            if tried[0]:  # the restart's first norm is the attempt's first
+                its, norms = tried[0] + its, tried[1] + norms[1:]
+            return self._accept(x, its, norms)
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
+
+    def _run(self, x: PETSc.Vec, reuse: bool) -> int:
+        """One SNES solve from x, in place (collective); with ``reuse`` its first linear
+        solve is GMRES on the last factorization (:data:`REUSE_FACTORIZATION`), and if
+        that fails the solve starts again from x with a new one. Returns the SNES reason."""
+        p = self.problem
+        self._has_finite = False
+        reusing = reuse and self._reuse_possible and self._factored
+        if reusing:
+            x.copy(self._start)
+            self._reuse_mode(True, REUSE_RTOL_FACTOR * self.snes.getTolerances()[0])
+        self.snes.solve(None, x)
+        reason = self.snes.getConvergedReason()
+        if reusing:
+            if self._reusing:
+                self._reuse_mode(False)
+            if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+                # GMRES on the old factorization did not converge: start again
+                self.failed_reuses += 1
+                log.info("GMRES on the last factorization failed; factorizing")
+                self._start.copy(x)
+                p.begin_solve()  # the per-solve chattering control starts afresh
+                self._has_finite = False
+                self.snes.solve(None, x)
+                reason = self.snes.getConvergedReason()
+            else:
+                self.reused_factorizations += 1
+        self._factored = self._factored or self.snes.getIterationNumber() > 0
+        return reason
+
+    def _history(self) -> tuple[int, list[float]]:
+        """The iterations and residual norms (initial one included) of the last SNES solve."""
+        its = self.snes.getIterationNumber()
+        return its, [float(r) for r in self.snes.getConvergenceHistory()[0][: its + 1]]
+
+    def _accept(self, x: PETSc.Vec, its: int, norms: list[float]) -> tuple[int, list[float]]:
+        """A converged solve: x becomes the problem's u (x is destroyed)."""
         self.all_iterations += its
-        if reason <= 0 or not np.all(np.isfinite(norms)):
-            x.destroy()
-            raise ConvergenceError(
-                f"Newton did not converge (SNES reason {reason}, {its} iterations, "
-                f"residual {norms[-1] if norms else float('nan'):.3e})"
-            )
+        p = self.problem
         x.copy(p.u.vector)
         p.u.x.scatter_forward()
         x.destroy()
         return its, norms
+
+    @contextmanager
+    def _line_search_as(self, line_search: str, max_it: int, dtol: float | None = None):
+        """SNES solves within use ``line_search``, at most ``max_it`` iterations and, if
+        given, the divergence tolerance ``dtol``; the configured values are restored
+        afterwards (collective)."""
+        s = self.settings
+        opts = PETSc.Options()
+        keys = [s.prefix + "snes_linesearch_type", s.prefix + "snes_divergence_tolerance"]
+        saved = [opts.getString(k, None) for k in keys]
+        opts[keys[0]] = line_search
+        if dtol is not None:
+            opts[keys[1]] = dtol
+        self.snes.setFromOptions()
+        self.snes.setTolerances(max_it=max_it)
+        try:
+            yield
+        finally:
+            for k, v in zip(keys, saved, strict=True):
+                if v is None:
+                    opts.delValue(k)
+                else:
+                    opts[k] = v
+            self.snes.setFromOptions()
+            self.snes.setTolerances(max_it=s.max_it)
 
     def _continue(
         self, x: PETSc.Vec, line_search: str, rtol: float, max_it: int
@@ -456,18 +552,9 @@ class NewtonSolver:
         ‖R‖ ≤ rtol × ‖R(x)‖ (the original solve's target) or atol. x is updated in place;
         the options are restored afterwards. Returns the SNES reason and the residual
         norms after each step."""
-        s = self.settings
-        opts = PETSc.Options()
-        key = s.prefix + "snes_linesearch_type"
-        opts[key] = line_search
-        self.snes.setFromOptions()
-        self.snes.setTolerances(rtol=min(rtol, 0.5), max_it=max_it)
-        try:
+        self.snes.setTolerances(rtol=min(rtol, 0.5))
+        with self._line_search_as(line_search, max_it):
             self.snes.solve(None, x)
-        finally:
-            opts[key] = self._line_search
-            self.snes.setFromOptions()
-            self.snes.setTolerances(max_it=s.max_it)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         log.info(
@@ -507,6 +594,7 @@ class NewtonSolver:
         self._b.destroy()
         self._finite_x.destroy()
         self._trial.destroy()
+        self._start.destroy()
 
     def __enter__(self):
         return self
@@ -545,6 +633,9 @@ class StepResult:
     #: Newton solves since the last converged step (failed attempts included) that were
     #: continued with full steps (see FULL_STEP_ITERATIONS)
     full_step_solves: int = 0
+    #: later-round solves of this step whose full Newton steps failed and that started
+    #: again with the configured line search (see ROUND_FULL_STEPS)
+    full_step_restarts: int = 0
     #: the same for solves restarted with the bt line search after a non-finite
     #: residual (see _NONFINITE)
     backtracked_solves: int = 0
@@ -665,7 +756,12 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
         # multipliers (the exact update): its state then changes with them anyway
         force = k > 0 and not getattr(problem, "moved_with_multipliers", False)
         its, norms = newton.solve(
-            rtol, dtol if k == 0 else None, rescue=not predicted, reuse=k > 0, force=force
+            rtol,
+            dtol if k == 0 else None,
+            rescue=not predicted,
+            reuse=k > 0,
+            force=force,
+            full_steps=ROUND_FULL_STEPS and _released_pins(info_all),
         )
         its_all.append(its)
         norms_all.append(norms)
@@ -673,7 +769,8 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
         info_all.append(info)
         if done:
             if rtol is not None:
-                its, norms = newton.solve(reuse=True)
+                full_steps = ROUND_FULL_STEPS and _released_pins(info_all)
+                its, norms = newton.solve(reuse=True, full_steps=full_steps)
                 its_all.append(its)
                 norms_all.append(norms)
             return its_all, norms_all, info_all
@@ -713,6 +810,13 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
     raise ConvergenceError(
         f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
     )
+
+
+def _released_pins(info_all: list[dict]) -> bool:
+    """Whether the last Uzawa round's solve (``info_all``: per round, per pair, the
+    ``uzawa_update`` information) ended with pinned points on some pair (contact.HOLD_AFTER):
+    the next solve releases them (ROUND_FULL_STEPS)."""
+    return bool(info_all) and any(i.get("pinned_points", 0) > 0 for i in info_all[-1].values())
 
 
 def uzawa_stalled(changes, rounds: int = UZAWA_STALL_ROUNDS) -> bool:

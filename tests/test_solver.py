@@ -61,13 +61,14 @@ class _Newton:
         self.timings = {"linear_solve": 0.0}
         self.start = 0.0
         self.full_step_solves = 0
+        self.full_step_restarts = 0
         self.backtracked_solves = 0
         self.reused_factorizations = 0
         self.failed_reuses = 0
         self.limited_steps = 0
         self.all_iterations = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
         p = self.problem
         t0 = p.committed[-1] if p.committed else 0.0
         if p.t - t0 > self.limit(t0):
@@ -106,7 +107,7 @@ class _NoPredictor(_Newton):
         super().__init__(problem, lambda t0: 1.0)
         self.predicted = 0
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
         if dtol is not None:
             self.predicted += 1
             raise ConvergenceError("far off")
@@ -132,7 +133,7 @@ def _predicted_solves(p, n, newton_type=None):
     newton = (newton_type or _Newton)(p, lambda t0: 1.0)
     calls = []
     orig = newton.solve
-    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False: (
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False, **kw: (
         calls.append(dtol) or orig(rtol, dtol, rescue)
     )
     results = LoadStepper(p, newton, 1.0, n).run()
@@ -179,7 +180,7 @@ def test_no_predictor_across_a_corner_of_the_load_path():
 class _SnapNewton(_Newton):
     """u(t) = t, plus a jump of 1 from t = 0.6 on (a snap in the third of five steps)."""
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
         out = super().solve(rtol, dtol, rescue)
         self.problem.u.x.array[:] += 1.0 if self.problem.t > 0.6 - 1e-12 else 0.0
         return out
@@ -276,7 +277,7 @@ class _FrozenUnlessCarried(_Newton):
         super().__init__(problem, lambda t0: 1.0)
         self.bad, self.always, self.calls = bad, always, []
 
-    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False):
+    def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
         p = self.problem
         carrying = getattr(p, "carrying_states", False)
         self.calls.append((round(p.t, 12), carrying))
@@ -538,11 +539,90 @@ def test_later_uzawa_rounds_force_an_iteration():
     newton = _Newton(p, lambda t0: 1.0)
     forced = []
     orig = newton.solve
-    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False: (
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False, **kw: (
         forced.append(force) or orig(rtol, dtol, rescue)
     )
     solver_module.solve_step(p, newton, uzawa_max=10, inexact=False)
     assert forced == [False, True, True]
+
+
+class _Pinned(_Unfrozen):
+    """Uzawa rounds whose solves end with pinned points (contact.HOLD_AFTER) in the rounds
+    listed in ``pinned`` (1: pinned), inexact rounds then a final full-tolerance solve."""
+
+    def __init__(self, pinned):
+        super().__init__([0] * len(pinned), growing=False)
+        self.pinned = pinned
+
+    def uzawa_update(self):
+        k = self.rounds
+        done, info = super().uzawa_update()
+        if k < len(self.pinned) and self.pinned[k]:
+            info["pair"]["pinned_points"] = 3
+        return done, info
+
+
+@pytest.mark.parametrize("pinned", [[1, 0, 1], [0, 1, 0], [0, 0, 1]])
+def test_the_solve_after_released_pins_takes_full_steps(pinned):
+    """solve_step asks for full steps (ROUND_FULL_STEPS) in exactly the solves that follow
+    a round whose solve ended with pinned points: the later rounds and the final
+    full-tolerance solve."""
+    p = _Pinned(pinned)
+    p.set_time(0.5)
+    newton = _Newton(p, lambda t0: 1.0)
+    asked = []
+    orig = newton.solve
+    newton.solve = lambda rtol=None, dtol=None, rescue=True, reuse=False, force=False, **kw: (
+        asked.append(kw["full_steps"]) or orig(rtol, dtol, rescue)
+    )
+    solver_module.solve_step(p, newton, uzawa_max=10)
+    # rounds 1-3, the round that is done, the final full-tolerance solve
+    assert asked == [False] + [bool(k) for k in pinned] + [False]
+
+
+def _newton_iterations(x0: float, rtol: float) -> int:
+    """Full Newton steps on x³ = 8 from x0 until |R| ≤ rtol |R(x0)| (plain Python)."""
+    x, r0, k = x0, abs(x0**3 - 8.0), 0
+    while abs(x**3 - 8.0) > rtol * r0:
+        x, k = x - (x**3 - 8.0) / (3.0 * x * x), k + 1
+    return k
+
+
+def test_full_steps_that_contract_finish_the_solve(cubic_vectors):
+    """From x = 10 the full steps contract ‖R‖ at every iterate: the solve takes exactly
+    the iterations of plain full-step Newton, with no restart, and the options (line
+    search, divergence tolerance, max_it) are the configured ones afterwards."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_full_ok_")
+    opts = PETSc.Options()
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        its, norms = newton.solve(full_steps=True)
+        assert newton.full_step_restarts == 0
+        assert opts["test_full_ok_snes_linesearch_type"] == "l2"
+        assert opts.getReal("test_full_ok_snes_divergence_tolerance") == 1e4
+        assert newton.snes.getTolerances()[3] == settings.max_it
+        assert its == _newton_iterations(10.0, 1e-10) and len(norms) == its + 1
+        assert np.allclose(newton.problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+def test_full_steps_that_raise_the_residual_restart_with_the_line_search(cubic_vectors):
+    """From x = 0.5 the first full step lands at 11, where ‖R‖ is 170 times larger: the
+    attempt stops there (ROUND_FULL_STEP_GROWTH) and the solve starts again from x = 0.5
+    with l2. The returned iterations and norms include the failed step; the solution is
+    the l2 solve's."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_full_restart_")
+    with NewtonSolver(_Cubic(0.5), settings) as newton:
+        l2_its, l2_norms = newton.solve()
+    with NewtonSolver(_Cubic(0.5), settings) as newton:
+        its, norms = newton.solve(full_steps=True)
+        assert newton.full_step_restarts == 1
+        assert PETSc.Options()["test_full_restart_snes_linesearch_type"] == "l2"
+        assert newton.all_iterations == its
+        x = newton.problem.u.vector.array
+    assert its == 1 + l2_its and len(norms) == its + 1
+    r0 = np.sqrt(3.0) * abs(0.5**3 - 8.0)
+    assert norms[0] == pytest.approx(r0) and norms[1] == pytest.approx(np.sqrt(3.0) * 1323.0)
+    assert norms[2:] == pytest.approx(l2_norms[1:])
+    assert np.allclose(x, 2.0, rtol=1e-9)
 
 
 def test_no_reuse_with_an_iterative_solver(cubic_vectors):
