@@ -207,6 +207,13 @@ HOLD_AFTER = 12
 #: no solve left to full steps; from the FREEZE_AFTER-th Jacobian the first press step of
 #: the short path got worse: 26 iterations and full steps).
 PIN_OUTSIDE_TOL = 0.1
+#: A point pinned for switching back (A → B → A) whose converged projection onto its
+#: pinned facet lies inside it or at most this far outside (reference coordinates) starts
+#: the next Newton solve of the same load step pinned: it sits on the facet's edge and
+#: would switch back and forth again. In the twist3d demo's last-but-one step one such
+#: point cycled in each of the five Uzawa rounds until its pin at the FREEZE_AFTER-th
+#: Jacobian: 4 + 9 + 9 + 9 + 9 + 11 Newton iterations.
+PIN_CARRY_TOL = 1e-3
 #: First contact: in a Newton solve that starts with no active node on the pair, at a
 #: Jacobian whose active set (p̂^I > 0) differs from that of the previous Jacobian, the
 #: geometric part of the normal contact tangent, −Σ_I p^I ∫ Φ_I ∂²g (the variation of the
@@ -635,6 +642,10 @@ class MortarContact:
         self._pair_hist = []
         self._pair_jacobians = 0
         self._pin_exchange = -1
+        # the points pinned for switching back (not by HOLD_AFTER), and those of them that
+        # the next solve of the same load step starts pinned (PIN_CARRY_TOL)
+        self.qp_flip = None
+        self._carried_pins = None
         self._jac_active = None  # the active set at the previous Jacobian of the solve
         #: whether the current Newton solve started with no active node on the pair (first
         #: contact; decided at the solve's first Jacobian, the same on every rank)
@@ -1015,10 +1026,12 @@ class MortarContact:
             flip = (cur == h2) & (cur != h1) & ((cur >= 0) | (h1 >= 0))
             if self.qp_pinned is None:
                 self.qp_pinned = np.full_like(cur, -1)
+                self.qp_flip = np.zeros(cur.shape, bool)
             every = self._pair_jacobians >= self.hold_after
             new = (((cur >= 0) & every) | flip) & (self.qp_pinned < 0)
             if new.any():
                 self.qp_pinned[new] = np.where(cur >= 0, cur, h1)[new]
+                self.qp_flip |= new & flip
                 log.debug("%s: %d chattering points pinned", self.name, int(new.sum()))
         self._pair_hist = [*self._pair_hist[-1:], cur.copy()]
 
@@ -2247,10 +2260,20 @@ class MortarContact:
         if self.qp_pinned is not None:
             pinned = (self.qp_pinned >= 0) & (self.qp_m == self.qp_pinned)
         n_pinned = comm.allreduce(int(pinned.sum()))
+        self._carried_pins = None
         if n_pinned:
-            outside = [kmortar._outside(self.master.ftype, z) for z in self.qp_zeta[pinned]]
+            outside = np.array(
+                [kmortar._outside(self.master.ftype, z) for z in self.qp_zeta[pinned]]
+            )
             info["pinned_points"] = n_pinned
-            info["pinned_outside"] = comm.allreduce(max(outside, default=0.0), op=MPI.MAX)
+            info["pinned_outside"] = comm.allreduce(float(outside.max(initial=0.0)), op=MPI.MAX)
+            # points that switched back and converged at their pinned facet's edge
+            near = np.zeros_like(pinned)
+            near[pinned] = outside <= PIN_CARRY_TOL
+            keep = pinned & near & self.qp_flip
+            if comm.allreduce(int(keep.any()), op=MPI.MAX):
+                self._carried_pins = np.where(keep, self.qp_pinned, -1)
+                info["carried_pins"] = comm.allreduce(int(keep.sum()))
         if self.qp_frozen is not None:
             frozen, self.qp_frozen = self.qp_frozen, None
             self._recover()
@@ -2538,6 +2561,10 @@ class MortarContact:
         self.qp_frozen = None
         self.held, self._set_jacobians = None, 0
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0
+        self.qp_flip = None
+        if self._carried_pins is not None and self._pin_exchange == self._exchanges:
+            self.qp_pinned = self._carried_pins.copy()
+            self.qp_flip = self.qp_pinned >= 0
         self._jac_active = None
         if self.frictional:
             self.frozen = self._carried if self.carry_states else None
@@ -2580,6 +2607,7 @@ class MortarContact:
         friction, the last committed state becomes the slip reference t_n."""
         self.uzawa_acceleration.reset()
         self._carried = None
+        self._carried_pins = None
         if self.frictional:
             if self._pending is not None:
                 u_n, tau = self._pending

@@ -385,6 +385,48 @@ def test_pinned_points_keep_their_facet_and_an_exact_tangent(case):
     assert term.qp_pinned is None
 
 
+@pytest.mark.mpi
+def test_points_that_switched_back_start_the_next_solve_pinned_at_their_edge():
+    """contact.PIN_CARRY_TOL: at the end of a solve (uzawa_update), a point pinned for
+    switching back whose projection lies within PIN_CARRY_TOL of its pinned facet stays
+    pinned in the next solve of the load step; a point pinned beyond that, or pinned by
+    HOLD_AFTER, starts free; a new load step starts with no pin."""
+    from dolfinx_mortar.contact import PIN_CARRY_TOL
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
+    term.update(problem.u)
+    own = term.qp_m >= 0  # at its own facet: inside it
+    pins = _pin_neighbours(term)  # beyond a neighbour's edge
+    assert comm.allreduce(len(pins)) >= 2
+    neighbour = term.qp_pinned >= 0
+    own &= ~neighbour
+    term.qp_pinned[own] = term.qp_m[own]
+    hold = own & (np.arange(own.size).reshape(own.shape) % 2 == 0)  # pinned by HOLD_AFTER
+    term.qp_flip = (term.qp_pinned >= 0) & ~hold
+    term.update(problem.u)
+    pinned = term.qp_pinned >= 0
+    assert np.array_equal(term.qp_m[pinned], term.qp_pinned[pinned])
+    outside = np.array([kmortar._outside(term.master.ftype, z) for z in term.qp_zeta[pinned]])
+    near = np.zeros_like(pinned)
+    near[pinned] = outside <= PIN_CARRY_TOL
+    keep = near & term.qp_flip
+    assert np.all(keep[own & ~hold]) and not np.any(keep[hold])
+    assert comm.allreduce(int((neighbour & ~keep).sum())) >= 1
+    _, info = term.uzawa_update()
+    assert info["carried_pins"] == comm.allreduce(int(keep.sum())) > 0
+    term.begin_solve()
+    assert np.array_equal(term.qp_pinned, np.where(keep, term.qp_m, -1))
+    term.update(problem.u)
+    assert np.array_equal(term.qp_m[keep], term.qp_pinned[keep])
+    term.begin_step()
+    term.begin_solve()
+    assert term.qp_pinned is None
+
+
 def test_a_point_switching_back_is_pinned():
     """From the FREEZE_AFTER-th Jacobian on, a point whose facet went A → B → A is pinned
     to A (also when B is "none", −1); a point that moved on (A → B → C) is not."""
