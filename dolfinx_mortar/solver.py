@@ -124,20 +124,20 @@ PREDICTOR_MAX_BACKOFF = 8
 #: Newton step, and the minimum is the kink. A full step crosses it. (Switching at the
 #: first stall, within max_it, was tried: it stops ironing2d at the onset of gross slip.)
 FULL_STEP_ITERATIONS = 10
-#: The Newton solves of the Uzawa rounds after the first (and the final full-tolerance
-#: solve) take full steps (line search "basic"): they start from the last round's
-#: solution, with only the multipliers moved. If they have not converged within
-#: min(FULL_STEP_ITERATIONS, max_it) steps (or the residual became non-finite or
-#: diverged), the solve starts again from the round's start with the configured line
-#: search; the step's iteration counts include the failed attempt (summary.json
-#: ``full_step_restarts``). The l2 search stops short of every jump of the residual along
-#: the Newton step, and such jumps are what moves between rounds: the slave points that
-#: cross master vertices (the normal turns there) as the multipliers shift the contact.
-#: In the second round of ironing2d's snap step (t = 1.36) it crawled for 6 iterates with
-#: λ = 0.07 … 0.54 and a pairing change at every Jacobian: 18 + 10 + 1 Newton iterations,
-#: with full steps 18 + 6 + 1 (docs/method-notes.md, "Full steps in the later Uzawa
-#: rounds"). Full steps also cost one residual evaluation per iteration instead of about
-#: three.
+#: The Newton solve of an Uzawa round that follows a round whose solve ended with pinned
+#: points (the chattering control of the pairing, contact.PIN_OUTSIDE_TOL; the final
+#: full-tolerance solve too) takes full steps (line search "basic"): it starts from that
+#: round's solution with the pins released and the multipliers moved. If it has not
+#: converged within min(FULL_STEP_ITERATIONS, max_it) steps (or its residual grew, see
+#: ROUND_FULL_STEP_GROWTH, or became non-finite), the solve starts again from the round's
+#: start with the configured line search; the step's iteration counts include the failed
+#: attempt (summary.json ``full_step_restarts``). The released points cross master
+#: vertices as the multipliers shift the contact, each a jump of the residual along the
+#: Newton step, and the l2 search stops short of every one: in the second round of
+#: ironing2d's snap step (t = 1.36, after 185 pinned points) it crawled for 6 iterates
+#: with λ = 0.07 … 0.54 and pairing changes at every Jacobian, 18 + 10 + 1 Newton
+#: iterations; with full steps 18 + 6 + 1. Full steps in EVERY later round broke two
+#: frictional tests (docs/method-notes.md, "Chattering of the pairing").
 ROUND_FULL_STEPS = True
 #: ... and they stop (then the solve starts again with the configured line search) as soon
 #: as ‖R‖ exceeds this many times its value at the round's start (SNES's divergence
@@ -395,7 +395,10 @@ class NewtonSolver:
         first iteration may use the last factorization (:data:`REUSE_FACTORIZATION`;
         for a solve that starts where the last one converged); ``force``: at least one
         Newton iteration even when the first residual already meets the tolerance (a
-        later Uzawa round: its multipliers moved, see :func:`solve_step`). Returns
+        later Uzawa round: its multipliers moved, see :func:`solve_step`); ``full_steps``:
+        first try full Newton steps, and start again with the configured line search if
+        they fail (:data:`ROUND_FULL_STEPS`; a failed attempt's iterations and norms
+        included in the returned ones). Returns
         (iterations, residual norms per iteration, the full-step continuation of a stalled solve and the "bt" restart of a
         solve whose residual became non-finite included: see :data:`FULL_STEP_ITERATIONS`
         and :data:`_NONFINITE`; the iterations after the last finite residual are not
@@ -814,8 +817,9 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
 
 def _released_pins(info_all: list[dict]) -> bool:
     """Whether the last Uzawa round's solve (``info_all``: per round, per pair, the
-    ``uzawa_update`` information) ended with pinned points on some pair (contact.HOLD_AFTER):
-    the next solve releases them (ROUND_FULL_STEPS)."""
+    ``uzawa_update`` information) ended with pinned points on some pair (the chattering
+    control of the pairing): the next solve releases them (ROUND_FULL_STEPS). The same on
+    every rank (``pinned_points`` is a global count)."""
     return bool(info_all) and any(i.get("pinned_points", 0) > 0 for i in info_all[-1].values())
 
 
