@@ -35,10 +35,11 @@ def parser(
     out: str,
     integration: bool = True,
     recovery: bool = False,
-    acceleration: bool = False,
+    acceleration: bool | str = False,
 ) -> argparse.ArgumentParser:
     """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``,
-    ``--recovery`` and ``--uzawa-acceleration`` (see :func:`set_acceleration`)."""
+    ``--recovery`` and ``--uzawa-acceleration`` (see :func:`set_acceleration`; a string
+    ``acceleration`` is that option's default, ``True`` means "auto")."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument(
         "--refine",
@@ -63,12 +64,14 @@ def parser(
             help="recovery of the nodal mixed gap and pressure (METHOD.md §3) [lumped]",
         )
     if acceleration:
+        default = "auto" if acceleration is True else acceleration
         ap.add_argument(
             "--uzawa-acceleration",
             choices=("auto", "aitken", "anderson", "none", "newton"),
-            default="auto",
+            default=default,
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
-            "pairs with lumped recoveries; auto: newton where it applies, else aitken) [auto]",
+            "pairs with lumped recoveries; auto: newton where it applies, except with "
+            f"friction in 3D, else aitken) [{default}]",
         )
     return ap
 

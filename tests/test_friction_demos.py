@@ -43,7 +43,7 @@ def test_friction_patch2d(shared_tmp, mode, integration, tol):
         # μ p0 L × slip of each step: the top moves 0.025 per step, the upper block's
         # elastic shear μ p(t)/G · H (G = 50) takes 0.005 in step 1 (p0/2) and no more after
         assert m["dissipation"] == pytest.approx([0.5 * 0.02, 1.0 * 0.02], rel=1e-8)
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
 
 
 @pytest.mark.parametrize("mode", ["stick", "slide"])
@@ -56,7 +56,7 @@ def test_friction_patch3d(shared_tmp, mode):
     assert m["q_err"] <= 1e-8, m["q_err"]
     assert m["q_cross"] <= 1e-8, m["q_cross"]
     assert m["wrong_state"] == 0
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
 
 
 def _assert_cattaneo(m: dict, c_elements: float, l2_q: float, l2_p: float) -> None:
@@ -69,7 +69,7 @@ def _assert_cattaneo(m: dict, c_elements: float, l2_q: float, l2_p: float) -> No
     assert m["l2_p"] <= l2_p, m["l2_p"]
     assert m["stick_nodes"] > 0 and m["slip_nodes"] > 0
     assert m["negative"] == 0
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
     assert m["cutbacks"] == 0 and m["predictor_failures"] == 0
 
 
@@ -133,7 +133,7 @@ def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
     assert abs(m["ratio_err"]) <= 0.01, m
     assert m["stick_nodes"] == 0 and m["slip_nodes"] > 0
     assert m["gross_slip_step"] is not None
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
     assert all(d >= -1e-12 for d in m["dissipation"])
 
 
@@ -252,7 +252,7 @@ def test_ironing3d_short(shared_tmp):
     # sticking after the press and in the first slide step
     assert m["stick_nodes"][-4] >= 20 and m["stick_nodes"][-3] > m["slip_nodes"][-3]
     assert m["slip_nodes"][-1] > 10 * m["stick_nodes"][-1]  # slipping at the end
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
 
 
 @pytest.mark.mpi2
@@ -260,7 +260,10 @@ def test_twist3d_torque_plateau(shared_tmp):
     """Twisting a Hertz contact to full slip (coarse mesh h = 0.42, 7056 dofs, Uzawa to
     1e-2; ~75 s; on 2 ranks only: marker mpi2): the torque rises monotonically to the plateau (3π/16) μ P a
     of the measured load, within 5 % (measured −3.76 %, the same with Uzawa to 1e-3; at
-    h = 0.3, −0.48 %), with all contact nodes but at most one slipping at the end."""
+    h = 0.3, −0.48 %), with all contact nodes but at most one slipping at the end. The
+    demo's exact multiplier update: at most 20 Newton iterations per step, all Uzawa
+    rounds together (measured; Aitken 16, in 65 s instead of 97 s on this coarse path,
+    but up to 35 per step on the default one)."""
     argv = ["--h-contact", "0.42", "--uzawa-tol", "1e-2"]
     m = demo_twist3d.main(argv + ["--out", str(shared_tmp / "twist3d")])
     assert abs(m["M_err"]) <= 0.05, m["M_err"]
@@ -268,4 +271,4 @@ def test_twist3d_torque_plateau(shared_tmp):
     assert all(b > a for a, b in zip(torques[:-1], torques[1:], strict=True)), torques
     assert m["stick_nodes"] <= 1 and m["slip_nodes"] >= 40
     assert m["P_contact"] == pytest.approx(m["P_measured"], rel=1e-6)
-    assert m["max_newton_per_solve"] <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
