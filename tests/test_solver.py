@@ -550,24 +550,34 @@ class _Pinned(_Unfrozen):
     """Uzawa rounds whose solves end with pinned points (contact.HOLD_AFTER) in the rounds
     listed in ``pinned`` (1: pinned), inexact rounds then a final full-tolerance solve."""
 
-    def __init__(self, pinned):
+    def __init__(self, pinned, changed=None):
         super().__init__([0] * len(pinned), growing=False)
-        self.pinned = pinned
+        self.pinned, self.changed = pinned, changed or {}
 
     def uzawa_update(self):
         k = self.rounds
         done, info = super().uzawa_update()
         if k < len(self.pinned) and self.pinned[k]:
             info["pair"]["pinned_points"] = 3
+        if k in self.changed:  # a state contradicted by the free law at convergence
+            info["pair"][self.changed[k]] = 1
         return done, info
 
 
-@pytest.mark.parametrize("pinned", [[1, 0, 1], [0, 1, 0], [0, 0, 1]])
-def test_the_solve_after_released_pins_takes_full_steps(pinned):
+@pytest.mark.parametrize(
+    "pinned, changed",
+    [
+        ([1, 0, 1], {}),
+        ([0, 1, 0], {}),
+        ([0, 0, 1], {}),
+        ([1, 1, 1], {0: "unfrozen_states", 1: "released_nodes", 2: "unfrozen_qp_nodes"}),
+    ],
+)
+def test_the_solve_after_released_pins_takes_full_steps(pinned, changed):
     """solve_step asks for full steps (ROUND_FULL_STEPS) in exactly the solves that follow
-    a round whose solve ended with pinned points: the later rounds and the final
-    full-tolerance solve."""
-    p = _Pinned(pinned)
+    a round whose solve ended with pinned points and with no state the free law
+    contradicted: the later rounds and the final full-tolerance solve."""
+    p = _Pinned(pinned, changed)
     p.set_time(0.5)
     newton = _Newton(p, lambda t0: 1.0)
     asked = []
@@ -577,7 +587,8 @@ def test_the_solve_after_released_pins_takes_full_steps(pinned):
     )
     solver_module.solve_step(p, newton, uzawa_max=10)
     # rounds 1-3, the round that is done, the final full-tolerance solve
-    assert asked == [False] + [bool(k) for k in pinned] + [False]
+    expected = [bool(k) and i not in changed for i, k in enumerate(pinned)]
+    assert asked == [False] + expected + [False]
 
 
 def _newton_iterations(x0: float, rtol: float) -> int:
