@@ -40,7 +40,7 @@ def parser(
     """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``,
     ``--recovery`` and ``--uzawa-acceleration`` (see :func:`set_acceleration`; a string
     ``acceleration`` is that option's default, ``True`` means "auto")."""
-    ap = argparse.ArgumentParser(description=description)
+    ap = _OneLineParser(description=description)
     ap.add_argument(
         "--refine",
         type=int,
@@ -74,6 +74,14 @@ def parser(
             f"friction in 3D, else aitken) [{default}]",
         )
     return ap
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse with its usage errors on one line, ``PROG: error: MESSAGE``, exit status 2
+    (each rank prints it: every rank parses its own arguments)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def set_acceleration(scene: dict, acceleration: str) -> dict:

@@ -164,3 +164,12 @@ def test_recoveries_demo(shared_tmp):
     # quadrilaterals: constrained 1.91 %, lumped 1.91 % (element); on triangles (--tri)
     # the constrained recovery is the better one: 2.2 % against 3.6 % (BENCHMARKS §11)
     assert r["results"]["constrained/element"]["l2"] <= 0.025
+
+
+def test_a_bad_demo_option_is_one_line(capsys):
+    """A demo's bad command-line option gives one error line naming it, exit status 2."""
+    with pytest.raises(SystemExit) as exc:
+        cm.parser("demo", "out", acceleration="newton").parse_args(["--uzawa-acceleration", "fast"])
+    assert exc.value.code == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert "error: argument --uzawa-acceleration: invalid choice: 'fast'" in line, line
