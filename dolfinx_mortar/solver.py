@@ -429,11 +429,11 @@ class NewtonSolver:
             self.snes.setJacobian(self._J, self._A, self._A)
             self._factored = False
         x = p.u.vector.copy()
+        x.copy(self._start)
         t_ksp0 = _ksp_time()
         tried = 0, []  # the iterations and norms of a failed full-step attempt
         try:
             if full_steps and self._line_search != "basic":
-                x.copy(self._start)
                 with self._line_search_as("basic", s.max_it, dtol=ROUND_FULL_STEP_GROWTH):
                     reason = self._run(x, reuse)
                 its, norms = self._history()
@@ -448,9 +448,7 @@ class NewtonSolver:
                     self._line_search,
                 )
                 tried = its, norms
-                self._start.copy(x)
-                p.begin_solve()  # the per-solve chattering control starts afresh
-                p.update_contact(x)
+                self._back_to_start(x)
                 reuse = False
             reason = self._run(x, reuse)
             its, norms = self._history()
@@ -483,14 +481,13 @@ class NewtonSolver:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
 
     def _run(self, x: PETSc.Vec, reuse: bool) -> int:
-        """One SNES solve from x, in place (collective); with ``reuse`` its first linear
-        solve is GMRES on the last factorization (:data:`REUSE_FACTORIZATION`), and if
-        that fails the solve starts again from x with a new one. Returns the SNES reason."""
-        p = self.problem
+        """One SNES solve from x (the solve's start, ``_start``), in place (collective);
+        with ``reuse`` its first linear solve is GMRES on the last factorization
+        (:data:`REUSE_FACTORIZATION`), and if that fails the solve starts again from x with
+        a new one. Returns the SNES reason."""
         self._has_finite = False
         reusing = reuse and self._reuse_possible and self._factored
         if reusing:
-            x.copy(self._start)
             self._reuse_mode(True, REUSE_RTOL_FACTOR * self.snes.getTolerances()[0])
         self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
@@ -501,15 +498,21 @@ class NewtonSolver:
                 # GMRES on the old factorization did not converge: start again
                 self.failed_reuses += 1
                 log.info("GMRES on the last factorization failed; factorizing")
-                self._start.copy(x)
-                p.begin_solve()  # the per-solve chattering control starts afresh
-                self._has_finite = False
+                self._back_to_start(x)
                 self.snes.solve(None, x)
                 reason = self.snes.getConvergedReason()
             else:
                 self.reused_factorizations += 1
         self._factored = self._factored or self.snes.getIterationNumber() > 0
         return reason
+
+    def _back_to_start(self, x: PETSc.Vec) -> None:
+        """x ← the solve's start (``_start``), for a new SNES solve from there: the
+        per-solve chattering control starts afresh (collective; the contact state follows
+        at the solve's first residual evaluation)."""
+        self._start.copy(x)
+        self.problem.begin_solve()
+        self._has_finite = False
 
     def _history(self) -> tuple[int, list[float]]:
         """The iterations and residual norms (initial one included) of the last SNES solve."""
