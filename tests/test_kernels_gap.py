@@ -515,3 +515,40 @@ def test_open_point_above_a_convex_ridge_is_paired_3d():
     m, gap = _pair_one(TRIANGLE1, xs, xi, TRIANGLE1, xm, msign)
     assert m in (0, 1)
     assert gap == pytest.approx(g, rel=0.01)
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL1, TRIANGLE1])
+def test_affine_projection_in_closed_form(ftype):
+    """Affine facets are projected in closed form (kernels.gap._project_affine): the same
+    point as the SciPy reference inside and beyond the facet, with the work-array
+    variants (project_in, unit_normal_in, gap_only_in) equal to the allocating ones; a
+    degenerate facet falls back to the Newton iteration and stays finite."""
+    from dolfinx_mortar.kernels.gap import gap_only_in, project_in, unit_normal_in, work
+
+    rng = np.random.default_rng(11)
+    w = work(ftype)
+    k = tdim(ftype)
+    for target in (np.full(k, 0.3), np.full(k, 1.4), np.full(k, -0.6)):
+        xm, sign = make_facet(ftype, rng, amp=0.2)
+        x1 = slave_point(ftype, xm, sign, rng.uniform(-0.5, 0.5), rng, zeta=target)
+        ok, z = nproject(x1, xm, ftype)
+        assert ok
+        np.testing.assert_allclose(z, ref.project(x1, xm, ftype, zeta0=target), atol=1e-12)
+        S, A = ref.surface(xm, ftype, z)
+        assert np.abs(A @ (x1 - S)).max() < 1e-13
+        z2 = np.empty(k)
+        assert project_in(x1, xm, ftype, np.full(k, np.nan), z2, TOL, MAXIT, w)
+        np.testing.assert_array_equal(z2, z)
+        nu, nu2 = np.empty(k + 1), np.empty(k + 1)
+        assert unit_normal(xm, ftype, sign, z, nu) == unit_normal_in(xm, ftype, sign, z, nu2, w)
+        np.testing.assert_array_equal(nu, nu2)
+        assert gap_only(x1, xm, ftype, sign, z) == gap_only_in(x1, xm, ftype, sign, z, w)
+        assert gap_only(x1, xm, ftype, sign, z) == pytest.approx(
+            float(ref.gap(x1, xm, ftype, sign, z)), abs=1e-13
+        )
+    degenerate = np.zeros((k + 1, k + 1))
+    degenerate[1:, 0] = np.arange(1, k + 1)  # all nodes on one line (k = 2) or one point
+    if k == 1:
+        degenerate[1] = degenerate[0]
+    ok, z = nproject(np.ones(k + 1), degenerate, ftype)
+    assert np.all(np.isfinite(z))

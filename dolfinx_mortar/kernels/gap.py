@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-from .shape import num_nodes, reference_centre, shape, tdim
+from .shape import INTERVAL1, TRIANGLE1, num_nodes, reference_centre, shape, tdim
 
 # line search parameters of the projection
 _ARMIJO_C = 1.0e-4
@@ -91,6 +91,28 @@ def _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS):
                 for a in range(n):
                     u += ddN[a, al, be] * xm[a, i]
                 SS[al, be, i] = u
+
+
+@numba.njit(cache=True)
+def _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS):
+    """:func:`_surface` where only S and A are needed: for affine facets (INTERVAL1,
+    TRIANGLE1) S and A alone, bitwise as :func:`_surface` computes them (N, dN, ddN and
+    SS are left as they were); otherwise :func:`_surface`."""
+    if not (ftype == INTERVAL1 or ftype == TRIANGLE1):
+        _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS)
+        return
+    d = xm.shape[1]
+    if ftype == INTERVAL1:
+        n0 = 1.0 - zeta[0]
+        for i in range(d):
+            S[i] = n0 * xm[0, i] + zeta[0] * xm[1, i]
+            A[0, i] = -xm[0, i] + xm[1, i]
+        return
+    n0 = 1.0 - zeta[0] - zeta[1]
+    for i in range(d):
+        S[i] = n0 * xm[0, i] + zeta[0] * xm[1, i] + zeta[1] * xm[2, i]
+        A[0, i] = -xm[0, i] + xm[1, i] + 0.0 * xm[2, i]
+        A[1, i] = -xm[0, i] + 0.0 * xm[1, i] + xm[2, i]
 
 
 @numba.njit(cache=True)
@@ -179,12 +201,22 @@ def project(x1, xm, ftype, zeta0, zeta_out, tol, maxit):
         values or divergence (|zeta| > 1e8). ``zeta_out`` always holds the last iterate.
     """
     _check_dims(xm, ftype)
+    return project_in(x1, xm, ftype, zeta0, zeta_out, tol, maxit, work(ftype))
+
+
+@numba.njit(cache=True)
+def work(ftype):
+    """Work arrays of :func:`project_in`, :func:`unit_normal_in` and :func:`gap_only_in`
+    for master facets of type ``ftype`` (d = tdim + 1), as one tuple (N, dN, ddN, S, A,
+    SS, nv, z, zt, p, r, H, G, Minv) of views into one allocation. Made once per kernel
+    call: carving the views costs more than the affine projection itself."""
     n = num_nodes(ftype)
     k = tdim(ftype)
-    d = xm.shape[1]
-    # one allocation, carved into the small work arrays
-    buf = np.empty(n * (1 + k + k * k) + d * (1 + k + k * k) + 4 * k + 3 * k * k)
+    d = k + 1
+    buf = np.empty(n * (1 + k + k * k) + d * (2 + k + k * k) + 4 * k + 3 * k * k)
     N, dN, ddN, S, A, SS, o = _carve_surface(buf, n, k, d)
+    nv = buf[o : o + d]
+    o += d
     z = buf[o : o + k]
     zt = buf[o + k : o + 2 * k]
     p = buf[o + 2 * k : o + 3 * k]
@@ -193,7 +225,60 @@ def project(x1, xm, ftype, zeta0, zeta_out, tol, maxit):
     H = buf[o : o + k * k].reshape((k, k))
     G = buf[o + k * k : o + 2 * k * k].reshape((k, k))
     Minv = buf[o + 2 * k * k : o + 3 * k * k].reshape((k, k))
+    return N, dN, ddN, S, A, SS, nv, z, zt, p, r, H, G, Minv
 
+
+@numba.njit(cache=True)
+def _project_affine(x1, xm, zeta_out):
+    r"""Closest-point projection onto an affine facet, S(ζ) = x_0 + Σ_α ζ_α a_α with
+    a_α = x_{α+1} − x_0 (INTERVAL1, TRIANGLE1; basix node order): the normal equations
+    :math:`m_{\alpha\beta}\,\zeta_\beta = a_\alpha\cdot(x_1 - x_0)` with the constant
+    metric m, solved in closed form (what Newton's first step from any start gives).
+    Returns False, ``zeta_out`` untouched, where m is singular by the test of
+    :func:`_is_spd` (a degenerate facet: the caller iterates)."""
+    d = xm.shape[1]
+    if xm.shape[0] == 2:
+        m00 = 0.0
+        r0 = 0.0
+        for i in range(d):
+            a0 = xm[1, i] - xm[0, i]
+            m00 += a0 * a0
+            r0 += a0 * (x1[i] - xm[0, i])
+        if not m00 > 0.0:
+            return False
+        zeta_out[0] = r0 / m00
+        return True
+    m00 = m01 = m11 = r0 = r1 = 0.0
+    for i in range(d):
+        a0 = xm[1, i] - xm[0, i]
+        a1 = xm[2, i] - xm[0, i]
+        e = x1[i] - xm[0, i]
+        m00 += a0 * a0
+        m01 += a0 * a1
+        m11 += a1 * a1
+        r0 += a0 * e
+        r1 += a1 * e
+    tr = m00 + m11
+    det = m00 * m11 - m01 * m01
+    if not (m00 > 1.0e-12 * tr and m11 > 1.0e-12 * tr and det > 1.0e-12 * tr * tr):
+        return False
+    zeta_out[0] = (m11 * r0 - m01 * r1) / det
+    zeta_out[1] = (m00 * r1 - m01 * r0) / det
+    return True
+
+
+@numba.njit(cache=True)
+def project_in(x1, xm, ftype, zeta0, zeta_out, tol, maxit, w):
+    """:func:`project` with the caller's work arrays ``w`` (:func:`work`; overwritten):
+    no allocation, for loops over many projections. xm's shape is not checked. Affine
+    facets (INTERVAL1, TRIANGLE1) take the closed form (:func:`_project_affine`), the
+    same point to round-off (it is Newton's first step: not with ``maxit`` = 0)."""
+    affine = ftype == INTERVAL1 or ftype == TRIANGLE1
+    if affine and maxit >= 1 and _project_affine(x1, xm, zeta_out):
+        return True
+    k = tdim(ftype)
+    d = xm.shape[1]
+    N, dN, ddN, S, A, SS, nv, z, zt, p, r, H, G, Minv = w
     use_centre = False
     for al in range(k):
         if math.isnan(zeta0[al]):
@@ -306,8 +391,16 @@ def unit_normal(xm, ftype, sign, zeta, nu):
 
     ``sign`` (+1 or -1) selects the orientation, see the module docstring.
     """
+    _check_dims(xm, ftype)
+    return unit_normal_in(xm, ftype, sign, zeta, nu, work(ftype))
+
+
+@numba.njit(cache=True)
+def unit_normal_in(xm, ftype, sign, zeta, nu, w):
+    """:func:`unit_normal` with the caller's work arrays (:func:`work`)."""
     d = xm.shape[1]
-    N, dN, ddN, S, A, SS = _surface_at(xm, ftype, zeta)
+    N, dN, ddN, S, A, SS = w[:6]
+    _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS)
     jn = _normal(A, sign, nu)
     for i in range(d):
         nu[i] /= jn
@@ -320,9 +413,16 @@ def gap_only(x1, xm, ftype, sign, zeta):
 
     Parameters as in :func:`gap_and_derivatives`; no derivatives are computed.
     """
+    _check_dims(xm, ftype)
+    return gap_only_in(x1, xm, ftype, sign, zeta, work(ftype))
+
+
+@numba.njit(cache=True)
+def gap_only_in(x1, xm, ftype, sign, zeta, w):
+    """:func:`gap_only` with the caller's work arrays (:func:`work`)."""
     d = xm.shape[1]
-    nv = np.empty(d)
-    N, dN, ddN, S, A, SS = _surface_at(xm, ftype, zeta)
+    N, dN, ddN, S, A, SS, nv = w[:7]
+    _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS)
     jn = _normal(A, sign, nv)
     g = 0.0
     for i in range(d):

@@ -40,7 +40,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .gap import gap_and_derivatives, gap_only, project, unit_normal
+from .gap import gap_and_derivatives, gap_only_in, project_in, unit_normal, unit_normal_in, work
 from .shape import clamp_to_reference, shape, tdim
 
 #: Newton iterations of the closest-point projection of a slave point
@@ -161,6 +161,7 @@ def pair_points(
     nm = xm.shape[1]
     Nm, dNm, ddNm = np.empty(nm), np.empty((nm, km)), np.empty((nm, km, km))
     zc, xa, xb = np.empty(km), np.empty(d), np.empty(d)
+    wm, ws = work(ftype_m), work(ftype_s)  # no allocation per point
     for f in range(nsf):
         for q in range(nq):
             qp_m[f, q] = -1
@@ -169,7 +170,7 @@ def pair_points(
                 continue
             xi = qp_xi[f, q]
             _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
-            unit_normal(xs[f], ftype_s, ssign[f], xi, nus)
+            unit_normal_in(xs[f], ftype_s, ssign[f], xi, nus, ws)
             # prefer facets containing the projection (closest |g|); failing that, the facet
             # whose projection lies least outside it (≤ OUTSIDE_TOL in ζ): a point near a
             # concave kink of the deformed master projects just outside both neighbours;
@@ -196,17 +197,17 @@ def pair_points(
                         dbox += e * e
                     if dbox > min(best_dist, reach[f]) ** 2:
                         continue
-                    project(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT))
+                    project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
                     if out > best_out or (sweep == 0 and out > OUTSIDE_TOL):
                         continue
-                    unit_normal(xm[m], ftype_m, msign[m], zeta, num)
+                    unit_normal_in(xm[m], ftype_m, msign[m], zeta, num, wm)
                     facing = 0.0
                     for c in range(d):
                         facing += nus[c] * num[c]
                     if facing >= 0.0:
                         continue
-                    g = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
+                    g = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
                     if g < -max_depth[f]:
                         continue
                     if out > OUTSIDE_TOL and (
@@ -247,6 +248,7 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
     x1 = np.empty(d)
     zeta = np.empty(km)
     z0 = np.full(km, np.nan)
+    wm = work(ftype_m)
     for f in range(nsf):
         for q in range(nq):
             m = qp_m[f, q]
@@ -254,8 +256,8 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
             if m < 0:
                 continue
             _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
-            project(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT))
-            qp_g[f, q] = gap_only(x1, xm[m], ftype_m, msign[m], zeta)
+            project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+            qp_g[f, q] = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
             for a in range(km):
                 qp_zeta[f, q, a] = zeta[a]
 
