@@ -6,8 +6,9 @@
 - :func:`exchange_master_facets`: each rank sends its master facets only to the
   ranks whose (inflated) slave bounding box they come near, with all-to-all
   messages of packed facets (:mod:`dolfinx_mortar.layout`).
-- :func:`candidates`: per slave facet, the master facets whose centroid lies
-  within reach (k-d tree, O(n log n)).
+- :func:`candidates`: per slave facet, the master facets whose bounding box meets
+  its inflated one (a compiled all-pairs test on small surfaces, k-d trees,
+  O(n log n), on large ones).
 - :class:`Fetcher`: current displacements of arbitrary global dofs (PETSc
   scatter from the global vector), rebuilt only when the set of dofs changes.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 from itertools import chain
 
+import numba
 import numpy as np
 from petsc4py import PETSc
 from scipy.spatial import cKDTree
@@ -98,24 +100,66 @@ def exchange_master_facets(
     return unpack(recv, local.ftype, local.nodes_per_facet, d)
 
 
+#: Surfaces with at most this many (slave facet, master facet) pairs on a rank are
+#: searched by testing every pair (:func:`_box_pairs`, about 2 ns a pair); larger ones
+#: by k-d trees, whose set-up costs about 1 ms even for 25 × 30 facets (the whole
+#: search of peers problem A level 1; 20 ms of its 0.16 s step).
+ALL_PAIRS_MAX = 4_000_000
+
+
+@numba.njit(cache=True)
+def _box_pairs(slo, shi, mlo, mhi, off):
+    """Every pair (f, m) whose boxes [slo[f], shi[f]] and [mlo[m], mhi[m]] ((n, d)
+    arrays) overlap: fills the offsets ``off`` (nsf + 1,) and returns the master
+    indices, ascending per f (the CSR of :func:`candidates`)."""
+    nsf, d = slo.shape
+    nmf = mlo.shape[0]
+    hit = np.zeros(nsf * nmf, np.bool_)
+    n = 0
+    for f in range(nsf):
+        off[f] = n
+        for m in range(nmf):
+            ok = True
+            for c in range(d):
+                if not (mhi[m, c] >= slo[f, c] and mlo[m, c] <= shi[f, c]):  # NaN: no
+                    ok = False
+                    break
+            if ok:
+                hit[f * nmf + m] = True
+                n += 1
+    off[nsf] = n
+    idx = np.empty(n, np.int64)
+    j = 0
+    for f in range(nsf):
+        for m in range(nmf):
+            if hit[f * nmf + m]:
+                idx[j] = m
+                j += 1
+    return idx
+
+
 def candidates(xs: np.ndarray, xm: np.ndarray, reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """CSR (offsets (nsf+1,), indices) of the master facets near each slave facet.
 
     A master facet is a candidate of slave facet f when their bounding boxes, the
-    slave's inflated by ``reach[f]``, overlap. Master facets are grouped in size
-    classes (radius within a factor 2) with one k-d tree each, so graded meshes
-    keep the cost O(n log n). xs (nsf, k, d), xm (nmf, k', d) facet node coordinates,
-    reach (nsf,); indices sorted within each slave facet. Local (not collective).
+    slave's inflated by ``reach[f]``, overlap. Up to :data:`ALL_PAIRS_MAX` pairs every
+    pair is tested; beyond, master facets are grouped in size classes (radius within a
+    factor 2) with one k-d tree each, so graded meshes keep the cost O(n log n). Both
+    give the same CSR. xs (nsf, k, d), xm (nmf, k', d) facet node coordinates, reach
+    (nsf,); indices sorted within each slave facet. Local (not collective).
     """
     nsf, nmf = xs.shape[0], xm.shape[0]
     if nsf == 0 or nmf == 0:
         return np.zeros(nsf + 1, np.int64), np.empty(0, np.int64)
+    slo, shi = xs.min(axis=1) - reach[:, None], xs.max(axis=1) + reach[:, None]
+    mlo, mhi = xm.min(axis=1), xm.max(axis=1)
+    if nsf * nmf <= ALL_PAIRS_MAX:
+        off = np.empty(nsf + 1, np.int64)
+        return off, _box_pairs(slo, shi, mlo, mhi, off)
     cs = xs.mean(axis=1)
     cm = xm.mean(axis=1)
     rs = np.linalg.norm(xs - cs[:, None, :], axis=2).max(axis=1)
     rm = np.linalg.norm(xm - cm[:, None, :], axis=2).max(axis=1)
-    slo, shi = xs.min(axis=1) - reach[:, None], xs.max(axis=1) + reach[:, None]
-    mlo, mhi = xm.min(axis=1), xm.max(axis=1)
     cls = np.floor(np.log2(np.maximum(rm, 1e-300) / rm.max())).astype(np.int64)
     fs, ms = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
     for c in np.unique(cls):

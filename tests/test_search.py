@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from dolfinx_mortar import search
 from dolfinx_mortar.search import candidates
 
 
@@ -13,11 +14,14 @@ def _brute_force(xs, xm, reach):
     return [np.flatnonzero(row) for row in hit]
 
 
+@pytest.mark.parametrize("all_pairs", [True, False])
 @pytest.mark.parametrize("d", [2, 3])
-def test_candidates_are_the_overlapping_boxes(d):
+def test_candidates_are_the_overlapping_boxes(d, all_pairs, monkeypatch):
     """Random facets of graded sizes (a factor 100, so several k-d trees), reach up to a
     facet size: the CSR result is exactly the set of master facets whose box meets the
-    slave facet's inflated box, sorted per slave facet."""
+    slave facet's inflated box, sorted per slave facet; by the all-pairs test and by the
+    k-d trees (search.ALL_PAIRS_MAX)."""
+    monkeypatch.setattr(search, "ALL_PAIRS_MAX", 10**9 if all_pairs else 0)
     rng = np.random.default_rng(7)
     k = d  # nodes per facet (segments in 2D, triangles in 3D)
 
@@ -37,6 +41,11 @@ def test_candidates_are_the_overlapping_boxes(d):
 
 
 def test_no_facets():
+    """Empty surfaces give empty CSRs; a box with a NaN coordinate meets none."""
+    nan = np.zeros((2, 2, 2))
+    nan[0, 0, 0] = np.nan
+    off, idx = candidates(nan, np.zeros((3, 2, 2)), np.zeros(2))
+    assert off.tolist() == [0, 0, 3] and idx.tolist() == [0, 1, 2]
     off, idx = candidates(np.empty((0, 2, 2)), np.zeros((3, 2, 2)), np.empty(0))
     assert off.tolist() == [0] and idx.size == 0
     off, idx = candidates(np.zeros((2, 2, 2)), np.empty((0, 2, 2)), np.zeros(2))
