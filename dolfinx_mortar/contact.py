@@ -663,6 +663,10 @@ class MortarContact:
         self.master = None
         self._u_exchange = None
         self._exchanges = 0
+        #: (inputs, result) of the last :meth:`block_couplings`: its inputs are replaced,
+        #: never changed in place, and mostly the same between Newton solves
+        self._couplings_memo = None
+        self._no_couplings = (np.empty(0, np.int64), np.empty(0, np.int64))
         log.info(
             "contact %s: %d slave nodes, penalty %s in [%.4g, %.4g] (E* = %.4g), %s recovery, %s integration",
             self.name,
@@ -874,6 +878,7 @@ class MortarContact:
         self._u_exchange = None
         self._learned = np.empty(0, np.int64)
         self._learned_t = np.empty(0, np.int64)
+        self._couplings_memo = None
 
     def step_limit(self, trial: PETSc.Vec, depth: float) -> float:
         """The largest fraction λ ∈ (0, 1] of the Newton step from the current state to the
@@ -2152,11 +2157,26 @@ class MortarContact:
             self.update(self.problem.u)
         nsf = self.slave.num_facets
         if nsf == 0 or self.node_blocks.size == 0:
-            return np.empty(0, np.int64), np.empty(0, np.int64)
+            return self._no_couplings
         # blocks seen by each slave facet: its own nodes and its candidates' nodes
         cand_sets = [(self.cand_off, self.cand)]
         if self.frictional:
             cand_sets.append(self.hist_cand)  # the t_n masters of the slip
+        inputs = [a for pair in cand_sets for a in pair] + [self._learned, self._learned_t]
+        memo = self._couplings_memo
+        if (
+            memo is not None
+            and memo[0][0] == self._exchanges
+            and len(memo[0]) == len(inputs) + 1
+            and all(np.array_equal(a, b) for a, b in zip(memo[0][1:], inputs, strict=True))
+        ):
+            return memo[1]
+        result = self._block_couplings(nsf, cand_sets)
+        self._couplings_memo = ([self._exchanges, *inputs], result)
+        return result
+
+    def _block_couplings(self, nsf, cand_sets) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`block_couplings` computed (local)."""
         fac = [np.repeat(np.arange(nsf), self.slave.nodes_per_facet)]
         blk = [self.slave.blocks.ravel()]
         for off, cand in cand_sets:

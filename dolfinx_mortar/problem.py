@@ -129,6 +129,8 @@ class ContactProblem:
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
+        #: the terms' block_couplings() and the (rows, cols, keys) made of them last time
+        self._couplings_last = None
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
 
@@ -302,14 +304,17 @@ class ContactProblem:
     # ---------------------------------------------------------------- matrix
     def _contact_couplings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rows, cols, sorted unique keys) of the global block couplings of all contact terms."""
-        rows, cols = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
-        for term in self.contacts:
-            r, c = term.block_couplings()
-            rows.append(r)
-            cols.append(c)
-        r, c = np.concatenate(rows), np.concatenate(cols)
+        parts = [term.block_couplings() for term in self.contacts]
+        last = self._couplings_last
+        if last is not None and len(last[0]) == len(parts):
+            if all(a is b for a, b in zip(last[0], parts, strict=True)):
+                return last[1]  # the terms' memos: the same couplings as last time
+        r = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
+        c = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
         n = self.V.dofmap.index_map.size_global
-        return r, c, np.unique(r * n + c)
+        result = r, c, np.unique(r * n + c)
+        self._couplings_last = parts, result
+        return result
 
     def create_matrix(self) -> PETSc.Mat:
         """A new Jacobian matrix whose pattern covers the bulk and every contact coupling
@@ -326,7 +331,10 @@ class ContactProblem:
         if self._pattern_keys is None:
             return True
         _, _, keys = self._contact_couplings()
-        local = not np.isin(keys, self._pattern_keys, assume_unique=True).all()
+        # the very couplings the matrix was made for (the terms' memos): nothing to check
+        local = keys is not self._pattern_keys and not (
+            np.isin(keys, self._pattern_keys, assume_unique=True).all()
+        )
         return bool(self.comm.allreduce(int(local), op=MPI.MAX))
 
     # ---------------------------------------------------------------- steps

@@ -522,3 +522,40 @@ def test_the_held_contact_set_keeps_nodes_in_tension_until_the_recheck(monkeypat
     term.begin_solve()
     term.update(problem.u)
     assert np.all(term.p[opened] == 0.0) and np.all(term.kcoef[opened] == 0.0)
+
+
+@pytest.mark.mpi
+def test_block_couplings_are_remembered_until_their_inputs_change():
+    """``MortarContact.block_couplings`` returns its last result, the same object, while
+    the candidates, the master layer and the learned couplings are those it was computed
+    from (every Newton solve asks, to check the matrix pattern), and computes afresh, the
+    same as without the memo, once they change; ``pattern_outdated`` is then False for the
+    matrix made from them without comparing keys (1–3 ranks)."""
+    comm = MPI.COMM_WORLD
+
+    def everywhere(flag):  # local checks decided together: no rank leaves a collective
+        return comm.allreduce(int(bool(flag)), op=MPI.MIN) == 1
+
+    problem = _problem("hertz2d-P1")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, "cylinder")
+    term.update(problem.u)
+    first = term.block_couplings()
+    assert everywhere(term.block_couplings() is first)
+    term.update(problem.u)  # new candidate arrays, the same values
+    assert everywhere(term.block_couplings() is first)
+    A = problem.create_matrix()
+    assert not problem.pattern_outdated()
+    _set_state(problem, 0.4, "cylinder")  # deeper: other candidates
+    term.update(problem.u)
+    now = term.block_couplings()
+    has = term.slave.num_facets > 0 and term.node_blocks.size > 0
+    assert comm.allreduce(int(now is not first), op=MPI.MAX) == 1
+    if has:
+        fresh = term._block_couplings(term.slave.num_facets, [(term.cand_off, term.cand)])
+    same = not has or all(np.array_equal(a, b) for a, b in zip(now, fresh, strict=True))
+    assert everywhere(same)
+    keys = problem._contact_couplings()[2]
+    missing = comm.allreduce(int(not np.isin(keys, problem._pattern_keys).all()), op=MPI.MAX)
+    assert missing == 1 and problem.pattern_outdated()
+    A.destroy()
