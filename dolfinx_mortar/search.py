@@ -7,20 +7,16 @@
   ranks whose (inflated) slave bounding box they come near, with all-to-all
   messages of packed facets (:mod:`dolfinx_mortar.layout`).
 - :func:`candidates`: per slave facet, the master facets whose bounding box meets
-  its inflated one (a compiled all-pairs test on small surfaces, k-d trees,
-  O(n log n), on large ones).
+  its inflated one (compiled sweeps along one axis, one per size class).
 - :class:`Fetcher`: current displacements of arbitrary global dofs (PETSc
   scatter from the global vector), rebuilt only when the set of dofs changes.
 """
 
 from __future__ import annotations
 
-from itertools import chain
-
 import numba
 import numpy as np
 from petsc4py import PETSc
-from scipy.spatial import cKDTree
 
 from .layout import FacetArrays, pack, record_width, unpack
 
@@ -100,41 +96,86 @@ def exchange_master_facets(
     return unpack(recv, local.ftype, local.nodes_per_facet, d)
 
 
-#: Surfaces with at most this many (slave facet, master facet) pairs on a rank are
-#: searched by testing every pair (:func:`_box_pairs`, about 2 ns a pair); larger ones
-#: by k-d trees, whose set-up costs about 1 ms even for 25 × 30 facets (the whole
-#: search of peers problem A level 1; 20 ms of its 0.16 s step).
-ALL_PAIRS_MAX = 4_000_000
+#: size classes of :func:`_box_sweep`: master extents within a factor 2 share one
+MAX_CLASSES = 32
 
 
 @numba.njit(cache=True)
-def _box_pairs(slo, shi, mlo, mhi, off):
+def _box_sweep(slo, shi, mlo, mhi, off):
     """Every pair (f, m) whose boxes [slo[f], shi[f]] and [mlo[m], mhi[m]] ((n, d)
-    arrays) overlap: fills the offsets ``off`` (nsf + 1,) and returns the master
-    indices, ascending per f (the CSR of :func:`candidates`)."""
+    arrays) overlap, by sweeps along the axis where the master boxes spread most.
+
+    The master boxes are grouped in size classes (extent along the axis within a factor
+    2 of each other, so graded meshes keep narrow windows) and sorted by their lower end
+    within each class; a slave box tests only the masters of a class whose lower end
+    lies in [slo − the class's largest extent, shi]. Fills the offsets ``off`` (nsf + 1,)
+    and returns the master indices, ascending per f (the CSR of :func:`candidates`). A
+    box with a NaN coordinate meets none."""
     nsf, d = slo.shape
     nmf = mlo.shape[0]
-    hit = np.zeros(nsf * nmf, np.bool_)
-    n = 0
-    for f in range(nsf):
-        off[f] = n
+    axis = 0
+    spread = -1.0
+    for c in range(d):
+        lo, hi = np.inf, -np.inf
         for m in range(nmf):
-            ok = True
-            for c in range(d):
-                if not (mhi[m, c] >= slo[f, c] and mlo[m, c] <= shi[f, c]):  # NaN: no
-                    ok = False
-                    break
-            if ok:
-                hit[f * nmf + m] = True
-                n += 1
-    off[nsf] = n
-    idx = np.empty(n, np.int64)
-    j = 0
-    for f in range(nsf):
-        for m in range(nmf):
-            if hit[f * nmf + m]:
-                idx[j] = m
-                j += 1
+            lo = min(lo, mlo[m, c])
+            hi = max(hi, mhi[m, c])
+        if hi - lo > spread:
+            spread, axis = hi - lo, c
+    ext = mhi[:, axis] - mlo[:, axis]
+    emax = 0.0
+    for m in range(nmf):
+        if ext[m] > emax:  # NaN: no
+            emax = ext[m]
+    cls = np.zeros(nmf, np.int64)
+    for m in range(nmf):
+        if ext[m] > 0.0 and emax > 0.0:
+            cls[m] = min(MAX_CLASSES - 1, int(np.floor(np.log2(emax / ext[m]))))
+    # masters by class, then by lower end (NaN last): a stable counting sort of the order
+    by_lo = np.argsort(mlo[:, axis])
+    coff = np.zeros(MAX_CLASSES + 1, np.int64)
+    for m in range(nmf):
+        coff[cls[m] + 1] += 1
+    for k in range(MAX_CLASSES):
+        coff[k + 1] += coff[k]
+    fill = coff[:-1].copy()
+    order = np.empty(nmf, np.int64)
+    for j in range(nmf):
+        m = by_lo[j]
+        order[fill[cls[m]]] = m
+        fill[cls[m]] += 1
+    keys = mlo[order, axis]
+    blo, bhi = mlo[order], mhi[order]  # the boxes in sweep order: contiguous reads
+    cext = np.zeros(MAX_CLASSES)
+    for m in range(nmf):
+        if ext[m] > cext[cls[m]]:
+            cext[cls[m]] = ext[m]
+    idx = np.empty(0, np.int64)
+    for sweep in range(2):  # count, then fill
+        n = 0
+        for f in range(nsf):
+            off[f] = n
+            for k in range(MAX_CLASSES):
+                c0, c1 = coff[k], coff[k + 1]
+                if c1 == c0:
+                    continue
+                a = c0 + np.searchsorted(keys[c0:c1], slo[f, axis] - cext[k])
+                b = c0 + np.searchsorted(keys[c0:c1], shi[f, axis], side="right")
+                for j in range(a, b):
+                    ok = True
+                    for c in range(d):
+                        if not (bhi[j, c] >= slo[f, c] and blo[j, c] <= shi[f, c]):  # NaN: no
+                            ok = False
+                            break
+                    if ok:
+                        if sweep == 1:
+                            idx[n] = order[j]
+                        n += 1
+            if sweep == 1:
+                idx[off[f] : n].sort()
+        off[nsf] = n
+        if sweep == 0:
+            idx = np.empty(n, np.int64)
     return idx
 
 
@@ -142,44 +183,18 @@ def candidates(xs: np.ndarray, xm: np.ndarray, reach: np.ndarray) -> tuple[np.nd
     """CSR (offsets (nsf+1,), indices) of the master facets near each slave facet.
 
     A master facet is a candidate of slave facet f when their bounding boxes, the
-    slave's inflated by ``reach[f]``, overlap. Up to :data:`ALL_PAIRS_MAX` pairs every
-    pair is tested; beyond, master facets are grouped in size classes (radius within a
-    factor 2) with one k-d tree each, so graded meshes keep the cost O(n log n). Both
-    give the same CSR. xs (nsf, k, d), xm (nmf, k', d) facet node coordinates, reach
-    (nsf,); indices sorted within each slave facet. Local (not collective).
+    slave's inflated by ``reach[f]``, overlap (:func:`_box_sweep`: compiled sweeps per
+    size class of master facets). xs (nsf, k, d), xm (nmf, k', d)
+    facet node coordinates, reach (nsf,); indices sorted within each slave facet. Local
+    (not collective).
     """
     nsf, nmf = xs.shape[0], xm.shape[0]
     if nsf == 0 or nmf == 0:
         return np.zeros(nsf + 1, np.int64), np.empty(0, np.int64)
     slo, shi = xs.min(axis=1) - reach[:, None], xs.max(axis=1) + reach[:, None]
     mlo, mhi = xm.min(axis=1), xm.max(axis=1)
-    if nsf * nmf <= ALL_PAIRS_MAX:
-        off = np.empty(nsf + 1, np.int64)
-        return off, _box_pairs(slo, shi, mlo, mhi, off)
-    cs = xs.mean(axis=1)
-    cm = xm.mean(axis=1)
-    rs = np.linalg.norm(xs - cs[:, None, :], axis=2).max(axis=1)
-    rm = np.linalg.norm(xm - cm[:, None, :], axis=2).max(axis=1)
-    cls = np.floor(np.log2(np.maximum(rm, 1e-300) / rm.max())).astype(np.int64)
-    fs, ms = [np.empty(0, np.int64)], [np.empty(0, np.int64)]
-    for c in np.unique(cls):
-        members = np.flatnonzero(cls == c)
-        tree = cKDTree(cm[members])
-        # boxes that overlap have centres within sqrt(d) (rs + reach + rm): the ball
-        # query finds all of them, the box test keeps the overlapping ones
-        radius = np.sqrt(xs.shape[2]) * (rs + reach + rm[members].max())
-        lists = tree.query_ball_point(cs, radius, return_sorted=False)
-        lens = np.fromiter(map(len, lists), np.int64, count=nsf)
-        f = np.repeat(np.arange(nsf, dtype=np.int64), lens)
-        m = members[np.fromiter(chain.from_iterable(lists), np.int64, count=int(lens.sum()))]
-        ok = np.all((mhi[m] >= slo[f]) & (mlo[m] <= shi[f]), axis=1)
-        fs.append(f[ok])
-        ms.append(m[ok])
-    f, m = np.concatenate(fs), np.concatenate(ms)
-    order = np.lexsort((m, f))  # by slave facet, then master facet
-    off = np.zeros(nsf + 1, np.int64)
-    np.cumsum(np.bincount(f, minlength=nsf), out=off[1:])
-    return off, m[order]
+    off = np.empty(nsf + 1, np.int64)
+    return off, _box_sweep(slo, shi, mlo, mhi, off)
 
 
 class Fetcher:

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from dolfinx_mortar import search
 from dolfinx_mortar.search import candidates
 
 
@@ -14,14 +13,12 @@ def _brute_force(xs, xm, reach):
     return [np.flatnonzero(row) for row in hit]
 
 
-@pytest.mark.parametrize("all_pairs", [True, False])
 @pytest.mark.parametrize("d", [2, 3])
-def test_candidates_are_the_overlapping_boxes(d, all_pairs, monkeypatch):
-    """Random facets of graded sizes (a factor 100, so several k-d trees), reach up to a
-    facet size: the CSR result is exactly the set of master facets whose box meets the
-    slave facet's inflated box, sorted per slave facet; by the all-pairs test and by the
-    k-d trees (search.ALL_PAIRS_MAX)."""
-    monkeypatch.setattr(search, "ALL_PAIRS_MAX", 10**9 if all_pairs else 0)
+def test_candidates_are_the_overlapping_boxes(d):
+    """Random facets of graded sizes (a factor 100: the sweep's window is as wide as the
+    largest master box), reach up to a facet size: the CSR result is exactly the set of
+    master facets whose box meets the slave facet's inflated box, sorted per slave
+    facet."""
     rng = np.random.default_rng(7)
     k = d  # nodes per facet (segments in 2D, triangles in 3D)
 
