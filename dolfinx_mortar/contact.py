@@ -719,6 +719,7 @@ class MortarContact:
         self.frames = fr.NodalFrames(
             self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
         )
+        self._frame_dA = None
         # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets
         # of finite t_facet_area (docs/method-notes.md, "Dual tangential weights"); node
         # integration keeps Φ (its points are the nodes)
@@ -1139,7 +1140,17 @@ class MortarContact:
         self.s_node, self.s_key, self.s_dof = en[first], ek[first], e_dof[order][first]
         self.s_w = np.add.reduceat(e_w[order], first) if ne else np.empty(0)
         self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
-        self.frame_a, self.frame_n, self.frame_dA = self.frames.compute(self.xs)
+        self.frame_a, self.frame_n, _ = self.frames.compute(self.xs, derivatives=False)
+        self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
+
+    @property
+    def frame_dA(self) -> np.ndarray:
+        """∂a_α/∂x of the nodal frames at the current state, (P, ns, m, d, d)
+        (``friction.NodalFrames.compute``): computed on the first request after each
+        update, as only Jacobians need it (local)."""
+        if self._frame_dA is None:
+            self._frame_dA = self.frames.compute(self.xs)[2]
+        return self._frame_dA
 
     def _segment_points(self) -> None:
         from .kernels.segment import segment_points

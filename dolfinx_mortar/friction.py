@@ -106,18 +106,19 @@ class NodalFrames:
             proj = np.einsum("pkc,pc->pk", contra, E[self.pair_node])
             self.coef = np.einsum("pbk,pk->pb", self.dN, proj)  # e = Σ_p Σ_b coef x_b
 
-    def compute(self, xs: np.ndarray):
+    def compute(self, xs: np.ndarray, derivatives: bool = True):
         """Frames at the current slave coordinates xs (nsf, ns, d).
 
         Returns a (n, m, d) tangent vectors, nrm (n, d) outward unit normals and the
         derivatives dA (P, ns, m, d, d): ∂a_α,c / ∂x_{f_p, b, c'} (zero rows for nodes
-        without facets).
+        without facets), or None without ``derivatives`` (most of the cost; only
+        Jacobians need them).
         """
         d, m, n = self.d, self.m, self.n
         P, ns = self.dN.shape[0], self.dN.shape[1]
         a = np.zeros((n, m, d))
         nrm = np.zeros((n, d))
-        dA = np.zeros((P, ns, m, d, d))
+        dA = np.zeros((P, ns, m, d, d)) if derivatives else None
         if P == 0:
             return a, nrm, dA
         x = xs[self.pair_f]  # (P, ns, d)
@@ -129,6 +130,8 @@ class NodalFrames:
             a1, lt = _unit(tt)
             a[:, 0] = a1
             nrm[:, 0], nrm[:, 1] = a1[:, 1], -a1[:, 0]
+            if not derivatives:
+                return a, nrm, dA
             Q = (eye - np.einsum("ni,nj->nij", a1, a1)) / np.maximum(lt, 1e-300)[:, None, None]
             dA[:, :, 0] = (self.sign[:, None] * self.dN[:, :, 0])[:, :, None, None] * Q[
                 self.pair_node
@@ -144,6 +147,8 @@ class NodalFrames:
         a1, lv = _unit(v)
         a2 = np.cross(nv, a1)
         a[:, 0], a[:, 1], nrm[:] = a1, a2, nv
+        if not derivatives:
+            return a, nrm, dA
         # derivatives per occurrence p and facet node b
         q = self.pair_node
         Pn = (eye - np.einsum("ni,nj->nij", nv, nv)) / np.maximum(ln, 1e-300)[:, None, None]

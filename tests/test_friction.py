@@ -152,6 +152,10 @@ def test_nodal_frames(case):
     frames = term.frames
     xs = term.slave.X + 0.01 * np.sin(3 * term.slave.X)
     a, nrm, dA = frames.compute(xs)
+    a0, nrm0, none = frames.compute(xs, derivatives=False)  # what a residual evaluation uses
+    assert none is None
+    np.testing.assert_array_equal(a0, a)
+    np.testing.assert_array_equal(nrm0, nrm)
     d = problem.gdim
     has = np.diff(frames.pair_off) > 0
     # orthonormal, tangent, outward normal (the reference normal of the slave facets)
