@@ -285,7 +285,10 @@ def resolve_acceleration(
     peers problem B 7 + 4 / 8 + 6 / 9 + 10 (normal + tangential step) instead of 11 + 17
     / 12 + 25 / 13 + 24. Why not with friction in 3D: there the finite-difference
     products cost a 3D contact search each, and the coarse twist3d path took 97 s
-    instead of 71 s for 98 Newton iterations instead of 107."""
+    instead of 71 s for 98 Newton iterations instead of 107. Since session 22's cheaper
+    search the margin is small (BENCHMARKS §15): that path 48 s against 45 s on 2 ranks,
+    ironing3d 88 s against 80 s (279 Newton iterations against 345, at most 21 per step
+    against 19)."""
     if method != "auto":
         return method
     if not exact_update_applies(friction, recovery, tangential_recovery):
