@@ -95,24 +95,22 @@ def _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS):
 
 @numba.njit(cache=True)
 def _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS):
-    """:func:`_surface` where only S and A are needed: for affine facets (INTERVAL1,
-    TRIANGLE1) S and A alone, bitwise as :func:`_surface` computes them (N, dN, ddN and
-    SS are left as they were); otherwise :func:`_surface`."""
-    if not (ftype == INTERVAL1 or ftype == TRIANGLE1):
-        _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS)
-        return
+    """:func:`_surface` where only S and A are needed: the same loops without the second
+    derivatives SS (left as they were), so S and A are bitwise :func:`_surface`'s."""
+    shape(ftype, zeta, N, dN, ddN)
+    n = xm.shape[0]
     d = xm.shape[1]
-    if ftype == INTERVAL1:
-        n0 = 1.0 - zeta[0]
-        for i in range(d):
-            S[i] = n0 * xm[0, i] + zeta[0] * xm[1, i]
-            A[0, i] = -xm[0, i] + xm[1, i]
-        return
-    n0 = 1.0 - zeta[0] - zeta[1]
+    k = A.shape[0]
     for i in range(d):
-        S[i] = n0 * xm[0, i] + zeta[0] * xm[1, i] + zeta[1] * xm[2, i]
-        A[0, i] = -xm[0, i] + xm[1, i] + 0.0 * xm[2, i]
-        A[1, i] = -xm[0, i] + 0.0 * xm[1, i] + xm[2, i]
+        s = 0.0
+        for a in range(n):
+            s += N[a] * xm[a, i]
+        S[i] = s
+        for al in range(k):
+            t = 0.0
+            for a in range(n):
+                t += dN[a, al] * xm[a, i]
+            A[al, i] = t
 
 
 @numba.njit(cache=True)
