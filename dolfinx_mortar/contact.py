@@ -2302,9 +2302,9 @@ class MortarContact:
             info["pinned_points"] = n_pinned
             info["pinned_outside"] = comm.allreduce(float(outside.max(initial=0.0)), op=MPI.MAX)
             # points that switched back and converged at their pinned facet's edge
-            keep = np.zeros_like(pinned)
-            keep[pinned] = outside <= PIN_CARRY_TOL
-            keep &= self.qp_flip
+            near = np.zeros_like(pinned)
+            near[pinned] = outside <= PIN_CARRY_TOL
+            keep = pinned & near & self.qp_flip
             if comm.allreduce(int(keep.any()), op=MPI.MAX):
                 self._carried_pins = np.where(keep, self.qp_pinned, -1)
                 info["carried_pins"] = comm.allreduce(int(keep.sum()))
