@@ -25,6 +25,9 @@ from __future__ import annotations
 import ufl
 
 MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
+#: the laws whose residual is linear in u (a bulk of these alone is assembled once:
+#: problem.LinearBulk)
+LINEAR_MODELS = ("linear-elastic",)
 
 
 def lame(E: float, nu: float) -> tuple[float, float]:

@@ -35,7 +35,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .assembly import MatrixPattern, RecordedValues
-from .bulk import internal_residual
+from .bulk import LINEAR_MODELS, internal_residual
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +54,75 @@ class _Dirichlet:
     constants: list
     bcs: list
     dofs_by_component: list  # owned local dofs of the boundary, per component (all gdim components)
+
+
+class LinearBulk:
+    """The bulk of a problem whose every region is linear-elastic (local construction,
+    collective assembly).
+
+    The bulk residual is then linear in u: R_bulk(x) = K₀ x + f(t), with K₀ = ∂R_bulk/∂u
+    constant and f(t) = R_bulk(0) the prescribed tractions' part (−∫ t̄·v dA). K₀, and the
+    Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero and a unit
+    diagonal there, as dolfinx assembles it), are assembled on first use; f(t) when the
+    time has changed (:meth:`loads_changed`). A residual is then one product and a
+    Jacobian's bulk one CSR insertion instead of a finite element assembly each: the
+    same values to round-off. Owns K₀, f and a work vector (freed with it); K_D is kept
+    as the CSR arrays of its owned rows only.
+    """
+
+    def __init__(self, J_form, load_form):
+        self._J_form = J_form
+        self._load_form = load_form
+        self._bcs = []
+        self._K0 = None
+        self._KD_csr = None  # (row offsets, global columns, values) of K_D's owned rows
+        self._f = None
+        self._f_current = False
+        self._x = None  # x with the prescribed values on constrained dofs
+
+    def set_bcs(self, bcs) -> None:
+        """The Dirichlet conditions (their dofs; values are read at each residual)."""
+        self._bcs = list(bcs)
+        self._KD_csr = None
+
+    def loads_changed(self) -> None:
+        """The traction values changed (a new time): f is assembled again at next use."""
+        self._f_current = False
+
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool) -> None:
+        """b = K₀ x̃ + f(t) (collective; owned entries). With ``apply_bcs`` x̃ is x with the
+        prescribed values ū on constrained dofs: this equals dolfinx's assembly of R(x)
+        followed by the lifting b += K₀[:, D](ū − x)_D; without, x̃ = x."""
+        if self._K0 is None:
+            self._K0 = assemble_matrix(self._J_form)
+            self._K0.assemble()
+            self._x = self._K0.createVecRight()
+        if apply_bcs:
+            x.copy(self._x)
+            set_bc(self._x, self._bcs)
+            x = self._x
+        self._K0.mult(x, b)
+        if self._load_form is not None:
+            if not self._f_current:
+                if self._f is None:
+                    self._f = create_vector(self._load_form)
+                with self._f.localForm() as fl:
+                    fl.set(0.0)
+                assemble_vector(self._f, self._load_form)
+                self._f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                self._f_current = True
+            b.axpy(1.0, self._f)
+
+    def add_jacobian(self, A: PETSc.Mat) -> None:
+        """A += K_D on the owned rows (collective on first use: K_D is assembled then); A
+        is left unassembled for the caller, so the slots of its pattern that K_D does not
+        fill are kept (:meth:`~dolfinx_mortar.assembly.MatrixPattern.create`)."""
+        if self._KD_csr is None:
+            KD = assemble_matrix(self._J_form, self._bcs)
+            KD.assemble()
+            self._KD_csr = KD.getValuesCSR()
+            KD.destroy()
+        A.setValuesCSR(*self._KD_csr, addv=PETSc.InsertMode.ADD_VALUES)
 
 
 class ContactProblem:
@@ -89,12 +158,20 @@ class ContactProblem:
         F = internal_residual(self.u, v, regions, mesh_data.cell_tags, simplex)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=mesh_data.facet_tags)
         self._tractions = []
+        loads = 0
         for name, path in tractions:
             c = fem.Constant(mesh, np.zeros(gdim, dtype=PETSc.ScalarType))
-            F -= ufl.inner(c, v) * ds(mesh_data.facet_groups[name])
+            loads -= ufl.inner(c, v) * ds(mesh_data.facet_groups[name])
             self._tractions.append((name, np.asarray(path, float), c))
-        self.F_form = compat.create_form(F)
+        self.F_form = compat.create_form(F + loads)
         self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
+        #: every region linear-elastic: the bulk residual is linear in u and is evaluated
+        #: as K₀ x + f(t) with K₀ assembled once (:class:`LinearBulk`); None otherwise
+        self.linear_bulk = None
+        if all(model in LINEAR_MODELS for _, model, _, _ in materials):
+            self.linear_bulk = LinearBulk(
+                self.J_form, compat.create_form(loads) if self._tractions else None
+            )
         fdim = mesh.topology.dim - 1
         mesh.topology.create_connectivity(fdim, mesh.topology.dim)
         nowned = compat.owned_dof_count(self.V)
@@ -136,6 +213,8 @@ class ContactProblem:
 
     def _collect_bcs(self) -> None:
         self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        if self.linear_bulk is not None:
+            self.linear_bulk.set_bcs(self.bcs)
         # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
         # negative indices, so contact terms never touch constrained rows or columns)
         gdofs = self.global_dofs_all.copy()
@@ -200,6 +279,8 @@ class ContactProblem:
         self._set_fields(t)
         for _, path, const in self._tractions:
             const.value = interpolate_path(path, t)
+        if self.linear_bulk is not None:
+            self.linear_bulk.loads_changed()
 
     def load_values(self, t: float) -> np.ndarray:
         """The prescribed data of time ``t``: the values of every Dirichlet path (not of
@@ -244,12 +325,15 @@ class ContactProblem:
         """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
         dofs hold x − ū (scaled as in dolfinx) instead of the residual."""
         t0 = perf_counter()
-        with b.localForm() as bl:
-            bl.set(0.0)
-        assemble_vector(b, self.F_form)
-        if apply_bcs:
-            apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.linear_bulk is not None:
+            self.linear_bulk.residual(x, b, apply_bcs)
+        else:
+            with b.localForm() as bl:
+                bl.set(0.0)
+            assemble_vector(b, self.F_form)
+            if apply_bcs:
+                apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.timings["bulk_assembly"] += perf_counter() - t0
         t0 = perf_counter()
         for term in self.contacts:
@@ -296,7 +380,10 @@ class ContactProblem:
         """A = the bulk Jacobian with the Dirichlet rows (collective; flush-assembled)."""
         t0 = perf_counter()
         A.zeroEntries()
-        assemble_matrix(A, self.J_form, self.bcs)
+        if self.linear_bulk is not None:
+            self.linear_bulk.add_jacobian(A)
+        else:
+            assemble_matrix(A, self.J_form, self.bcs)
         A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
         A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
         self.timings["bulk_assembly"] += perf_counter() - t0

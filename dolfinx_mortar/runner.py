@@ -73,6 +73,8 @@ def modelled(scene: Scene, problem) -> dict:
         "dimension": problem.gdim,
         "kinematics": scene.kinematics,
         "materials": {m.region: m.model for m in scene.materials},
+        # linear: every region linear-elastic, stiffness assembled once (problem.LinearBulk)
+        "bulk": "linear" if problem.linear_bulk is not None else "nonlinear",
         "displacement_degree": problem.degree,
         "cell_type": problem.mesh_data.info.get("cell_type"),
         "contact_pairs": {c.name: c.describe() for c in problem.contacts},

@@ -16,7 +16,9 @@ from dolfinx_mortar.scene import parse_scene
 E, NU = 200.0, 0.3
 
 
-def _scene(msh, dim, model, kinematics, right_ux, out):
+def _table(msh, dim, model, kinematics, right_ux) -> dict:
+    """A block with the left, bottom (and back) faces on rollers and the right end pulled
+    by ``right_ux`` over two steps, as a scene table."""
     fixed = [
         {"boundary": "left", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
         {"boundary": "bottom", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
@@ -24,14 +26,18 @@ def _scene(msh, dim, model, kinematics, right_ux, out):
     ]
     if dim == 3:
         fixed.append({"boundary": "back", "components": [2], "path": [[0.0, 0.0], [1.0, 0.0]]})
-    data = {
+    return {
         "kinematics": kinematics,
         "mesh": {"file": str(msh)},
         "material": [{"region": "body", "model": model, "E": E, "nu": NU}],
         "dirichlet": fixed,
         "steps": {"t_end": 1.0, "n": 2},
-        "output": {"dir": str(out), "fields": ["displacement"]},
     }
+
+
+def _scene(msh, dim, model, kinematics, right_ux, out):
+    data = _table(msh, dim, model, kinematics, right_ux)
+    data["output"] = {"dir": str(out), "fields": ["displacement"]}
     return parse_scene(data, msh.parent)
 
 
@@ -137,3 +143,48 @@ def test_solver_leaves_no_petsc_options(block_msh, shared_tmp):
     assert s["status"] == "ok"
     after = {k for k in opts.getAll() if k.startswith(prefix)}
     assert after == before
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim, quads", [(2, True), (2, False), (3, True)])
+def test_linear_bulk_equals_assembly(block_msh, dim, quads):
+    """A linear-elastic bulk is evaluated as K₀ x̃ + f(t) and its Jacobian inserted from
+    the stored K_D (problem.LinearBulk). At a state whose constrained dofs differ from
+    their prescribed values, under a traction, both equal dolfinx's assembly with the
+    lifting to round-off, and so do the reactions (residual without the conditions);
+    on 1–3 ranks."""
+    from dolfinx_mortar.problem import LinearBulk
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(dim, n=3, quads=quads)
+    data = _table(msh, dim, "linear-elastic", "small", 2e-3)
+    data["traction"] = [
+        {"boundary": "top", "path": [[0.0] + [0.0] * dim, [1.0, 0.5, -1.5, 0.2][: dim + 1]]}
+    ]
+    scene = parse_scene(data, msh.parent)
+    problem, _ = prepare(scene, MPI.COMM_WORLD)
+    assert isinstance(problem.linear_bulk, LinearBulk)
+    rng = np.random.default_rng(7 + MPI.COMM_WORLD.rank)
+    x = problem.u.vector.copy()
+    x.array[:] = 1e-3 * rng.standard_normal(x.array.size)
+    x.ghostUpdate()
+    problem.update_contact(x)  # u = x: the assembly evaluates the forms at u
+    got, ref = x.duplicate(), x.duplicate()
+    A_got, A_ref = problem.create_matrix(), problem.create_matrix()
+    for t in (0.5, 1.0):  # the loads follow the time
+        problem.set_time(t)
+        for apply_bcs in (True, False):
+            problem.residual(x, got, apply_bcs)
+            linear, problem.linear_bulk = problem.linear_bulk, None
+            problem.residual(x, ref, apply_bcs)
+            problem.linear_bulk = linear
+            assert ref.norm() > 1e-3
+            assert (got - ref).norm() <= 1e-12 * ref.norm()
+        problem.jacobian(x, A_got)
+        linear, problem.linear_bulk = problem.linear_bulk, None
+        problem.jacobian(x, A_ref)
+        problem.linear_bulk = linear
+        A_got.axpy(-1.0, A_ref)
+        assert A_got.norm() <= 1e-12 * A_ref.norm()
+    for obj in (x, got, ref, A_got, A_ref):
+        obj.destroy()
