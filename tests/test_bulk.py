@@ -57,6 +57,7 @@ def test_small_strain_uniaxial(block_msh, shared_tmp, dim, quads):
         MPI.COMM_WORLD,
     )
     assert s["status"] == "ok"
+    assert s["modelled"]["bulk"] == "linear"  # evaluated as K0 x + f (LinearBulk)
     Eeff, area = (E / (1 - NU**2), 1.0) if dim == 2 else (E, 1.0)
     expected = Eeff * delta / L * area
     assert _reaction_right(s) == pytest.approx(expected, rel=1e-8)
@@ -88,6 +89,7 @@ def test_neo_hookean_uniaxial_stretch(block_msh, shared_tmp, dim):
         MPI.COMM_WORLD,
     )
     assert s["status"] == "ok"
+    assert s["modelled"]["bulk"] == "nonlinear"
     assert _reaction_right(s) == pytest.approx(_neo_hooke_uniaxial(stretch, dim), rel=1e-8)
 
 
