@@ -2290,7 +2290,11 @@ class MortarContact:
             carry = (fstate.copy(), tau_law / norm[:, None])
         # the pinned points of the solve that ended (chattering control of the pairing), and
         # how far outside their pinned facet they converged (reference coordinates)
-        pinned = np.zeros(0, bool)
+        # A rank whose term has no pins (qp_pinned and qp_flip None: no slave facet, whose
+        # chattering control never starts) takes part in the collectives with empty masks
+        # of the pairing's shape: every array below is a boolean or index array of that
+        # shape on every rank
+        pinned = np.zeros(self.qp_m.shape, bool)
         if self.qp_pinned is not None:
             pinned = (self.qp_pinned >= 0) & (self.qp_m == self.qp_pinned)
         n_pinned = comm.allreduce(int(pinned.sum()))
@@ -2302,11 +2306,14 @@ class MortarContact:
             info["pinned_points"] = n_pinned
             info["pinned_outside"] = comm.allreduce(float(outside.max(initial=0.0)), op=MPI.MAX)
             # points that switched back and converged at their pinned facet's edge
-            near = np.zeros_like(pinned)
-            near[pinned] = outside <= PIN_CARRY_TOL
-            keep = pinned & near & self.qp_flip
+            keep = np.zeros_like(pinned)
+            if self.qp_pinned is not None:
+                keep[pinned] = outside <= PIN_CARRY_TOL
+                keep &= self.qp_flip
             if comm.allreduce(int(keep.any()), op=MPI.MAX):
-                self._carried_pins = np.where(keep, self.qp_pinned, -1)
+                carried = np.full(keep.shape, -1, np.int64)
+                carried[keep] = self.qp_pinned[keep] if self.qp_pinned is not None else -1
+                self._carried_pins = carried
                 info["carried_pins"] = comm.allreduce(int(keep.sum()))
         if self.qp_frozen is not None:
             frozen, self.qp_frozen = self.qp_frozen, None

@@ -427,6 +427,41 @@ def test_points_that_switched_back_start_the_next_solve_pinned_at_their_edge():
     assert term.qp_pinned is None
 
 
+@pytest.mark.mpi
+def test_a_rank_without_pins_follows_the_carried_pins():
+    """uzawa_update where one rank's term has no pinning state (qp_pinned and qp_flip
+    None, as on a rank without slave facets) while the others carry pins: every rank
+    takes part in the collectives (no error on any rank, the same counts), the bare rank
+    carries nothing, and its next solve starts with no pin. Session 22's review hung the
+    2-rank suite here: an in-place ``&=`` with qp_flip None raised on one rank only."""
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
+    term.update(problem.u)
+    # the bare rank: the one with the fewest paired points (the partition may put them
+    # all on one rank), none on one rank
+    counts = comm.allgather(int((term.qp_m >= 0).sum()))
+    bare = comm.size > 1 and comm.rank == min(range(comm.size), key=lambda r: (counts[r], -r))
+    if bare:
+        term.qp_pinned = term.qp_flip = None
+    else:  # every paired point pinned to its own facet (inside it), as switched back
+        term.qp_pinned = term.qp_m.copy()
+        term.qp_flip = term.qp_pinned >= 0
+        term._pin_exchange = term._exchanges
+    term.update(problem.u)
+    expected = comm.allreduce(0 if bare else int((term.qp_m >= 0).sum()))
+    assert expected > 0
+    _, info = term.uzawa_update()
+    assert info["carried_pins"] == expected
+    assert term._carried_pins.shape == term.qp_m.shape
+    term.begin_solve()
+    if bare:
+        assert term.qp_pinned is None or not np.any(term.qp_pinned >= 0)
+    else:
+        assert np.array_equal(term.qp_pinned, term.qp_m)
+
+
 def test_a_point_switching_back_is_pinned():
     """From the FREEZE_AFTER-th Jacobian on, a point whose facet went A → B → A is pinned
     to A (also when B is "none", −1); a point that moved on (A → B → C) is not."""
