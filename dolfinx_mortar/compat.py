@@ -104,6 +104,27 @@ def set_lag_preconditioner(snes: PETSc.SNES, lag: int) -> None:
         raise RuntimeError(f"SNESSetLagPreconditioner({lag}) failed")
 
 
+def set_line_search_max_it(snes: PETSc.SNES, max_it: int) -> bool:
+    """The iterations of the SNES's line search (``SNESLineSearchSetTolerances`` with its
+    other tolerances unchanged: PETSC_DEFAULT); for "l2", the secant steps. petsc4py 3.18
+    wraps neither this nor ``SNESGetLineSearch``: ctypes as in :func:`
+    set_lag_preconditioner`. Returns False where the C functions are not found (nothing
+    set). Not collective."""
+    try:
+        lib = _petsc_c_library()
+    except OSError:
+        return False
+    if not hasattr(lib, "SNESLineSearchSetTolerances"):
+        return False
+    ls = ctypes.c_void_p()
+    if lib.SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)) != 0:
+        raise RuntimeError("SNESGetLineSearch failed")
+    keep = ctypes.c_double(-2.0)  # PETSC_DEFAULT
+    if lib.SNESLineSearchSetTolerances(ls, keep, keep, keep, keep, keep, max_it) != 0:
+        raise RuntimeError(f"SNESLineSearchSetTolerances(max_its={max_it}) failed")
+    return True
+
+
 def lag_preconditioner_available() -> bool:
     """Whether :func:`set_lag_preconditioner` works here (petsc4py wraps it, or the PETSc
     library with its C function can be found). Not collective."""
@@ -121,9 +142,16 @@ def _petsc_c_library():
     if not hasattr(_petsc_c_library, "lib"):
         name = next((n for n in ("petsc_real", "petsc") if ctypes.util.find_library(n)), "petsc")
         lib = ctypes.CDLL(ctypes.util.find_library(name) or name)
+        int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
         if hasattr(lib, "SNESSetLagPreconditioner"):
-            int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
             lib.SNESSetLagPreconditioner.argtypes = [ctypes.c_void_p, int_t]
             lib.SNESSetLagPreconditioner.restype = ctypes.c_int
+        if hasattr(lib, "SNESLineSearchSetTolerances"):
+            lib.SNESGetLineSearch.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_void_p)]
+            lib.SNESGetLineSearch.restype = ctypes.c_int
+            lib.SNESLineSearchSetTolerances.argtypes = (
+                [ctypes.c_void_p] + [ctypes.c_double] * 5 + [int_t]
+            )
+            lib.SNESLineSearchSetTolerances.restype = ctypes.c_int
         _petsc_c_library.lib = lib
     return _petsc_c_library.lib

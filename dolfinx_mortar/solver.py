@@ -89,6 +89,19 @@ class SolverSettings:
 #: "Penetration-limited Newton steps").
 FIRST_CONTACT_DEPTH_LIMIT = 0.5
 
+#: Secant steps of the "l2" line search in a first-contact solve (one otherwise, PETSc's
+#: default for "l2"). There the residual along a Newton step has the kinks of nodes
+#: entering contact, and one secant step from the samples at λ = 1 and 1/2 can land on a
+#: worse point than the 1/2 it sampled (peers problem A level 2: ‖R‖ 19.7 at the chosen
+#: λ = 0.35 against 16.1 at λ = 1/2). With two, the first Uzawa round of the peers'
+#: one-step presses from the open state takes 5 / 5 / 6 Newton iterations instead of
+#: 6 / 7 / 8 at levels 1 / 2 / 3 (problem B's normal step the same), for two more
+#: residual evaluations per iteration. Not with penalties stiffer than the auto value
+#: (``ContactProblem.round_off_scale`` > 1): the hard-case sweep's pure penalty at
+#: ε h/E* = 1e4 then diverged in its first step and was cut back (docs/method-notes.md,
+#: "The line search at first contact").
+FIRST_CONTACT_L2_STEPS = 2
+
 
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
 MIN_STEP_FRACTION = 1e-9
@@ -268,8 +281,10 @@ class NewtonSolver:
                 f"PETSc rejected the options {sorted(settings.petsc)}: {lines[-1]}",
             ) from None
         self.timings = {"linear_solve": 0.0}
-        #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
+        #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides),
+        #: and the one in use now (:meth:`_line_search_as` switches it for a while)
         self._line_search = str(defaults["snes_linesearch_type"])
+        self._line_search_now = self._line_search
         #: solves whose line search stalled and that were continued with full steps
         self.full_step_solves = 0
         #: later-round solves whose full Newton steps failed and that started again with
@@ -363,6 +378,13 @@ class NewtonSolver:
         self.problem.ensure_contact_at(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
+        if snes.getIterationNumber() == 0 and self._line_search_now == "l2":
+            # first_contact is decided at the solve's first Jacobian (collective); not
+            # with penalties stiffer than the auto value (round_off_scale > 1), whose
+            # kinks defeat the fitted parabola (FIRST_CONTACT_L2_STEPS)
+            p = self.problem
+            first = any(term.first_contact for term in p.contacts) and p.round_off_scale <= 1.0
+            compat.set_line_search_max_it(snes, FIRST_CONTACT_L2_STEPS if first else 1)
         if self._reusing and snes.getIterationNumber() > 0:
             self._reuse_mode(False)  # only the first iteration of a solve reuses
 
@@ -542,6 +564,7 @@ class NewtonSolver:
             opts[keys[1]] = dtol
         self.snes.setFromOptions()
         self.snes.setTolerances(max_it=max_it)
+        self._line_search_now = line_search
         try:
             yield
         finally:
@@ -552,6 +575,7 @@ class NewtonSolver:
                     opts[k] = v
             self.snes.setFromOptions()
             self.snes.setTolerances(max_it=s.max_it)
+            self._line_search_now = self._line_search
 
     def _continue(
         self, x: PETSc.Vec, line_search: str, rtol: float, max_it: int
