@@ -698,3 +698,43 @@ def test_mumps_ordering_by_dimension(cubic_vectors):
     for petsc, want in (({}, "0"), ({"mat_mumps_icntl_7": 5}, "5")):
         with NewtonSolver(problem, SolverSettings(prefix="test_ord_", petsc=petsc)):
             assert PETSc.Options()["test_ord_mat_mumps_icntl_7"] == want
+
+
+def _line_search_max_it(snes) -> int:
+    """The line search's max_its (SNESLineSearchGetTolerances through ctypes, as
+    compat.set_line_search_max_it sets it)."""
+    import ctypes
+
+    from dolfinx_mortar import compat
+
+    lib = compat._petsc_c_library()
+    int_t = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
+    ls = ctypes.c_void_p()
+    assert lib.SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)) == 0
+    reals, n = [ctypes.c_double() for _ in range(5)], int_t()
+    get = lib.SNESLineSearchGetTolerances
+    get.argtypes = [ctypes.c_void_p] + [ctypes.POINTER(ctypes.c_double)] * 5
+    get.argtypes += [ctypes.POINTER(int_t)]
+    assert get(ls, *(ctypes.byref(r) for r in reals), ctypes.byref(n)) == 0
+    return n.value
+
+
+@pytest.mark.parametrize(
+    "first, scale, expected",
+    [(True, 1.0, solver_module.FIRST_CONTACT_L2_STEPS), (False, 1.0, 1), (True, 100.0, 1)],
+    ids=["first-contact", "in-contact", "stiff-penalty"],
+)
+def test_l2_secant_steps_at_first_contact(cubic_vectors, first, scale, expected):
+    """FIRST_CONTACT_L2_STEPS secant steps in a solve whose contact term starts with no
+    active node (``first_contact``, decided at its first Jacobian), one otherwise and
+    where a penalty is stiffer than auto (round_off_scale > 1); the solve converges."""
+    from types import SimpleNamespace
+
+    problem = _Cubic(10.0)
+    problem.contacts = [SimpleNamespace(first_contact=first, step_limit=lambda trial, d: 1.0)]
+    problem.round_off_scale = scale
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_l2steps_")
+    with NewtonSolver(problem, settings) as newton:
+        newton.solve()
+        assert _line_search_max_it(newton.snes) == expected
+    assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
