@@ -281,10 +281,8 @@ class NewtonSolver:
                 f"PETSc rejected the options {sorted(settings.petsc)}: {lines[-1]}",
             ) from None
         self.timings = {"linear_solve": 0.0}
-        #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides),
-        #: and the one in use now (:meth:`_line_search_as` switches it for a while)
+        #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
         self._line_search = str(defaults["snes_linesearch_type"])
-        self._line_search_now = self._line_search
         #: solves whose line search stalled and that were continued with full steps
         self.full_step_solves = 0
         #: later-round solves whose full Newton steps failed and that started again with
@@ -378,7 +376,7 @@ class NewtonSolver:
         self.problem.ensure_contact_at(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
-        if snes.getIterationNumber() == 0 and self._line_search_now == "l2":
+        if snes.getIterationNumber() == 0 and self._line_search_type() == "l2":
             # first_contact is decided at the solve's first Jacobian (collective); not
             # with penalties stiffer than the auto value (round_off_scale > 1), whose
             # kinks defeat the fitted parabola (FIRST_CONTACT_L2_STEPS)
@@ -387,6 +385,12 @@ class NewtonSolver:
             compat.set_line_search_max_it(snes, FIRST_CONTACT_L2_STEPS if first else 1)
         if self._reusing and snes.getIterationNumber() > 0:
             self._reuse_mode(False)  # only the first iteration of a solve reuses
+
+    def _line_search_type(self) -> str:
+        """The line search in use now: the options database's, where the configured one
+        and :meth:`_line_search_as` put it (local)."""
+        key = self.settings.prefix + "snes_linesearch_type"
+        return PETSc.Options().getString(key, self._line_search)
 
     def _reuse_mode(self, on: bool, rtol: float = 0.0) -> None:
         """Switch the KSP between GMRES on the last factorization (``on``, to relative
@@ -564,7 +568,6 @@ class NewtonSolver:
             opts[keys[1]] = dtol
         self.snes.setFromOptions()
         self.snes.setTolerances(max_it=max_it)
-        self._line_search_now = line_search
         try:
             yield
         finally:
@@ -575,7 +578,6 @@ class NewtonSolver:
                     opts[k] = v
             self.snes.setFromOptions()
             self.snes.setTolerances(max_it=s.max_it)
-            self._line_search_now = self._line_search
 
     def _continue(
         self, x: PETSc.Vec, line_search: str, rtol: float, max_it: int
