@@ -66,11 +66,12 @@ def _carve_surface(buf, n, k, d):
 
 
 @numba.njit(cache=True)
-def _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS):
-    """Shape functions at ``zeta`` and the surface point, tangents and their derivatives.
+def _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS):
+    """Shape functions at ``zeta``, the surface point and its tangents (no second
+    derivatives: SS is left as it was).
 
-    Fills N (n,), dN (n,k), ddN (n,k,k), S (d,) = S(zeta), A (k,d) with A[alpha] = a_alpha,
-    SS (k,k,d) with SS[alpha, beta] = d2S / dzeta_alpha dzeta_beta.
+    Fills N (n,), dN (n,k), ddN (n,k,k), S (d,) = S(zeta) and A (k,d) with A[alpha] =
+    a_alpha.
     """
     shape(ftype, zeta, N, dN, ddN)
     n = xm.shape[0]
@@ -86,31 +87,23 @@ def _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS):
             for a in range(n):
                 t += dN[a, al] * xm[a, i]
             A[al, i] = t
+
+
+@numba.njit(cache=True)
+def _surface(xm, ftype, zeta, N, dN, ddN, S, A, SS):
+    """:func:`_surface_in` and the second derivatives: SS (k,k,d) with SS[alpha, beta] =
+    d2S / dzeta_alpha dzeta_beta."""
+    _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS)
+    n = xm.shape[0]
+    d = xm.shape[1]
+    k = A.shape[0]
+    for i in range(d):
+        for al in range(k):
             for be in range(k):
                 u = 0.0
                 for a in range(n):
                     u += ddN[a, al, be] * xm[a, i]
                 SS[al, be, i] = u
-
-
-@numba.njit(cache=True)
-def _surface_in(xm, ftype, zeta, N, dN, ddN, S, A, SS):
-    """:func:`_surface` where only S and A are needed: the same loops without the second
-    derivatives SS (left as they were), so S and A are bitwise :func:`_surface`'s."""
-    shape(ftype, zeta, N, dN, ddN)
-    n = xm.shape[0]
-    d = xm.shape[1]
-    k = A.shape[0]
-    for i in range(d):
-        s = 0.0
-        for a in range(n):
-            s += N[a] * xm[a, i]
-        S[i] = s
-        for al in range(k):
-            t = 0.0
-            for a in range(n):
-                t += dN[a, al] * xm[a, i]
-            A[al, i] = t
 
 
 @numba.njit(cache=True)
