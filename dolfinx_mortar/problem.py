@@ -536,6 +536,16 @@ class ContactProblem:
             self._contact_x = None
 
     @property
+    def symmetric_jacobian(self) -> bool:
+        """Whether every Jacobian is a symmetric matrix (the same on every rank): the bulk
+        of a hyperelastic law is (dead tractions add nothing; Dirichlet rows and columns
+        are zeroed together), so this holds when every contact term's tangent is
+        symmetric (:attr:`MortarContact.symmetric_tangent
+        <dolfinx_mortar.contact.MortarContact.symmetric_tangent>`). The solver then
+        factorizes LDLᵀ instead of LU (``solver.NewtonSolver``)."""
+        return all(getattr(t, "symmetric_tangent", False) for t in self.contacts)
+
+    @property
     def round_off_scale(self) -> float:
         """Factor ≥ 1 on the absolute Newton tolerance: the largest
         :attr:`round_off_scale <dolfinx_mortar.contact.MortarContact.round_off_scale>` of

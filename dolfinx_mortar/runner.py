@@ -79,6 +79,8 @@ def modelled(scene: Scene, problem) -> dict:
         "cell_type": problem.mesh_data.info.get("cell_type"),
         "contact_pairs": {c.name: c.describe() for c in problem.contacts},
         "friction": any(getattr(c, "frictional", False) for c in problem.contacts),
+        # every Jacobian symmetric: MUMPS factorizes LDLᵀ instead of LU (solver docs)
+        "jacobian_symmetric": problem.symmetric_jacobian,
         "step_depth_limit": scene.solver.step_depth_limit,
         # the limit of first-contact solves, where step_depth_limit is 0 (solver docs)
         "first_contact_depth_limit": (

@@ -688,7 +688,12 @@ def test_no_restart_without_rescue(cubic_vectors):
 def test_mumps_ordering_by_dimension(cubic_vectors):
     """2D problems factorize with AMD (MUMPS_ORDERING_2D), 3D ones with MUMPS's own choice;
     a [solver.petsc] entry overrides; no MUMPS option without MUMPS."""
-    ordering = solver_module._ordering
+    from types import SimpleNamespace
+
+    def ordering(linear, gdim):
+        opts = solver_module._linear_options(linear, SimpleNamespace(gdim=gdim))
+        return {k: v for k, v in opts.items() if k.startswith("mat_mumps")}
+
     assert ordering("mumps", 2) == {"mat_mumps_icntl_7": solver_module.MUMPS_ORDERING_2D}
     assert ordering("lu", 2) == {"mat_mumps_icntl_7": solver_module.MUMPS_ORDERING_2D}
     assert ordering("mumps", 3) == {}
@@ -698,6 +703,36 @@ def test_mumps_ordering_by_dimension(cubic_vectors):
     for petsc, want in (({}, "0"), ({"mat_mumps_icntl_7": 5}, "5")):
         with NewtonSolver(problem, SolverSettings(prefix="test_ord_", petsc=petsc)):
             assert PETSc.Options()["test_ord_mat_mumps_icntl_7"] == want
+
+
+def test_symmetric_jacobians_factorize_ldlt(cubic_vectors):
+    """MUMPS factorizes LDLᵀ (pc_type cholesky) where problem.symmetric_jacobian holds, LU
+    otherwise; other solvers keep their LU; [solver.petsc] pc_type overrides; the solve
+    reaches the same solution with either factorization."""
+    from types import SimpleNamespace
+
+    def pc(linear, symmetric):
+        problem = SimpleNamespace(gdim=3, symmetric_jacobian=symmetric)
+        return solver_module._linear_options(linear, problem).get("pc_type")
+
+    assert pc("mumps", True) == "cholesky" and pc("lu", True) == "cholesky"
+    assert pc("mumps", False) == "lu" and pc("superlu_dist", True) == "lu"
+    assert pc("petsc", True) is None
+    solutions = {}
+    for symmetric, petsc, want in (
+        (True, {}, "cholesky"),
+        (False, {}, "lu"),
+        (True, {"pc_type": "lu"}, "lu"),
+    ):
+        problem = _Cubic(1.0)
+        problem.symmetric_jacobian = symmetric  # _Cubic's Jacobian is diagonal
+        with NewtonSolver(problem, SolverSettings(prefix="test_sym_", petsc=petsc)) as newton:
+            newton.solve()
+            assert newton.snes.getKSP().getPC().getType() == want
+        solutions[want, bool(petsc)] = problem.u.vector.array.copy()
+    ref = solutions["lu", False]
+    for x in solutions.values():
+        assert np.allclose(x, ref, rtol=1e-12, atol=1e-14)
 
 
 def _line_search_max_it(snes) -> int:
