@@ -793,10 +793,10 @@ class MortarContact:
         or node integration: the residual is the gradient of an augmented penalty energy
         at fixed multipliers (lumped: Σ_I A_I/(2 ε_I) ⟨λ_I + ε_I ĝ_I⟩²), so the tangent
         is its Hessian, symmetric to round-off in small and finite kinematics, with the
-        geometric part or without it. Not symmetric: the Coulomb terms, the constrained recovery (its tangent
-        goes through the active-set mortar solve M⁻¹) and segment integration (its
-        moving segment ends are linearised in the residual's form, not the energy's).
-        ``tests/test_contact_jacobian.py`` measures every combination."""
+        geometric part or without it. Not symmetric: the Coulomb terms, the constrained
+        recovery (its tangent goes through the active-set mortar solve M⁻¹) and segment
+        integration (its moving segment ends are linearised in the residual's form, not
+        the energy's). ``tests/test_contact_jacobian.py`` measures every combination."""
         return (
             not self.frictional
             and self.recovery in ("lumped", "unconstrained")

@@ -52,9 +52,10 @@ def _linear_options(linear: str, problem) -> dict:
     """The PETSc options of a ``linear`` choice for ``problem``: with MUMPS, the ordering
     of its dimension (MUMPS_ORDERING_2D) and an LDLᵀ factorization (``pc_type =
     cholesky``, MUMPS's symmetric indefinite mode) where every Jacobian is symmetric
-    (``problem.symmetric_jacobian``): half the factor's storage, and 25–40 % less time
-    per numeric factorization than LU on the peers' frictionless Hertz Jacobians (9.5k
-    and 37k dofs, BENCHMARKS §17)."""
+    (``problem.symmetric_jacobian``): half the factor's storage, and about 30 % less
+    time per numeric factorization than LU with the same ordering on the peers'
+    frictionless Hertz Jacobians (9.5k and 37k dofs; docs/method-notes.md, "Symmetric
+    Jacobians are factorized LDLᵀ")."""
     opts = dict(_LINEAR[linear])
     if opts.get("pc_factor_mat_solver_type") == "mumps":
         if getattr(problem, "gdim", None) == 2:
