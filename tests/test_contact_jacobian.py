@@ -239,26 +239,16 @@ def asymmetry(A) -> float:
 
 @pytest.mark.mpi
 def test_the_whole_jacobian_is_symmetric_with_conditions_on_slave_dofs():
-    """The half hertz2d model: a symmetry condition fixes u_x of the slave node on the
-    axis. Bulk (K₀ with its Dirichlet rows and columns) plus contact is symmetric, so the
+    """The half hertz2d model of the parallel tests: a symmetry condition fixes u_x of
+    the slave node on the axis. Bulk (K₀ with its Dirichlet rows and columns) plus contact is symmetric, so the
     Newton solver factorizes LDLᵀ; with friction it is not, and the solver keeps LU."""
+    from test_contact_parallel import HERTZ2D
+
     from dolfinx_mortar.solver import NewtonSolver
 
     for mu in (0.0, 0.3):
-        data = {
-            "kinematics": "small",
-            "mesh": {"generator": "hertz2d", "params": {"h_contact": 0.4, "h_far": 4.0}},
-            "material": [
-                {"region": b, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
-                for b in ("cylinder", "block")
-            ],
-            "contact": [{"slave": "cylinder_surface", "master": "block_top", "friction": mu}],
-            "dirichlet": [
-                {"boundary": "block_bottom", "components": [0, 1], "path": [[0, 0, 0], [1, 0, 0]]},
-                {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
-            ],
-            "output": {"dir": "unused"},
-        }
+        pair = {**HERTZ2D["contact"][0], "friction": mu}
+        data = {**HERTZ2D, "contact": [pair], "output": {"dir": "unused"}}
         problem, _ = prepare(parse_scene(data, __import__("pathlib").Path(".")), MPI.COMM_WORLD)
         term = problem.contacts[0]
         _set_state(problem, 0.1, "cylinder")
