@@ -74,8 +74,9 @@ CASES = {
 }
 
 
-def _problem(case, integration="element", recovery="lumped"):
-    """The contact problem of CASES[case] with the given integration and recovery (collective)."""
+def _problem(case, integration="element", recovery="lumped", comm=MPI.COMM_WORLD):
+    """The contact problem of CASES[case] with the given integration and recovery
+    (collective on ``comm``)."""
     gen, params, slave, master, bodies, gdim = CASES[case]
     data = {
         "kinematics": "finite",
@@ -93,7 +94,7 @@ def _problem(case, integration="element", recovery="lumped"):
         ],
         "output": {"dir": "unused"},
     }
-    problem, _ = prepare(parse_scene(data, __import__("pathlib").Path(".")), MPI.COMM_WORLD)
+    problem, _ = prepare(parse_scene(data, __import__("pathlib").Path(".")), comm)
     return problem
 
 
@@ -511,7 +512,7 @@ def test_a_point_switching_back_is_pinned():
     to A (also when B is "none", −1); a point that moved on (A → B → C) is not."""
     from dolfinx_mortar.contact import FREEZE_AFTER
 
-    problem = _problem("hertz2d-P1", "element", "lumped")
+    problem = _problem("hertz2d-P1", "element", "lumped", MPI.COMM_SELF)  # local logic
     term = problem.contacts[0]
     term.update(problem.u)
     shape = term.qp_m.shape
@@ -534,7 +535,7 @@ def test_every_paired_point_is_pinned_from_hold_after():
     point keeps its facet; unpaired points (−1) stay free."""
     from dolfinx_mortar.contact import HOLD_AFTER
 
-    problem = _problem("hertz2d-P1", "element", "lumped")
+    problem = _problem("hertz2d-P1", "element", "lumped", MPI.COMM_SELF)  # local logic
     term = problem.contacts[0]
     term.update(problem.u)
     m = np.arange(term.qp_m.size, dtype=np.int64).reshape(term.qp_m.shape) % 5
