@@ -183,6 +183,7 @@ def step_record(problem, res) -> dict:
         "failed_attempt_iterations": res.all_iterations - int(np.sum(res.newton_iterations)),
         "reused_factorizations": res.reused_factorizations,
         "failed_reuses": res.failed_reuses,
+        "ldlt_fallbacks": res.ldlt_fallbacks,
         "limited_steps": res.limited_steps,
         "reactions": problem.reactions(),
         "contact_force": {},

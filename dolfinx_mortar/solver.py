@@ -217,6 +217,7 @@ _SOLVE_COUNTERS = (
     "backtracked_solves",
     "reused_factorizations",
     "failed_reuses",
+    "ldlt_fallbacks",
 )
 #: Direct linear solvers (``linear`` = "mumps", "lu", "superlu_dist", with no
 #: ``ksp_type``/``pc_type`` of the user's): the first Newton iteration of an Uzawa round
@@ -323,6 +324,9 @@ class NewtonSolver:
         #: linear solves done with a reused factorization, and those that fell back
         self.reused_factorizations = 0
         self.failed_reuses = 0
+        #: LDLᵀ factorizations that failed, after which this solver factorizes LU
+        #: (:meth:`_fall_back_to_lu`; 0 or 1)
+        self.ldlt_fallbacks = 0
         #: Newton iterations of all solves, failed ones included
         self.all_iterations = 0
 
@@ -525,6 +529,11 @@ class NewtonSolver:
             self._reuse_mode(True, REUSE_RTOL_FACTOR * self.snes.getTolerances()[0])
         self.snes.solve(None, x)
         reason = self.snes.getConvergedReason()
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._ldlt_failed():
+            self._fall_back_to_lu()
+            self._back_to_start(x)
+            self.snes.solve(None, x)
+            reason = self.snes.getConvergedReason()
         if reusing:
             if self._reusing:
                 self._reuse_mode(False)
@@ -539,6 +548,29 @@ class NewtonSolver:
                 self.reused_factorizations += 1
         self._factored = self._factored or self.snes.getIterationNumber() > 0
         return reason
+
+    def _ldlt_failed(self) -> bool:
+        """Whether the last linear solve failed in an LDLᵀ factorization (collective: the
+        KSP's reason is the same on every rank)."""
+        ksp = self.snes.getKSP()
+        return (
+            ksp.getPC().getType() == PETSc.PC.Type.CHOLESKY
+            and ksp.getConvergedReason() == PETSc.KSP.ConvergedReason.DIVERGED_PCSETUP_FAILED
+        )
+
+    def _fall_back_to_lu(self) -> None:
+        """Factorize LU from now on (collective). MUMPS's symmetric indefinite LDLᵀ pivots
+        within its fronts only, and on 3 ranks it failed once on a Jacobian that LU
+        factorizes: the first Newton iteration of hertz2d's first step, where the
+        cylinder touches the block at one node (demo_recoveries, unconstrained recovery,
+        in one full 3-rank suite run out of several)."""
+        log.warning("LDLᵀ factorization failed; factorizing LU from now on")
+        self.ldlt_fallbacks += 1
+        PETSc.Options()[self.settings.prefix + "pc_type"] = "lu"
+        ksp = self.snes.getKSP()
+        ksp.getPC().setType(PETSc.PC.Type.LU)
+        ksp.setFromOptions()  # the solver package and ordering of the options database
+        self._factored = False
 
     def _back_to_start(self, x: PETSc.Vec) -> None:
         """x ← the solve's start (``_start``), for a new SNES solve from there: the
@@ -689,6 +721,9 @@ class StepResult:
     #: (GMRES on it; see REUSE_FACTORIZATION), and those where GMRES did not converge
     reused_factorizations: int = 0
     failed_reuses: int = 0
+    #: solves of this step whose LDLᵀ factorization failed, after which the solver
+    #: factorizes LU (NewtonSolver._fall_back_to_lu)
+    ldlt_fallbacks: int = 0
     #: Newton steps of this step shortened by the penetration limit
     #: (SolverSettings.step_depth_limit; failed attempts included)
     limited_steps: int = 0

@@ -65,6 +65,7 @@ class _Newton:
         self.backtracked_solves = 0
         self.reused_factorizations = 0
         self.failed_reuses = 0
+        self.ldlt_fallbacks = 0
         self.limited_steps = 0
         self.all_iterations = 0
 
@@ -733,6 +734,49 @@ def test_symmetric_jacobians_factorize_ldlt(cubic_vectors):
     ref = solutions["lu", False]
     for x in solutions.values():
         assert np.allclose(x, ref, rtol=1e-12, atol=1e-14)
+
+
+class _Swap(_Cubic):
+    """R(x) = P x − (1, 2) with P = [[0, 1], [1, 0]]: symmetric, indefinite, with a zero
+    diagonal. Its matrix is flagged SPD, so MUMPS's LDLᵀ takes it without pivoting and
+    fails on the zero pivot, where LU (with pivoting) solves it."""
+
+    n = 2
+    symmetric_jacobian = True
+
+    def create_matrix(self):
+        A = PETSc.Mat().createAIJ([self.n, self.n], nnz=2, comm=self.comm)
+        A.setUp()
+        A.setOption(PETSc.Mat.Option.SPD, True)
+        return A
+
+    def residual(self, x, b):
+        b.array[:] = x.array[::-1] - np.array([1.0, 2.0])
+
+    def jacobian(self, x, A):
+        A.zeroEntries()
+        A.setValue(0, 1, 1.0)
+        A.setValue(1, 0, 1.0)
+        A.assemble()
+        A.setOption(PETSc.Mat.Option.SPD, True)
+
+
+def test_a_failed_ldlt_factorization_falls_back_to_lu(cubic_vectors):
+    """An LDLᵀ factorization that fails (here a zero pivot that the SPD flag forbids
+    MUMPS to pivot around) makes the solver factorize LU from then on and solve again
+    from the start: the solve converges, ldlt_fallbacks counts it, the option database
+    says lu."""
+    problem = _Swap(0.0)
+    settings = SolverSettings(prefix="test_fallback_")
+    with NewtonSolver(problem, settings) as newton:
+        assert newton.snes.getKSP().getPC().getType() == "cholesky"
+        its, norms = newton.solve()
+        assert newton.ldlt_fallbacks == 1
+        assert newton.snes.getKSP().getPC().getType() == "lu"
+        assert PETSc.Options()["test_fallback_pc_type"] == "lu"
+        newton.solve()  # later solves keep LU
+        assert newton.ldlt_fallbacks == 1
+    assert np.allclose(problem.u.vector.array, [2.0, 1.0])
 
 
 def _line_search_max_it(snes) -> int:
