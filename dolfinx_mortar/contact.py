@@ -144,10 +144,9 @@ EXACT_FD_MAX_IT = 40
 #: relative multiplier change (the right-hand side's size in units of max p̂), so that
 #: the error the update leaves is about a tenth of the Uzawa tolerance; never tighter
 #: than EXACT_UPDATE_RTOL / EXACT_FD_RTOL, never looser than EXACT_FORCING (0: the
-#: fixed tolerances). The round
-#: after the last update only checks convergence, and it measured 1e-4 to 1e-2 of the
-#: tolerance with the fixed ones (peers problem A level 2: a change of 8.3e-8 updated
-#: by 6 products to 2.3e-13, against uzawa_tol = 1e-8).
+#: fixed tolerances). The round after the last update only checks convergence, and with
+#: the fixed tolerances it measured 1e-4 to 1e-2 of the Uzawa tolerance (peers problem A
+#: level 2: a change of 8.3e-8 updated by 6 products to 2.3e-13, uzawa_tol = 1e-8).
 EXACT_FORCING = 0.1
 EXACT_FD_STEP = 1e-7
 #: Chattering control: after this many Jacobians in one Newton solve the stick/slip states

@@ -560,10 +560,10 @@ class NewtonSolver:
 
     def _fall_back_to_lu(self) -> None:
         """Factorize LU from now on (collective). MUMPS's symmetric indefinite LDLᵀ pivots
-        within its fronts only, and on 3 ranks it failed once on a Jacobian that LU
-        factorizes: the first Newton iteration of hertz2d's first step, where the
+        within its fronts only; on 3 ranks it failed once, in one full suite run out of
+        several, at the first Newton iteration of hertz2d's first step, where the
         cylinder touches the block at one node (demo_recoveries, unconstrained recovery,
-        in one full 3-rank suite run out of several)."""
+        a run that had passed with LU in every earlier suite run)."""
         log.warning("LDLᵀ factorization failed; factorizing LU from now on")
         self.ldlt_fallbacks += 1
         PETSc.Options()[self.settings.prefix + "pc_type"] = "lu"
