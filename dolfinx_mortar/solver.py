@@ -566,10 +566,10 @@ class NewtonSolver:
         a run that had passed with LU in every earlier suite run)."""
         log.warning("LDLᵀ factorization failed; factorizing LU from now on")
         self.ldlt_fallbacks += 1
+        # the options database is where the PC type, solver package and ordering live
+        # (a later setFromOptions of this solver reads them again)
         PETSc.Options()[self.settings.prefix + "pc_type"] = "lu"
-        ksp = self.snes.getKSP()
-        ksp.getPC().setType(PETSc.PC.Type.LU)
-        ksp.setFromOptions()  # the solver package and ordering of the options database
+        self.snes.getKSP().setFromOptions()
         self._factored = False
 
     def _back_to_start(self, x: PETSc.Vec) -> None:
