@@ -607,6 +607,10 @@ class MortarContact:
             )
         if recovery != "lumped" or (self.frictional and tangential_recovery != "lumped"):
             self._init_mixed_numbering()
+        # displacement fetchers: slave facets (fixed), local masters (fixed), candidates (rebuilt)
+        self._fetch_slave = Fetcher(problem.u.vector, self._all_dofs(self.slave))
+        self._fetch_mlocal = Fetcher(problem.u.vector, self._all_dofs(master_local))
+        self._fetch_cand = None
         if self.frictional:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
@@ -668,10 +672,6 @@ class MortarContact:
         self.gamma = np.zeros(n)
         self.has_area = np.zeros(n, bool)
 
-        # displacement fetchers: slave facets (fixed), local masters (fixed), candidates (rebuilt)
-        self._fetch_slave = Fetcher(problem.u.vector, self._all_dofs(self.slave))
-        self._fetch_mlocal = Fetcher(problem.u.vector, self._all_dofs(master_local))
-        self._fetch_cand = None
         self.master = None
         self._u_exchange = None
         self._exchanges = 0
@@ -711,6 +711,22 @@ class MortarContact:
         )
 
     # ------------------------------------------------------------------ friction set-up
+    def _held_at_zero(self) -> np.ndarray:
+        """Which displacement components of the slave facet nodes a Dirichlet condition
+        holds at zero for the whole load path, (nsf, ns, d) bool (collective: the owners'
+        marks are fetched), from ``problem.dofs_held_at_zero`` (none where the problem
+        has no such method). The nodal frames of symmetry planes
+        (:class:`~dolfinx_mortar.friction.NodalFrames`) are built from them."""
+        marks = self.problem.u.vector.duplicate()
+        try:
+            marks.set(0.0)
+            held = getattr(self.problem, "dofs_held_at_zero", None)
+            if held is not None:
+                marks.array[held()] = 1.0
+            return self._fetch_slave(marks).reshape(self.slave.X.shape) > 0.5
+        finally:
+            marks.destroy()
+
     def _init_friction(self, penalty_t, key: str) -> None:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
@@ -729,7 +745,13 @@ class MortarContact:
         self.eps_t_soft = np.minimum(self.eps_t, self.eps_auto)
         self._eps_t_own = self.eps_t
         self.frames = fr.NodalFrames(
-            self.ftype, self.slave.X, self.slave.sign, self.node_of, self.mixed, n
+            self.ftype,
+            self.slave.X,
+            self.slave.sign,
+            self.node_of,
+            self.mixed,
+            n,
+            held_at_zero=self._held_at_zero(),
         )
         self._frame_dA = None
         # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets

@@ -16,6 +16,16 @@ lumped or the constrained normal recovery); the point integrals are in
   axis, or y when x is within 10° of the reference normal), and a_2 = n × a_1.
   The metric of the frame is the identity, so covariant and contravariant
   components coincide (a_αβ = δ_αβ).
+- **Symmetry planes.** At a node on a symmetry plane (a displacement component k held
+  at zero by a Dirichlet condition, the reference normal within 60° of the plane)
+  the frame is the one of the mirrored model: the normal ñ − (ñ·e_k) e_k, in the
+  plane, and the tangent e_k across it (3D: a_1 = e_k, a_2 = n × e_k). The slip and
+  the traction along e_k are odd in the mirror, so the mirrored model has none at the
+  plane: that component is left out (a_1 = 0; in 2D the node then carries no
+  tangential traction, in 3D only along a_2; on two planes none). The half model's
+  one-sided weighted slip S^I = ∫_{half support} Φ_I Δg had put the full Coulomb
+  traction μ p_N on the axis node of a frictional Hertz half model, where the
+  mirrored model has S^I = 0.
 - **Recovery** (lumped): γ_α^I = a_α^I · S^I / A_T^I, the tangential components
   of the nodal average slip since t_n.
 - **Return mapping** (:func:`return_mapping`): trial τ^tr = λ_T + ε_T γ,
@@ -39,6 +49,12 @@ from .kernels.shape import REFERENCE_NODES, shape, tdim
 
 #: states written to the CSV / XDMF ``contact_state``
 OPEN, STICK, SLIP = 0, 1, 2
+
+
+#: a displacement component held at zero marks a symmetry plane at a slave node when
+#: the node's reference normal n₀ has |n₀·e_k| ≤ this (the plane within 60° of the
+#: normal): see :class:`NodalFrames`
+SYMMETRY_NORMAL_TOL = 0.5
 
 
 def _cross_matrix(w: np.ndarray) -> np.ndarray:
@@ -68,11 +84,20 @@ class NodalFrames:
     numbers, n_nodes. The frame of node I uses every slave facet around it, so
     the frames do not depend on the partition.
 
+    ``held_at_zero`` (nsf, ns, d) bool, optional: the displacement components of the
+    facet nodes held at zero by a Dirichlet condition. A node with some, not all, of its
+    components held, each within SYMMETRY_NORMAL_TOL of the plane it defines (|n₀·e_k|
+    ≤ SYMMETRY_NORMAL_TOL for the reference normal n₀), lies on a symmetry plane (see
+    the module docstring): ``sym`` (n_sym,) those nodes, ``sym_proj`` (n_sym, d, d) the
+    projectors applied to the averaged tangent in 2D, e_k e_kᵀ, and to the averaged
+    normal in 3D, I − Σ_k e_k e_kᵀ; ``sym_cut`` (n_sym, m) the tangential directions
+    left out (a_α = 0).
+
     Occurrences p = (facet f_p, mixed node of I): ``pair_f`` (P,), ``pair_node`` (P,),
     sorted by node, with ``pair_off`` (n+1,) the offsets of each node.
     """
 
-    def __init__(self, ftype, X, sign, node_of, mixed, n_nodes):
+    def __init__(self, ftype, X, sign, node_of, mixed, n_nodes, held_at_zero=None):
         d = X.shape[2] if X.ndim == 3 else 2
         self.d, self.m, self.n = d, d - 1, n_nodes
         k = tdim(ftype)
@@ -105,6 +130,44 @@ class NodalFrames:
             contra = np.linalg.solve(G, A0)  # (P, k, d): A0^α
             proj = np.einsum("pkc,pc->pk", contra, E[self.pair_node])
             self.coef = np.einsum("pbk,pk->pb", self.dN, proj)  # e = Σ_p Σ_b coef x_b
+        self.sym = np.empty(0, np.int64)
+        self.sym_proj = np.zeros((0, d, d))
+        self.sym_cut = np.zeros((0, d - 1), bool)
+        if held_at_zero is not None and self.pair_f.size:
+            self._symmetry_planes(X, np.asarray(held_at_zero, bool)[self.pair_f, loc])
+
+    def _symmetry_planes(self, X: np.ndarray, held: np.ndarray) -> None:
+        """``sym`` and ``sym_proj`` from the held components of each occurrence, held
+        (P, d), and the reference coordinates X (nsf, ns, d); see the class docstring."""
+        d, n = self.d, self.n
+        comps = np.zeros((n, d), bool)
+        np.logical_or.at(comps, self.pair_node, held)
+        A0 = np.einsum("pbk,pbc->pkc", self.dN, X[self.pair_f])
+        if d == 2:
+            t0 = np.zeros((n, 2))
+            np.add.at(t0, self.pair_node, self.sign[:, None] * A0[:, 0])
+            n0 = np.stack([t0[:, 1], -t0[:, 0]], axis=1)
+        else:
+            n0 = np.zeros((n, 3))
+            np.add.at(n0, self.pair_node, self.sign[:, None] * np.cross(A0[:, 0], A0[:, 1]))
+        n0, _ = _unit(n0)
+        comps &= np.abs(n0) <= SYMMETRY_NORMAL_TOL
+        count = comps.sum(axis=1)
+        self.sym = np.flatnonzero((count > 0) & (count < d))
+        comps = comps[self.sym]
+        E = comps[:, :, None] * np.eye(d)  # (n_sym, d, d): Σ_k e_k e_kᵀ
+        self.sym_proj = E if d == 2 else np.eye(d) - E
+        # a_1 = e_k across the (first) plane, left out; a_2 too on two planes (3D)
+        self.sym_cut = np.zeros((self.sym.size, self.m), bool)
+        self.sym_cut[:, 0] = True
+        if d == 3:
+            self.sym_cut[:, 1] = count[self.sym] == 2
+            self.sym_e = np.eye(3)[np.argmax(comps, axis=1)]  # (n_sym, 3): that e_k
+            at_sym = np.isin(self.pair_node, self.sym)
+            self.coef = np.where(at_sym[:, None], 0.0, self.coef)  # e = e_k there, fixed
+        on = np.zeros((n, self.m), bool)
+        on[self.sym] = self.sym_cut
+        self._cut_p = on[self.pair_node]  # (P, m): per occurrence
 
     def compute(self, xs: np.ndarray, derivatives: bool = True):
         """Frames at the current slave coordinates xs (nsf, ns, d).
@@ -127,31 +190,43 @@ class NodalFrames:
         if d == 2:
             tt = np.zeros((n, 2))
             np.add.at(tt, self.pair_node, self.sign[:, None] * A[:, 0])
+            if self.sym.size:  # symmetry planes: the tangent along e_k
+                tt[self.sym] = np.einsum("nij,nj->ni", self.sym_proj, tt[self.sym])
             a1, lt = _unit(tt)
             a[:, 0] = a1
             nrm[:, 0], nrm[:, 1] = a1[:, 1], -a1[:, 0]
+            a[self.sym, 0] = 0.0  # the tangent across a symmetry plane: left out
             if not derivatives:
                 return a, nrm, dA
             Q = (eye - np.einsum("ni,nj->nij", a1, a1)) / np.maximum(lt, 1e-300)[:, None, None]
+            Q[self.sym] = 0.0
             dA[:, :, 0] = (self.sign[:, None] * self.dN[:, :, 0])[:, :, None, None] * Q[
                 self.pair_node
             ][:, None]
             return a, nrm, dA
         nt = np.zeros((n, 3))
         np.add.at(nt, self.pair_node, self.sign[:, None] * np.cross(A[:, 0], A[:, 1]))
+        if self.sym.size:  # symmetry planes: the normal within them
+            nt[self.sym] = np.einsum("nij,nj->ni", self.sym_proj, nt[self.sym])
         nv, ln = _unit(nt)
         e = np.zeros((n, 3))
         np.add.at(e, self.pair_node, np.einsum("pb,pbc->pc", self.coef, x))
+        if self.sym.size:  # across the plane (its coef rows are zero: Je = 0 there)
+            e[self.sym] = self.sym_e
         en = np.einsum("nc,nc->n", e, nv)
         v = e - en[:, None] * nv
         a1, lv = _unit(v)
         a2 = np.cross(nv, a1)
         a[:, 0], a[:, 1], nrm[:] = a1, a2, nv
+        if self.sym.size:  # the directions across symmetry planes: left out
+            a[self.sym] *= ~self.sym_cut[:, :, None]
         if not derivatives:
             return a, nrm, dA
         # derivatives per occurrence p and facet node b
         q = self.pair_node
         Pn = (eye - np.einsum("ni,nj->nij", nv, nv)) / np.maximum(ln, 1e-300)[:, None, None]
+        if self.sym.size:
+            Pn[self.sym] = Pn[self.sym] @ self.sym_proj
         Qa = (eye - np.einsum("ni,nj->nij", a1, a1)) / np.maximum(lv, 1e-300)[:, None, None]
         cA0, cA1 = _cross_matrix(A[:, 0]), _cross_matrix(A[:, 1])  # (P, 3, 3)
         dnt = self.sign[:, None, None, None] * (
@@ -169,6 +244,8 @@ class NodalFrames:
             "pij,pbjk->pbik", _cross_matrix(nv)[q], Ja1
         )
         dA[:, :, 0], dA[:, :, 1] = Ja1, Ja2
+        if self.sym.size:
+            dA *= ~self._cut_p[:, None, :, None, None]
         return a, nrm, dA
 
 

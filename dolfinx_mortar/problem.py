@@ -211,6 +211,20 @@ class ContactProblem:
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
 
+    def dofs_held_at_zero(self) -> np.ndarray:
+        """The owned local dofs that a ``[[dirichlet]]`` condition holds at zero for the
+        whole load path (every prescribed value of their component is 0: a symmetry plane,
+        a clamp; not those of :meth:`add_dirichlet_field`), sorted (local). The frictional nodal frames of symmetry planes use them
+        (:class:`~dolfinx_mortar.friction.NodalFrames`)."""
+        held = [np.empty(0, np.int32)]
+        for d in self._dirichlet:
+            if not d.constants:  # add_dirichlet_field: a field, not a uniform path
+                continue
+            for j, c in enumerate(d.components):
+                if not np.any(d.path[:, 1 + j]):
+                    held.append(np.asarray(d.dofs_by_component[c], np.int32))
+        return np.unique(np.concatenate(held))
+
     def _collect_bcs(self) -> None:
         self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
         if self.linear_bulk is not None:
