@@ -58,6 +58,7 @@ from petsc4py import PETSc
 
 from . import friction as fr
 from . import recovery as rc
+from .bulk import LINEAR_MODELS
 from .errors import SceneError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
@@ -274,6 +275,30 @@ def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
             )
 
 
+def resolve_tangential_weights(
+    weights: str, small_strain: bool, tangential_recovery: str = "lumped"
+) -> str:
+    """The tangential weight functions of a frictional pair: ``weights`` itself, except
+    that "auto" (the default) becomes "dual" where every body is linear-elastic (small
+    strain, ``small_strain``) and the tangential recovery is lumped, and "standard"
+    elsewhere (local). Node integration keeps Φ whatever this says.
+
+    Why (session 25, single serial runs, BENCHMARKS.md §18): with small strain and the
+    lumped recovery the dual weights were better or equal everywhere. Peers problem B
+    L2(q) 18.1 / 15.4 / 8.0 % → 14.5 / 8.3 / 5.5 % at h = a/4, a/8, a/16 in 0.95 / 0.87
+    / 0.83 of the time; the 3D frictional stick patch tests 34 → 13 (hexahedra) and
+    42 → 16 (tetrahedra) Newton iterations per step with a smaller traction error;
+    twist3d 116 → 103 iterations, torque −0.50 → −0.16 %; the wedge the same slip ratio
+    (its second step 13 → 22 iterations, within the 25). Not elsewhere: with finite
+    strain the full demo_ironing2d path needs 45 Newton iterations in one step (25 with
+    the standard weights), and the coarse Cattaneo scene of
+    ``tests/test_contact_parallel.py`` with the constrained tangential recovery one
+    cutback."""
+    if weights != "auto":
+        return weights
+    return "dual" if small_strain and tangential_recovery == "lumped" else "standard"
+
+
 def resolve_acceleration(
     method: str,
     friction: float,
@@ -435,7 +460,9 @@ class MortarContact:
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
     penalty_tangential: ε_T (stress per length), "auto" (the rule of ``penalty``) or None
         (= ``penalty``).
-    tangential_weights: "standard" or "dual" weight functions of the tangential field.
+    tangential_weights: "standard" or "dual" weight functions of the tangential field, or
+        "auto" (the default, :func:`resolve_tangential_weights`: "dual" where every
+        body of ``problem`` is linear-elastic and the tangential recovery is lumped).
     tangential_recovery: "lumped", "unconstrained" or "constrained" recovery of the
         tangential traction (:func:`dolfinx_mortar.recovery.recover_tangential`).
     """
@@ -454,7 +481,7 @@ class MortarContact:
         key="contact",
         friction=0.0,
         penalty_tangential=None,
-        tangential_weights="standard",
+        tangential_weights=TANGENTIAL_WEIGHTS[0],
         tangential_recovery="lumped",
         uzawa_acceleration=ACCELERATIONS[0],
     ):
@@ -478,7 +505,13 @@ class MortarContact:
                 f"{key}.tangential_recovery",
                 f"{tangential_recovery!r} is not one of {', '.join(RECOVERIES)}",
             )
-        self.tangential_weights = tangential_weights
+        models = [m[1] for m in getattr(problem, "materials", ())]
+        small = bool(models) and all(m in LINEAR_MODELS for m in models)
+        #: as asked ("auto" included), and what it resolved to
+        self.tangential_weights_asked = tangential_weights
+        self.tangential_weights = resolve_tangential_weights(
+            tangential_weights, small, tangential_recovery
+        )
         self.tangential_recovery = tangential_recovery
         self.problem = problem
         self.comm = comm = problem.comm
@@ -758,13 +791,21 @@ class MortarContact:
         # of finite t_facet_area (docs/method-notes.md, "Dual tangential weights"); node
         # integration keeps Φ (its points are the nodes)
         nsf, nphi = self.node_of.shape
+        dual = None
         if self.tangential_weights == "dual" and self.integration != "node":
+            error = ""
             try:
-                self.t_weights, self.t_facet_area = dual_coefficients(
-                    self.ftype, self.ftype_phi, self.slave.X, self.rule
-                )
+                dual = dual_coefficients(self.ftype, self.ftype_phi, self.slave.X, self.rule)
             except ValueError as exc:
-                raise SceneError(f"{key}.tangential_weights", str(exc)) from None
+                error = str(exc)
+            # the same decision on every rank: the first rank's reason, if any
+            error = next((e for e in self.comm.allgather(error) if e), "")
+            if error and self.tangential_weights_asked != "auto":
+                raise SceneError(f"{key}.tangential_weights", error)
+            if error:  # "auto" where no dual basis exists
+                dual, self.tangential_weights = None, "standard"
+        if dual is not None:
+            self.t_weights, self.t_facet_area = dual
         else:
             self.t_weights = np.ascontiguousarray(np.broadcast_to(np.eye(nphi), (nsf, nphi, nphi)))
             self.t_facet_area = np.full(nsf, np.inf)
@@ -853,7 +894,8 @@ class MortarContact:
                     "penalty_tangential": self.penalty_t_description,
                     "tangential_weights": "standard (node integration)"
                     if self.integration == "node"
-                    else self.tangential_weights,
+                    else self.tangential_weights
+                    + (" (auto)" if self.tangential_weights_asked == "auto" else ""),
                     "tangential_recovery": self.tangential_recovery,
                     "frame": "convected orthonormal slave frame (a_ab = identity)",
                     "chattering_control": f"stick/slip states frozen after {self.freeze_after} "

@@ -35,7 +35,9 @@ Schema (``*`` = required; defaults in brackets)::
       integration "element" | "segment" | "node"             ["element"]
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
-      tangential_weights  "standard" | "dual"                 ["standard"]
+      tangential_weights  "auto" | "standard" | "dual"        ["auto"]
+                 ("auto": "dual" with linear-elastic (small-strain) bodies and
+                 the lumped tangential recovery, "standard" elsewhere)
       tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
@@ -155,8 +157,10 @@ RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).
 INTEGRATIONS = ("element", "segment", "node")
 #: Allowed values of ``contact.tangential_weights``: the dual (biorthogonal) basis Ψ_I of the
-#: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights").
-TANGENTIAL_WEIGHTS = ("dual", "standard")
+#: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights");
+#: the first is the default, resolved per pair by
+#: :func:`dolfinx_mortar.contact.resolve_tangential_weights`.
+TANGENTIAL_WEIGHTS = ("auto", "dual", "standard")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
 #: augmentation"; the first is the default: "newton" where it applies, else "aitken").
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
@@ -254,8 +258,10 @@ class ContactPair:
         ``None`` meaning "same as ``penalty``" (see :attr:`penalty_t`).
     tangential_weights:
         Weight functions of the tangential mixed field (friction only): ``"standard"``
-        (the shape functions themselves, default) or ``"dual"`` (the biorthogonal basis of
-        the slave facets closed at t_n); docs/method-notes.md, "Dual tangential weights".
+        (the shape functions themselves), ``"dual"`` (the biorthogonal basis of the slave
+        facets closed at t_n) or ``"auto"`` (default: ``"dual"`` where every body is
+        linear-elastic, i.e. small strain, and the tangential recovery is lumped;
+        ``"standard"`` elsewhere); docs/method-notes.md, "Dual tangential weights".
     tangential_recovery:
         Recovery of the tangential mixed fields (friction only): ``"lumped"`` (the nodal
         return mapping, default), ``"unconstrained"`` (τ = M⁻¹F) or ``"constrained"``
@@ -281,7 +287,7 @@ class ContactPair:
     integration: str = "element"
     penalty: float | str = "auto"
     penalty_tangential: float | str | None = None
-    tangential_weights: str = "standard"
+    tangential_weights: str = "auto"
     tangential_recovery: str = "lumped"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
@@ -824,7 +830,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     if penalty_t is not None:
         penalty_t = _penalty(penalty_t, _key(prefix, "penalty_tangential"))
     weights = _choice(
-        table.get("tangential_weights", "standard"),
+        table.get("tangential_weights", TANGENTIAL_WEIGHTS[0]),
         _key(prefix, "tangential_weights"),
         TANGENTIAL_WEIGHTS,
     )

@@ -720,6 +720,38 @@ def test_incremental_objectivity(case):
 
 
 # ---------------------------------------------------------------- model only what is needed
+def test_auto_tangential_weights_resolve_per_pair():
+    """``tangential_weights = "auto"`` (the default since session 25) resolves per pair
+    (contact.resolve_tangential_weights): "dual" where every body is linear-elastic (small
+    strain) and the tangential recovery is lumped, "standard" elsewhere; the pair reports
+    the resolved weights, marked "(auto)" (summary.json ``modelled``)."""
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.contact import resolve_tangential_weights
+
+    assert resolve_tangential_weights("auto", True) == "dual"
+    assert resolve_tangential_weights("auto", False) == "standard"
+    assert resolve_tangential_weights("auto", True, "constrained") == "standard"
+    assert resolve_tangential_weights("standard", True) == "standard"
+    assert resolve_tangential_weights("dual", False) == "dual"
+    for extra, expected in (
+        ({}, "dual (auto)"),
+        ({"tangential_recovery": "constrained"}, "standard (auto)"),
+        ({"tangential_weights": "standard"}, "standard"),
+    ):
+        pair = {**HERTZ2D["contact"][0], "friction": 0.2, **extra}
+        data = {**HERTZ2D, "contact": [pair], "output": {"dir": "unused"}}
+        scene = parse_scene(data, pathlib.Path("."))
+        assert scene.contacts[0].tangential_weights == extra.get("tangential_weights", "auto")
+        problem, _ = prepare(scene, MPI.COMM_WORLD)
+        (term,) = problem.contacts
+        assert term.describe()["tangential_weights"] == expected
+        assert term.tangential_weights == expected.split()[0]
+    # finite strain (neo-Hookean bodies)
+    term = _problem("hertz2d-P1", weights="auto").contacts[0]
+    assert term.describe()["tangential_weights"] == "standard (auto)"
+
+
 def test_frictionless_pairs_create_no_tangential_data():
     problem = _problem("hertz2d-P1", mu=0.0)
     term = problem.contacts[0]
