@@ -213,8 +213,9 @@ class ContactProblem:
 
     def dofs_held_at_zero(self) -> np.ndarray:
         """The owned local dofs that a ``[[dirichlet]]`` condition holds at zero for the
-        whole load path (every prescribed value of their component is 0: a symmetry plane,
-        a clamp; not those of :meth:`add_dirichlet_field`), sorted (local). The frictional nodal frames of symmetry planes use them
+        whole load path (every prescribed value of their component is 0: a symmetry
+        plane, a clamp; not those of :meth:`add_dirichlet_field`), sorted (local). The
+        frictional nodal frames of symmetry planes use them
         (:class:`~dolfinx_mortar.friction.NodalFrames`)."""
         held = [np.empty(0, np.int32)]
         for d in self._dirichlet:
