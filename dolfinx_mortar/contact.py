@@ -150,28 +150,14 @@ EXACT_FD_MAX_IT = 40
 #: level 2: a change of 8.3e-8 updated by 6 products to 2.3e-13, uzawa_tol = 1e-8).
 EXACT_FORCING = 0.1
 EXACT_FD_STEP = 1e-7
-#: Chattering control: after this many Jacobians in one Newton solve the stick/slip states
-#: and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
+#: Chattering control: after this many Jacobians in one Newton solve, or at the first
+#: slip reversal (lumped tangential recovery; ``_add_tangential_jacobian``), the stick/slip
+#: states and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
 #: free, if a state changed or a slip direction moved by more than FROZEN_DIRECTION_TOL.
 #: After as many Jacobians the constrained recovery's QP free set can only grow within the
 #: solve (re-checked against the plain QP at convergence).
 FREEZE_AFTER = 8
-#: Load reversal under the chattering control: a node that slipped in opposite directions
-#: at two consecutive Jacobians before the freeze (s·s_prev < 0) while its multiplier
-#: lies near the Coulomb cone, |λ_T| ≥ REVERSED_SLIP_CONE μ p_N (it slipped at the last
-#: converged state or round), is frozen in STICK: between slip in the old direction and
-#: slip in the new one lies stick. At the unloading step of the hard-case sweep's
-#: stick–slip reversal 2–5 such nodes (|λ_T| = 0.65–1.0 μ p) flipped between slip + and
-#: slip − at every iterate; frozen in slip they were wrong at every convergence, the
-#: Uzawa rounds stalled, and the step cost 369 Newton iterations in failed attempts and
-#: 2 cutbacks; frozen in stick it takes 11 + 2 + 1. Nodes without such a multiplier keep
-#: their slip state: the centre node of the symmetric frictional Hertz (λ_T = 0) flips
-#: too, and frozen in stick (or left free) it made the plain tangential update 2-cycle
-#: (docs/method-notes.md, "Friction", chattering control). Lumped tangential recovery only:
-#: with the constrained one (whose solve freezes the nodal law's states too) the rule
-#: stopped the parallel-test Cattaneo press after 6 cutbacks.
-REVERSED_SLIP_CONE = 0.5
 #: A node frozen OPEN by the chattering control that closes later is imposed STICK (its
 #: multiplier plus ε_T times its slip since t_n), unless that slip, |γ^I| = |σ^I|/A_T^I,
 #: exceeds this many h_I: it then follows the free law (stick or slip) for the rest of
@@ -822,7 +808,7 @@ class MortarContact:
         self.dissipation = 0.0
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
-        self._slip_prev, self._reversed = None, None  # REVERSED_SLIP_CONE
+        self._slip_prev, self._reversed = None, None  # slip reversal (chattering control)
         self.carry_states = False  # see the docstring of uzawa_update
         # the states the last Uzawa round hands to the next solve (used with carry_states)
         self._carried = None
@@ -1909,19 +1895,27 @@ class MortarContact:
             dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
             slip = self.fstate == fr.SLIP
             lumped = self.tangential_recovery == "lumped"
-            if lumped:  # load reversal (REVERSED_SLIP_CONE): slip directions that flipped
+            # Slip reversal: a node that slipped in opposite directions at two consecutive
+            # Jacobians of the solve (s·s_prev < 0) is frozen in STICK (between slip in the
+            # old direction and slip in the new one lies stick), and the states freeze at
+            # that Jacobian rather than after FREEZE_AFTER. Lumped tangential recovery only
+            # (with the constrained one the rule stopped the parallel-test Cattaneo press
+            # after 6 cutbacks). docs/method-notes.md, "Chattering control": the hard-case
+            # sweep's stick–slip reversal, and why no condition on λ_T since session 25.
+            reversal = False
+            if lumped:
                 if self._slip_prev is None:
                     self._reversed = np.zeros(slip.shape, bool)
                 else:  # the slip states and directions of the last Jacobian of this solve
                     was, prev = self._slip_prev
                     self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
                 self._slip_prev = (slip, dirs)
-            if self._jacobians >= self.freeze_after:
+                local = bool(np.any(self._reversed & slip))
+                reversal = self.comm.allreduce(local, op=MPI.LOR)
+            if self._jacobians >= self.freeze_after or reversal:
                 states = self.fstate.copy()
                 if lumped:
-                    lam = np.linalg.norm(self.lmbda_t, axis=1)
-                    cone = lam >= REVERSED_SLIP_CONE * self.mu * self.p
-                    states[self._reversed & slip & cone] = fr.STICK
+                    states[self._reversed & slip] = fr.STICK
                 self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None
@@ -2711,7 +2705,7 @@ class MortarContact:
         self._jac_active = None
         if self.frictional:
             self.frozen = self._carried if self.carry_states else None
-            self._slip_prev = None  # REVERSED_SLIP_CONE
+            self._slip_prev = None  # slip reversal (chattering control)
 
     def _max_penetration(self) -> float:
         active = self.p_hat > 0

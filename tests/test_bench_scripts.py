@@ -195,7 +195,8 @@ def test_stick_slip_reversal_without_a_cutback(hard, tmp_path):
     |λ_T| near μ p flipped between slip + and slip − at every iterate and, frozen in
     slip, were wrong at every convergence; the Uzawa rounds stalled and the step was cut
     back twice (369 Newton iterations in failed attempts). Such nodes are frozen in stick
-    (contact.REVERSED_SLIP_CONE): no cutback, and the symmetric hysteresis loop as before,
+    at their reversal (docs/method-notes.md, "Chattering control"): no cutback, and the
+    symmetric hysteresis loop as before,
     |Q(−S) + Q(+S)| / |Q(+S)| (measured 2.7e-5) and Q(0)/Q(+S) = −0.015."""
     (row,) = hard.main(["--cases", "cattaneo2d_reversal", "--out", str(tmp_path)])
     assert row["completed"] and row["cutbacks"] == 0, row

@@ -448,6 +448,29 @@ def test_a_failed_exact_update_falls_back_to_the_plain_one(friction, tmp_path, m
         assert max(last["multiplier_change"], last.get("tangential_change", 0.0)) <= 1e-8
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("weights", ["standard", "dual"])
+def test_a_slip_reversal_freezes_the_states(weights, shared_tmp):
+    """Chattering control: a node whose slip direction flips between two consecutive
+    Jacobians is frozen in stick and the states freeze at once (contact, the slip
+    reversal of ``_add_tangential_jacobian``). On the frictional Hertz half model (exact
+    update) the third node slipped ±μ p_N in turn at every iterate until the freeze after
+    FREEZE_AFTER Jacobians: the second step took 15 (standard) and 22 (dual) Newton
+    iterations; now 7 (serial). 1–3 ranks."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = _hertz("auto", friction=0.2, tangential_weights=weights)
+    out = shared_tmp / f"reversal_{weights}"
+    summary = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=out)
+    assert summary["status"] == "ok"
+    (pair_info,) = summary["modelled"]["contact_pairs"].values()
+    assert pair_info["uzawa_acceleration"] == "newton"
+    second = summary["steps"][-1]
+    assert sum(second["newton_iterations"]) <= 10, second["newton_iterations"]
+    assert second["cutbacks"] == 0 and second["stick_nodes"] >= 1
+
+
 def test_the_warm_up_leaves_no_state_behind(tmp_path_factory, monkeypatch):
     """``ContactProblem.warm_up`` (the runner calls it at set-up, so that numba loads the
     compiled contact kernels there and not inside the first Newton iterations: peers
