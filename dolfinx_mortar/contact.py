@@ -58,7 +58,6 @@ from petsc4py import PETSc
 
 from . import friction as fr
 from . import recovery as rc
-from .bulk import LINEAR_MODELS
 from .errors import SceneError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
@@ -491,12 +490,10 @@ class MortarContact:
                 f"{key}.tangential_recovery",
                 f"{tangential_recovery!r} is not one of {', '.join(RECOVERIES)}",
             )
-        models = [m[1] for m in getattr(problem, "materials", ())]
-        small = bool(models) and all(m in LINEAR_MODELS for m in models)
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights
         self.tangential_weights = resolve_tangential_weights(
-            tangential_weights, small, tangential_recovery
+            tangential_weights, getattr(problem, "small_strain", False), tangential_recovery
         )
         self.tangential_recovery = tangential_recovery
         self.problem = problem

@@ -119,9 +119,7 @@ class NodalFrames:
         self.coef = None
         if d == 3 and self.pair_f.size:
             A0 = np.einsum("pbk,pbc->pkc", self.dN, X[self.pair_f])
-            n0 = np.zeros((n_nodes, 3))
-            np.add.at(n0, self.pair_node, self.sign[:, None] * np.cross(A0[:, 0], A0[:, 1]))
-            n0, _ = _unit(n0)
+            n0, _ = _unit(self._summed_normals(A0))
             E = np.zeros((n_nodes, 3))
             near_x = np.abs(n0[:, 0]) > np.cos(np.radians(10.0))
             E[~near_x, 0] = 1.0
@@ -142,15 +140,7 @@ class NodalFrames:
         d, n = self.d, self.n
         comps = np.zeros((n, d), bool)
         np.logical_or.at(comps, self.pair_node, held)
-        A0 = np.einsum("pbk,pbc->pkc", self.dN, X[self.pair_f])
-        if d == 2:
-            t0 = np.zeros((n, 2))
-            np.add.at(t0, self.pair_node, self.sign[:, None] * A0[:, 0])
-            n0 = np.stack([t0[:, 1], -t0[:, 0]], axis=1)
-        else:
-            n0 = np.zeros((n, 3))
-            np.add.at(n0, self.pair_node, self.sign[:, None] * np.cross(A0[:, 0], A0[:, 1]))
-        n0, _ = _unit(n0)
+        n0, _ = _unit(self._summed_normals(np.einsum("pbk,pbc->pkc", self.dN, X[self.pair_f])))
         comps &= np.abs(n0) <= SYMMETRY_NORMAL_TOL
         count = comps.sum(axis=1)
         self.sym = np.flatnonzero((count > 0) & (count < d))
@@ -168,6 +158,17 @@ class NodalFrames:
         on = np.zeros((n, self.m), bool)
         on[self.sym] = self.sym_cut
         self._cut_p = on[self.pair_node]  # (P, m): per occurrence
+
+    def _summed_normals(self, A: np.ndarray) -> np.ndarray:
+        """Σ_f s_f ñ_f at each node (n, d), unnormalised outward normals of the slave facets
+        around it, from their covariant tangents at the node A (P, k, d) (2D: the summed
+        oriented tangent turned by −90°; 3D: the summed cross products)."""
+        out = np.zeros((self.n, self.d))
+        if self.d == 2:
+            np.add.at(out, self.pair_node, self.sign[:, None] * A[:, 0])
+            return np.stack([out[:, 1], -out[:, 0]], axis=1)
+        np.add.at(out, self.pair_node, self.sign[:, None] * np.cross(A[:, 0], A[:, 1]))
+        return out
 
     def compute(self, xs: np.ndarray, derivatives: bool = True):
         """Frames at the current slave coordinates xs (nsf, ns, d).
@@ -204,8 +205,7 @@ class NodalFrames:
                 self.pair_node
             ][:, None]
             return a, nrm, dA
-        nt = np.zeros((n, 3))
-        np.add.at(nt, self.pair_node, self.sign[:, None] * np.cross(A[:, 0], A[:, 1]))
+        nt = self._summed_normals(A)
         if self.sym.size:  # symmetry planes: the normal within them
             nt[self.sym] = np.einsum("nij,nj->ni", self.sym_proj, nt[self.sym])
         nv, ln = _unit(nt)

@@ -168,7 +168,7 @@ class ContactProblem:
         #: every region linear-elastic: the bulk residual is linear in u and is evaluated
         #: as K₀ x + f(t) with K₀ assembled once (:class:`LinearBulk`); None otherwise
         self.linear_bulk = None
-        if all(model in LINEAR_MODELS for _, model, _, _ in materials):
+        if self.small_strain:
             self.linear_bulk = LinearBulk(
                 self.J_form, compat.create_form(loads) if self._tractions else None
             )
@@ -210,6 +210,13 @@ class ContactProblem:
         self._couplings_last = None
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
+
+    @property
+    def small_strain(self) -> bool:
+        """Whether every region is linear-elastic (``kinematics = "small"``): the bulk is
+        linear (:class:`LinearBulk`), and frictional pairs take the dual tangential weights
+        by default (:func:`~dolfinx_mortar.contact.resolve_tangential_weights`)."""
+        return all(model in LINEAR_MODELS for _, model, _, _ in self.materials)
 
     def dofs_held_at_zero(self) -> np.ndarray:
         """The owned local dofs that a ``[[dirichlet]]`` condition holds at zero for the
