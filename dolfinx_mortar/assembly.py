@@ -6,14 +6,16 @@ pattern is the union of dolfinx's bulk sparsity (block level) and a list of
 contact couplings given as global block-row/block-column pairs; rows owned by
 other ranks are sent to their owner. The matrix is AIJ with block size gdim and
 the local-to-global map of the displacement space (so dolfinx's bulk assembly
-with ``MatSetValuesLocal`` works unchanged). Couplings that the contact terms learn
-while a Jacobian is assembled grow the pattern in place before the values go in
-(:class:`RecordedValues`, :meth:`MatrixPattern.grow`).
+with ``MatSetValuesLocal`` works unchanged). The couplings of every contact Jacobian
+are checked against the matrix's pattern before its values go in, and grow the
+pattern in place where they are new (:class:`RecordedValues`,
+:meth:`MatrixPattern.grow`): PETSc would otherwise reallocate inside ``MatSetValues``.
 """
 
 from __future__ import annotations
 
 import logging
+import weakref
 
 import numpy as np
 from mpi4py import MPI
@@ -87,6 +89,10 @@ class MatrixPattern:
         self.lgmap = PETSc.LGMap().create(gblocks, bsize=self.bs, comm=self.comm)
         self.key_set = np.empty(0, dtype=np.int64)  # block couplings of the owned rows
         self._known = np.empty(0, dtype=np.int64)
+        nglob = int(ranges[-1])
+        self._bulk_keys = np.unique(self.rows * nglob + self.cols)
+        #: per matrix (by handle): what this rank knows its pattern holds (_MatrixSlots)
+        self._slots: dict[int, _MatrixSlots] = {}
 
     @property
     def nblocks(self) -> int:
@@ -115,6 +121,11 @@ class MatrixPattern:
         # used for the pattern) still goes in; :meth:`grow` normally sees it first
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         A.setUp()
+        # forget the matrices destroyed or collected since (their handles may be reused)
+        self._slots = {
+            h: v for h, v in self._slots.items() if getattr(v.matrix(), "handle", 0) == h
+        }
+        self._slots[A.handle] = _MatrixSlots(A)
         log.debug("matrix pattern: %d block nonzeros (%d from contact)", self.key_set.size, er.size)
         return A
 
@@ -137,23 +148,33 @@ class MatrixPattern:
 
     def grow(self, A: PETSc.Mat, keys: np.ndarray) -> bool:
         """Make the pattern of ``A`` (made by :meth:`create`) cover the global block
-        couplings ``keys`` = block row × N_blocks + block column (any rows; local input),
-        collective.
+        couplings ``keys`` = block row × N_blocks + block column (any rows; local input)
+        that are about to be inserted, collective.
 
-        Keys this rank knows are skipped; the others go to their rows' owners. Where any
-        is new, every rank preallocates ``A`` again in place for the grown pattern (PETSc
-        then discards its values: the caller assembles again) and True is returned. This
-        replaces PETSc's reallocations of rows that overflow inside ``MatSetValues``, which
-        copy the whole matrix each time (hertz3d with the unconstrained recovery: 0.76 s
-        for one Jacobian instead of 0.09 s; 45 s for the first one of a P2 FD check)."""
+        Until its first final assembly a matrix holds the slots :meth:`create` or the last
+        growth preallocated (``key_set``, every candidate coupling). That assembly
+        squeezes out the slots it did not fill, so from then on the matrix holds the
+        bulk and the contact couplings inserted so far (:meth:`filled`), and a contact
+        zone that has grown since needs new slots. Keys this rank knows to be held are
+        skipped; the others go to their rows' owners. Where any is new, every rank
+        preallocates ``A`` again in place for ``key_set`` and the new keys, puts explicit
+        zeros in the contact couplings it had inserted before (the pattern only grows),
+        and True is returned: ``A`` has lost its values, and the caller assembles again.
+        This replaces PETSc's reallocations of rows that overflow inside ``MatSetValues``,
+        which copy the whole matrix each time (hertz3d with the unconstrained recovery:
+        0.76 s for one Jacobian instead of 0.09 s; hertz3d at 53k dofs with the lumped
+        one: 1273 such copies, 12 s in an 80 s run)."""
         nglob = self.nblocks
+        slots = self._slots_of(A)
         keys = np.unique(keys)
-        keys = keys[~_sorted_contains(self._known, keys)]
+        held = self._known if slots is None or slots.fresh else slots.held
+        keys = keys[~_sorted_contains(held, keys)]
         if self.comm.allreduce(int(keys.size), op=MPI.MAX) == 0:
-            return False  # the usual case (nothing learned, or all known): one reduction
+            return False  # the usual case: one reduction
         er, ec = _send_rows_to_owners(self.comm, self.ranges, keys // nglob, keys % nglob)
         got = np.unique(er * nglob + ec)
-        new = got[~_sorted_contains(self.key_set, got)]
+        owned = self.key_set if slots is None or slots.fresh else slots.held
+        new = got[~_sorted_contains(owned, got)]
         grown = self.comm.allreduce(int(new.size), op=MPI.SUM) > 0
         if keys.size:
             self._known = np.union1d(self._known, keys)
@@ -162,8 +183,66 @@ class MatrixPattern:
             self._known = np.union1d(self._known, new)
             self._preallocate(A)
             A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+            if slots is not None:
+                _insert_zeros(A, slots.contact, nglob, self.bs)
+                slots.fresh = True
+            A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
+            A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
             log.debug("matrix pattern grown by %d block couplings", new.size)
+        elif slots is not None and not slots.fresh:
+            slots.held = np.union1d(slots.held, keys)  # the owners hold them
         return grown
+
+    def filled(self, A: PETSc.Mat, keys: np.ndarray, bulk: bool) -> None:
+        """Record that a final assembly of ``A`` followed the insertion of the contact
+        couplings ``keys`` (this rank's, any rows) and, with ``bulk``, of the bulk part
+        (local). ``A`` then holds them, the contact couplings inserted before, and no
+        other slot."""
+        slots = self._slots_of(A)
+        if slots is None:
+            return
+        new = keys[~_sorted_contains(slots.contact, keys)]
+        if new.size:
+            slots.contact = np.union1d(slots.contact, new)
+        if slots.fresh or new.size or bulk != slots.bulk:
+            slots.held = np.union1d(self._bulk_keys, slots.contact) if bulk else slots.contact
+        slots.fresh, slots.bulk = False, bulk
+
+    def _slots_of(self, A: PETSc.Mat):
+        """The record of ``A`` (None for a matrix this pattern did not make). PETSc's
+        callbacks hand over new Python objects for the same matrix: compared by handle."""
+        slots = self._slots.get(A.handle)
+        mat = None if slots is None else slots.matrix()
+        return slots if mat is not None and mat.handle == A.handle else None
+
+
+class _MatrixSlots:
+    """What one rank knows of the pattern of one matrix (see :meth:`MatrixPattern.grow`):
+    ``matrix`` (a weak reference: the caller owns the matrix), ``fresh`` (preallocated,
+    not squeezed yet), ``held`` (sorted keys it holds: the bulk of the owned rows and the
+    contact couplings this rank inserted or had confirmed), ``contact`` (the contact
+    couplings this rank inserted, any rows)."""
+
+    def __init__(self, A: PETSc.Mat):
+        self.matrix = weakref.ref(A)
+        self.fresh = True
+        self.bulk = True  # whether ``held`` includes the bulk part
+        self.held = np.empty(0, np.int64)
+        self.contact = np.empty(0, np.int64)
+
+
+def _insert_zeros(A: PETSc.Mat, keys: np.ndarray, nglob: int, bs: int) -> None:
+    """Explicit zeros in the dofs of the sorted global block couplings ``keys`` (any rows;
+    local, not assembled): one dense block row at a time."""
+    if not keys.size:
+        return
+    rows, cols = keys // nglob, keys % nglob
+    bounds = np.flatnonzero(np.diff(rows)) + 1
+    comp = np.arange(bs, dtype=PETSc.IntType)
+    for r, c in zip(np.split(rows, bounds), np.split(cols, bounds), strict=True):
+        ridx = (r[0] * bs + comp).astype(PETSc.IntType)
+        cidx = (c[:, None] * bs + comp).ravel().astype(PETSc.IntType)
+        A.setValues(ridx, cidx, np.zeros(ridx.size * cidx.size), addv=PETSc.InsertMode.ADD_VALUES)
 
 
 def _sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
@@ -188,6 +267,32 @@ class RecordedValues:
         if addv != PETSc.InsertMode.ADD_VALUES:
             raise ValueError("RecordedValues records ADD_VALUES only")
         self._calls.append((rows, cols, values))
+
+    def block_couplings(self, bs: int, nglob: int) -> np.ndarray:
+        """The sorted global block couplings (block row × ``nglob`` + block column) that the
+        recorded calls fill: for each call, its block rows × its block columns (local;
+        negative indices, constrained dofs, are skipped as PETSc skips them)."""
+        if not self._calls:
+            return np.empty(0, np.int64)
+        n = len(self._calls)
+
+        def blocks(which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            idx = [np.asarray(c[which], np.int64) for c in self._calls]
+            call = np.repeat(np.arange(n, dtype=np.int64), [i.size for i in idx])
+            idx = np.concatenate(idx)
+            keep = idx >= 0
+            u = np.unique(call[keep] * nglob + idx[keep] // bs)  # (call, block), sorted
+            owner = u // nglob
+            return owner, u % nglob, np.bincount(owner, minlength=n)
+
+        r_call, r_blk, _ = blocks(0)
+        _, c_blk, c_count = blocks(1)
+        c_start = np.concatenate([[0], np.cumsum(c_count)[:-1]])
+        rep = c_count[r_call]  # each (call, row block) meets the call's column blocks
+        total = int(rep.sum())
+        first = np.repeat(np.cumsum(rep) - rep, rep)
+        cols = c_blk[np.repeat(c_start[r_call], rep) + np.arange(total) - first]
+        return np.unique(np.repeat(r_blk, rep) * nglob + cols)
 
     def replay(self, A: PETSc.Mat) -> None:
         """The recorded calls, in order, on ``A`` (local; ``A.assemble()`` is the caller's)."""

@@ -379,23 +379,25 @@ class ContactProblem:
 
     def _add_contact_jacobian(self, A: PETSc.Mat, bulk: bool) -> None:
         """A += the contact terms' tangent; assembles A (collective). The values are kept
-        until the pattern covers the couplings the terms learned while assembling them
-        (``learned_couplings``: those of the mixed recoveries, which the facets do not
-        give; :meth:`MatrixPattern.grow`): a coupling new to the pattern would otherwise
-        make PETSc reallocate the matrix inside MatSetValues. Where the pattern grows, A
-        loses its values, and the bulk part (``bulk``) is assembled again."""
+        until the pattern of A covers their couplings (:meth:`MatrixPattern.grow`: those
+        the mixed recoveries learn, which the facets do not give, and those of a contact
+        zone that has grown since A's slots were squeezed): a coupling new to the pattern
+        would otherwise make PETSc reallocate the matrix inside MatSetValues. Where the
+        pattern grows, A loses its values, and the bulk part (``bulk``) is assembled
+        again."""
         t0 = perf_counter()
         values = RecordedValues()
         for term in self.contacts:
             term.add_jacobian(values)
-        learned = [term.learned_couplings() for term in self.contacts]
-        grown = self._pattern.grow(A, np.concatenate([np.empty(0, np.int64), *learned]))
+        keys = values.block_couplings(self._pattern.bs, self._pattern.nblocks)
+        grown = self._pattern.grow(A, keys)
         self.timings["contact_assembly"] += perf_counter() - t0
         if grown and bulk:
             self._assemble_bulk_jacobian(A)
         t0 = perf_counter()
         values.replay(A)
         A.assemble()
+        self._pattern.filled(A, keys, bulk)
         self.timings["contact_assembly"] += perf_counter() - t0
 
     def _assemble_bulk_jacobian(self, A: PETSc.Mat) -> None:
