@@ -64,8 +64,9 @@ BENCHMARKS = ("hertz2d", "hertz3d", "patch2d", "cattaneo2d", "ironing2d")
 #: Benchmarks with friction: the unconstrained recovery is skipped (friction rejects it).
 FRICTIONAL = ("cattaneo2d", "ironing2d")
 #: ``bench all --levels K`` runs these benchmarks at min(K, cap) levels so that the whole
-#: suite fits in 30 minutes on 2 cores (hertz3d level 2, 53k dofs, alone takes ~11 min
-#: per integration there); ``bench NAME --levels K`` is not capped.
+#: suite fits in 30 minutes on 2 cores (hertz3d level 2, 53k dofs, took ~11 min per
+#: integration there when the caps were set; 55–67 s with element integration in
+#: session 26, BENCHMARKS §12); ``bench NAME --levels K`` is not capped.
 ALL_LEVEL_CAPS = {"hertz3d": 2, "ironing2d": 2}
 INTEGRATIONS = ("element", "segment")
 RECOVERIES = ("lumped", "unconstrained", "constrained")
