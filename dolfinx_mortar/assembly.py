@@ -148,8 +148,9 @@ class MatrixPattern:
 
     def grow(self, A: PETSc.Mat, keys: np.ndarray) -> bool:
         """Make the pattern of ``A`` (made by :meth:`create`) cover the global block
-        couplings ``keys`` = block row × N_blocks + block column (any rows; local input)
-        that are about to be inserted, collective.
+        couplings ``keys`` = block row × N_blocks + block column (sorted, unique, any
+        rows, as :meth:`RecordedValues.block_couplings` gives them; local input) that
+        are about to be inserted, collective.
 
         Until its first final assembly a matrix holds the slots :meth:`create` or the last
         growth preallocated (``key_set``, every candidate coupling). That assembly
@@ -166,21 +167,26 @@ class MatrixPattern:
         such copies in one matrix at 11k dofs, 16 s of an 84 s run at 53k dofs)."""
         nglob = self.nblocks
         slots = self._slots_of(A)
-        keys = np.unique(keys)
-        held = self._known if slots is None or slots.fresh else slots.held
-        keys = keys[~_sorted_contains(held, keys)]
+        fresh = slots is None or slots.fresh
+
+        def held(k: np.ndarray) -> np.ndarray:
+            if fresh:
+                return _sorted_contains(self._known, k)
+            return slots.holds(k, self._bulk_keys)
+
+        keys = keys[~held(keys)]
         if self.comm.allreduce(int(keys.size), op=MPI.MAX) == 0:
             return False  # the usual case: one reduction
         er, ec = _send_rows_to_owners(self.comm, self.ranges, keys // nglob, keys % nglob)
         got = np.unique(er * nglob + ec)
-        owned = self.key_set if slots is None or slots.fresh else slots.held
-        new = got[~_sorted_contains(owned, got)]
+        owned = _sorted_contains(self.key_set, got) if fresh else slots.holds(got, self._bulk_keys)
+        new = got[~owned]
         grown = self.comm.allreduce(int(new.size), op=MPI.SUM) > 0
         if keys.size:
-            self._known = np.union1d(self._known, keys)
+            self._known = _sorted_union(self._known, keys)
         if grown:
-            self.key_set = np.union1d(self.key_set, new)
-            self._known = np.union1d(self._known, new)
+            self.key_set = _sorted_union(self.key_set, new)
+            self._known = _sorted_union(self._known, new)
             self._preallocate(A)
             A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
             if slots is not None:
@@ -189,23 +195,23 @@ class MatrixPattern:
             A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
             A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
             log.debug("matrix pattern grown by %d block couplings", new.size)
-        elif slots is not None and not slots.fresh:
-            slots.held = np.union1d(slots.held, keys)  # the owners hold them
+        elif not fresh:
+            slots.confirmed = _sorted_union(slots.confirmed, keys)  # the owners hold them
         return grown
 
     def filled(self, A: PETSc.Mat, keys: np.ndarray, bulk: bool) -> None:
         """Record that a final assembly of ``A`` followed the insertion of the contact
-        couplings ``keys`` (this rank's, any rows) and, with ``bulk``, of the bulk part
-        (local). ``A`` then holds them, the contact couplings inserted before, and no
-        other slot."""
+        couplings ``keys`` (sorted, unique: this rank's, any rows) and, with ``bulk``, of
+        the bulk part (local). ``A`` then holds them, the contact couplings inserted
+        before, and no other slot."""
         slots = self._slots_of(A)
         if slots is None:
             return
         new = keys[~_sorted_contains(slots.contact, keys)]
         if new.size:
-            slots.contact = np.union1d(slots.contact, new)
-        if slots.fresh or new.size or bulk != slots.bulk:
-            slots.held = np.union1d(self._bulk_keys, slots.contact) if bulk else slots.contact
+            slots.contact = _sorted_union(slots.contact, new)
+        if slots.fresh:  # squeezed: what other ranks had put in is unknown here
+            slots.confirmed = np.empty(0, np.int64)
         slots.fresh, slots.bulk = False, bulk
 
     def _slots_of(self, A: PETSc.Mat):
@@ -219,16 +225,25 @@ class MatrixPattern:
 class _MatrixSlots:
     """What one rank knows of the pattern of one matrix (see :meth:`MatrixPattern.grow`):
     ``matrix`` (a weak reference: the caller owns the matrix), ``fresh`` (preallocated,
-    not squeezed yet), ``held`` (sorted keys it holds: the bulk of the owned rows and the
-    contact couplings this rank inserted or had confirmed), ``contact`` (the contact
-    couplings this rank inserted, any rows)."""
+    not squeezed yet), ``bulk`` (its last fill included the bulk part), ``contact`` (the
+    sorted contact couplings this rank inserted, any rows), ``confirmed`` (sorted keys
+    their owners said they hold since the last squeeze)."""
 
     def __init__(self, A: PETSc.Mat):
         self.matrix = weakref.ref(A)
         self.fresh = True
-        self.bulk = True  # whether ``held`` includes the bulk part
-        self.held = np.empty(0, np.int64)
+        self.bulk = True
         self.contact = np.empty(0, np.int64)
+        self.confirmed = np.empty(0, np.int64)
+
+    def holds(self, keys: np.ndarray, bulk_keys: np.ndarray) -> np.ndarray:
+        """Mask of the sorted ``keys`` the squeezed matrix is known to hold: the bulk of
+        the owned rows (``bulk_keys``, where the last fill had it), the contact couplings
+        inserted, and those confirmed by their owners (local)."""
+        mask = _sorted_contains(self.contact, keys) | _sorted_contains(self.confirmed, keys)
+        if self.bulk:
+            mask |= _sorted_contains(bulk_keys, keys)
+        return mask
 
 
 def _insert_zeros(A: PETSc.Mat, keys: np.ndarray, nglob: int, bs: int) -> None:
@@ -243,6 +258,15 @@ def _insert_zeros(A: PETSc.Mat, keys: np.ndarray, nglob: int, bs: int) -> None:
         ridx = (r[0] * bs + comp).astype(PETSc.IntType)
         cidx = (c[:, None] * bs + comp).ravel().astype(PETSc.IntType)
         A.setValues(ridx, cidx, np.zeros(ridx.size * cidx.size), addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def _sorted_union(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """``np.union1d(sorted_keys, keys)`` for a sorted unique ``sorted_keys`` (local): the
+    keys not in it are inserted in place of a sort of the whole (a growth step adds a few
+    hundred keys to sets of 10⁵–10⁶)."""
+    keys = np.unique(keys)
+    keys = keys[~_sorted_contains(sorted_keys, keys)]
+    return np.insert(sorted_keys, np.searchsorted(sorted_keys, keys), keys)
 
 
 def _sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
@@ -285,8 +309,10 @@ class RecordedValues:
             owner = u // nglob
             return owner, u % nglob, np.bincount(owner, minlength=n)
 
-        r_call, r_blk, _ = blocks(0)
-        _, c_blk, c_count = blocks(1)
+        r_call, r_blk, c_count = blocks(0)
+        c_blk = r_blk
+        if any(c[0] is not c[1] for c in self._calls):  # most calls are square: rows = cols
+            _, c_blk, c_count = blocks(1)
         c_start = np.concatenate([[0], np.cumsum(c_count)[:-1]])
         rep = c_count[r_call]  # each (call, row block) meets the call's column blocks
         total = int(rep.sum())
