@@ -171,7 +171,7 @@ class MatrixPattern:
 
         def held(k: np.ndarray) -> np.ndarray:
             if fresh:
-                return _sorted_contains(self._known, k)
+                return sorted_contains(self._known, k)
             return slots.holds(k, self._bulk_keys)
 
         keys = keys[~held(keys)]
@@ -179,7 +179,7 @@ class MatrixPattern:
             return False  # the usual case: one reduction
         er, ec = _send_rows_to_owners(self.comm, self.ranges, keys // nglob, keys % nglob)
         got = np.unique(er * nglob + ec)
-        owned = _sorted_contains(self.key_set, got) if fresh else slots.holds(got, self._bulk_keys)
+        owned = sorted_contains(self.key_set, got) if fresh else slots.holds(got, self._bulk_keys)
         new = got[~owned]
         grown = self.comm.allreduce(int(new.size), op=MPI.SUM) > 0
         if keys.size:
@@ -207,7 +207,7 @@ class MatrixPattern:
         slots = self._slots_of(A)
         if slots is None:
             return
-        new = keys[~_sorted_contains(slots.contact, keys)]
+        new = keys[~sorted_contains(slots.contact, keys)]
         if new.size:
             slots.contact = _sorted_union(slots.contact, new)
         if slots.fresh:  # squeezed: what other ranks had put in is unknown here
@@ -240,9 +240,9 @@ class _MatrixSlots:
         """Mask of the sorted ``keys`` the squeezed matrix is known to hold: the bulk of
         the owned rows (``bulk_keys``, where the last fill had it), the contact couplings
         inserted, and those confirmed by their owners (local)."""
-        mask = _sorted_contains(self.contact, keys) | _sorted_contains(self.confirmed, keys)
+        mask = sorted_contains(self.contact, keys) | sorted_contains(self.confirmed, keys)
         if self.bulk:
-            mask |= _sorted_contains(bulk_keys, keys)
+            mask |= sorted_contains(bulk_keys, keys)
         return mask
 
 
@@ -265,11 +265,11 @@ def _sorted_union(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     keys not in it are inserted in place of a sort of the whole (a growth step adds a few
     hundred keys to sets of 10⁵–10⁶)."""
     keys = np.unique(keys)
-    keys = keys[~_sorted_contains(sorted_keys, keys)]
+    keys = keys[~sorted_contains(sorted_keys, keys)]
     return np.insert(sorted_keys, np.searchsorted(sorted_keys, keys), keys)
 
 
-def _sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
+def sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     """Mask of ``keys`` found in the sorted array ``sorted_keys`` (local)."""
     if not sorted_keys.size:
         return np.zeros(keys.size, bool)

@@ -2271,6 +2271,31 @@ class MortarContact:
         self._couplings_memo = ([self._exchanges, *inputs], result)
         return result
 
+    def coupling_cover(self) -> tuple[np.ndarray, np.ndarray]:
+        """What :meth:`block_couplings` is made of, in a form that is cheap to compare
+        (local): the sorted unique keys slave facet × N_blocks + master block, one per
+        node of every candidate master facet of every slave facet (the pairing's and,
+        with friction, the slip's t_n masters), and the sorted learned couplings
+        (:meth:`learned_couplings`). If both are subsets of an earlier cover, so are
+        the couplings: a node couples all blocks that its slave facets see, and no
+        facet sees a new block. About 50 000 keys where the couplings are 10⁶ (3D
+        ironing); the master facets' numbering, which a new exchange changes, does not
+        enter."""
+        if self.master is None:
+            self.update(self.problem.u)
+        nsf = self.slave.num_facets
+        nb = int(self.ranges[-1])
+        keys = [np.empty(0, np.int64)]
+        if nsf and self.node_blocks.size:
+            cand_sets = [(self.cand_off, self.cand)]
+            if self.frictional:
+                cand_sets.append(self.hist_cand)
+            per = self.master.nodes_per_facet
+            for off, cand in cand_sets:
+                fac = np.repeat(np.repeat(np.arange(nsf, dtype=np.int64), np.diff(off)), per)
+                keys.append(fac * nb + self.master.blocks[cand].ravel())
+        return np.unique(np.concatenate(keys)), np.unique(self.learned_couplings())
+
     def _block_couplings(self, nsf, cand_sets) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`block_couplings` computed (local)."""
         fac = [np.repeat(np.arange(nsf), self.slave.nodes_per_facet)]

@@ -34,7 +34,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import MatrixPattern, RecordedValues
+from .assembly import MatrixPattern, RecordedValues, sorted_contains
 from .bulk import LINEAR_MODELS, internal_residual
 
 log = logging.getLogger(__name__)
@@ -206,6 +206,8 @@ class ContactProblem:
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
+        #: per contact term, a coupling_cover() whose couplings the matrix holds
+        self._pattern_cover = None
         #: the terms' block_couplings() and the (rows, cols, keys) made of them last time
         self._couplings_last = None
         self.t = 0.0
@@ -432,20 +434,35 @@ class ContactProblem:
         currently possible (collective). The caller owns (and destroys) it."""
         r, c, keys = self._contact_couplings()
         self._pattern_keys = keys
+        self._pattern_cover = [term.coupling_cover() for term in self.contacts]
         return self._pattern.create(r, c)
 
     def pattern_outdated(self) -> bool:
         """True when the contact terms can now fill entries the last matrix did not
-        preallocate (collective)."""
+        preallocate (collective).
+
+        First the cheap test: every term's :meth:`~dolfinx_mortar.contact.MortarContact.
+        coupling_cover` is a subset of one whose couplings the matrix holds (no slave
+        facet sees a master node it did not see, no new learned coupling). Only where
+        that fails are the couplings themselves compared (3D ironing: 36 ms per solve
+        for 10⁶ keys, against about 3 ms for the cover)."""
         if not self.contacts:
             return False
         if self._pattern_keys is None:
             return True
-        _, _, keys = self._contact_couplings()
-        # the very couplings the matrix was made for (the terms' memos): nothing to check
-        local = keys is not self._pattern_keys and not (
-            np.isin(keys, self._pattern_keys, assume_unique=True).all()
+        covers = [term.coupling_cover() for term in self.contacts]
+        local = not all(
+            sorted_contains(old[0], new[0]).all() and sorted_contains(old[1], new[1]).all()
+            for old, new in zip(self._pattern_cover, covers, strict=True)
         )
+        if local:
+            _, _, keys = self._contact_couplings()
+            # the very couplings the matrix was made for (the terms' memos): nothing to check
+            local = keys is not self._pattern_keys and not (
+                sorted_contains(self._pattern_keys, keys).all()
+            )
+            if not local:  # covered: the later tests start from these covers
+                self._pattern_cover = covers
         return bool(self.comm.allreduce(int(local), op=MPI.MAX))
 
     # ---------------------------------------------------------------- steps
@@ -493,7 +510,7 @@ class ContactProblem:
         contact update, every step with :meth:`begin_step`."""
         if not self.contacts:
             return
-        keys = self._pattern_keys
+        keys, cover = self._pattern_keys, self._pattern_cover
         x = self.u.vector
         self.update_contact(x)
         b = x.duplicate()
@@ -506,7 +523,7 @@ class ContactProblem:
         A.destroy()
         b.destroy()
         self._contact_x = None
-        self._pattern_keys = keys
+        self._pattern_keys, self._pattern_cover = keys, cover
 
     def begin_solve(self) -> None:
         """A Newton solve starts (contact terms reset their per-solve state)."""

@@ -688,3 +688,59 @@ def test_block_couplings_are_remembered_until_their_inputs_change():
     missing = comm.allreduce(int(not np.isin(keys, problem._pattern_keys).all()), op=MPI.MAX)
     assert missing == 1 and problem.pattern_outdated()
     A.destroy()
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_the_coupling_cover_decides_the_pattern_check(case, monkeypatch):
+    """``ContactProblem.pattern_outdated`` first compares the terms' coupling covers
+    (slave facet × master block of the candidates, and the learned couplings): a cover
+    that is a subset of the matrix's proves its couplings are held, without the 10⁶-key
+    comparison. Checked on five pressed states (1–3 ranks): wherever one cover is a
+    subset of another's, so are the couplings, and then the covers alone settle the
+    check; a cover that proves nothing falls back to the keys and is then replaced by one
+    that does; couplings the matrix lacks make it outdated."""
+    comm = MPI.COMM_WORLD
+    problem = _problem(case)
+    term = problem.contacts[0]
+
+    def state(depth):
+        _set_state(problem, depth, CASES[case][4][0])
+        term.update(problem.u)
+        return term.coupling_cover(), problem._contact_couplings()[2]
+
+    def subset(small, big):  # on every rank
+        ok = np.isin(small, big).all()
+        return comm.allreduce(int(ok), op=MPI.MIN) == 1
+
+    depths = (0.05, 0.25, 0.02, 0.4, 0.1)
+    seen = [state(d) for d in depths]
+    covered = []  # (i, j): the cover at depths[i] is a subset of the one at depths[j]
+    for i, (cov_a, keys_a) in enumerate(seen):
+        for j, (cov_b, keys_b) in enumerate(seen):
+            if i != j and subset(cov_a[0], cov_b[0]) and subset(cov_a[1], cov_b[1]):
+                covered.append((i, j))
+                assert subset(keys_a, keys_b)
+    assert covered
+
+    full = []
+    original = problem._contact_couplings
+    monkeypatch.setattr(problem, "_contact_couplings", lambda: full.append(1) or original())
+    i, j = covered[0]
+    state(depths[j])
+    A = problem.create_matrix()
+    held = problem._pattern_keys
+    full.clear()
+    _, keys = state(depths[i])
+    assert not problem.pattern_outdated() and subset(keys, held)
+    assert comm.allreduce(len(full), op=MPI.MAX) == 1  # only state()'s own call
+    full.clear()
+    problem._pattern_cover = [(np.empty(0, np.int64), np.empty(0, np.int64))]
+    assert not problem.pattern_outdated()  # the keys decide (where the cover is not empty)
+    assert comm.allreduce(len(full), op=MPI.MAX) == 1
+    assert np.array_equal(problem._pattern_cover[0][0], term.coupling_cover()[0])
+    outdated = [k for k, (_, keys) in enumerate(seen) if not subset(keys, held)]
+    assert outdated
+    state(depths[outdated[0]])  # new couplings
+    assert problem.pattern_outdated()
+    A.destroy()
