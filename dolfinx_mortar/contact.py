@@ -1931,42 +1931,73 @@ class MortarContact:
             (self.fstate == fr.OPEN) & (self.kcoef > 0.0) & (self.predictor_nodes > 0) & hasT
         )
         D_stick = self.eps_t[:, None, None] * np.eye(m)
-        for node in np.flatnonzero((self.fstate > 0) | predictor):
-            D, Pd = (
-                (D_stick[node], 0.0 * self._Pd[node])
-                if predictor[node]
-                else (self._D[node], self._Pd[node])
-            )
-            s, e = self.s_off[node], self.s_off[node + 1]
-            ps, pe = fo[node], fo[node + 1]
-            pf = pf_all[ps:pe]
-            # ∂p_N/∂u = −kN × row: the lumped kcoef B^I, or the row of Lᵀ diag(d) R B of the
-            # constrained recovery (kN = 1)
-            if self._dp_rows is not None and not predictor[node]:
+        nodes = np.flatnonzero((self.fstate > 0) | predictor)
+        pred = predictor[nodes]
+        D = np.where(pred[:, None, None], D_stick[nodes], self._D[nodes])
+        Pd = np.where(pred[:, None], 0.0, self._Pd[nodes])
+        # ∂p_N/∂u = −kN × row: the lumped kcoef B^I, or the row of Lᵀ diag(d) R B of the
+        # constrained recovery (kN = 1)
+        constrained = ~pred if self._dp_rows is not None else np.zeros(nodes.size, bool)
+        kN = np.where(constrained, 1.0, self.kcoef[nodes])
+        rows = []
+        for node, con in zip(nodes, constrained, strict=True):
+            if con:
                 r = self._dp_rows
                 sl = slice(r.indptr[node], r.indptr[node + 1])
-                kN, b_idx, b_val = 1.0, r.indices[sl].astype(np.int64), r.data[sl]
+                rows.append((r.indices[sl].astype(np.int64), r.data[sl]))
             elif predictor[node]:
                 sl = slice(c_off[node], c_off[node + 1])
-                kN, b_idx, b_val = self.kcoef[node], c_idx[sl], c_val[sl]
+                rows.append((c_idx[sl], c_val[sl]))
             else:
-                kN = self.kcoef[node]
-                b_idx, b_val = self._dp_lumped(node, c_off, c_idx, c_val)
+                rows.append(self._dp_lumped(node, c_off, c_idx, c_val))
+        if mot is None:  # all nodes at once (numba)
+            b_off = np.zeros(nodes.size + 1, np.int64)
+            b_off[1:] = np.cumsum([r[0].size for r in rows])
+            cat = [np.empty(0, np.int64)] + [r[0] for r in rows]
+            u_off, U, k_off, K = kfriction.node_tangents(
+                nodes,
+                self.frame_a,
+                self.S,
+                self.AT,
+                self.tau,
+                D,
+                Pd,
+                kN,
+                self.s_off,
+                self.s_dof,
+                self.s_w,
+                fo,
+                pf_all,
+                self.slave.dofs.reshape(self.slave.num_facets, -1, d),
+                self.frame_dA,
+                b_off,
+                np.concatenate(cat).astype(np.int64),
+                np.concatenate([np.empty(0)] + [r[1] for r in rows]),
+            )
+            for i in range(nodes.size):
+                idx = U[u_off[i] : u_off[i + 1]].astype(PETSc.IntType)
+                if idx.size:
+                    K_i = K[k_off[i] : k_off[i + 1]].reshape(idx.size, idx.size)
+                    A.setValues(idx, idx, K_i, addv=PETSc.InsertMode.ADD_VALUES)
+            return
+        for i, node in enumerate(nodes):  # segment integration: the moving points too
+            s, e = self.s_off[node], self.s_off[node + 1]
+            ps, pe = fo[node], fo[node + 1]
             U, K = fr.node_tangent(
                 self.frame_a[node],
                 self.S[node],
                 self.AT[node],
                 self.tau[node],
-                D,
-                Pd,
-                kN,
+                D[i],
+                Pd[i],
+                kN[i],
                 self.s_dof[s:e],
                 self.s_w[s:e],
-                self.slave.dofs[pf].reshape(-1, d),
+                self.slave.dofs[pf_all[ps:pe]].reshape(-1, d),
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
-                b_idx,
-                b_val,
-                None if mot is None else self._moving_rows(mot, node),
+                rows[i][0],
+                rows[i][1],
+                self._moving_rows(mot, node),
             )
             if U.size:
                 idx = U.astype(PETSc.IntType)

@@ -38,7 +38,10 @@ lumped or the constrained normal recovery); the point integrals are in
   variation of a_αβ); it IS part of the tangent, through t^I(u).
 - **Tangent** (:func:`node_tangent`): K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u, with
   ∂t = a_αᵀ ∂τ_α + τ_α ∂a_α, ∂τ = D ∂γ + P ∂p_N, ∂γ_β = (a_β·∂S + S·∂a_β)/A_T,
-  ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric.
+  ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric. The contact term
+  computes all nodes at once with the numba kernel
+  :func:`dolfinx_mortar.kernels.friction.node_tangents`; :func:`node_tangent` is its
+  reference, and still serves segment integration (its moving points).
 """
 
 from __future__ import annotations

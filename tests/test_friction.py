@@ -248,6 +248,49 @@ def test_slip_integrals_match_reference(case, weights):
     assert np.allclose(S_w, S, atol=1e-12)
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_node_tangents_kernel_matches_reference(d):
+    """kernels.friction.node_tangents (numba, all nodes at once) against the NumPy
+    reference friction.node_tangent, one node at a time: random frames, slips, D, Pd, kN,
+    S-weights, frame derivatives and B rows, with constrained dofs (−1) and repeated
+    dofs, a node without frame facets and one whose B row is empty."""
+    from dolfinx_mortar.kernels.friction import node_tangents
+
+    rng = np.random.default_rng(7)
+    m, ns, nsf, n, ndof = d - 1, d, 6, 5, 40
+    fdofs = rng.integers(-1, ndof, (nsf, ns, d))
+    pair_off = np.array([0, 2, 4, 4, 6, 8])  # node 2 has no frame facets
+    pair_f = rng.integers(0, nsf, pair_off[-1])
+    fdA = rng.standard_normal((pair_off[-1], ns, m, d, d))
+    s_off = np.array([0, 5, 9, 14, 18, 24])
+    s_dof = rng.integers(-1, ndof, (s_off[-1], d))
+    s_w = rng.standard_normal(s_off[-1])
+    a, S = rng.standard_normal((n, m, d)), rng.standard_normal((n, d))
+    AT, tau = rng.uniform(0.5, 2.0, n), rng.standard_normal((n, m))
+    nodes = np.array([4, 0, 2, 3])
+    D = rng.standard_normal((nodes.size, m, m))
+    Pd, kN = rng.standard_normal((nodes.size, m)), rng.uniform(1.0, 3.0, nodes.size)
+    b_off = np.array([0, 7, 7, 12, 20])  # node 0: an empty row
+    b_idx = rng.integers(-1, ndof, b_off[-1])
+    b_val = rng.standard_normal(b_off[-1])
+    u_off, U, k_off, K = node_tangents(
+        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, pair_f, fdofs, fdA,
+        b_off, b_idx, b_val,
+    )  # fmt: skip
+    for i, node in enumerate(nodes):
+        sl, pl, bl = (
+            slice(o[j], o[j + 1]) for o, j in ((s_off, node), (pair_off, node), (b_off, i))
+        )
+        U_ref, K_ref = fr.node_tangent(
+            a[node], S[node], AT[node], tau[node], D[i], Pd[i], kN[i], s_dof[sl], s_w[sl],
+            fdofs[pair_f[pl]].reshape(-1, d), fdA[pl].reshape(-1, m, d, d), b_idx[bl], b_val[bl],
+        )  # fmt: skip
+        assert np.array_equal(U[u_off[i] : u_off[i + 1]], U_ref)
+        nu = U_ref.size
+        K_i = K[k_off[i] : k_off[i + 1]].reshape(nu, nu)
+        assert np.allclose(K_i, K_ref, rtol=1e-13, atol=1e-13 * np.abs(K_ref).max()), i
+
+
 @pytest.mark.parametrize("case", ["hertz2d-P2", "hertz3d-P1"])
 def test_slip_point_terms_match_reference(case):
     """kernels.friction.slip_point_terms against the NumPy reference geometry

@@ -412,6 +412,129 @@ def slip_motion_blocks(
                         dMv[v, a1, i, al, j] += s
 
 
+@numba.njit(cache=True)
+def _node_dofs(node, s_off, s_dof, pair_off, pair_f, fdofs, b_lo, b_hi, b_idx):
+    """Sorted unique dofs ≥ 0 of one node: its S-weights', its frame facets' and its B row's."""
+    e0, e1, p0, p1 = s_off[node], s_off[node + 1], pair_off[node], pair_off[node + 1]
+    d, ns = s_dof.shape[1], fdofs.shape[1]
+    buf = np.empty((e1 - e0) * d + (p1 - p0) * ns * d + (b_hi - b_lo), np.int64)
+    c = 0
+    for e in range(e0, e1):
+        for j in range(d):
+            buf[c] = s_dof[e, j]
+            c += 1
+    for p in range(p0, p1):
+        for a in range(ns):
+            for j in range(d):
+                buf[c] = fdofs[pair_f[p], a, j]
+                c += 1
+    for t in range(b_lo, b_hi):
+        buf[c] = b_idx[t]
+        c += 1
+    u = np.unique(buf)
+    return u[u >= 0]
+
+
+@numba.njit(cache=True)
+def node_tangents(
+    nodes,
+    a,
+    S,
+    AT,
+    tau,
+    D,
+    Pd,
+    kN,
+    s_off,
+    s_dof,
+    s_w,
+    pair_off,
+    pair_f,
+    fdofs,
+    fdA,
+    b_off,
+    b_idx,
+    b_val,
+):
+    """The nodal friction tangents K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u of the listed nodes, packed
+    (numba; :func:`dolfinx_mortar.friction.node_tangent` is the NumPy reference, one node
+    at a time, and the module docstring there has the equations):
+
+        ∂γ = (a ∂S + S·∂a)/A_T,   ∂τ = D ∂γ − Pd kN B,   ∂t = aᵀ ∂τ + τ_α ∂a_α.
+
+    nodes (k,): node indices into a (n, m, d) frames, S (n, d) weighted slips, AT (n,),
+    tau (n, m); per listed node D (k, m, m), Pd (k, m), kN (k,) and the row B as CSR
+    b_off (k + 1,), b_idx, b_val (global dofs, any order, repeats summed). s_off (n + 1,),
+    s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e); pair_off
+    (n + 1,), pair_f (P,): the slave facets of each node's frame, fdofs (nsf, ns, d) their
+    dofs, fdA (P, ns, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left
+    out. Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each
+    node's (nu, nu) block row-major)."""
+    k = nodes.size
+    m, d = a.shape[1], a.shape[2]
+    ns = fdofs.shape[1]
+    dofs = [
+        _node_dofs(nodes[i], s_off, s_dof, pair_off, pair_f, fdofs, b_off[i], b_off[i + 1], b_idx)
+        for i in range(k)
+    ]
+    u_off = np.zeros(k + 1, np.int64)
+    k_off = np.zeros(k + 1, np.int64)
+    for i in range(k):
+        nu = dofs[i].size
+        u_off[i + 1] = u_off[i] + nu
+        k_off[i + 1] = k_off[i] + nu * nu
+    U = np.empty(u_off[k], np.int64)
+    K = np.zeros(k_off[k])
+    for i in range(k):
+        node = nodes[i]
+        Ui = dofs[i]
+        nu = Ui.size
+        U[u_off[i] : u_off[i + 1]] = Ui
+        Srow = np.zeros((d, nu))
+        Frow = np.zeros((m, d, nu))
+        Brow = np.zeros(nu)
+        for e in range(s_off[node], s_off[node + 1]):
+            for c in range(d):
+                if s_dof[e, c] >= 0:
+                    Srow[c, np.searchsorted(Ui, s_dof[e, c])] += s_w[e]
+        for p in range(pair_off[node], pair_off[node + 1]):
+            for b in range(ns):
+                for c2 in range(d):
+                    dof = fdofs[pair_f[p], b, c2]
+                    if dof < 0:
+                        continue
+                    j = np.searchsorted(Ui, dof)
+                    for al in range(m):
+                        for c in range(d):
+                            Frow[al, c, j] += fdA[p, b, al, c, c2]
+        for t in range(b_off[i], b_off[i + 1]):
+            if b_idx[t] >= 0:
+                Brow[np.searchsorted(Ui, b_idx[t])] += b_val[t]
+        dgam = np.zeros((m, nu))
+        for al in range(m):
+            for j in range(nu):
+                v = 0.0
+                for c in range(d):
+                    v += a[node, al, c] * Srow[c, j] + S[node, c] * Frow[al, c, j]
+                dgam[al, j] = v / AT[node]
+        dt = np.zeros((d, nu))
+        for al in range(m):
+            for j in range(nu):
+                dtau = -Pd[i, al] * kN[i] * Brow[j]
+                for be in range(m):
+                    dtau += D[i, al, be] * dgam[be, j]
+                for c in range(d):
+                    dt[c, j] += a[node, al, c] * dtau + tau[node, al] * Frow[al, c, j]
+        base = k_off[i]
+        for r in range(nu):
+            for j in range(nu):
+                v = 0.0
+                for c in range(d):
+                    v += Srow[c, r] * dt[c, j]
+                K[base + r * nu + j] = v
+    return u_off, U, k_off, K
+
+
 def slip_integrals_reference(
     ftype_s,
     ftype_m,
