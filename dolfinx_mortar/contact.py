@@ -1968,7 +1968,7 @@ class MortarContact:
                 self.s_w,
                 fo,
                 pf_all,
-                self.slave.dofs.reshape(self.slave.num_facets, -1, d),
+                self.slave.dofs.reshape(self.slave.num_facets, self.slave.nodes_per_facet, d),
                 self.frame_dA,
                 b_off,
                 np.concatenate(cat).astype(np.int64),
