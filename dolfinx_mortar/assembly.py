@@ -68,7 +68,7 @@ def _send_rows_to_owners(comm, ranges: np.ndarray, rows: np.ndarray, cols: np.nd
 class MatrixPattern:
     """Builds and owns nothing but the recipe: bulk pattern + contact couplings → AIJ matrix.
 
-    ``create(extra_rows, extra_cols)`` is collective; the returned Mat belongs to the caller.
+    ``create(keys)`` is collective; the returned Mat belongs to the caller.
     """
 
     def __init__(self, a_form, V):
@@ -99,18 +99,20 @@ class MatrixPattern:
         """Global number of block rows (= block columns)."""
         return int(self.ranges[-1])
 
-    def create(self, extra_rows=None, extra_cols=None) -> PETSc.Mat:
-        """A new preallocated matrix for the bulk pattern ∪ the given global block couplings."""
-        if extra_rows is None:
-            extra_rows = np.empty(0, dtype=np.int64)
-            extra_cols = np.empty(0, dtype=np.int64)
-        extra_rows = np.asarray(extra_rows, np.int64)
-        extra_cols = np.asarray(extra_cols, np.int64)
-        er, ec = _send_rows_to_owners(self.comm, self.ranges, extra_rows, extra_cols)
+    def create(self, keys=None) -> PETSc.Mat:
+        """A new preallocated matrix for the bulk pattern ∪ the global block couplings
+        ``keys`` (block row × N_blocks + block column, sorted and unique, any rows;
+        collective). Couplings of rows owned elsewhere go to their owners."""
         nglob = self.nblocks
-        self.key_set = np.unique(np.concatenate([self.rows * nglob + self.cols, er * nglob + ec]))
+        keys = np.empty(0, np.int64) if keys is None else np.asarray(keys, np.int64)
+        r0, r1 = nglob * self.ranges[self.comm.rank], nglob * self.ranges[self.comm.rank + 1]
+        lo, hi = np.searchsorted(keys, [r0, r1])  # the owned rows' keys: a sorted slice
+        away = np.concatenate([keys[:lo], keys[hi:]])
+        er, ec = _send_rows_to_owners(self.comm, self.ranges, away // nglob, away % nglob)
+        got = np.unique(er * nglob + ec)
+        self.key_set = _merge_sorted(_merge_sorted(self._bulk_keys, keys[lo:hi]), got)
         # the couplings this rank knows to be in the pattern (any row): checked locally first
-        self._known = np.unique(np.concatenate([self.key_set, extra_rows * nglob + extra_cols]))
+        self._known = _merge_sorted(self.key_set, away)
         n = self.nrow * self.bs
         A = PETSc.Mat().create(comm=self.comm)
         A.setType(PETSc.Mat.Type.AIJ)
@@ -126,7 +128,9 @@ class MatrixPattern:
             h: v for h, v in self._slots.items() if getattr(v.matrix(), "handle", 0) == h
         }
         self._slots[A.handle] = _MatrixSlots(A)
-        log.debug("matrix pattern: %d block nonzeros (%d from contact)", self.key_set.size, er.size)
+        log.debug(
+            "matrix pattern: %d block nonzeros (%d contact couplings)", self.key_set.size, keys.size
+        )
         return A
 
     def _preallocate(self, A: PETSc.Mat) -> None:
@@ -258,6 +262,14 @@ def _insert_zeros(A: PETSc.Mat, keys: np.ndarray, nglob: int, bs: int) -> None:
         ridx = (r[0] * bs + comp).astype(PETSc.IntType)
         cidx = (c[:, None] * bs + comp).ravel().astype(PETSc.IntType)
         A.setValues(ridx, cidx, np.zeros(ridx.size * cidx.size), addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def _merge_sorted(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The sorted union of two sorted unique int64 arrays (local): a stable sort (timsort,
+    which merges the two runs in linear time) and the duplicates dropped."""
+    c = np.concatenate([a, b])
+    c.sort(kind="stable")
+    return c[np.concatenate([[True], c[1:] != c[:-1]])] if c.size else c
 
 
 def _sorted_union(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:

@@ -415,8 +415,9 @@ class ContactProblem:
         self.timings["bulk_assembly"] += perf_counter() - t0
 
     # ---------------------------------------------------------------- matrix
-    def _contact_couplings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rows, cols, sorted unique keys) of the global block couplings of all contact terms."""
+    def _contact_couplings(self) -> np.ndarray:
+        """The sorted unique global block couplings (block row × N_blocks + block column)
+        of all contact terms (local)."""
         parts = [term.block_couplings() for term in self.contacts]
         last = self._couplings_last
         if last is not None and len(last[0]) == len(parts):
@@ -424,18 +425,20 @@ class ContactProblem:
                 return last[1]  # the terms' memos: the same couplings as last time
         r = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
         c = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
-        n = self.V.dofmap.index_map.size_global
-        result = r, c, np.unique(r * n + c)
-        self._couplings_last = parts, result
-        return result
+        keys = r * self._pattern.nblocks + c
+        # the terms give each node's couplings as a sorted run: a stable sort merges runs
+        keys.sort(kind="stable")
+        keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])] if keys.size else keys
+        self._couplings_last = parts, keys
+        return keys
 
     def create_matrix(self) -> PETSc.Mat:
         """A new Jacobian matrix whose pattern covers the bulk and every contact coupling
         currently possible (collective). The caller owns (and destroys) it."""
-        r, c, keys = self._contact_couplings()
+        keys = self._contact_couplings()
         self._pattern_keys = keys
         self._pattern_cover = [term.coupling_cover() for term in self.contacts]
-        return self._pattern.create(r, c)
+        return self._pattern.create(keys)
 
     def pattern_outdated(self) -> bool:
         """True when the contact terms can now fill entries the last matrix did not
@@ -456,7 +459,7 @@ class ContactProblem:
             for old, new in zip(self._pattern_cover, covers, strict=True)
         )
         if local:
-            _, _, keys = self._contact_couplings()
+            keys = self._contact_couplings()
             # the very couplings the matrix was made for (the terms' memos): nothing to check
             local = keys is not self._pattern_keys and not (
                 sorted_contains(self._pattern_keys, keys).all()

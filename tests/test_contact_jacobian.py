@@ -684,7 +684,7 @@ def test_block_couplings_are_remembered_until_their_inputs_change():
         fresh = term._block_couplings(term.slave.num_facets, [(term.cand_off, term.cand)])
     same = not has or all(np.array_equal(a, b) for a, b in zip(now, fresh, strict=True))
     assert everywhere(same)
-    keys = problem._contact_couplings()[2]
+    keys = problem._contact_couplings()
     missing = comm.allreduce(int(not np.isin(keys, problem._pattern_keys).all()), op=MPI.MAX)
     assert missing == 1 and problem.pattern_outdated()
     A.destroy()
@@ -707,7 +707,7 @@ def test_the_coupling_cover_decides_the_pattern_check(case, monkeypatch):
     def state(depth):
         _set_state(problem, depth, CASES[case][4][0])
         term.update(problem.u)
-        return term.coupling_cover(), problem._contact_couplings()[2]
+        return term.coupling_cover(), problem._contact_couplings()
 
     def subset(small, big):  # on every rank
         ok = np.isin(small, big).all()
