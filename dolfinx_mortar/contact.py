@@ -2309,9 +2309,9 @@ class MortarContact:
         with friction, the slip's t_n masters), and the sorted learned couplings
         (:meth:`learned_couplings`). If both are subsets of an earlier cover, so are
         the couplings: a node couples all blocks that its slave facets see, and no
-        facet sees a new block. About 50 000 keys where the couplings are 10⁶ (3D
-        ironing); the master facets' numbering, which a new exchange changes, does not
-        enter."""
+        facet sees a new block. The 3D ironing demo: 2 × 10⁴ keys, where the
+        couplings are 1.1 × 10⁵ (from 1.5 × 10⁶ per-node pairs); the master facets'
+        numbering, which a new exchange changes, does not enter."""
         if self.master is None:
             self.update(self.problem.u)
         nsf = self.slave.num_facets

@@ -695,11 +695,11 @@ def test_block_couplings_are_remembered_until_their_inputs_change():
 def test_the_coupling_cover_decides_the_pattern_check(case, monkeypatch):
     """``ContactProblem.pattern_outdated`` first compares the terms' coupling covers
     (slave facet × master block of the candidates, and the learned couplings): a cover
-    that is a subset of the matrix's proves its couplings are held, without the 10⁶-key
-    comparison. Checked on five pressed states (1–3 ranks): wherever one cover is a
-    subset of another's, so are the couplings, and then the covers alone settle the
-    check; a cover that proves nothing falls back to the keys and is then replaced by one
-    that does; couplings the matrix lacks make it outdated."""
+    that is a subset of the matrix's proves its couplings are held, without building and
+    comparing the couplings. Checked on five pressed states (1–3 ranks): wherever one
+    cover is a subset of another's, so are the couplings, and then the covers alone
+    settle the check; a cover that proves nothing falls back to the keys and is then
+    replaced by one that does; couplings the matrix lacks make it outdated."""
     comm = MPI.COMM_WORLD
     problem = _problem(case)
     term = problem.contacts[0]
