@@ -368,34 +368,40 @@ class ContactProblem:
             set_bc(b, self.bcs, x, -1.0)
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective)."""
+        """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective). The contact terms'
+        part is computed first and the pattern of A grown to hold it, so that a growth
+        (which drops A's values) comes before the bulk is assembled, not after."""
+        values, keys = self._contact_values(A)
         self._assemble_bulk_jacobian(A)
-        self._add_contact_jacobian(A, bulk=True)
+        self._add_contact_values(A, values, keys, bulk=True)
 
     def contact_jacobian(self, A: PETSc.Mat) -> None:
         """A = the contact terms' part of the Jacobian alone, at the state of their last
         update (collective; ``A`` from :meth:`create_matrix`). For checks against finite
         differences of the contact residual."""
+        values, keys = self._contact_values(A)
         A.zeroEntries()
-        self._add_contact_jacobian(A, bulk=False)
+        self._add_contact_values(A, values, keys, bulk=False)
 
-    def _add_contact_jacobian(self, A: PETSc.Mat, bulk: bool) -> None:
-        """A += the contact terms' tangent; assembles A (collective). The values are kept
-        until the pattern of A covers their couplings (:meth:`MatrixPattern.grow`: those
-        the mixed recoveries learn, which the facets do not give, and those of a contact
-        zone that has grown since A's slots were squeezed): a coupling new to the pattern
-        would otherwise make PETSc reallocate the matrix inside MatSetValues. Where the
-        pattern grows, A loses its values, and the bulk part (``bulk``) is assembled
-        again."""
+    def _contact_values(self, A: PETSc.Mat) -> tuple[RecordedValues, np.ndarray]:
+        """The contact terms' tangent, recorded, and its block couplings; the pattern of A
+        grown to hold them (collective). The values are kept until the pattern of A
+        covers their couplings (:meth:`MatrixPattern.grow`: those the mixed recoveries
+        learn, which the facets do not give, and those of a contact zone that has grown
+        since A's slots were squeezed): a coupling new to the pattern would otherwise make
+        PETSc reallocate the matrix inside MatSetValues. A growth drops A's values."""
         t0 = perf_counter()
         values = RecordedValues()
         for term in self.contacts:
             term.add_jacobian(values)
         keys = values.block_couplings(self._pattern.bs, self._pattern.nblocks)
-        grown = self._pattern.grow(A, keys)
+        self._pattern.grow(A, keys)
         self.timings["contact_assembly"] += perf_counter() - t0
-        if grown and bulk:
-            self._assemble_bulk_jacobian(A)
+        return values, keys
+
+    def _add_contact_values(self, A, values: RecordedValues, keys: np.ndarray, bulk: bool):
+        """A += the recorded contact values; assembles A (collective). ``bulk``: whether A
+        holds the bulk part (:meth:`MatrixPattern.filled`)."""
         t0 = perf_counter()
         values.replay(A)
         A.assemble()
