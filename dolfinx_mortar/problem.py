@@ -34,7 +34,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import MatrixPattern, RecordedValues, sorted_contains
+from .assembly import MatrixPattern, RecordedValues, sorted_contains, unique_runs
 from .bulk import LINEAR_MODELS, internal_residual
 
 log = logging.getLogger(__name__)
@@ -431,10 +431,8 @@ class ContactProblem:
                 return last[1]  # the terms' memos: the same couplings as last time
         r = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
         c = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
-        keys = r * self._pattern.nblocks + c
-        # the terms give each node's couplings as a sorted run: a stable sort merges runs
-        keys.sort(kind="stable")
-        keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])] if keys.size else keys
+        # the terms give each node's couplings as a sorted run
+        keys = unique_runs(r * self._pattern.nblocks + c)
         self._couplings_last = parts, keys
         return keys
 

@@ -744,3 +744,14 @@ def test_the_coupling_cover_decides_the_pattern_check(case, monkeypatch):
     state(depths[outdated[0]])  # new couplings
     assert problem.pattern_outdated()
     A.destroy()
+
+
+def test_unique_runs_equals_np_unique():
+    """``assembly.unique_runs`` (a stable sort that merges sorted runs, then the repeats
+    dropped) gives ``np.unique``'s result: runs with repeats across them, one run, empty."""
+    from dolfinx_mortar.assembly import unique_runs
+
+    rng = np.random.default_rng(3)
+    runs = np.concatenate([np.sort(rng.integers(0, 500, 40)) for _ in range(30)])
+    for keys in (runs, np.sort(rng.integers(0, 50, 100)), np.empty(0, np.int64)):
+        assert np.array_equal(unique_runs(keys.copy()), np.unique(keys))
