@@ -38,7 +38,7 @@ def lame(E: float, nu: float) -> tuple[float, float]:
     return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
 
-def quadrature_degree(model: str, degree: int, simplex: bool, affine: bool = True) -> int:
+def quadrature_degree(model: str, degree: int, simplex: bool, affine: bool) -> int:
     """The explicit quadrature degree used for ``model`` with displacement degree ``degree``
     on simplices (``simplex``) or not, with affine cells (``affine``: a first-order
     geometry) or curved ones. P1 on affine simplices has a constant ∇u, hence a constant
