@@ -110,19 +110,43 @@ def set_line_search_max_it(snes: PETSc.SNES, max_it: int) -> bool:
     wraps neither this nor ``SNESGetLineSearch``: ctypes as in :func:`
     set_lag_preconditioner`. Returns False where the C functions are not found (nothing
     set). Not collective."""
+    ls = _line_search(snes)
+    if ls is None:
+        return False
+    keep = ctypes.c_double(-2.0)  # PETSC_DEFAULT
+    if (
+        _petsc_c_library().SNESLineSearchSetTolerances(ls, keep, keep, keep, keep, keep, max_it)
+        != 0
+    ):
+        raise RuntimeError(f"SNESLineSearchSetTolerances(max_its={max_it}) failed")
+    return True
+
+
+def set_line_search_type(snes: PETSc.SNES, line_search: str) -> bool:
+    """The type of the SNES's line search (``SNESLineSearchSetType``; its pre-check and
+    monitor stay), inside a solve too; petsc4py 3.18 cannot reach the line search
+    (ctypes as in :func:`set_line_search_max_it`). Returns False where the C functions
+    are not found (nothing set). Not collective."""
+    ls = _line_search(snes)
+    if ls is None:
+        return False
+    if _petsc_c_library().SNESLineSearchSetType(ls, line_search.encode()) != 0:
+        raise RuntimeError(f"SNESLineSearchSetType({line_search!r}) failed")
+    return True
+
+
+def _line_search(snes: PETSc.SNES):
+    """The SNES's SNESLineSearch as a ctypes pointer, or None without the C library."""
     try:
         lib = _petsc_c_library()
     except OSError:
-        return False
+        return None
     if not hasattr(lib, "SNESLineSearchSetTolerances"):
-        return False
+        return None
     ls = ctypes.c_void_p()
     if lib.SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)) != 0:
         raise RuntimeError("SNESGetLineSearch failed")
-    keep = ctypes.c_double(-2.0)  # PETSC_DEFAULT
-    if lib.SNESLineSearchSetTolerances(ls, keep, keep, keep, keep, keep, max_it) != 0:
-        raise RuntimeError(f"SNESLineSearchSetTolerances(max_its={max_it}) failed")
-    return True
+    return ls
 
 
 def lag_preconditioner_available() -> bool:
@@ -153,5 +177,7 @@ def _petsc_c_library():
                 [ctypes.c_void_p] + [ctypes.c_double] * 5 + [int_t]
             )
             lib.SNESLineSearchSetTolerances.restype = ctypes.c_int
+            lib.SNESLineSearchSetType.argtypes = [ctypes.c_void_p, ctypes.c_char_p]
+            lib.SNESLineSearchSetType.restype = ctypes.c_int
         _petsc_c_library.lib = lib
     return _petsc_c_library.lib

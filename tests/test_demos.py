@@ -179,3 +179,29 @@ def test_a_bad_demo_option_is_one_line(capsys):
     assert exc.value.code == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert "error: argument --uzawa-acceleration: invalid choice: 'fast'" in line, line
+
+
+@pytest.mark.mpi
+def test_energy_line_search_from_the_predictor(shared_tmp, monkeypatch):
+    """hertz2d with a nearly incompressible bulk (ν = 0.49, P1 triangles: the hard-case
+    sweep's hertz2d_nu049_p1): its last step starts from the extrapolated predictor with
+    too much of the surface in contact. The energy line search (solver.ENERGY_LINE_SEARCH)
+    lets the zone open in a few full-length steps; "l2" fitted ‖R‖², whose kinks made it
+    creep (measured: the last step 6 + 1 Newton iterations against 20 + 15 + 7 + 1). The
+    same solution either way."""
+    from dolfinx_mortar import solver
+
+    sc = demo_hertz2d.scene(0, 1, quads=False)
+    for mat in sc["material"]:
+        mat["nu"] = 0.49
+    runs = {}
+    for ls in ("cp", ""):
+        monkeypatch.setattr(solver, "ENERGY_LINE_SEARCH", ls)
+        summary, _ = cm.run_scene(sc, shared_tmp / f"nu049_{ls or 'off'}")
+        assert summary["status"] == "ok"
+        runs[ls] = summary["steps"]
+    last = {ls: sum(steps[-1]["newton_iterations"]) for ls, steps in runs.items()}
+    assert last["cp"] <= 10 < 20 <= last[""], last
+    f_cp, f_off = (steps[-1]["contact_force"] for steps in runs.values())
+    for pair, f in f_cp.items():
+        assert abs(f[1] - f_off[pair][1]) <= 1e-8 * abs(f_off[pair][1]), (f, f_off[pair])

@@ -817,3 +817,58 @@ def test_l2_secant_steps_at_first_contact(cubic_vectors, first, scale, expected)
         newton.solve()
         assert _line_search_max_it(newton.snes) == expected
     assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+def _line_search_type(snes) -> str:
+    """The type of the SNES's line search object (SNESLineSearchGetType through ctypes)."""
+    import ctypes
+
+    from dolfinx_mortar import compat
+
+    lib = compat._petsc_c_library()
+    ls, name = ctypes.c_void_p(), ctypes.c_char_p()
+    assert lib.SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)) == 0
+    lib.SNESLineSearchGetType.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_char_p)]
+    assert lib.SNESLineSearchGetType(ls, ctypes.byref(name)) == 0
+    return name.value.decode()
+
+
+@pytest.mark.parametrize(
+    "predicted, symmetric, first, scale, expected",
+    [
+        (True, True, False, 1.0, solver_module.ENERGY_LINE_SEARCH),
+        (False, True, False, 1.0, "l2"),
+        (True, False, False, 1.0, "l2"),
+        (True, True, True, 1.0, "l2"),
+        (True, True, False, 100.0, "l2"),
+    ],
+    ids=["from-predictor", "not-predicted", "unsymmetric", "first-contact", "stiff-penalty"],
+)
+def test_energy_line_search_from_the_predictor(
+    cubic_vectors, predicted, symmetric, first, scale, expected
+):
+    """A solve from the extrapolated predictor (the stepper's dtol) of a problem whose
+    Jacobians are symmetric uses ENERGY_LINE_SEARCH ("cp", one secant step), except at
+    first contact and with a penalty stiffer than auto; any other solve "l2". The
+    options database keeps "l2", and the next solve that is not predicted uses "l2"
+    again; every solve converges."""
+    from types import SimpleNamespace
+
+    assert solver_module.ENERGY_LINE_SEARCH == "cp"
+    problem = _Cubic(10.0)
+    problem.contacts = [SimpleNamespace(first_contact=first, step_limit=lambda trial, d: 1.0)]
+    problem.round_off_scale = scale
+    problem.symmetric_jacobian = symmetric  # _Cubic's Jacobian is diagonal
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_energy_ls_")
+    dtol = solver_module.PREDICTOR_DIVERGENCE_TOLERANCE if predicted else None
+    with NewtonSolver(problem, settings) as newton:
+        newton.solve(dtol=dtol)
+        assert _line_search_type(newton.snes) == expected
+        assert newton._line_search_type() == "l2"
+        if expected == "cp":
+            assert _line_search_max_it(newton.snes) == 1
+        assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+        problem.u.vector.set(10.0)
+        newton.solve()
+        assert _line_search_type(newton.snes) == "l2"
+    assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
