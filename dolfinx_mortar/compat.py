@@ -135,6 +135,18 @@ def set_line_search_type(snes: PETSc.SNES, line_search: str) -> bool:
     return True
 
 
+def line_search_lambda(snes: PETSc.SNES) -> float | None:
+    """The step length λ that the SNES's line search took last (``SNESLineSearchGetLambda``
+    through ctypes), or None without the C library. Not collective."""
+    ls = _line_search(snes)
+    if ls is None:
+        return None
+    lam = ctypes.c_double()
+    if _petsc_c_library().SNESLineSearchGetLambda(ls, ctypes.byref(lam)) != 0:
+        raise RuntimeError("SNESLineSearchGetLambda failed")
+    return lam.value
+
+
 def _line_search(snes: PETSc.SNES):
     """The SNES's SNESLineSearch as a ctypes pointer, or None without the C library."""
     try:
@@ -179,5 +191,10 @@ def _petsc_c_library():
             lib.SNESLineSearchSetTolerances.restype = ctypes.c_int
             lib.SNESLineSearchSetType.argtypes = [ctypes.c_void_p, ctypes.c_char_p]
             lib.SNESLineSearchSetType.restype = ctypes.c_int
+            lib.SNESLineSearchGetLambda.argtypes = [
+                ctypes.c_void_p,
+                ctypes.POINTER(ctypes.c_double),
+            ]
+            lib.SNESLineSearchGetLambda.restype = ctypes.c_int
         _petsc_c_library.lib = lib
     return _petsc_c_library.lib

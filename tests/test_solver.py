@@ -872,3 +872,43 @@ def test_energy_line_search_from_the_predictor(
         newton.solve()
         assert _line_search_type(newton.snes) == "l2"
     assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+class _Kink(_Cubic):
+    """R(x) = −0.1 + 100 max(x − 1, 0) per entry (root 1.001), the gradient of a potential
+    that is linear up to x = 1 and stiff beyond (a node closing against a penalty), with
+    a weak spring 0.01 in J before the kink: from x = 0 the energy's directional
+    derivative along the Newton step is flat up to the kink, and one secant step of "cp"
+    from λ = 0 and 1 lands near 0 (λ ≈ 1e-4)."""
+
+    def residual(self, x, b):
+        b.array[:] = -0.1 + 100.0 * np.maximum(x.array - 1.0, 0.0)
+
+    def jacobian(self, x, A):
+        A.zeroEntries()
+        for i, v in enumerate(x.array):
+            A.setValue(i, i, 100.0 if v >= 1.0 else 0.01)
+        A.assemble()
+
+
+def test_a_short_energy_step_ends_the_energy_line_search(cubic_vectors, monkeypatch):
+    """A solve from the predictor starts with ENERGY_LINE_SEARCH; its first step is
+    shorter than ENERGY_MIN_LAMBDA, so the solve goes on with "l2" and converges. Without
+    the switch (ENERGY_MIN_LAMBDA = 0) the steps stay near λ = 1e-4 and the solve fails."""
+    from types import SimpleNamespace
+
+    problem = _Kink(0.0)
+    problem.contacts = [SimpleNamespace(first_contact=False, step_limit=lambda trial, d: 1.0)]
+    problem.round_off_scale = 1.0
+    problem.symmetric_jacobian = True
+    settings = SolverSettings(rtol=1e-10, atol=1e-12, max_it=40, prefix="test_short_cp_")
+    dtol = solver_module.PREDICTOR_DIVERGENCE_TOLERANCE
+    with NewtonSolver(problem, settings) as newton:
+        its, _ = newton.solve(dtol=dtol)
+        assert _line_search_type(newton.snes) == "l2"
+    assert np.allclose(problem.u.vector.array, 1.001, rtol=1e-9)
+    monkeypatch.setattr(solver_module, "ENERGY_MIN_LAMBDA", 0.0)
+    problem.u.vector.set(0.0)
+    with NewtonSolver(problem, settings) as newton:
+        with pytest.raises(ConvergenceError):
+            newton.solve(dtol=dtol, rescue=False)
