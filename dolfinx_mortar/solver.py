@@ -110,35 +110,33 @@ FIRST_CONTACT_DEPTH_LIMIT = 0.5
 #: ε h/E* = 1e4 then diverged in its first step and was cut back (docs/method-notes.md,
 #: "The line search at first contact").
 FIRST_CONTACT_L2_STEPS = 2
-#: Line search of the first Uzawa round of a step that starts from the extrapolated
-#: predictor, where the residual is a gradient (every Jacobian symmetric,
-#: ``problem.symmetric_jacobian``: a hyperelastic bulk with frictionless contact,
-#: R = ∂Π/∂u with Π = Π_bulk + Π_c for fixed multipliers, docs/method-notes.md "The
-#: lumped recovery as a potential") and the configured line search is "l2": PETSc's
-#: "cp", one secant step on the directional derivative ⟨R(u − λΔu), Δu⟩ = −dΠ/dλ from
-#: λ = 0 and 1 (the minimum of the potential along the step), two residuals per Newton
-#: step instead of three or four. The potential is C¹ where a step opens or closes nodes
-#: (the penalty term ⟨−γ⟩² is), whereas ‖R‖², which "l2" fits with a parabola, has
-#: kinks there. The predictor of a force-controlled press puts too much of the surface
-#: in contact (hertz3d's second step: twice the final zone), and "l2" crept with λ =
-#: 0.06–0.52 while it opened: `demo_hertz3d.py --refine 2` [14, 5, 3, 1] Newton
+#: Line search of the solves of a problem whose residual is a gradient (every Jacobian
+#: symmetric, ``problem.symmetric_jacobian``: a hyperelastic bulk with frictionless
+#: contact, R = ∂Π/∂u with Π = Π_bulk + Π_c for fixed multipliers, docs/method-notes.md
+#: "The lumped recovery as a potential") where the configured line search is "l2":
+#: PETSc's "cp", one secant step on the directional derivative ⟨R(u − λΔu), Δu⟩ =
+#: −dΠ/dλ from λ = 0 and 1 (the minimum of the potential along the step), two residuals
+#: per Newton step instead of three or four. The potential is C¹ where a step opens or
+#: closes nodes (the penalty term ⟨−γ⟩² is), whereas ‖R‖², which "l2" fits with a
+#: parabola, has kinks there. The predictor of a force-controlled press puts too much of
+#: the surface in contact (hertz3d's second step: twice the final zone), and "l2" crept
+#: with λ = 0.06–0.52 while it opened: `demo_hertz3d.py --refine 2` [14, 5, 3, 1] Newton
 #: iterations per Uzawa round, with "cp" [12, 3, 1] (62.7 → 48.9 s); the hard-case
-#: sweep's ν = 0.49 (P1) 62 → 29 (its last step 43 → 9); a short step ends it
-#: (ENERGY_MIN_LAMBDA). Not in other solves: in every
-#: solve but first contacts the sweep's ν = 0.49 (P2) first step took 30 + 5 + 1
-#: instead of 18 + 2 + 1 and a late step of its large sliding 34 + 5 + 1 instead of 9 + 1
-#: + 0; at first contact a force-controlled body moves freely up to the contact, ⟨R, Δu⟩
-#: is flat there and the secant step tiny (hertz3d's first round: 31 iterations instead
-#: of 5). Nor with penalties stiffer than the auto value (``round_off_scale`` > 1; the
-#: sweep's pure penalty at ε h/E* = 1e4 took 64 iterations instead of 44). "" turns it
-#: off (docs/method-notes.md, "The line search from the predictor").
+#: sweep's ν = 0.49 (P1) 62 → 28 and its large sliding 147 → 133 with no cutback. Not
+#: at first contact, where a force-controlled body moves freely up to the contact,
+#: ⟨R, Δu⟩ is flat there and the secant step tiny (hertz3d's first round: 31 iterations
+#: instead of 5; with ENERGY_MIN_LAMBDA, one more iteration than "l2" in the first step of
+#: hertz3d and hertz2d). Nor with penalties stiffer than the auto value
+#: (``round_off_scale`` > 1; the sweep's pure penalty at ε h/E* = 1e4 took 64 iterations
+#: instead of 44). "" turns it off (docs/method-notes.md, "The energy line search").
 ENERGY_LINE_SEARCH = "cp"
 #: A step of the energy line search shorter than this (λ) ends it for the rest of the
 #: solve ("l2" then): ⟨R, Δu⟩ along a step can be flat up to a kink where a node closes
 #: against a stiff penalty, and one secant step from λ = 0 and 1 then lands near 0 at
 #: every iteration. In `demo_hertz2d.py --refine 2` the predicted second step crept with
 #: λ ≈ 0.003 over 24 iterations until the solve failed and the step was retried from the
-#: converged state. The steps of hertz3d's predicted round are 0.56–1.04.
+#: converged state (with the switch: 22 + 2 + 1 iterations, against 26 + 5 + 1 with "l2"
+#: throughout). The steps of hertz3d's predicted round are 0.56–1.04.
 ENERGY_MIN_LAMBDA = 0.1
 
 
@@ -426,19 +424,19 @@ class NewtonSolver:
             # first_contact is decided at the solve's first Jacobian (collective)
             p = self.problem
             first = any(term.first_contact for term in p.contacts)
+            soft = getattr(p, "round_off_scale", 1.0) <= 1.0
             energy = (
                 ENERGY_LINE_SEARCH
-                and self._dtol == PREDICTOR_DIVERGENCE_TOLERANCE  # from the predictor
                 and getattr(p, "symmetric_jacobian", False)
                 and not first
-                and p.round_off_scale <= 1.0
+                and soft
             )
             compat.set_line_search_type(snes, ENERGY_LINE_SEARCH if energy else "l2")
             self._energy = bool(energy)
             # more secant steps of l2 at first contact, not with penalties stiffer than
             # the auto value (round_off_scale > 1), whose kinks defeat the fitted
             # parabola (FIRST_CONTACT_L2_STEPS)
-            steps = FIRST_CONTACT_L2_STEPS if first and p.round_off_scale <= 1.0 else 1
+            steps = FIRST_CONTACT_L2_STEPS if first and soft else 1
             compat.set_line_search_max_it(snes, 1 if energy else steps)
         elif self._energy and (compat.line_search_lambda(snes) or 0.0) < ENERGY_MIN_LAMBDA:
             # the secant step on a kinked ⟨R, Δu⟩ came out short: "l2" from here on
@@ -451,8 +449,8 @@ class NewtonSolver:
 
     def _line_search_type(self) -> str:
         """The line search configured now: the options database's, where the configured
-        one and :meth:`_line_search_as` put it; "l2" also while a solve from the
-        predictor uses ENERGY_LINE_SEARCH (local)."""
+        one and :meth:`_line_search_as` put it; "l2" also while a solve uses
+        ENERGY_LINE_SEARCH (local)."""
         key = self.settings.prefix + "snes_linesearch_type"
         return PETSc.Options().getString(key, self._line_search)
 

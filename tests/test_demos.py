@@ -182,7 +182,7 @@ def test_a_bad_demo_option_is_one_line(capsys):
 
 
 @pytest.mark.mpi
-def test_energy_line_search_from_the_predictor(shared_tmp, monkeypatch):
+def test_energy_line_search(shared_tmp, monkeypatch):
     """hertz2d with a nearly incompressible bulk (ν = 0.49, P1 triangles: the hard-case
     sweep's hertz2d_nu049_p1): its last step starts from the extrapolated predictor with
     too much of the surface in contact. The energy line search (solver.ENERGY_LINE_SEARCH)
