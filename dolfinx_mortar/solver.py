@@ -431,13 +431,15 @@ class NewtonSolver:
                 and not first
                 and soft
             )
-            compat.set_line_search_type(snes, ENERGY_LINE_SEARCH if energy else "l2")
-            self._energy = bool(energy)
+            # False where the PETSc library cannot be reached (the line search stays)
+            self._energy = bool(energy) and compat.set_line_search_type(snes, ENERGY_LINE_SEARCH)
+            if not self._energy:
+                compat.set_line_search_type(snes, "l2")
             # more secant steps of l2 at first contact, not with penalties stiffer than
             # the auto value (round_off_scale > 1), whose kinks defeat the fitted
             # parabola (FIRST_CONTACT_L2_STEPS)
             steps = FIRST_CONTACT_L2_STEPS if first and soft else 1
-            compat.set_line_search_max_it(snes, 1 if energy else steps)
+            compat.set_line_search_max_it(snes, 1 if self._energy else steps)
         elif self._energy and (compat.line_search_lambda(snes) or 0.0) < ENERGY_MIN_LAMBDA:
             # the secant step on a kinked ⟨R, Δu⟩ came out short: "l2" from here on
             log.info("energy line search took a short step; l2 for the rest of the solve")
