@@ -2286,9 +2286,7 @@ class MortarContact:
         if nsf == 0 or self.node_blocks.size == 0:
             return self._no_couplings
         # blocks seen by each slave facet: its own nodes and its candidates' nodes
-        cand_sets = [(self.cand_off, self.cand)]
-        if self.frictional:
-            cand_sets.append(self.hist_cand)  # the t_n masters of the slip
+        cand_sets = self._candidate_sets()
         inputs = [a for pair in cand_sets for a in pair] + [self._learned, self._learned_t]
         memo = self._couplings_memo
         if (
@@ -2301,6 +2299,25 @@ class MortarContact:
         result = self._block_couplings(nsf, cand_sets)
         self._couplings_memo = ([self._exchanges, *inputs], result)
         return result
+
+    def _candidate_sets(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(offsets (nsf + 1,), master facets) of the candidates of each slave facet: the
+        pairing's and, with friction, the t_n masters of the slip (local)."""
+        cand_sets = [(self.cand_off, self.cand)]
+        if self.frictional:
+            cand_sets.append(self.hist_cand)
+        return cand_sets
+
+    def _candidate_blocks(self, nsf: int, cand_sets) -> tuple[np.ndarray, np.ndarray]:
+        """(slave facet, master block) of every node of every candidate master facet of
+        every slave facet, unsorted, (n,) each (local)."""
+        per = self.master.nodes_per_facet
+        fac = [np.empty(0, np.int64)] + [
+            np.repeat(np.repeat(np.arange(nsf, dtype=np.int64), np.diff(off)), per)
+            for off, _ in cand_sets
+        ]
+        blk = [np.empty(0, np.int64)] + [self.master.blocks[c].ravel() for _, c in cand_sets]
+        return np.concatenate(fac), np.concatenate(blk).astype(np.int64)
 
     def coupling_cover(self) -> tuple[np.ndarray, np.ndarray]:
         """What :meth:`block_couplings` is made of, in a form that is cheap to compare
@@ -2315,28 +2332,17 @@ class MortarContact:
         if self.master is None:
             self.update(self.problem.u)
         nsf = self.slave.num_facets
-        nb = int(self.ranges[-1])
-        keys = [np.empty(0, np.int64)]
+        keys = np.empty(0, np.int64)
         if nsf and self.node_blocks.size:
-            cand_sets = [(self.cand_off, self.cand)]
-            if self.frictional:
-                cand_sets.append(self.hist_cand)
-            per = self.master.nodes_per_facet
-            for off, cand in cand_sets:
-                fac = np.repeat(np.repeat(np.arange(nsf, dtype=np.int64), np.diff(off)), per)
-                keys.append(fac * nb + self.master.blocks[cand].ravel())
-        return np.unique(np.concatenate(keys)), np.unique(self.learned_couplings())
+            fac, blk = self._candidate_blocks(nsf, self._candidate_sets())
+            keys = fac * int(self.ranges[-1]) + blk
+        return np.unique(keys), np.unique(self.learned_couplings())
 
     def _block_couplings(self, nsf, cand_sets) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`block_couplings` computed (local)."""
-        fac = [np.repeat(np.arange(nsf), self.slave.nodes_per_facet)]
-        blk = [self.slave.blocks.ravel()]
-        for off, cand in cand_sets:
-            fac.append(
-                np.repeat(np.repeat(np.arange(nsf), np.diff(off)), self.master.nodes_per_facet)
-            )
-            blk.append(self.master.blocks[cand].ravel())
-        fac, blk = np.concatenate(fac), np.concatenate(blk)
+        cf, cb = self._candidate_blocks(nsf, cand_sets)
+        fac = np.concatenate([np.repeat(np.arange(nsf), self.slave.nodes_per_facet), cf])
+        blk = np.concatenate([self.slave.blocks.ravel(), cb])
         # (node, block) incidence through the facets around each owned node
         fi, ii = np.nonzero(self.node_of >= 0)
         node_of_f = self.node_of[fi, ii]
