@@ -213,7 +213,7 @@ def test_energy_line_search_on_the_refined_hertz2d(shared_tmp):
     (solver.ENERGY_MIN_LAMBDA) crept with λ ≈ 0.003 in the predicted second step until
     it failed and was retried from the converged state. No predicted attempt fails, and
     that step takes at most 30 Newton iterations (measured 22 + 2 + 1; 26 + 5 + 1 with
-    "l2" throughout). Serial: about 4 s."""
+    "l2" throughout). Serial: 4–10 s."""
     summary, _ = cm.run_scene(demo_hertz2d.scene(2), shared_tmp / "hertz2d_refine2")
     steps = summary["steps"]
     assert [st["predictor_failures"] for st in steps] == [0] * len(steps)
