@@ -16,9 +16,24 @@ checks stay light):
 - :class:`SceneError`, :class:`ConvergenceError`
 """
 
+import os as _os
+
 from .errors import ConvergenceError, SceneError
 
 __version__ = "0.1.0"
+
+#: Threads of PT-Scotch (Scotch 7.0, dolfinx 0.5.2's only graph partitioner in Debian
+#: bookworm) where the environment does not set ``SCOTCH_PTHREAD_NUMBER``. Scotch 7
+#: partitions with one thread per core by default, and the threads' timing decides the
+#: partition: on 3 ranks the hertz2d generator's mesh (3 227 cells) loaded three times in
+#: one process was cut differently each time in 4 runs of 4, and cattaneo2d's at
+#: ``--refine 1`` (39 288 cells) differently in each of 10 runs (on 2 ranks the two parts
+#: swapped ranks in 5 runs of 12). Identical runs then differed at round-off, and
+#: frictional ones by Newton iterations. One thread: one partition, every time, of the
+#: same quality. Set here, on import, so that it holds for meshes that the caller makes
+#: with dolfinx after ``import dolfinx_mortar``; an explicit setting is kept.
+SCOTCH_THREADS = "1"
+_os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", SCOTCH_THREADS)
 
 _LAZY = {
     "load_scene": "scene",
