@@ -186,3 +186,22 @@ def test_a_mesh_is_partitioned_alike_every_time():
     assert comm.allreduce(sum(c.size for c in cells[:1])) == 3227  # every cell, once
     same = all(np.array_equal(cells[0], c) for c in cells[1:])
     assert comm.allreduce(same, op=MPI.LAND)
+
+
+@pytest.mark.parametrize("preset, expected", [(None, "1"), ("3", "3")])
+def test_scotch_threads_set_on_import_unless_set(preset, expected):
+    """``import dolfinx_mortar`` sets SCOTCH_PTHREAD_NUMBER to SCOTCH_THREADS where the
+    environment does not set it, and keeps an explicit setting (README, "Parallel jobs on
+    a cluster")."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "SCOTCH_PTHREAD_NUMBER"}
+    if preset is not None:
+        env["SCOTCH_PTHREAD_NUMBER"] = preset
+    code = "import os, dolfinx_mortar; print(os.environ['SCOTCH_PTHREAD_NUMBER'])"
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == expected
