@@ -11,8 +11,10 @@ metrics (``demos/_common.py``: pressure profile errors, observed Newton order), 
 written as one row of ``OUT/bench.csv``. A progress line per run is printed on rank 0.
 Then rank 0 draws ``work_precision.png`` (L2 pressure error against wall time,
 log-log, one curve per benchmark, recovery and integration), ``error_vs_h.png``
-(L2 error against h with the fitted rate in the legend) and ``newton_history.png``
-(residual norms of the last load step of every run, semilog).
+(L2 error against h with the fitted rate in the legend), ``newton_history.png``
+(residual norms of the last load step of every run, semilog) and ``cost.png`` (time per
+Newton iteration against dofs and against slave facets, log-log, the fitted slopes in
+the legends).
 
 The scenes and metrics live in the repository's ``demos/`` directory (they are not
 part of the installed library): :func:`run_bench` puts that directory on
@@ -45,7 +47,13 @@ Metrics per benchmark:
 Timings are those of the run's summary.json (``timings``: search, contact assembly,
 bulk assembly, linear solve, total), max-reduced over ranks; ``wall_time`` is the
 run's total; ``peak_memory_mb`` is ru_maxrss of the process (max over ranks), which
-only grows, so it is the peak up to and including that run.
+only grows, so it is the peak up to and including that run. Cost columns:
+``slave_facets`` (summary.json ``modelled.contact_pairs.*.slave_facets``, summed over
+the pairs), ``time_per_iteration`` = wall_time / newton_iterations (s) and
+``contact_overhead`` = wall_time / (newton_iterations × (bulk assembly + linear solve
+per iteration)) = wall_time / (bulk_assembly_time + solve_time): 1 would be a run that
+costs only its bulk assemblies and linear solves; the rest is contact (search, pairing,
+recovery, assembly), the line search's residuals, Uzawa updates and Python.
 """
 
 from __future__ import annotations
@@ -92,6 +100,7 @@ COLUMNS = (
     "h",
     "dofs",
     "slave_nodes",
+    "slave_facets",
     "ranks",
     "l2_rel_error",
     "max_rel_error",
@@ -103,6 +112,8 @@ COLUMNS = (
     "contact_assembly_time",
     "bulk_assembly_time",
     "solve_time",
+    "time_per_iteration",
+    "contact_overhead",
     "peak_memory_mb",
     "note",
 )
@@ -311,6 +322,9 @@ def run_one(
     }
     for col, key in _TIMING_COLUMNS.items():
         row[col] = comm.allreduce(float(timings.get(key, 0.0)), op=MPI.MAX)
+    pairs = summary.get("modelled", {}).get("contact_pairs", {}).values()
+    row["slave_facets"] = int(sum(pr.get("slave_facets", 0) for pr in pairs))
+    row.update(cost_columns(row))
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     row["peak_memory_mb"] = comm.allreduce(rss, op=MPI.MAX)
     last = m["residual_norms"][-1] if m["residual_norms"] else []
@@ -378,7 +392,9 @@ def run_bench(
                         f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
                         f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
                         f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
-                        f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s, "
+                        f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s "
+                        f"({row['time_per_iteration']:.3g} s per iteration, overhead "
+                        f"{row['contact_overhead']:.2f}), "
                         f"mem={row['peak_memory_mb']:.0f} MB"
                         + (f", {row['note']}" if row["note"] else ""),
                         flush=True,
@@ -391,6 +407,19 @@ def run_bench(
         plot(rows, histories, out_dir)
     comm.barrier()
     return rows
+
+
+def cost_columns(row: dict) -> dict:
+    """``time_per_iteration`` = wall_time / newton_iterations (s) and ``contact_overhead``
+    = wall_time / (newton_iterations × (bulk assembly + linear solve per iteration)) =
+    wall_time / (bulk_assembly_time + solve_time), the row's times being totals over the
+    run (nan without iterations, or without bulk and solve time; local)."""
+    its = row["newton_iterations"]
+    base = row["bulk_assembly_time"] + row["solve_time"]
+    return {
+        "time_per_iteration": row["wall_time"] / its if its > 0 else float("nan"),
+        "contact_overhead": row["wall_time"] / base if base > 0 else float("nan"),
+    }
 
 
 def write_csv(rows: list[dict], path) -> None:
@@ -410,7 +439,8 @@ def _curves(rows: list[dict]) -> dict[tuple, list[int]]:
 
 
 def fitted_rate(h, err) -> float:
-    """Slope of log(err) against log(h) (least squares; nan with < 2 usable points)."""
+    """Slope of log(err) against log(h) (least squares; nan with < 2 usable points): the
+    error's rate in h, or any log-log slope (time per iteration against dofs)."""
     h, err = np.asarray(h, dtype=float), np.asarray(err, dtype=float)
     ok = (h > 0) & (err > 0) & np.isfinite(err)
     if ok.sum() < 2:
@@ -422,7 +452,7 @@ _ERROR_LABEL = "L2 relative error (p; q: cattaneo2d; F_x oscillation: ironing2d)
 
 
 def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
-    """Write work_precision.png, error_vs_h.png and newton_history.png (rank 0)."""
+    """Write work_precision.png, error_vs_h.png, newton_history.png and cost.png (rank 0)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -479,4 +509,24 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
     fig.savefig(out_dir / "newton_history.png", dpi=120)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5), sharey=True)
+    for ax, key, xlabel in (
+        (axes[0], "dofs", "dofs"),
+        (axes[1], "slave_facets", "slave facets"),
+    ):
+        for (b, rec, integ), idx in curves.items():
+            x = [rows[i][key] for i in idx]
+            y = [rows[i]["time_per_iteration"] for i in idx]
+            q = fitted_rate(x, y)
+            slope = f"slope {q:.2f}" if math.isfinite(q) else "slope n/a"
+            ax.loglog(x, y, "o-", label=f"{b} {rec} {integ} ({slope})")
+        ax.set_xlabel(xlabel)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("wall time per Newton iteration (s)")
+    fig.suptitle("cost per Newton iteration (fitted log-log slopes in the legends)")
+    fig.tight_layout()
+    fig.savefig(out_dir / "cost.png", dpi=120)
     plt.close(fig)

@@ -528,6 +528,8 @@ class MortarContact:
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
         self.mixed = mixed_nodes(self.ftype)
         self.slave = distribute_slave_facets(comm, slave_local, self.mixed, self.ranges)
+        #: slave facets over all ranks (each is extracted by the rank owning its cell)
+        self.n_global_facets = comm.allreduce(slave_local.num_facets)
         self.master_local = master_local
         nsf = self.slave.num_facets
 
@@ -872,6 +874,7 @@ class MortarContact:
             "uzawa_tol": self.uzawa_tol,
             "uzawa_acceleration": self.uzawa_acceleration.method,
             "slave_nodes": self.n_global_nodes,
+            "slave_facets": self.n_global_facets,
             **(
                 {
                     "penalty_tangential": self.penalty_t_description,

@@ -15,7 +15,7 @@ import pytest
 from mpi4py import MPI
 
 from dolfinx_mortar import cli
-from dolfinx_mortar.bench import COLUMNS, RECOVERIES, fitted_rate, run_bench
+from dolfinx_mortar.bench import COLUMNS, RECOVERIES, cost_columns, fitted_rate, run_bench
 from dolfinx_mortar.errors import SceneError
 
 REQUIRED = (
@@ -37,8 +37,11 @@ REQUIRED = (
     "solve_time",
     "peak_memory_mb",
 )
-NUMERIC = [c for c in REQUIRED if c not in ("benchmark", "recovery", "integration")] + ["h"]
-PNGS = ("work_precision.png", "error_vs_h.png", "newton_history.png")
+#: issue 5's cost columns (time per Newton iteration, contact overhead) and the surface size
+COST = ("slave_facets", "time_per_iteration", "contact_overhead")
+NUMERIC = [c for c in REQUIRED if c not in ("benchmark", "recovery", "integration")]
+NUMERIC += ["h", *COST]
+PNGS = ("work_precision.png", "error_vs_h.png", "newton_history.png", "cost.png")
 
 
 def _read(path):
@@ -74,9 +77,19 @@ def test_csv_and_plots(request, name):
             assert math.isfinite(float(r[c])), (c, r[c])
         assert int(r["ranks"]) == 1 and int(r["newton_iterations"]) >= 1
         assert float(r["peak_memory_mb"]) > 0 and float(r["wall_time"]) > 0
+        # the cost columns: their definitions, from the row's own times (CSV: 6 digits)
+        its, wall = int(r["newton_iterations"]), float(r["wall_time"])
+        base = float(r["bulk_assembly_time"]) + float(r["solve_time"])
+        assert float(r["time_per_iteration"]) == pytest.approx(wall / its, rel=1e-5)
+        assert float(r["contact_overhead"]) == pytest.approx(wall / base, rel=1e-5)
+        assert float(r["contact_overhead"]) > 1.0  # the contact and the rest cost something
+        # one open slave curve of P1/Q1 facets in 2D: a facet between each pair of nodes
+        assert int(r["slave_facets"]) == int(r["slave_nodes"]) - 1
         assert (out / f"{name}_L{r['level']}_{r['integration']}" / "summary.json").is_file()
     for integ in ("element", "segment"):
         by_level = sorted((int(r["level"]), r) for r in rows if r["integration"] == integ)
+        facets = [int(r["slave_facets"]) for _, r in by_level]
+        assert facets[1] > facets[0]
         dofs = [int(r["dofs"]) for _, r in by_level]
         h = [float(r["h"]) for _, r in by_level]
         assert dofs[1] > dofs[0] and h[1] == pytest.approx(h[0] / 2, rel=1e-4)
@@ -92,6 +105,19 @@ def test_csv_and_plots(request, name):
 def test_fitted_rate():
     assert fitted_rate([0.4, 0.2, 0.1], [0.16, 0.04, 0.01]) == pytest.approx(2.0)
     assert math.isnan(fitted_rate([0.4], [0.1]))
+    # the cost plot's slopes: time per iteration growing like dofs^1.5
+    assert fitted_rate([1e3, 4e3, 1.6e4], [0.01, 0.08, 0.64]) == pytest.approx(1.5)
+
+
+def test_cost_columns():
+    row = {"newton_iterations": 4, "wall_time": 2.0, "bulk_assembly_time": 0.1, "solve_time": 0.15}
+    cost = cost_columns(row)
+    assert cost["time_per_iteration"] == pytest.approx(0.5)
+    # total / (iterations × (bulk + solve) per iteration), the row's times being totals
+    assert cost["contact_overhead"] == pytest.approx(2.0 / (4 * (0.25 / 4)))
+    assert math.isnan(cost_columns({**row, "newton_iterations": 0})["time_per_iteration"])
+    no_base = {**row, "bulk_assembly_time": 0.0, "solve_time": 0.0}
+    assert math.isnan(cost_columns(no_base)["contact_overhead"])
 
 
 def test_cli_bench_ok(tmp_path, capsys):

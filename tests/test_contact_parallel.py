@@ -135,6 +135,10 @@ def test_parallel_equals_serial(shared_tmp, name, data, slave):
         else:
             ser = par
         assert ser["status"] == "ok"
+        # the surface's size, counted over the ranks
+        (ser_pair,) = ser["modelled"]["contact_pairs"].values()
+        for key in ("slave_nodes", "slave_facets"):
+            assert pair[key] == ser_pair[key] > 0
         k = len(par["steps"])
         assert k == len(ser["steps"]) and k >= 1
         tp = np.loadtxt(
