@@ -36,10 +36,12 @@ def parser(
     integration: bool = True,
     recovery: bool = False,
     acceleration: bool | str = False,
+    frame: bool = False,
 ) -> argparse.ArgumentParser:
     """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``,
-    ``--recovery`` and ``--uzawa-acceleration`` (see :func:`set_acceleration`; a string
-    ``acceleration`` is that option's default, ``True`` means "auto")."""
+    ``--recovery``, ``--uzawa-acceleration`` (see :func:`set_acceleration`; a string
+    ``acceleration`` is that option's default, ``True`` means "auto") and ``--frame``
+    (:func:`set_frame`)."""
     ap = _OneLineParser(description=description)
     ap.add_argument(
         "--refine",
@@ -73,6 +75,14 @@ def parser(
             "pairs with lumped recoveries; auto: newton where it applies, except with "
             f"friction in 3D, else aitken) [{default}]",
         )
+    if frame:
+        ap.add_argument(
+            "--frame",
+            choices=("slave", "master"),
+            default="slave",
+            help="tangential_frame of the frictional pairs: the convected slave frame or the "
+            "master's convected covariant basis (METHOD.md §1) [slave]",
+        )
     return ap
 
 
@@ -89,6 +99,15 @@ def set_acceleration(scene: dict, acceleration: str) -> dict:
     ``--uzawa-acceleration`` of :func:`parser`); returns the scene."""
     for pair in scene["contact"]:
         pair["uzawa_acceleration"] = acceleration
+    return scene
+
+
+def set_frame(scene: dict, frame: str) -> dict:
+    """``scene`` with ``tangential_frame`` set on every frictional contact pair (the option
+    ``--frame`` of :func:`parser`); returns the scene."""
+    for pair in scene["contact"]:
+        if pair.get("friction", 0.0) > 0.0:
+            pair["tangential_frame"] = frame
     return scene
 
 

@@ -158,6 +158,7 @@ def main(argv=None) -> dict:
         "Cattaneo–Mindlin 2D (two cylinders, partial slip)",
         "results/demo_cattaneo2d",
         recovery=True,
+        frame=True,
     )
     ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
     ap.add_argument(
@@ -185,7 +186,7 @@ def main(argv=None) -> dict:
     )
     if args.step_depth_limit > 0.0:
         sc.setdefault("solver", {})["step_depth_limit"] = args.step_depth_limit
-    summary, wall = cm.run_scene(sc, args.out, comm)
+    summary, wall = cm.run_scene(cm.set_frame(sc, args.frame), args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:

@@ -241,7 +241,9 @@ def evaluate(summary: dict, mu: float, press: float, slide: float, h: float) -> 
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser("Ironing 2D (half-ring die slid along a soft slab)", "results/demo_ironing2d")
+    ap = cm.parser(
+        "Ironing 2D (half-ring die slid along a soft slab)", "results/demo_ironing2d", frame=True
+    )
     ap.add_argument("--mu", type=float, default=0.3, help="friction coefficient [0.3]")
     ap.add_argument("--press-steps", type=int, default=10, help="steps of the press [10]")
     ap.add_argument("--slide-steps", type=int, default=100, help="steps of the slide [100]")
@@ -307,7 +309,7 @@ def main(argv=None) -> dict:
         args.slave,
         args.tangential_weights,
     )
-    summary, wall = run_scene(sc, args.out, comm)
+    summary, wall = run_scene(cm.set_frame(sc, args.frame), args.out, comm)
     m = cm.on_root(evaluate, summary, args.mu, args.press, args.slide, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:

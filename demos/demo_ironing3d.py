@@ -157,7 +157,9 @@ def evaluate(summary: dict, mu: float, slide: float, h: float) -> dict:
 
 def main(argv=None) -> dict:
     ap = cm.parser(
-        "Ironing 3D (cylindrical-shell die slid along a soft slab)", "results/demo_ironing3d"
+        "Ironing 3D (cylindrical-shell die slid along a soft slab)",
+        "results/demo_ironing3d",
+        frame=True,
     )
     ap.add_argument("--mu", type=float, default=MU, help=f"friction coefficient [{MU}]")
     ap.add_argument("--press-steps", type=int, default=5, help="steps of the press [5]")
@@ -181,7 +183,7 @@ def main(argv=None) -> dict:
         uzawa_tol=args.uzawa_tol,
         step_depth_limit=args.step_depth_limit,
     )
-    summary, wall = run_scene(sc, args.out, comm)
+    summary, wall = run_scene(cm.set_frame(sc, args.frame), args.out, comm)
     m = cm.on_root(evaluate, summary, args.mu, args.slide, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:

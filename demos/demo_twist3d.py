@@ -161,7 +161,10 @@ def main(argv=None) -> dict:
     # Aitken on the default path, 2-4 Uzawa rounds per step instead of 4-14, at most 16
     # Newton iterations per step instead of 35 (BENCHMARKS §8, session 21)
     ap = cm.parser(
-        "Twisting a Hertz contact (torque plateau)", "results/demo_twist3d", acceleration="newton"
+        "Twisting a Hertz contact (torque plateau)",
+        "results/demo_twist3d",
+        acceleration="newton",
+        frame=True,
     )
     ap.add_argument(
         "--h-contact",
@@ -174,17 +177,15 @@ def main(argv=None) -> dict:
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     meter = TorqueMeter()
+    sc = scene(
+        args.refine,
+        args.integration,
+        n_twist=args.twist_steps,
+        h_contact=args.h_contact,
+        uzawa_tol=args.uzawa_tol,
+    )
     summary, wall = cm.run_scene(
-        cm.set_acceleration(
-            scene(
-                args.refine,
-                args.integration,
-                n_twist=args.twist_steps,
-                h_contact=args.h_contact,
-                uzawa_tol=args.uzawa_tol,
-            ),
-            args.uzawa_acceleration,
-        ),
+        cm.set_frame(cm.set_acceleration(sc, args.uzawa_acceleration), args.frame),
         args.out,
         comm,
         setup=meter.setup,

@@ -107,11 +107,12 @@ def evaluate(summary: dict, mu: float) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser("Block pushed up a wedge until gross slip", "results/demo_wedge")
+    ap = cm.parser("Block pushed up a wedge until gross slip", "results/demo_wedge", frame=True)
     ap.add_argument("--mu", type=float, default=0.3, help="friction coefficient [0.3]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    summary, wall = cm.run_scene(scene(args.mu, args.refine, args.integration), args.out, comm)
+    sc = cm.set_frame(scene(args.mu, args.refine, args.integration), args.frame)
+    summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.mu, comm=comm)
     m["wall_time"] = wall
     cm.report(

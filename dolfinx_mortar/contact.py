@@ -61,9 +61,14 @@ from . import recovery as rc
 from .errors import SceneError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
-from .kernels.shape import INTERVAL1, QUAD1, QUAD2, TRIANGLE1, TRIANGLE2, tdim
+from .kernels.shape import INTERVAL1, QUAD1, QUAD2, REFERENCE_NODES, TRIANGLE1, TRIANGLE2, tdim
 from .layout import FacetArrays
-from .scene import TANGENTIAL_WEIGHTS, UZAWA_ACCELERATIONS, exact_update_applies
+from .scene import (
+    TANGENTIAL_FRAMES,
+    TANGENTIAL_WEIGHTS,
+    UZAWA_ACCELERATIONS,
+    exact_update_applies,
+)
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
 from .surface import dual_coefficients, extract_facets, mixed_nodes, nodal_rule, quadrature
 
@@ -450,6 +455,9 @@ class MortarContact:
         body of ``problem`` is linear-elastic and the tangential recovery is lumped).
     tangential_recovery: "lumped", "unconstrained" or "constrained" recovery of the
         tangential traction (:func:`dolfinx_mortar.recovery.recover_tangential`).
+    tangential_frame: "slave" (:class:`~dolfinx_mortar.friction.NodalFrames`, the
+        default) or "master" (:class:`~dolfinx_mortar.friction.MasterFrames`: the
+        master's convected covariant basis at each node's t_n master point).
     """
 
     def __init__(
@@ -469,6 +477,7 @@ class MortarContact:
         tangential_weights=TANGENTIAL_WEIGHTS[0],
         tangential_recovery="lumped",
         uzawa_acceleration=ACCELERATIONS[0],
+        tangential_frame=TANGENTIAL_FRAMES[0],
     ):
         if recovery not in RECOVERIES:
             raise SceneError(
@@ -490,6 +499,12 @@ class MortarContact:
                 f"{key}.tangential_recovery",
                 f"{tangential_recovery!r} is not one of {', '.join(RECOVERIES)}",
             )
+        if tangential_frame not in TANGENTIAL_FRAMES:
+            raise SceneError(
+                f"{key}.tangential_frame",
+                f"{tangential_frame!r} is not one of {', '.join(TANGENTIAL_FRAMES)}",
+            )
+        self.tangential_frame = tangential_frame
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights
         self.tangential_weights = resolve_tangential_weights(
@@ -726,6 +741,7 @@ class MortarContact:
             tangential_weights=pair.tangential_weights,
             tangential_recovery=pair.tangential_recovery,
             uzawa_acceleration=pair.uzawa_acceleration,
+            tangential_frame=pair.tangential_frame,
         )
 
     # ------------------------------------------------------------------ friction set-up
@@ -769,8 +785,13 @@ class MortarContact:
             self.node_of,
             self.mixed,
             n,
+            self.slave.dofs.reshape(self.slave.X.shape),
             held_at_zero=self._held_at_zero(),
         )
+        if self.tangential_frame == "master":
+            nm = self.master_local.nodes_per_facet
+            self.frames = fr.MasterFrames(self.frames, self.master_local.ftype, nm)
+        self._frame_version = self._hist_vec = None  # the master frames' history transport
         self._frame_dA = None
         # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets
         # of finite t_facet_area (docs/method-notes.md, "Dual tangential weights"); node
@@ -815,7 +836,7 @@ class MortarContact:
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
         self._history_key = None
-        self._pending = None  # (u, τ) of a committed step, applied by the next begin_step
+        self._pending = None  # (u, τ[, t^n vectors]) of a committed step, for begin_step
 
     # ------------------------------------------------------------------ helpers
     def _all_dofs(self, fa: FacetArrays) -> np.ndarray:
@@ -883,7 +904,10 @@ class MortarContact:
                     else self.tangential_weights
                     + (" (auto)" if self.tangential_weights_asked == "auto" else ""),
                     "tangential_recovery": self.tangential_recovery,
-                    "frame": "convected orthonormal slave frame (a_ab = identity)",
+                    "frame": "slave: convected orthonormal slave frame (a_ab = identity)"
+                    if self.tangential_frame == "slave"
+                    else "master: convected covariant basis at each node's t_n master point "
+                    "(orthonormalised; slave frame off the master and at symmetry planes)",
                     "chattering_control": f"stick/slip states frozen after {self.freeze_after} "
                     "Newton iterations, re-checked at convergence",
                 }
@@ -1176,6 +1200,8 @@ class MortarContact:
             closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
             self.dual_area = np.where(closed, self.t_facet_area, np.inf)
             self._history_key = key
+            if self.tangential_frame == "master":
+                self._master_points(xs_n, xm_n, off, idx)
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
         e_node = np.empty(cap, np.int64)
@@ -1220,16 +1246,66 @@ class MortarContact:
         self.s_node, self.s_key, self.s_dof = en[first], ek[first], e_dof[order][first]
         self.s_w = np.add.reduceat(e_w[order], first) if ne else np.empty(0)
         self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
-        self.frame_a, self.frame_n, _ = self.frames.compute(self.xs, derivatives=False)
+        self.frame_a, self.frame_n, _ = self._frames_at(self.xs, self.xm, False)
         self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
+
+    def _frames_at(self, xs, xm, derivatives: bool):
+        """The nodal frames (a, nrm, dA) at slave xs and master xm coordinates (local)."""
+        if self.tangential_frame == "master":
+            return self.frames.compute(xs, xm, derivatives)
+        return self.frames.compute(xs, derivatives)
+
+    def _master_points(self, xs_n, xm_n, off, idx) -> None:
+        """The master frames' t_n points (``tangential_frame = "master"``, local): the
+        closest-point projection of every owned node in the t_n configuration (the
+        occurrence with the smallest |gap| among the facets around it), and, at a new
+        t_n, the history's traction carried into the new frames.
+
+        The traction τ^n of the last step was committed as a physical vector t^n =
+        τ̂_α ê_α (:meth:`commit_step`): its components in the frames of the new master
+        points, λ_T = ê_α·t^n, both evaluated in the t_n configuration, so a rigid motion
+        superposed on the coming step leaves them as they are. Where the node faces the
+        same affine master facet this is the paper's "covariant components carry over";
+        where the projection moved to another facet, it is the physical-slip rule applied
+        to the multiplier (METHOD.md §1)."""
+        nsf, nphi = self.node_of.shape
+        n, km = self.node_blocks.size, self.gdim - 1
+        mn, zn = np.full(n, -1, np.int64), np.zeros((n, km))
+        if nsf:
+            ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
+            xi = np.ascontiguousarray(np.broadcast_to(ref, (nsf,) + ref.shape), dtype=float)
+            w = (self.node_of >= 0).astype(float)
+            pm = np.full((nsf, nphi), -1, np.int64)
+            pz, pg = np.zeros((nsf, nphi, km)), np.zeros((nsf, nphi))
+            reach = 2.0 * self.h_facet
+            kmortar.pair_points(
+                self.ftype, self.master.ftype, xs_n, self.slave.sign, xi, w, xm_n,
+                self.master.sign, off, idx, reach, reach, pm, pz, pg,
+            )  # fmt: skip
+            f, i = np.nonzero((self.node_of >= 0) & (pm >= 0))
+            order = np.lexsort((np.abs(pg[f, i]), self.node_of[f, i]))
+            f, i = f[order], i[order]
+            node = self.node_of[f, i]
+            first = np.ones(node.size, bool)
+            first[1:] = node[1:] != node[:-1]
+            mn[node[first]] = pm[f[first], i[first]]
+            zn[node[first]] = pz[f[first], i[first]]
+        mdofs = self.master.dofs.reshape(self.master.X.shape)
+        self.frames.set_points(mn, zn, xs_n, xm_n, mdofs)
+        if self._hist_vec is not None and self._frame_version != self._u_n_version:
+            a_n = self._frames_at(xs_n, xm_n, False)[0]
+            lam = np.einsum("nac,nc->na", a_n, self._hist_vec)
+            self.lmbda_t, self.lmbda_t_committed = lam, lam.copy()
+            self._hist_vec = None
+        self._frame_version = self._u_n_version
 
     @property
     def frame_dA(self) -> np.ndarray:
-        """∂a_α/∂x of the nodal frames at the current state, (P, ns, m, d, d)
-        (``friction.NodalFrames.compute``): computed on the first request after each
-        update, as only Jacobians need it (local)."""
+        """∂a_α/∂x of the nodal frames at the current state, (P, nb, m, d, d) in the
+        frames' occurrence layout (``frames.off``, ``frames.dofs``): computed on the first
+        request after each update, as only Jacobians need it (local)."""
         if self._frame_dA is None:
-            self._frame_dA = self.frames.compute(self.xs)[2]
+            self._frame_dA = self._frames_at(self.xs, self.xm, True)[2]
         return self._frame_dA
 
     def _segment_points(self) -> None:
@@ -1926,7 +2002,7 @@ class MortarContact:
             self._add_mixed_tangential_jacobian(A, c_off, c_idx, c_val, mot)
             return
         d, m = self.gdim, self.gdim - 1
-        fo, pf_all = self.frames.pair_off, self.frames.pair_f
+        fo, fdofs = self.frames.off, self.frames.dofs
         # predictor nodes (nothing in contact yet: tangent-only normal stiffness) get the
         # stick stiffness too, or a body held only by contact would be free tangentially
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
@@ -1970,8 +2046,7 @@ class MortarContact:
                 self.s_dof,
                 self.s_w,
                 fo,
-                pf_all,
-                self.slave.dofs.reshape(self.slave.num_facets, self.slave.nodes_per_facet, d),
+                fdofs,
                 self.frame_dA,
                 b_off,
                 np.concatenate(cat).astype(np.int64),
@@ -1996,7 +2071,7 @@ class MortarContact:
                 kN[i],
                 self.s_dof[s:e],
                 self.s_w[s:e],
-                self.slave.dofs[pf_all[ps:pe]].reshape(-1, d),
+                fdofs[ps:pe].reshape(-1, d),
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
                 rows[i][0],
                 rows[i][1],
@@ -2196,7 +2271,7 @@ class MortarContact:
         n, lo = self.node_blocks.size, self.gid_offset
         N = rec.tau.shape[0]
         ndof = int(self.ranges[-1]) * bs
-        fo, pf_all = self.frames.pair_off, self.frames.pair_f
+        fo, fdofs = self.frames.off, self.frames.dofs
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
         trip_s, trip_p, trip_f, local_rows = [], [], [], {}
         if mot is not None:
@@ -2207,7 +2282,7 @@ class MortarContact:
             U, _, Srow, Frow = fr.node_rows(
                 self.s_dof[s:e],
                 self.s_w[s:e],
-                self.slave.dofs[pf_all[ps:pe]].reshape(-1, d),
+                fdofs[ps:pe].reshape(-1, d),
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
             )
             nu = U.size
@@ -2809,7 +2884,9 @@ class MortarContact:
         self._carried_pins = None
         if self.frictional:
             if self._pending is not None:
-                u_n, tau = self._pending
+                u_n, tau = self._pending[:2]
+                if self.tangential_frame == "master":
+                    self._hist_vec = self._pending[2]
                 u_n.copy(self._u_n)
                 u_n.destroy()
                 self._u_n_version += 1
@@ -2836,6 +2913,8 @@ class MortarContact:
                 self._pending[0].destroy()
             hist = np.where((self.fstate > 0)[:, None], self.tau_law, 0.0)
             self._pending = (self.problem.u.vector.copy(), hist)
+            if self.tangential_frame == "master":  # carried as a vector (_master_points)
+                self._pending += (np.einsum("na,nac->nc", hist, self.frame_a),)
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()

@@ -16,6 +16,11 @@ lumped or the constrained normal recovery); the point integrals are in
   axis, or y when x is within 10° of the reference normal), and a_2 = n × a_1.
   The metric of the frame is the identity, so covariant and contravariant
   components coincide (a_αβ = δ_αβ).
+- **Master frame** (``tangential_frame = "master"``, :class:`MasterFrames`): the
+  master's convected covariant basis g_α at the material point the node faced at t_n,
+  with its metric and contravariant components (METHOD.md §1); the return mapping in
+  covariant components with the metric (:func:`covariant_return_mapping`) is run in the
+  orthonormal basis Gram–Schmidt makes of g_α, which gives the same states and traction.
 - **Symmetry planes.** At a node on a symmetry plane (a displacement component k held
   at zero by a Dirichlet condition, the reference normal within 60° of the plane)
   the frame is the one of the mirrored model: the normal ñ − (ñ·e_k) e_k, in the
@@ -97,10 +102,14 @@ class NodalFrames:
     left out (a_α = 0).
 
     Occurrences p = (facet f_p, mixed node of I): ``pair_f`` (P,), ``pair_node`` (P,),
-    sorted by node, with ``pair_off`` (n+1,) the offsets of each node.
+    sorted by node, with ``pair_off`` (n+1,) the offsets of each node. ``dofs`` (nsf, ns,
+    d): the global dofs of the facet nodes (−1: constrained); the layout the nodal
+    tangents read (shared with :class:`MasterFrames`) is ``off`` (= pair_off) and
+    ``dofs`` (P, ns, d) = dofs[pair_f], the dofs the derivatives of :meth:`compute` run
+    over.
     """
 
-    def __init__(self, ftype, X, sign, node_of, mixed, n_nodes, held_at_zero=None):
+    def __init__(self, ftype, X, sign, node_of, mixed, n_nodes, dofs, held_at_zero=None):
         d = X.shape[2] if X.ndim == 3 else 2
         self.d, self.m, self.n = d, d - 1, n_nodes
         k = tdim(ftype)
@@ -110,6 +119,8 @@ class NodalFrames:
         order = np.argsort(node, kind="stable")
         self.pair_f, self.pair_node = f_idx[order], node[order]
         self.pair_off = np.searchsorted(self.pair_node, np.arange(n_nodes + 1))
+        self.facet_dofs = dofs
+        self.off, self.dofs = self.pair_off, dofs[self.pair_f]  # the occurrence layout
         loc = np.asarray(mixed)[i_idx[order]]
         # dN_b at the reference position of every facet node l: table (ns, ns, k)
         table = np.empty((ns, ns, k))
@@ -247,6 +258,167 @@ class NodalFrames:
         if self.sym.size:
             dA *= ~self._cut_p[:, None, :, None, None]
         return a, nrm, dA
+
+
+class MasterFrames:
+    """Frames of the MASTER's convected tangent plane (``tangential_frame = "master"``).
+
+    METHOD.md §1 in its literal form: the tangential kinematics of slave node I live in
+    the convected curvilinear coordinates ζ^α of the master. At t_n the node faced the
+    master material point (m_n^I, ζ_n^I) (closest-point projection in the t_n
+    configuration, fixed during the step); its covariant basis convects with the master,
+
+        g_α = ∂x²/∂ζ^α = Σ_b ∂N_b/∂ζ^α(ζ_n^I) x_b     (the current nodes x_b of facet m_n^I),
+
+    with the metric a_αβ = g_α·g_β, its inverse a^αβ and the contravariant basis
+    g^α = a^αβ g_β (:meth:`covariant`). The nodal slip components are contravariant,
+    g_T^α = g^α·S^I/A_T^I: on an affine master facet exactly ζ̄^α − ζ_n^α of the paper's
+    eq. 2.2, and across master facets the physical-slip rule (S is the motion relative
+    to the t_n material point). The paper's return mapping in covariant components with
+    the metric (eq. 2.8, :func:`covariant_return_mapping`) is carried out in the
+    orthonormal basis ê_α of the same plane obtained from g_α by Gram–Schmidt,
+
+        2D: ê_1 = σ g_1/|g_1|;   3D: ê_1 = g_1/|g_1|, ν = σ (g_1 × g_2)/|g_1 × g_2|, ê_2 = ν × ê_1,
+
+    with the sign σ = ±1 fixed at t_n (ê_1, resp. ν, on the side of the slave frame's
+    tangent, resp. outward normal). ê_α components are the covariant ones through the
+    Cholesky factor of the metric: g_α = L_αi ê_i, L_αi = g_α·ê_i, a_αβ = (L Lᵀ)_αβ,
+    τ_α = L_αi τ̂_i, g_T^α = (L⁻ᵀ)_αi γ̂_i; the Coulomb norm is invariant,
+    τ_α a^αβ τ_β = |τ̂|², so the stick/slip decision, the slip direction and the traction
+    vector t = τ_α g^α = τ̂_i ê_i are the paper's (``tests/test_friction.py``,
+    ``test_covariant_return_mapping_is_the_orthonormal_one``). The frame depends on the
+    current coordinates of the master facet m_n^I only (ζ_n^I is fixed), linearly through
+    g_α: its derivatives run over that facet's dofs.
+
+    Nodes without a t_n master point (``mn < 0``) and nodes on symmetry planes keep the
+    slave frame of ``slave`` (:class:`NodalFrames`), the mirrored model's.
+
+    Layout shared with the slave frames (consumed by the nodal tangents): occurrences p
+    of the frame's dependencies, ``off`` (n + 1,) per node, ``dofs`` (P, nb, d) the
+    global dofs of the facet nodes each occurrence differentiates (−1: none or
+    constrained), the derivatives dA (P, nb, m, d, d) from :meth:`compute`.
+    """
+
+    def __init__(self, slave: NodalFrames, ftype_m: int, nm: int):
+        self.slave, self.ftype_m = slave, ftype_m
+        self.d, self.m, self.n = slave.d, slave.m, slave.n
+        k, d = tdim(ftype_m), self.d
+        self.set_points(
+            np.full(self.n, -1), np.zeros((self.n, k)), None, None, np.zeros((0, nm, d), np.int64)
+        )
+
+    def set_points(self, mn, zn, xs_n, xm_n, mdofs) -> None:
+        """The t_n master points (local): mn (n,) master facet of each node (−1: none),
+        zn (n, km) its ζ_n; xs_n (nsf, ns, d), xm_n (nmf, nm, d) the t_n coordinates (for
+        the signs σ); mdofs (nmf, nm, d) the master facets' global dofs."""
+        sl, d = self.slave, self.d
+        sdofs = sl.facet_dofs
+        use = np.asarray(mn) >= 0
+        use[sl.sym] = False
+        self.use, self.mn = use, np.asarray(mn)[use]
+        k = tdim(self.ftype_m)
+        nm = mdofs.shape[1]
+        N, dN, ddN = np.empty(9), np.empty((9, k)), np.empty((9, k, k))
+        self.dN = np.empty((self.mn.size, nm, k))
+        for i, z in enumerate(np.asarray(zn)[use]):
+            shape(self.ftype_m, np.ascontiguousarray(z, dtype=float), N, dN, ddN)
+            self.dN[i] = dN[:nm]
+        self.sigma = np.ones(self.mn.size)
+        if self.mn.size:
+            a_s, n_s, _ = sl.compute(xs_n, derivatives=False)
+            g = self._basis(xm_n)
+            ref = a_s[use, 0] if d == 2 else n_s[use]
+            cur = g[:, 0] if d == 2 else np.cross(g[:, 0], g[:, 1])
+            self.sigma = np.where(np.einsum("uc,uc->u", cur, ref) < 0.0, -1.0, 1.0)
+        # occurrences: one per master node (its facet m_n), the slave facets elsewhere
+        count = np.where(use, 1, np.diff(sl.pair_off))
+        self.off = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
+        ns = sdofs.shape[1]
+        self._nb = max(ns, nm)
+        keep = ~use[sl.pair_node]
+        self._sel_s = np.flatnonzero(keep)
+        node_s = sl.pair_node[keep]
+        self._pos_s = self.off[node_s] + (self._sel_s - sl.pair_off[node_s])
+        self._pos_m = self.off[:-1][use]
+        self.dofs = np.full((self.off[-1], self._nb, d), -1, np.int64)
+        self.dofs[self._pos_s, :ns] = sdofs[sl.pair_f[self._sel_s]]
+        self.dofs[self._pos_m, :nm] = mdofs[self.mn]
+
+    def _basis(self, xm: np.ndarray) -> np.ndarray:
+        """Covariant basis g (U, m, d) of the master points at the coordinates xm."""
+        return self.dN.transpose(0, 2, 1) @ xm[self.mn]
+
+    def covariant(self, xm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The master's convected covariant basis g_α (U, m, d), metric a_αβ (U, m, m)
+        and contravariant basis g^α = a^αβ g_β (U, m, d) at the master points of the
+        nodes ``use`` (U of them), with the current master coordinates xm (nmf, nm, d)."""
+        g = self._basis(xm)
+        G = g @ g.transpose(0, 2, 1)
+        return g, G, np.linalg.solve(G, g)
+
+    def compute(self, xs: np.ndarray, xm: np.ndarray, derivatives: bool = True):
+        """Frames at the current slave xs (nsf, ns, d) and master xm (nmf, nm, d)
+        coordinates: a (n, m, d) orthonormal tangents (ê_α at the master nodes, the slave
+        frame elsewhere), nrm (n, d) the slave frame's outward normals (outputs), and
+        dA (P, nb, m, d, d) = ∂a_α,c/∂x_{b,c'} in the occurrence layout (class
+        docstring), or None without ``derivatives``."""
+        a, nrm, dA_s = self.slave.compute(xs, derivatives)
+        d, U = self.d, self.mn.size
+        dA = None
+        if derivatives:
+            dA = np.zeros((self.off[-1], self._nb, self.m, d, d))
+            ns = dA_s.shape[1]
+            dA[self._pos_s, :ns] = dA_s[self._sel_s]
+        if U == 0:
+            return a, nrm, dA
+        g = self._basis(xm)
+        eye = np.eye(d)
+        sig = self.sigma
+        e1, l1 = _unit(g[:, 0])
+        if d == 2:
+            e1 = sig[:, None] * e1
+            a[self.use, 0] = e1
+            if derivatives:
+                Q = (eye - np.einsum("ui,uj->uij", e1, e1)) * (sig / l1)[:, None, None]
+                dA[self._pos_m, : self.dN.shape[1], 0] = self.dN[:, :, 0, None, None] * Q[:, None]
+            return a, nrm, dA
+        nt = np.cross(g[:, 0], g[:, 1])
+        nu, ln = _unit(sig[:, None] * nt)
+        e2 = np.cross(nu, e1)
+        a[self.use, 0], a[self.use, 1] = e1, e2
+        if derivatives:
+            Q1 = (eye - np.einsum("ui,uj->uij", e1, e1)) / l1[:, None, None]
+            Pn = (eye - np.einsum("ui,uj->uij", nu, nu)) * (sig / ln)[:, None, None]
+            dN = self.dN[:, :, :, None, None]
+            Je1 = dN[:, :, 0] * Q1[:, None]  # (U, nm, 3, 3)
+            dnt = (
+                -dN[:, :, 0] * _cross_matrix(g[:, 1])[:, None]
+                + dN[:, :, 1] * _cross_matrix(g[:, 0])[:, None]
+            )
+            Jn = Pn[:, None] @ dnt
+            Je2 = _cross_matrix(nu)[:, None] @ Je1 - _cross_matrix(e1)[:, None] @ Jn
+            nm = self.dN.shape[1]
+            dA[self._pos_m, :nm, 0], dA[self._pos_m, :nm, 1] = Je1, Je2
+        return a, nrm, dA
+
+
+def covariant_return_mapping(lam, gamma, G, p, mu, eps_t):
+    """The paper's penalty-regularised Coulomb update (METHOD.md §1, eq. 2.8; §4) in
+    covariant components with the metric, the reference of the orthonormal
+    :func:`return_mapping` that the code runs (:class:`MasterFrames`).
+
+    lam (n, m) covariant multipliers τ_α^n, gamma (n, m) contravariant slip g_T^α,
+    G (n, m, m) the metric a_αβ, p (n,) normal pressure, mu, eps_t (n,). Trial
+    τ^tr_α = τ_α^n + ε_T a_αβ g_T^β, ‖τ‖² = τ_α a^αβ τ_β, Φ = ‖τ^tr‖ − μ p; stick τ = τ^tr,
+    slip τ_α = μ p τ^tr_α/‖τ^tr‖. Returns τ (n, m) covariant and the states (n,)
+    (STICK/SLIP; no open nodes here)."""
+    trial = lam + eps_t[:, None] * np.einsum("nab,nb->na", G, gamma)
+    norm = np.sqrt(np.einsum("na,na->n", trial, np.linalg.solve(G, trial[..., None])[..., 0]))
+    slip = norm > mu * p
+    tau = np.where(
+        slip[:, None], mu * p[:, None] * trial / np.maximum(norm, 1e-300)[:, None], trial
+    )
+    return tau, np.where(slip, SLIP, STICK)
 
 
 def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):

@@ -39,6 +39,9 @@ Schema (``*`` = required; defaults in brackets)::
                  ("auto": "dual" with linear-elastic (small-strain) bodies and
                  the lumped tangential recovery, "standard" elsewhere)
       tangential_recovery "unconstrained" | "lumped" | "constrained"  ["lumped"]
+      tangential_frame "slave" | "master"                     ["slave"]
+                 (the plane of the tangential components: the convected slave
+                 frame, or the master's convected covariant basis, METHOD.md §1)
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
@@ -161,6 +164,10 @@ INTEGRATIONS = ("element", "segment", "node")
 #: the first is the default, resolved per pair by
 #: :func:`dolfinx_mortar.contact.resolve_tangential_weights`.
 TANGENTIAL_WEIGHTS = ("auto", "dual", "standard")
+#: Allowed values of ``contact.tangential_frame`` (the first is the default): the convected
+#: orthonormal slave frame, or the master's convected covariant basis (docs/method-notes.md,
+#: "Friction"; :class:`dolfinx_mortar.friction.MasterFrames`).
+TANGENTIAL_FRAMES = ("slave", "master")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
 #: augmentation"; the first is the default: "newton" where it applies, else "aitken").
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
@@ -267,6 +274,12 @@ class ContactPair:
         return mapping, default), ``"unconstrained"`` (τ = M⁻¹F) or ``"constrained"``
         (the Coulomb-cone projection with the full mortar matrix);
         docs/method-notes.md, "Tangential recoveries".
+    tangential_frame:
+        Where the tangential components live (friction only): ``"slave"`` (default: an
+        orthonormal frame convected with the slave surface at each node) or ``"master"``
+        (the paper's convected curvilinear coordinates of the master: covariant basis,
+        metric and contravariant slip components at the material point the node faced
+        at t_n); docs/method-notes.md, "Friction".
     uzawa_tol:
         Relative tolerance on the multiplier change (dimensionless), >= 0;
         0 = pure penalty.
@@ -289,6 +302,7 @@ class ContactPair:
     penalty_tangential: float | str | None = None
     tangential_weights: str = "auto"
     tangential_recovery: str = "lumped"
+    tangential_frame: str = "slave"
     uzawa_tol: float = 1e-6
     uzawa_max: int = 20
     uzawa_acceleration: str = "auto"
@@ -740,6 +754,7 @@ _CONTACT_KEYS = (
     "penalty_tangential",
     "tangential_weights",
     "tangential_recovery",
+    "tangential_frame",
     "uzawa_tol",
     "uzawa_max",
     "uzawa_acceleration",
@@ -839,6 +854,11 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "tangential_recovery"),
         RECOVERIES,
     )
+    t_frame = _choice(
+        table.get("tangential_frame", TANGENTIAL_FRAMES[0]),
+        _key(prefix, "tangential_frame"),
+        TANGENTIAL_FRAMES,
+    )
     uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
     uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
     acceleration = _choice(
@@ -863,6 +883,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         penalty_tangential=penalty_t,
         tangential_weights=weights,
         tangential_recovery=t_recovery,
+        tangential_frame=t_frame,
         uzawa_tol=uzawa_tol,
         uzawa_max=uzawa_max,
         uzawa_acceleration=acceleration,

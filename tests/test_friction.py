@@ -11,6 +11,7 @@ import pathlib
 
 import numpy as np
 import pytest
+from dolfinx import fem
 from mpi4py import MPI
 from test_contact_jacobian import CASES, _set_state, fd_errors
 
@@ -34,9 +35,11 @@ def _problem(
     weights="standard",
     t_recovery="lumped",
     symmetry=False,
+    frame="slave",
 ):
     """The contact problem of ``case`` (finite strain); ``symmetry``: with the symmetry
-    conditions of the Hertz generators (u_x = 0 on x = 0, in 3D also u_y = 0 on y = 0)."""
+    conditions of the Hertz generators (u_x = 0 on x = 0, in 3D also u_y = 0 on y = 0);
+    ``frame``: the pair's ``tangential_frame``."""
     gen, params, slave, master, bodies, _ = CASES[case]
     contact = {
         "slave": slave,
@@ -51,6 +54,7 @@ def _problem(
         contact["penalty_tangential"] = penalty_t
         contact["tangential_weights"] = weights
         contact["tangential_recovery"] = t_recovery
+        contact["tangential_frame"] = frame
     data = {
         "kinematics": "finite",
         "mesh": {"generator": gen, "params": params},
@@ -192,6 +196,116 @@ def test_nodal_frames(case):
                 assert np.allclose(fd, ana, atol=1e-6), (p, b, c)
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz2d-P2", "hertz3d-P1", "patch3d-Q1"])
+def test_master_frames(case):
+    """tangential_frame = "master" (friction.MasterFrames): at the nodes with a t_n master
+    point the frame is orthonormal, spans the master's convected covariant basis g_α at
+    (m_n, ζ_n) (ê_1 ∥ g_1, the metric is L Lᵀ with L_αi = g_α·ê_i lower triangular), and its
+    derivatives over the master facet's coordinates match central differences; the other
+    nodes keep the slave frame."""
+    problem = _problem(case, frame="master")
+    term = _frictional_state(problem, case)
+    frames, d = term.frames, problem.gdim
+    comm = MPI.COMM_WORLD
+    assert comm.allreduce(int(frames.use[term.fstate > 0].sum())) >= 2
+    a, _, dA = term._frames_at(term.xs, term.xm, True)
+    use = frames.use
+    g, G, gc = frames.covariant(term.xm)
+    e = a[use]
+    assert np.allclose(np.einsum("uac,ubc->uab", e, e), np.eye(d - 1), atol=1e-12)
+    L = np.einsum("uac,ubc->uab", g, e)  # g_α = L_αi ê_i
+    assert np.allclose(np.einsum("uai,uic->uac", L, e), g, atol=1e-12)
+    assert np.allclose(L @ L.transpose(0, 2, 1), G, atol=1e-12)
+    assert np.allclose(np.triu(L, 1), 0.0, atol=1e-12)
+    assert np.allclose(np.einsum("uac,ubc->uab", gc, g), np.eye(d - 1), atol=1e-12)
+    a_s = frames.slave.compute(term.xs, derivatives=False)[0]
+    np.testing.assert_array_equal(a[~use], a_s[~use])
+    nodes = np.flatnonzero(use)
+    rng = np.random.default_rng(1)
+    for node in rng.choice(nodes, size=min(nodes.size, 3), replace=False):
+        p = frames.off[node]
+        mf = frames.mn[np.searchsorted(nodes, node)]
+        for b in range(term.xm.shape[1]):
+            for c in range(d):
+                h = 1e-7
+                xp, xq = term.xm.copy(), term.xm.copy()
+                xp[mf, b, c] += h
+                xq[mf, b, c] -= h
+                fd = term._frames_at(term.xs, xp, False)[0] - term._frames_at(term.xs, xq, False)[0]
+                assert np.allclose(fd[node] / (2 * h), dA[p, b, :, :, c], atol=1e-6), (node, b, c)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_covariant_return_mapping_is_the_orthonormal_one(case):
+    """The paper's update in covariant components with the metric (eq. 2.8,
+    friction.covariant_return_mapping), fed with the covariant multipliers L λ̂ and the
+    contravariant slip g^α·S/A_T of the master frames, gives the states and the traction
+    vector τ_α g^α of the orthonormal return mapping the code runs: τ_α = L_αi τ̂_i."""
+    problem = _problem(case, frame="master")
+    term = _frictional_state(problem, case)
+    frames = term.frames
+    g, G, gc = frames.covariant(term.xm)
+    use = frames.use & (term.fstate > 0)
+    sel = use[frames.use]
+    e = term.frame_a[use]
+    L = np.einsum("uac,ubc->uab", g[sel], e)
+    p, lam, eps = term.p[use], term.lmbda_t[use], term.eps_t[use]
+    gam_contra = np.einsum("uac,uc->ua", gc[sel], term.S[use]) / term.AT[use][:, None]
+    tau_c, state_c = fr.covariant_return_mapping(
+        np.einsum("uai,ui->ua", L, lam), gam_contra, G[sel], p, MU, eps
+    )
+    np.testing.assert_array_equal(state_c, term.fstate[use])
+    assert np.allclose(tau_c, np.einsum("uai,ui->ua", L, term.tau[use]), rtol=1e-10, atol=1e-12)
+    t_c = np.einsum("ua,uac->uc", tau_c, gc[sel])
+    assert np.allclose(t_c, term.t_vec[use], rtol=1e-10, atol=1e-12)
+    counts = MPI.COMM_WORLD.allreduce(np.bincount(state_c, minlength=3))
+    assert counts[fr.STICK] >= 1 and counts[fr.SLIP] >= 1, counts
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_master_frame_history_keeps_the_traction_vector(case):
+    """A new t_n moves the nodes' master points (other facets, other ζ_n): the committed
+    traction enters the next step as the vector t^n projected on the new master plane,
+    Σ λ_α ê_α = (I − ν ν) t^n, not as its old components (which the new facets'
+    parametrisations would turn in 3D)."""
+    problem = _problem(case, frame="master")
+    term = _frictional_state(problem, case)
+    frames, d, comm = term.frames, problem.gdim, MPI.COMM_WORLD
+    old_mn = np.full(frames.n, -1)
+    old_mn[frames.use] = frames.mn
+    # the slave slides by half a facet: the nodes' next master points lie on other facets
+    md, V = problem.mesh_data, problem.V
+    cells = md.cell_tags.find(md.cell_groups[CASES[case][4][0]])
+    dofs = fem.locate_dofs_topological(V, problem.mesh.topology.dim, cells)
+    shift = 0.5 * comm.allreduce(float(term.h_facet.max(initial=0.0)), op=MPI.MAX)
+    problem.u.x.array[dofs * V.dofmap.index_map_bs] += shift
+    problem.u.x.scatter_forward()
+    term.update(problem.u)
+    hist = np.where((term.fstate > 0)[:, None], term.tau_law, 0.0)
+    t_n = np.einsum("na,nac->nc", hist, term.frame_a)
+    term.commit_step()
+    term.begin_step()
+    term.update(problem.u)
+    new_mn = np.full(frames.n, -1)
+    new_mn[frames.use] = frames.mn
+    moved = (term.fstate > 0) & frames.use & (new_mn != old_mn)
+    assert comm.allreduce(int(moved.sum())) >= 1
+    a = term.frame_a
+    nu = np.cross(a[:, 0], a[:, 1]) if d == 3 else np.stack([a[:, 0, 1], -a[:, 0, 0]], 1)
+    proj = t_n - np.einsum("nc,nc->n", t_n, nu)[:, None] * nu
+    back = np.einsum("na,nac->nc", term.lmbda_t, a)
+    scale = comm.allreduce(float(np.abs(t_n).max(initial=0.0)), op=MPI.MAX)
+    assert np.allclose(back[frames.use], proj[frames.use], atol=1e-12 * scale)
+    np.testing.assert_array_equal(term.lmbda_t_committed, term.lmbda_t)
+    if d == 3:  # the old components in the new frames would be another vector
+        carried = np.einsum("na,nac->nc", hist, a)
+        dev = float(np.abs(carried - proj)[moved].max(initial=0.0))
+        assert comm.allreduce(dev, op=MPI.MAX) > 1e-3 * scale
+
+
 def test_frames_rotate_with_the_surface():
     problem = _problem("hertz3d-P1")
     term = problem.contacts[0]
@@ -253,15 +367,15 @@ def test_node_tangents_kernel_matches_reference(d):
     """kernels.friction.node_tangents (numba, all nodes at once) against the NumPy
     reference friction.node_tangent, one node at a time: random frames, slips, D, Pd, kN,
     S-weights, frame derivatives and B rows, with constrained dofs (−1) and repeated
-    dofs, a node without frame facets and one whose B row is empty."""
+    dofs, a node without frame facets and one whose B row is empty. The occurrences carry
+    ns + 1 facet nodes (the master frames' layout pads the smaller facets with −1)."""
     from dolfinx_mortar.kernels.friction import node_tangents
 
     rng = np.random.default_rng(7)
-    m, ns, nsf, n, ndof = d - 1, d, 6, 5, 40
-    fdofs = rng.integers(-1, ndof, (nsf, ns, d))
+    m, nb, n, ndof = d - 1, d + 1, 5, 40
     pair_off = np.array([0, 2, 4, 4, 6, 8])  # node 2 has no frame facets
-    pair_f = rng.integers(0, nsf, pair_off[-1])
-    fdA = rng.standard_normal((pair_off[-1], ns, m, d, d))
+    fdofs = rng.integers(-1, ndof, (pair_off[-1], nb, d))
+    fdA = rng.standard_normal((pair_off[-1], nb, m, d, d))
     s_off = np.array([0, 5, 9, 14, 18, 24])
     s_dof = rng.integers(-1, ndof, (s_off[-1], d))
     s_w = rng.standard_normal(s_off[-1])
@@ -274,7 +388,7 @@ def test_node_tangents_kernel_matches_reference(d):
     b_idx = rng.integers(-1, ndof, b_off[-1])
     b_val = rng.standard_normal(b_off[-1])
     u_off, U, k_off, K = node_tangents(
-        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, pair_f, fdofs, fdA,
+        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, fdofs, fdA,
         b_off, b_idx, b_val,
     )  # fmt: skip
     for i, node in enumerate(nodes):
@@ -283,7 +397,7 @@ def test_node_tangents_kernel_matches_reference(d):
         )
         U_ref, K_ref = fr.node_tangent(
             a[node], S[node], AT[node], tau[node], D[i], Pd[i], kN[i], s_dof[sl], s_w[sl],
-            fdofs[pair_f[pl]].reshape(-1, d), fdA[pl].reshape(-1, m, d, d), b_idx[bl], b_val[bl],
+            fdofs[pl].reshape(-1, d), fdA[pl].reshape(-1, m, d, d), b_idx[bl], b_val[bl],
         )  # fmt: skip
         assert np.array_equal(U[u_off[i] : u_off[i + 1]], U_ref)
         nu = U_ref.size
@@ -407,6 +521,31 @@ def test_frictional_tangent_matches_finite_differences(case, integration, recove
         has = term.has_area
         dev = np.abs(term.gamma[has] - term.G[has] / term.A[has]).max(initial=0.0)
         assert MPI.COMM_WORLD.allreduce(float(dev), op=MPI.MAX) > 1e-3 * term.h_mean**2
+    _check_tangent(problem, term)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "case, integration, recovery, t_recovery",
+    [
+        ("hertz2d-P1", "element", "lumped", "lumped"),
+        ("hertz2d-P2", "element", "lumped", "lumped"),
+        ("hertz3d-P1", "element", "lumped", "lumped"),
+        ("patch3d-Q1", "element", "lumped", "lumped"),
+        ("hertz2d-P1", "node", "lumped", "lumped"),
+        ("hertz3d-P1", "element", "constrained", "lumped"),
+        ("hertz3d-P1", "segment", "lumped", "lumped"),
+        ("hertz2d-Q1", "segment", "constrained", "constrained"),
+        ("hertz3d-P1", "element", "lumped", "unconstrained"),
+    ],
+)
+def test_frictional_tangent_in_the_master_frame(case, integration, recovery, t_recovery):
+    """tangential_frame = "master": the frames' derivatives over the dofs of each node's
+    t_n master facet keep the tangent exact, with every recovery and integration."""
+    problem = _problem(case, integration, recovery=recovery, t_recovery=t_recovery, frame="master")
+    term = _frictional_state(problem, case)
+    act = term.fstate > 0
+    assert MPI.COMM_WORLD.allreduce(int((act & term.frames.use).sum())) >= 2
     _check_tangent(problem, term)
 
 
@@ -737,12 +876,13 @@ def test_no_traction_across_symmetry_planes(dim, shared_tmp):
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("frame", ["slave", "master"])
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
-def test_incremental_objectivity(case):
+def test_incremental_objectivity(case, frame):
     """A rigid rotation superposed on the configuration at t_{n+1} leaves the nodal
     pressures, the tangential traction components and the stick/slip states unchanged,
-    and rotates the traction vectors."""
-    problem = _problem(case)
+    and rotates the traction vectors (both tangential frames)."""
+    problem = _problem(case, frame=frame)
     term = _frictional_state(problem, case)
     p, tau, state, t = term.p.copy(), term.tau.copy(), term.fstate.copy(), term.t_vec.copy()
     comm = MPI.COMM_WORLD

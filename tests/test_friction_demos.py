@@ -28,10 +28,16 @@ import demo_wedge  # noqa: E402
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("mode", ["stick", "slide"])
-@pytest.mark.parametrize("integration,tol", [("segment", 1e-8), ("element", 0.02)])
-def test_friction_patch2d(shared_tmp, mode, integration, tol):
-    out = str(shared_tmp / f"fpatch2d-{mode}-{integration}")
-    m = demo_friction_patch.main(["--mode", mode, "--integration", integration, "--out", out])
+@pytest.mark.parametrize(
+    "integration,tol,frame",
+    [("segment", 1e-8, "slave"), ("element", 0.02, "slave"), ("segment", 1e-8, "master")],
+)
+def test_friction_patch2d(shared_tmp, mode, integration, tol, frame):
+    out = str(shared_tmp / f"fpatch2d-{mode}-{integration}-{frame}")
+    m = demo_friction_patch.main(
+        ["--mode", mode, "--integration", integration, "--frame", frame, "--out", out]
+    )
+    assert m["modelled"]["frame"].startswith(frame)
     assert m["p_err"] <= tol, m["p_err"]
     assert m["q_err"] <= tol, m["q_err"]
     assert m["wrong_state"] == 0
@@ -46,12 +52,16 @@ def test_friction_patch2d(shared_tmp, mode, integration, tol):
     assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
 
 
+@pytest.mark.parametrize("frame", ["slave", "master"])
 @pytest.mark.parametrize("mode", ["stick", "slide"])
-def test_friction_patch3d(shared_tmp, mode):
-    out = str(shared_tmp / f"fpatch3d-{mode}")
+def test_friction_patch3d(shared_tmp, mode, frame):
+    """The 3D frictional patch tests, in either tangential frame (``--frame``): the
+    master's convected covariant basis passes them as the slave frame does."""
+    out = str(shared_tmp / f"fpatch3d-{mode}-{frame}")
     m = demo_friction_patch.main(
-        ["--dim", "3", "--mode", mode, "--integration", "segment", "--out", out]
+        ["--dim", "3", "--mode", mode, "--integration", "segment", "--frame", frame, "--out", out]
     )
+    assert m["modelled"]["frame"].startswith(frame)
     assert m["p_err"] <= 1e-8, m["p_err"]
     assert m["q_err"] <= 1e-8, m["q_err"]
     assert m["q_cross"] <= 1e-8, m["q_cross"]

@@ -201,6 +201,7 @@ def test_defaults_are_filled():
     c = s.contacts[0]
     assert c.friction == 0.0
     assert c.recovery == "lumped" and c.tangential_recovery == "lumped"
+    assert c.tangential_frame == "slave"
     assert c.integration == "element"
     assert c.penalty == "auto"
     assert c.penalty_tangential is None and c.penalty_t == "auto"
@@ -430,6 +431,7 @@ CASES = [
         "contact[0].tangential_recovery",
         '"constrained"',
     ),
+    (("contact", 0, "tangential_frame"), "covariant", "contact[0].tangential_frame", '"master"'),
     (("contact", 0, "uzawa_tol"), -1e-6, "contact[0].uzawa_tol", "must be >= 0"),
     (("contact", 0, "uzawa_max"), 0, "contact[0].uzawa_max", "must be >= 1"),
     (

@@ -413,20 +413,20 @@ def slip_motion_blocks(
 
 
 @numba.njit(cache=True)
-def _node_dofs(node, s_off, s_dof, pair_off, pair_f, fdofs, b_lo, b_hi, b_idx):
-    """Sorted unique dofs ≥ 0 of one node: its S-weights', its frame facets' and its B row's."""
-    e0, e1, p0, p1 = s_off[node], s_off[node + 1], pair_off[node], pair_off[node + 1]
-    d, ns = s_dof.shape[1], fdofs.shape[1]
-    buf = np.empty((e1 - e0) * d + (p1 - p0) * ns * d + (b_hi - b_lo), np.int64)
+def _node_dofs(node, s_off, s_dof, f_off, f_dofs, b_lo, b_hi, b_idx):
+    """Sorted unique dofs ≥ 0 of one node: its S-weights', its frame's and its B row's."""
+    e0, e1, p0, p1 = s_off[node], s_off[node + 1], f_off[node], f_off[node + 1]
+    d, nb = s_dof.shape[1], f_dofs.shape[1]
+    buf = np.empty((e1 - e0) * d + (p1 - p0) * nb * d + (b_hi - b_lo), np.int64)
     c = 0
     for e in range(e0, e1):
         for j in range(d):
             buf[c] = s_dof[e, j]
             c += 1
     for p in range(p0, p1):
-        for a in range(ns):
+        for a in range(nb):
             for j in range(d):
-                buf[c] = fdofs[pair_f[p], a, j]
+                buf[c] = f_dofs[p, a, j]
                 c += 1
     for t in range(b_lo, b_hi):
         buf[c] = b_idx[t]
@@ -448,9 +448,8 @@ def node_tangents(
     s_off,
     s_dof,
     s_w,
-    pair_off,
-    pair_f,
-    fdofs,
+    f_off,
+    f_dofs,
     fdA,
     b_off,
     b_idx,
@@ -465,16 +464,16 @@ def node_tangents(
     nodes (k,): node indices into a (n, m, d) frames, S (n, d) weighted slips, AT (n,),
     tau (n, m); per listed node D (k, m, m), Pd (k, m), kN (k,) and the row B as CSR
     b_off (k + 1,), b_idx, b_val (global dofs, any order, repeats summed). s_off (n + 1,),
-    s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e); pair_off
-    (n + 1,), pair_f (P,): the slave facets of each node's frame, fdofs (nsf, ns, d) their
-    dofs, fdA (P, ns, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left
-    out. Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each
+    s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e); the frames'
+    occurrence layout (:class:`dolfinx_mortar.friction.NodalFrames`, ``MasterFrames``):
+    f_off (n + 1,) per node, f_dofs (P, nb, d) the dofs of each occurrence's facet nodes,
+    fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out. Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each
     node's (nu, nu) block row-major)."""
     k = nodes.size
     m, d = a.shape[1], a.shape[2]
-    ns = fdofs.shape[1]
+    nb = f_dofs.shape[1]
     dofs = [
-        _node_dofs(nodes[i], s_off, s_dof, pair_off, pair_f, fdofs, b_off[i], b_off[i + 1], b_idx)
+        _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
         for i in range(k)
     ]
     u_off = np.zeros(k + 1, np.int64)
@@ -497,10 +496,10 @@ def node_tangents(
             for c in range(d):
                 if s_dof[e, c] >= 0:
                     Srow[c, np.searchsorted(Ui, s_dof[e, c])] += s_w[e]
-        for p in range(pair_off[node], pair_off[node + 1]):
-            for b in range(ns):
+        for p in range(f_off[node], f_off[node + 1]):
+            for b in range(nb):
                 for c2 in range(d):
-                    dof = fdofs[pair_f[p], b, c2]
+                    dof = f_dofs[p, b, c2]
                     if dof < 0:
                         continue
                     j = np.searchsorted(Ui, dof)
