@@ -114,6 +114,12 @@ def _run(data, out, comm):
             _with_recovery(CATTANEO2D, "constrained", tangential_recovery="constrained"),
             "upper_surface",
         ),
+        (
+            # the master's covariant basis: the nodes' t_n master points, ghost master facets
+            "cattaneo2d-friction-master",
+            _with_recovery(CATTANEO2D, "lumped", tangential_frame="master"),
+            "upper_surface",
+        ),
     ],
 )
 def test_parallel_equals_serial(shared_tmp, name, data, slave):
@@ -126,6 +132,7 @@ def test_parallel_equals_serial(shared_tmp, name, data, slave):
         assert pair["tangential_recovery"] == data["contact"][0].get(
             "tangential_recovery", "lumped"
         )
+        assert pair["frame"].startswith(data["contact"][0].get("tangential_frame", "slave"))
     if comm.rank == 0:
         # serially the "parallel" run IS the serial one: the checks below then only test
         # the run itself (states, pressures), without running it a second time
