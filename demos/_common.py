@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from dolfinx_mortar.scene import TANGENTIAL_FRAMES
+
 #: A slave node counts as "in contact" when p > ACTIVE_TOL * max(p) (as the peers).
 ACTIVE_TOL = 0.01
 
@@ -78,8 +80,8 @@ def parser(
     if frame:
         ap.add_argument(
             "--frame",
-            choices=("slave", "master"),
-            default="slave",
+            choices=TANGENTIAL_FRAMES,
+            default=TANGENTIAL_FRAMES[0],
             help="tangential_frame of the frictional pairs: the convected slave frame or the "
             "master's convected covariant basis (METHOD.md §1) [slave]",
         )

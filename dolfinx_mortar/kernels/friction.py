@@ -467,8 +467,9 @@ def node_tangents(
     s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e); the frames'
     occurrence layout (:class:`dolfinx_mortar.friction.NodalFrames`, ``MasterFrames``):
     f_off (n + 1,) per node, f_dofs (P, nb, d) the dofs of each occurrence's facet nodes,
-    fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out. Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each
-    node's (nu, nu) block row-major)."""
+    fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out.
+    Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each node's
+    (nu, nu) block row-major)."""
     k = nodes.size
     m, d = a.shape[1], a.shape[2]
     nb = f_dofs.shape[1]
