@@ -19,8 +19,9 @@ lumped or the constrained normal recovery); the point integrals are in
 - **Master frame** (``tangential_frame = "master"``, :class:`MasterFrames`): the
   master's convected covariant basis g_α at the material point the node faced at t_n,
   with its metric and contravariant components (METHOD.md §1); the return mapping in
-  covariant components with the metric (:func:`covariant_return_mapping`) is run in the
-  orthonormal basis Gram–Schmidt makes of g_α, which gives the same states and traction.
+  covariant components with the metric (:func:`covariant_return_mapping`) is run in an
+  orthonormal basis of the same plane, convected as g_α is, which gives the same states
+  and traction.
 - **Symmetry planes.** At a node on a symmetry plane (a displacement component k held
   at zero by a Dirichlet condition, the reference normal within 60° of the plane)
   the frame is the one of the mirrored model: the normal ñ − (ñ·e_k) e_k, in the
@@ -275,15 +276,17 @@ class MasterFrames:
     g_T^α = g^α·S^I/A_T^I: on an affine master facet exactly ζ̄^α − ζ_n^α of the paper's
     eq. 2.2, and across master facets the physical-slip rule (S is the motion relative
     to the t_n material point). The paper's return mapping in covariant components with
-    the metric (eq. 2.8, :func:`covariant_return_mapping`) is carried out in the
-    orthonormal basis ê_α of the same plane obtained from g_α by Gram–Schmidt,
+    the metric (eq. 2.8, :func:`covariant_return_mapping`) is carried out in an
+    orthonormal basis ê_α of the same plane, convected with the master as g_α is:
 
-        2D: ê_1 = σ g_1/|g_1|;   3D: ê_1 = g_1/|g_1|, ν = σ (g_1 × g_2)/|g_1 × g_2|, ê_2 = ν × ê_1,
+        ê_1 = c_α g_α/|c_β g_β|;   3D: ν = σ (g_1 × g_2)/|g_1 × g_2|, ê_2 = ν × ê_1,
 
-    with the sign σ = ±1 fixed at t_n (ê_1, resp. ν, on the side of the slave frame's
-    tangent, resp. outward normal). ê_α components are the covariant ones through the
-    Cholesky factor of the metric: g_α = L_αi ê_i, L_αi = g_α·ê_i, a_αβ = (L Lᵀ)_αβ,
-    τ_α = L_αi τ̂_i, g_T^α = (L⁻ᵀ)_αi γ̂_i; the Coulomb norm is invariant,
+    with c (m,) and σ = ±1 fixed at t_n: c_α g_α is then the slave frame's a_1 projected on
+    the master plane (so ê_1 is the same direction whichever facet a node on a facet edge
+    projected onto, and its components stay comparable with the slave frame's), and ν
+    lies on the side of the slave's outward normal. ê_α components are the covariant
+    ones through L_αi = g_α·ê_i: g_α = L_αi ê_i, a_αβ = (L Lᵀ)_αβ, τ_α = L_αi τ̂_i,
+    g_T^α = (L⁻ᵀ)_αi γ̂_i; the Coulomb norm is invariant,
     τ_α a^αβ τ_β = |τ̂|², so the stick/slip decision, the slip direction and the traction
     vector t = τ_α g^α = τ̂_i ê_i are the paper's (``tests/test_friction.py``,
     ``test_covariant_return_mapping_is_the_orthonormal_one``). The frame depends on the
@@ -323,13 +326,21 @@ class MasterFrames:
         for i, z in enumerate(np.asarray(zn)[use]):
             shape(self.ftype_m, np.ascontiguousarray(z, dtype=float), N, dN, ddN)
             self.dN[i] = dN[:nm]
-        self.sigma = np.ones(self.mn.size)
+        # ê_1 ∥ c_α g_α: c the contravariant components, at t_n, of the slave frame's a_1
+        # projected on the master plane (the same direction whichever facet a node on a
+        # facet edge projected onto); σ orients the 3D normal along the slave's
+        self.sigma, self.c = np.ones(self.mn.size), np.zeros((self.mn.size, k))
         if self.mn.size:
             a_s, n_s, _ = sl.compute(xs_n, derivatives=False)
             g = self._basis(xm_n)
-            ref = a_s[use, 0] if d == 2 else n_s[use]
-            cur = g[:, 0] if d == 2 else np.cross(g[:, 0], g[:, 1])
-            self.sigma = np.where(np.einsum("uc,uc->u", cur, ref) < 0.0, -1.0, 1.0)
+            v = a_s[use, 0]
+            if d == 3:
+                nt = np.cross(g[:, 0], g[:, 1])
+                self.sigma = np.where(np.einsum("uc,uc->u", nt, n_s[use]) < 0.0, -1.0, 1.0)
+            G = g @ g.transpose(0, 2, 1)
+            self.c = np.linalg.solve(G, (g @ v[:, :, None]))[:, :, 0]
+            flat = np.linalg.norm(np.einsum("ua,uac->uc", self.c, g), axis=1) < 1e-6
+            self.c[flat] = np.eye(k)[0] / np.linalg.norm(g[flat, 0], axis=1)[:, None]
         # occurrences: one per master node (its facet m_n), the slave facets elsewhere
         count = np.where(use, 1, np.diff(sl.pair_off))
         self.off = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
@@ -374,30 +385,31 @@ class MasterFrames:
         g = self._basis(xm)
         eye = np.eye(d)
         sig = self.sigma
-        e1, l1 = _unit(g[:, 0])
+        e1, l1 = _unit(np.einsum("ua,uac->uc", self.c, g))
+        nm = self.dN.shape[1]
+        if derivatives:
+            # ∂(c_α g_α)/∂x_b = w_b I, w_b = c_α ∂N_b/∂ζ^α: ∂ê_1 = (I − ê_1 ê_1) w_b/|c_α g_α|
+            w = np.einsum("uba,ua->ub", self.dN, self.c)
+            Q1 = (eye - np.einsum("ui,uj->uij", e1, e1)) / l1[:, None, None]
+            Je1 = w[:, :, None, None] * Q1[:, None]  # (U, nm, d, d)
         if d == 2:
-            e1 = sig[:, None] * e1
             a[self.use, 0] = e1
             if derivatives:
-                Q = (eye - np.einsum("ui,uj->uij", e1, e1)) * (sig / l1)[:, None, None]
-                dA[self._pos_m, : self.dN.shape[1], 0] = self.dN[:, :, 0, None, None] * Q[:, None]
+                dA[self._pos_m, :nm, 0] = Je1
             return a, nrm, dA
         nt = np.cross(g[:, 0], g[:, 1])
         nu, ln = _unit(sig[:, None] * nt)
         e2 = np.cross(nu, e1)
         a[self.use, 0], a[self.use, 1] = e1, e2
         if derivatives:
-            Q1 = (eye - np.einsum("ui,uj->uij", e1, e1)) / l1[:, None, None]
             Pn = (eye - np.einsum("ui,uj->uij", nu, nu)) * (sig / ln)[:, None, None]
             dN = self.dN[:, :, :, None, None]
-            Je1 = dN[:, :, 0] * Q1[:, None]  # (U, nm, 3, 3)
             dnt = (
                 -dN[:, :, 0] * _cross_matrix(g[:, 1])[:, None]
                 + dN[:, :, 1] * _cross_matrix(g[:, 0])[:, None]
             )
             Jn = Pn[:, None] @ dnt
             Je2 = _cross_matrix(nu)[:, None] @ Je1 - _cross_matrix(e1)[:, None] @ Jn
-            nm = self.dN.shape[1]
             dA[self._pos_m, :nm, 0], dA[self._pos_m, :nm, 1] = Je1, Je2
         return a, nrm, dA
 
