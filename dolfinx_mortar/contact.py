@@ -791,7 +791,7 @@ class MortarContact:
         if self.tangential_frame == "master":
             nm = self.master_local.nodes_per_facet
             self.frames = fr.MasterFrames(self.frames, self.master_local.ftype, nm)
-        self._frame_version = self._hist_vec = None  # the master frames' history transport
+        self._hist_vec = None  # t^n vectors of a new t_n, for the master frames (_master_points)
         self._frame_dA = None
         # weight functions of the tangential mixed field, Ψ_i = Σ_j C_ij Φ_j on the facets
         # of finite t_facet_area (docs/method-notes.md, "Dual tangential weights"); node
@@ -836,7 +836,7 @@ class MortarContact:
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
         self._history_key = None
-        self._pending = None  # (u, τ[, t^n vectors]) of a committed step, for begin_step
+        self._pending = None  # (u, τ, t^n vectors) of a committed step, for begin_step
 
     # ------------------------------------------------------------------ helpers
     def _all_dofs(self, fa: FacetArrays) -> np.ndarray:
@@ -1154,7 +1154,8 @@ class MortarContact:
         nsf, nq = self.qp_w.shape
         n, d, km = self.node_blocks.size, self.gdim, self.gdim - 1
         key = (self._exchanges, self._u_n_version)
-        if self.integration == "segment" or key != self._history_key:
+        new_key = key != self._history_key
+        if self.integration == "segment" or new_key:
             un = self._u_n
             xs_n = self.slave.X + self._fetch_slave(un).reshape(self.slave.X.shape)
             xm_n = self.master.X + self._fetch_cand(un).reshape(self.master.X.shape)
@@ -1200,7 +1201,7 @@ class MortarContact:
             closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
             self.dual_area = np.where(closed, self.t_facet_area, np.inf)
             self._history_key = key
-            if self.tangential_frame == "master":
+            if self.tangential_frame == "master" and new_key:  # not per segment update
                 self._master_points(xs_n, xm_n, off, idx)
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
@@ -1292,12 +1293,11 @@ class MortarContact:
             zn[node[first]] = pz[f[first], i[first]]
         mdofs = self.master.dofs.reshape(self.master.X.shape)
         self.frames.set_points(mn, zn, xs_n, xm_n, mdofs)
-        if self._hist_vec is not None and self._frame_version != self._u_n_version:
+        if self._hist_vec is not None:  # the first search at a new t_n (begin_step)
             a_n = self._frames_at(xs_n, xm_n, False)[0]
             lam = np.einsum("nac,nc->na", a_n, self._hist_vec)
             self.lmbda_t, self.lmbda_t_committed = lam, lam.copy()
             self._hist_vec = None
-        self._frame_version = self._u_n_version
 
     @property
     def frame_dA(self) -> np.ndarray:
@@ -2884,9 +2884,9 @@ class MortarContact:
         self._carried_pins = None
         if self.frictional:
             if self._pending is not None:
-                u_n, tau = self._pending[:2]
+                u_n, tau, t_n = self._pending
                 if self.tangential_frame == "master":
-                    self._hist_vec = self._pending[2]
+                    self._hist_vec = t_n
                 u_n.copy(self._u_n)
                 u_n.destroy()
                 self._u_n_version += 1
@@ -2912,9 +2912,9 @@ class MortarContact:
             if self._pending is not None:
                 self._pending[0].destroy()
             hist = np.where((self.fstate > 0)[:, None], self.tau_law, 0.0)
-            self._pending = (self.problem.u.vector.copy(), hist)
-            if self.tangential_frame == "master":  # carried as a vector (_master_points)
-                self._pending += (np.einsum("na,nac->nc", hist, self.frame_a),)
+            # t^n as vectors too: the master frames carry them into the next t_n's frames
+            t_n = np.einsum("na,nac->nc", hist, self.frame_a)
+            self._pending = (self.problem.u.vector.copy(), hist, t_n)
 
     def restore_step(self) -> None:
         self.lmbda = self.lmbda_committed.copy()
