@@ -207,14 +207,3 @@ def step_record(problem, res) -> dict:
         for k in ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total")
     }
     return rec
-
-
-def observed_order(norms) -> float:
-    """Observed order of convergence from the last three residual norms (nan if undefined)."""
-    r = [x for x in norms if x > 0]
-    if len(r) < 3:
-        return float("nan")
-    e0, e1, e2 = r[-3:]
-    if e1 >= e0 or e2 >= e1:
-        return float("nan")
-    return float(np.log(e2 / e1) / np.log(e1 / e0))
