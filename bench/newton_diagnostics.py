@@ -15,7 +15,10 @@ solve (the main one; the later Uzawa rounds start near the solution) this prints
 
 With ``--polish N`` it also takes N more exact Newton steps from the state where that
 solve converged (on a copy: the run goes on from its own state) and prints the residual
-norms they leave, the round-off plateau of ‖R‖, and the errors e_k = ‖u_k − u*‖ of the
+norms they leave, the round-off plateau of ‖R‖ (next to the step's round-off level f
+that ``ContactProblem.residual_round_off`` measures at the step's end: a Newton step
+from a residual that is only rounding noise leaves the next noise plus the last one,
+about √2 f), and the errors e_k = ‖u_k − u*‖ of the
 solve's iterates against the polished state u*, with the order of convergence
 log(e_k/e_{k−1}) / log(e_{k−1}/e_{k−2}) of its last three (BENCHMARKS §2, "Session 18").
 
@@ -184,9 +187,13 @@ def main(argv=None) -> list:
     newton_cls._J, newton_cls.solve = watched_j, counted_solve
     try:
         sc = demo_hertz2d.scene(0, 1, args.integration, quads=not args.tri, recovery=args.recovery)
-        run(parse_scene(sc, Path(".")), MPI.COMM_WORLD, Path(args.out), setup=setup)
+        summary = run(
+            parse_scene(sc, Path(".")), MPI.COMM_WORLD, Path(args.out), setup=setup, round_off=True
+        )
     finally:
         newton_cls._J, newton_cls.solve = orig_j, orig_solve
+    if polished:
+        polished["round_off"] = summary["steps"][args.step - 1]["residual_round_off"]
     if MPI.COMM_WORLD.rank == 0:
         print(f"hertz2d {args.integration} {args.recovery}, step {args.step}, main solve:")
         print("  |R|        |du|       fd(K du)   quad t=1/4, 1/2, 1")
@@ -205,6 +212,8 @@ def main(argv=None) -> list:
                 args.polish,
                 "more exact steps:",
                 ", ".join(f"{v:.3g}" for v in polished["plateau"]),
+                f"(the step's measured round-off level f = {polished['round_off']:.3g}:"
+                " ContactProblem.residual_round_off; a plateau of noise is about sqrt(2) f)",
             )
             print("  e_k = |u_k - u*|:", ", ".join(f"{v:.3g}" for v in polished["errors"]))
             print(f"  order from the last three errors: {error_orders(polished['errors']):.2f}")

@@ -7,7 +7,8 @@
   ``normal_metrics``): L2 error of the piecewise-linear interpolant of the nodal
   pressures against the exact profile on [-1.25 a, 1.25 a], the peak pressure error
   and the contact half-width, evaluated with the MEASURED load;
-- :func:`newton_orders`: observed order of convergence of the last Newton iterations;
+- :func:`newton_orders`, :func:`format_orders`: observed order of convergence of the last
+  Newton iterations, read against each step's measured round-off level;
 - :func:`oscillation_index`, :func:`report`;
 - :func:`press_then_shift`, :func:`elastic`: scene pieces shared by the demos.
 
@@ -265,10 +266,16 @@ def oscillation_index(pn: np.ndarray, p0: float) -> float:
     return float(np.abs(np.diff(q, 2)).sum() / p0)
 
 
+#: A residual norm at most FLOOR_FACTOR × the step's measured round-off level f
+#: (summary.json steps' ``residual_round_off``, written by ``run(..., round_off=True)``)
+#: lies on the round-off floor: the rounding of the assembly, not the iterate, sets it.
+FLOOR_FACTOR = 3.0
+
+
 def observed_order(norms, floor: float = 0.0) -> float:
     """Order of convergence q = log(r_k/r_{k-1}) / log(r_{k-1}/r_{k-2}) from the last three
-    residual norms above the round-off ``floor`` (nan if fewer than three, or if they do
-    not decrease)."""
+    residual norms above ``floor`` (nan if fewer than three, or if they do not
+    decrease)."""
     r = [float(x) for x in norms if x > max(floor, 0.0)]
     if len(r) < 3:
         return float("nan")
@@ -278,37 +285,73 @@ def observed_order(norms, floor: float = 0.0) -> float:
     return math.log(e2 / e1) / math.log(e1 / e0)
 
 
-def roundoff_floor(summary: dict) -> float:
-    """Round-off level of the residual norm: twice the smallest norm reached in the run.
+def step_floor(step: dict) -> float:
+    """FLOOR_FACTOR × the step's measured round-off level f (0 when the run did not
+    measure it: then no norm counts as round-off)."""
+    return FLOOR_FACTOR * float(step.get("residual_round_off", 0.0))
 
-    The floor is a property of the discrete problem (the size of the internal forces
-    times machine precision), not of the first residual of a solve, which also contains
-    the load increment; a relative floor would drop the final quadratic iterate."""
-    norms = [
-        x for st in summary["steps"] for r in st.get("residual_norms") or [] for x in r if x > 0
-    ]
-    return 2.0 * min(norms) if norms else 0.0
+
+def solve_order(norms, round_off: float = 0.0) -> tuple[float, bool]:
+    """Observed order of one Newton solve's residual norms, and whether it is a bound.
+
+    With f = ``round_off`` (the step's measured round-off level, 0 if unknown) and the
+    floor FLOOR_FACTOR × f, two readings:
+
+    - the order of the last three norms above the floor (:func:`observed_order`);
+    - when only the last norm r_n is on the floor: the order of r_{n-2}, r_{n-1} and
+      r_n + 2f. The rounding can hide a smaller residual in r_n but not a larger one
+      than r_n + 2f, so this is a lower bound of the order of the last contraction.
+
+    Returns the larger (``True`` with it when that is the bound). The first reading
+    alone reads a pre-asymptotic triple whenever the solve has only two exact
+    contractions above round-off (BENCHMARKS.md §2, §24)."""
+    r = [float(x) for x in norms if x > 0]
+    floor = FLOOR_FACTOR * round_off
+    q = observed_order(r, floor)
+    if round_off > 0 and len(r) >= 3 and r[-1] <= floor < min(r[-3:-1]):
+        bound = observed_order([r[-3], r[-2], r[-1] + 2.0 * round_off])
+        if bound > q or (math.isnan(q) and not math.isnan(bound)):
+            return bound, True
+    return q, False
+
+
+def _main_round(step: dict) -> list:
+    """The step's main Newton solve: the Uzawa round with the most iterations (the first
+    one normally: later rounds start near the solution and take one to three)."""
+    rounds = step.get("residual_norms") or []
+    return max(rounds, key=len) if rounds else []
 
 
 def newton_orders(summary: dict) -> list[float]:
-    """Per step: the observed order (:func:`observed_order`) of the main Newton solve, the
-    Uzawa round with the most iterations (the first one normally: later rounds start near
-    the solution and converge in one to three iterations)."""
-    floor = roundoff_floor(summary)
-    out = []
-    for st in summary["steps"]:
-        rounds = st.get("residual_norms") or []
-        out.append(observed_order(max(rounds, key=len), floor) if rounds else float("nan"))
-    return out
+    """Per step: the observed order (:func:`solve_order`) of the main Newton solve (nan
+    where it has fewer than three norms)."""
+    return [
+        solve_order(_main_round(st), float(st.get("residual_round_off", 0.0)))[0]
+        for st in summary["steps"]
+    ]
+
+
+def newton_order_bounds(summary: dict) -> list[bool]:
+    """Per step: whether :func:`newton_orders` is the lower bound of :func:`solve_order`."""
+    return [
+        solve_order(_main_round(st), float(st.get("residual_round_off", 0.0)))[1]
+        for st in summary["steps"]
+    ]
+
+
+def format_orders(summary: dict) -> str:
+    """The per-step orders as the demos print them, a bound marked with "≥"."""
+    orders, bounds = newton_orders(summary), newton_order_bounds(summary)
+    return ", ".join(f"{'≥' if b else ''}{q:.2f}" for q, b in zip(orders, bounds, strict=True))
 
 
 def quadratic_constants(summary: dict) -> list[float]:
     """Per step, the largest C = r_{k+1} r_0 / r_k² over the last two iterations above the
-    round-off floor of every Uzawa round: bounded C is quadratic convergence (r_0 the
-    first norm of the round)."""
-    floor = roundoff_floor(summary)
+    step's round-off floor (:func:`step_floor`) of every Uzawa round: bounded C is
+    quadratic convergence (r_0 the first norm of the round)."""
     out = []
     for st in summary["steps"]:
+        floor = step_floor(st)
         cs = [0.0]
         for r in st.get("residual_norms") or []:
             r = [x for x in r if x > 0]
@@ -320,10 +363,10 @@ def quadratic_constants(summary: dict) -> list[float]:
 
 
 def uzawa_round_orders(summary: dict) -> list[list[float]]:
-    """Per step, per Uzawa round: the observed order (nan where < 3 norms above round-off)."""
-    floor = roundoff_floor(summary)
+    """Per step, per Uzawa round: the observed order of the norms above the step's
+    round-off floor (nan where fewer than three)."""
     return [
-        [observed_order(r, floor) for r in st.get("residual_norms") or []]
+        [observed_order(r, step_floor(st)) for r in st.get("residual_norms") or []]
         for st in summary["steps"]
     ]
 

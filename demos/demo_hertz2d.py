@@ -110,6 +110,8 @@ def evaluate(summary: dict, out_dir, nu: float = NU) -> dict:
         uzawa_rounds=[int(s["uzawa_rounds"]) for s in summary["steps"]],
         cutbacks=int(sum(int(s.get("cutbacks", 0)) for s in summary["steps"])),
         newton_order=cm.newton_orders(summary),
+        newton_order_text=cm.format_orders(summary),
+        round_off=[st.get("residual_round_off") for st in summary["steps"]],
         uzawa_round_orders=cm.uzawa_round_orders(summary),
         residual_norms=[st["residual_norms"] for st in summary["steps"]],
         slave_nodes=len(d["x"]),
@@ -131,7 +133,7 @@ def main(argv=None) -> dict:
     comm = MPI.COMM_WORLD
     sc = scene(args.refine, args.order, args.integration, args.steps, not args.tri, args.recovery)
     cm.set_acceleration(sc, args.uzawa_acceleration)
-    summary, wall = cm.run_scene(sc, args.out, comm)
+    summary, wall = cm.run_scene(sc, args.out, comm, round_off=True)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall
     h = H_CONTACT / 2**args.refine
@@ -154,7 +156,8 @@ def main(argv=None) -> dict:
             ("Newton iterations per step", str(m["newton_iterations"])),
             ("Uzawa rounds per step", str(m["uzawa_rounds"])),
             ("step cutbacks", str(m["cutbacks"])),
-            ("observed Newton order", ", ".join(f"{q:.2f}" for q in m["newton_order"])),
+            ("observed Newton order", m["newton_order_text"]),
+            ("residual round-off level", ", ".join(f"{f:.1e}" for f in m["round_off"])),
             ("negative nodal pressures", str(m["negative"])),
             ("oscillation index", f"{m['oscillation']:.4f}"),
             ("wall time", f"{wall:.2f} s"),

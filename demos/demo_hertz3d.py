@@ -192,6 +192,8 @@ def evaluate(summary: dict, out_dir) -> dict:
         "uzawa_rounds": [int(s["uzawa_rounds"]) for s in summary["steps"]],
         "cutbacks": int(sum(int(s.get("cutbacks", 0)) for s in summary["steps"])),
         "newton_order": cm.newton_orders(summary),
+        "newton_order_text": cm.format_orders(summary),
+        "round_off": [st.get("residual_round_off") for st in summary["steps"]],
         "slave_nodes": len(x),
         "dofs": summary.get("dofs"),
         "ranks": summary.get("ranks"),
@@ -208,7 +210,7 @@ def main(argv=None) -> dict:
     comm = MPI.COMM_WORLD
     sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery)
     cm.set_acceleration(sc, args.uzawa_acceleration)
-    summary, wall = cm.run_scene(sc, args.out)
+    summary, wall = cm.run_scene(sc, args.out, round_off=True)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall
     cm.report(
@@ -231,7 +233,8 @@ def main(argv=None) -> dict:
             ("Newton iterations per step", str(m["newton_iterations"])),
             ("Uzawa rounds per step", str(m["uzawa_rounds"])),
             ("step cutbacks", str(m["cutbacks"])),
-            ("observed Newton order", ", ".join(f"{q:.2f}" for q in m["newton_order"])),
+            ("observed Newton order", m["newton_order_text"]),
+            ("residual round-off level", ", ".join(f"{f:.1e}" for f in m["round_off"])),
             ("wall time", f"{wall:.2f} s"),
         ],
         comm,

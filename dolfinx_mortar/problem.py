@@ -367,6 +367,50 @@ class ContactProblem:
         if apply_bcs:
             set_bc(b, self.bcs, x, -1.0)
 
+    def residual_round_off(self) -> float:
+        """The round-off level f of the assembled residual at the current state u: the norm
+        below which no iterate's ‖R‖ can go (force units, the norm of ``residual_norms``;
+        collective, the same on every rank).
+
+        Every dof moves by one unit in the last place of the current coordinate,
+        δ_i = ε_mach (|X_i| + |u_i|) ξ_i with ξ_i = ±1 fixed by the global dof number, and
+
+            f = ‖R̃(u + δ) + R̃(u − δ) − 2 R̃(u)‖ / √6,
+
+        R̃ the residual as assembled (Dirichlet rows included). The terms linear in δ
+        cancel and the quadratic ones are of order ε_mach², so what is left is the
+        rounding of the three assemblies, independent with equal variance (hence √6).
+        The contact terms see the coordinates, not the displacement, so δ is scaled
+        by |X| + |u|. Three residual evaluations; the contact state is that of u
+        again afterwards (one more search at u). BENCHMARKS.md §24 compares f with the
+        plateau that extra exact Newton steps reach."""
+        u = self.u.vector
+        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        bs = self.V.dofmap.index_map_bs
+        coords = self.V.tabulate_dof_coordinates()
+        X = np.abs(coords[np.arange(n) // bs, np.arange(n) % bs])
+        g = self.global_dofs_all[:n].astype(np.uint64)
+        xi = 1.0 - 2.0 * (((g * np.uint64(2654435761)) >> np.uint64(13)) & np.uint64(1))
+        u0 = u.copy()
+        delta = u.duplicate()
+        delta.array_w[:] = np.finfo(float).eps * (X + np.abs(u0.array_r[:n])) * xi
+        out, work, x = u.duplicate(), u.duplicate(), u.duplicate()
+        out.set(0.0)
+        timings = dict(self.timings)
+        try:
+            for sign, weight in ((1.0, 1.0), (-1.0, 1.0), (0.0, -2.0)):
+                u0.copy(x)
+                x.axpy(sign, delta)
+                self.update_contact(x)
+                self.residual(x, work)
+                out.axpy(weight, work)
+            f = out.norm() / np.sqrt(6.0)
+        finally:
+            self.timings = timings
+            for v in (u0, delta, out, work, x):
+                v.destroy()
+        return float(f)
+
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective). The contact terms'
         part is computed first and the pattern of A grown to hold it, so that a growth

@@ -48,39 +48,60 @@ def test_hertz2d_accuracy(hertz2d):
     assert abs(m["a_err"]) <= 0.10, m["a_err"]  # half-width within one element (h ≈ a/10)
 
 
-# Newton on hertz2d (h = 0.1, quadrilaterals, 4 steps, 1-3 ranks). Observed orders of the
-# main solve of each step, with the round-off floor estimated from the run (2 x the smallest
-# residual): 1.66, 2.00, 2.36, 1.69. Step 1 is a first-contact solve: the geometric contact
-# tangent is left out while its active set moves (contact.GEOMETRIC_TANGENT_AT_FIRST_CONTACT),
-# then exact: 11.4 -> 4.8e-3 (a step without the geometric part) -> 7.6e-7 -> 3.9e-13
-# (exact steps; the last lands near round-off; before that rule the step read 3.46). Steps
-# 2-4 start from the extrapolated predictor, 0.05 h or more deep, so their first Jacobian
-# leaves the geometric part out too (contact.DEEP_PENETRATION_TOL; before that rule the
-# orders read 1.32, 1.45, 1.43 and the steps took 10, 11, 11 iterations, now 9, 8, 8).
-# They stop on rtol one iterate after the contraction first reaches ~1e-3. The full Jacobian
-# (bulk + contact + Dirichlet rows) matches central differences to 2e-11 at a mid-Uzawa
-# state. The order estimate from three residuals is fragile near round-off, so the test
-# asserts superlinear convergence on every step: above 10x the smallest residual of the
-# run, the last contraction is <= 1e-2 and at most 0.2x the one before, or already
-# <= 1e-3, or quadratic on the solve's scale, r_{k+1} r_0 / r_k^2 <= 1 (since session 23's
-# two secant steps in first-contact solves, step 1's step before the last contracted by
-# 5e-4, with the geometric tangent left out while the active set settled, and its last
-# by 1.01e-3 with C = 0.15); and the remainder of a quadratic iteration in step 1:
-# C = r_{k+1} r_0 / r_k^2 <= 1 over its last two iterations above round-off (measured
-# 0.15; a linear rate of 1e-2 would give C ~ 1e-2 r_0 / r_k ~ 1.4 there, where r_k is
-# 3.4e-3: the check is tight on this path, 6e3 on the path before session 23).
+# Newton on hertz2d, against each step's measured round-off level f (summary.json's
+# residual_round_off, ContactProblem.residual_round_off). Norms at most FLOOR_FACTOR x f
+# are rounding, not iterates. Above that floor every step's main solve ends with a
+# contraction <= 1e-2 that is quadratic on the solve's scale, r_{k+1} r_0 / r_k^2 <= 1
+# (a linear rate would give C ~ rate x r_0 / r_k >> 1 there), or at most 0.2x the one
+# before, or already <= 1e-3. The observed orders (demos/_common.solve_order): >=2.35,
+# 2.33, 1.72, 3.54 on 2 ranks (BENCHMARKS.md §24); step 3's clean triple
+# 1.5e-2, 4.3e-6, 3.7e-12 reads 1.72 (its last norm is 17 f, not round-off), so the
+# issue's "order >= 1.8 in every step" is not asserted: it is not met there.
 @pytest.mark.mpi
 def test_hertz2d_newton_superlinear(hertz2d):
-    floor = 10.0 * min(x for st in hertz2d["residual_norms"] for r in st for x in r if x > 0)
-    for k, st in enumerate(hertz2d["residual_norms"]):
-        main = max(st, key=len)
-        r = [x for x in main if x > floor]
+    steps = {
+        "steps": [
+            {"residual_norms": r, "residual_round_off": f}
+            for r, f in zip(hertz2d["residual_norms"], hertz2d["round_off"], strict=True)
+        ]
+    }
+    for k, st in enumerate(steps["steps"]):
+        f = st["residual_round_off"]
+        assert 1e-15 < f < 1e-11, (k, f)
+        main = max(st["residual_norms"], key=len)
+        r = [x for x in main if x > cm.step_floor(st)]
         assert len(r) >= 3, (k, r)
         last, before = r[-1] / r[-2], r[-2] / r[-3]
         quadratic = r[-1] * main[0] / r[-2] ** 2 <= 1.0
         assert last <= 1e-2 and (last <= 0.2 * before or last <= 1e-3 or quadratic), (k, r)
-    steps = {"steps": [{"residual_norms": st} for st in hertz2d["residual_norms"]]}
     assert cm.quadratic_constants(steps)[0] <= 1.0, cm.quadratic_constants(steps)
+
+
+def test_solve_order_reads_the_round_off_floor():
+    """demos/_common.solve_order on norm sequences of hertz2d's steps (2 ranks)."""
+    # the last norm on the floor (<= 3 f): the clean triple is pre-asymptotic (0.91), the
+    # bound with r_n + 2 f is the reading (2.35)
+    step1 = [0.488, 80.5, 6.71, 6.51, 3.39e-3, 3.43e-6, 1.47e-13]
+    q, bound = cm.solve_order(step1, 6.8e-14)
+    assert bound and q == pytest.approx(cm.observed_order(step1[-3:-1] + [1.47e-13 + 1.36e-13]))
+    assert cm.observed_order(step1, 3 * 6.8e-14) == pytest.approx(0.91, abs=0.01)
+    assert q > 2.3
+    # the last norm on the floor and the clean triple the larger: the clean one (3.54)
+    step4 = [110.0, 9.76e-2, 5.83e-3, 2.69e-7, 4.43e-13]
+    q, bound = cm.solve_order(step4, 2.8e-13)
+    assert not bound and q == pytest.approx(cm.observed_order(step4[:-1]))
+    # the last norm above the floor: the plain three-norm order, even when low (1.72)
+    step3 = [173.0, 0.214, 1.5e-2, 4.3e-6, 3.67e-12]
+    assert cm.solve_order(step3, 2.2e-13) == (cm.observed_order(step3), False)
+    assert cm.observed_order(step3) == pytest.approx(1.72, abs=0.01)
+    # no measured level: nothing is round-off
+    assert cm.solve_order(step1) == (cm.observed_order(step1), False)
+    # a linear tail into the floor stays linear: the bound does not lift it
+    linear = [1.0, 1e-3, 1e-6, 1e-9, 1e-12, 5e-13]
+    q, _ = cm.solve_order(linear, 2e-13)
+    assert q == pytest.approx(1.0)
+    summary = {"steps": [{"residual_norms": [step1, [1e-7, 1e-13]], "residual_round_off": 6.8e-14}]}
+    assert cm.format_orders(summary).startswith("≥2.")
 
 
 RECOVERIES = ("lumped", "unconstrained", "constrained")
