@@ -216,3 +216,34 @@ def test_scotch_threads_set_on_import_unless_set(preset, expected):
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
     assert out.stdout.strip() == expected
+
+
+@pytest.mark.mpi
+def test_residual_round_off_is_collective_and_leaves_the_state(shared_tmp):
+    """``ContactProblem.residual_round_off`` at hertz2d's converged state: one value on
+    every rank, at the level of the residual's rounding, and the state it evaluated
+    around (u, the contact state, hence the residual) bitwise as before."""
+    from dolfinx.fem.petsc import create_vector
+
+    comm = MPI.COMM_WORLD
+    box = {}
+    summary = run(
+        parse_scene(HERTZ2D, pathlib.Path(".")),
+        comm,
+        shared_tmp / "round_off",
+        setup=lambda p: box.setdefault("p", p),
+        round_off=True,
+    )
+    p = box["p"]
+    recorded = [st["residual_round_off"] for st in summary["steps"]]
+    assert all(1e-16 < f < 1e-10 for f in recorded), recorded
+    u0 = p.u.x.array.copy()
+    b0, b1 = create_vector(p.F_form), create_vector(p.F_form)
+    p.update_contact(p.u.vector)
+    p.residual(p.u.vector, b0)
+    f = p.residual_round_off()
+    p.residual(p.u.vector, b1)
+    assert np.array_equal(p.u.x.array, u0)
+    assert np.array_equal(b0.array_r, b1.array_r)
+    assert len(set(comm.allgather(f))) == 1
+    assert f == pytest.approx(recorded[-1], rel=1e-6)
