@@ -1,11 +1,18 @@
 """Cost of one Newton iteration's contact work against the bulk, on hertz3d (or hertz2d).
 
 For each mesh level the sphere is pushed into the block (a prescribed displacement,
-no solve), then search + pairing (``update``), contact residual + Jacobian and bulk
-residual + Jacobian are timed ``--repeat`` times; medians are reported. Writes a CSV
-row per level and prints a table. Run from the repository root:
+no solve), then search + pairing (``update``) and one residual + Jacobian evaluation
+(``ContactProblem.residual`` and ``jacobian``, what the Newton solver calls) are timed
+``--repeat`` times; the evaluation's time is split into the contact terms' and the
+bulk's as summary.json's ``timings`` split it. Medians are reported. Writes a CSV row
+per level and prints a table. ``--material neo-hookean`` (finite kinematics, the bulk
+assembled by FFCx at every evaluation) or ``linear-elastic`` (small kinematics, the
+demos' hertz3d: the bulk is K₀ assembled once, then a product and a matrix copy per
+evaluation, docs/method-notes.md "A linear bulk is evaluated, not assembled"). Run from
+the repository root:
 
     /usr/bin/python3 bench/bench_contact_cost.py --levels 0 1 2 3 --repeat 5
+    /usr/bin/python3 bench/bench_contact_cost.py --material linear-elastic --levels 0 1 2 3
     mpirun -n 2 /usr/bin/python3 bench/bench_contact_cost.py --levels 2
 
 The claim checked (issue "Mortar normal contact", performance): contact assembly per
@@ -23,14 +30,14 @@ from time import perf_counter
 
 import numpy as np
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_matrix, assemble_vector, create_vector
+from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 
 
-def scene(gen: str, h: float, integration: str) -> dict:
+def scene(gen: str, h: float, integration: str, material: str = "neo-hookean") -> dict:
     if gen == "hertz3d":
         bodies, slave, params = (
             ("sphere", "block"),
@@ -44,9 +51,9 @@ def scene(gen: str, h: float, integration: str) -> dict:
             {"h_contact": h, "h_far": 2.0},
         )
     return {
-        "kinematics": "finite",
+        "kinematics": "finite" if material == "neo-hookean" else "small",
         "mesh": {"generator": gen, "params": params},
-        "material": [{"region": b, "model": "neo-hookean", "E": 200.0, "nu": 0.3} for b in bodies],
+        "material": [{"region": b, "model": material, "E": 200.0, "nu": 0.3} for b in bodies],
         "contact": [{"slave": slave, "master": "block_top", "integration": integration}],
         "output": {"dir": "unused"},
     }, bodies[0]
@@ -82,7 +89,7 @@ def median_time(fn, repeat: int) -> float:
 def run_level(args, level: int, comm) -> dict:
     """Time search, contact and bulk assembly at one mesh level (collective)."""
     h = args.h0 / 2**level
-    data, body = scene(args.generator, h, args.integration)
+    data, body = scene(args.generator, h, args.integration, args.material)
     problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
     term = problem.contacts[0]
     push(problem, body, 0.08 if args.generator == "hertz3d" else 0.05)  # Hertz approach a²/R
@@ -90,29 +97,28 @@ def run_level(args, level: int, comm) -> dict:
     b = create_vector(problem.F_form)
     problem.update_contact(x)
     A = problem.create_matrix()
+    split = {"contact_assembly": [], "bulk_assembly": []}
 
-    def bulk():
-        with b.localForm() as bl:
-            bl.set(0.0)
-        assemble_vector(b, problem.F_form)
-        A.zeroEntries()
-        assemble_matrix(A, problem.J_form, problem.bcs)
-        A.assemble()
+    def evaluation():
+        before = dict(problem.timings)
+        problem.residual(x, b)
+        problem.jacobian(x, A)  # the solver's path: record, grow the pattern, insert
+        for k, v in split.items():
+            v.append(comm.allreduce(problem.timings[k] - before[k], op=MPI.MAX))
 
-    def contact():
-        term.add_residual(b)
-        b.assemble()
-        problem.contact_jacobian(A)  # the solver's path: record, grow the pattern, insert
-
-    bulk()
-    contact()  # numba warm-up
+    evaluation()  # numba warm-up, the linear bulk's K₀
     t_search = median_time(lambda: term.update(problem.u), args.repeat)
-    t_contact = median_time(contact, args.repeat)
-    t_bulk = median_time(bulk, args.repeat)
+    for v in split.values():
+        v.clear()
+    for _ in range(args.repeat):
+        evaluation()
+    t_contact = float(np.median(split["contact_assembly"]))
+    t_bulk = float(np.median(split["bulk_assembly"]))
     nsf = comm.allreduce(term.slave.num_facets)
     active = comm.allreduce(int((term.p > 0).sum()))
     row = {
         "generator": args.generator,
+        "material": args.material,
         "integration": args.integration,
         "level": level,
         "h_contact": h,
@@ -146,6 +152,7 @@ def main(argv=None):
         "--h0", type=float, default=0.4, help="contact-zone size at level 0 (halved per level)"
     )
     ap.add_argument("--integration", default="element", choices=["element", "segment"])
+    ap.add_argument("--material", default="neo-hookean", choices=["neo-hookean", "linear-elastic"])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--csv", default="bench/out/contact_cost.csv")
     args = ap.parse_args(argv)

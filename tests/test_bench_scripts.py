@@ -286,3 +286,17 @@ def test_newton_diagnostics_rejects_a_negative_polish(capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].endswith("--polish must be 0 or more, not -1")
+
+
+@pytest.mark.parametrize("material", ["neo-hookean", "linear-elastic"])
+def test_bench_contact_cost_runs(tmp_path, material):
+    """``bench/bench_contact_cost.py`` at its smallest level: one CSV row with the
+    evaluation split into contact and bulk (times are the benchmark's, BENCHMARKS §1,
+    not asserted here) at a state that is in contact."""
+    rows = _load("bench_contact_cost").main(
+        ["--material", material, "--levels", "0", "--repeat", "1", "--csv", str(tmp_path / "c.csv")]
+    )
+    assert len(rows) == 1 and rows[0]["material"] == material
+    assert rows[0]["active_nodes"] > 0 and rows[0]["slave_facets"] > 0
+    assert all(rows[0][k] > 0 for k in ("search_s", "contact_assembly_s", "bulk_assembly_s"))
+    assert len(_read(tmp_path / "c.csv")) == 1
