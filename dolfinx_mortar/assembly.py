@@ -294,25 +294,57 @@ def sorted_contains(sorted_keys: np.ndarray, keys: np.ndarray) -> np.ndarray:
     return sorted_keys[pos] == keys
 
 
+def _blocks_per_row(idx: np.ndarray, bs: int) -> np.ndarray:
+    """The distinct block indices of each row of the 2D dof array ``idx`` (local): shape
+    (rows, k) with k the most any row has, −1 padding (negative dofs are skipped)."""
+    blk = np.where(idx >= 0, idx // bs, -1)
+    blk.sort(axis=1)
+    blk[:, 1:][blk[:, 1:] == blk[:, :-1]] = -1
+    blk = -np.sort(-blk, axis=1)  # distinct blocks first, then the −1s
+    k = int((blk >= 0).sum(axis=1).max(initial=0))
+    return blk[:, :k]
+
+
 class RecordedValues:
     """Stand-in for a PETSc Mat that keeps ``setValues(rows, cols, values, ADD_VALUES)``
-    calls (global indices) for :meth:`replay` (local). Lets the caller grow the matrix
-    pattern (:meth:`MatrixPattern.grow`) before any value goes in. The arrays are kept,
-    not copied: a caller must not overwrite them before the replay (the contact terms
-    pass fresh arrays, or views of arrays they no longer change)."""
+    and ``setValuesRCV(R, C, V, ADD_VALUES)`` calls (global indices) for :meth:`replay`
+    (local). Lets the caller grow the matrix pattern (:meth:`MatrixPattern.grow`) before
+    any value goes in. The arrays are kept, not copied: a caller must not overwrite them
+    before the replay (the contact terms pass fresh arrays, or views of arrays they no
+    longer change)."""
 
     def __init__(self):
         self._calls = []
+        self._batches = []
 
     def setValues(self, rows, cols, values, addv=None) -> None:  # noqa: N802 (PETSc's name)
         if addv != PETSc.InsertMode.ADD_VALUES:
             raise ValueError("RecordedValues records ADD_VALUES only")
         self._calls.append((rows, cols, values))
 
+    def setValuesRCV(self, R, C, V, addv=None) -> None:  # noqa: N802 (PETSc's name)
+        """A batch of dense blocks: block k adds V[k] (rows × cols) at R[k] × C[k]; R
+        (blocks, rows), C (blocks, cols), V (blocks, rows, cols); negative indices are
+        skipped, as PETSc skips them. One call where setValues would take one per block."""
+        if addv != PETSc.InsertMode.ADD_VALUES:
+            raise ValueError("RecordedValues records ADD_VALUES only")
+        if len(R):
+            self._batches.append((R, C, V))
+
     def block_couplings(self, bs: int, nglob: int) -> np.ndarray:
         """The sorted global block couplings (block row × ``nglob`` + block column) that the
-        recorded calls fill: for each call, its block rows × its block columns (local;
-        negative indices, constrained dofs, are skipped as PETSc skips them)."""
+        recorded calls fill: for each call or block, its block rows × its block columns
+        (local; negative indices, constrained dofs, are skipped as PETSc skips them)."""
+        keys = [self._call_couplings(bs, nglob)]
+        for R, C, _ in self._batches:
+            rb = _blocks_per_row(np.asarray(R, np.int64), bs)
+            cb = rb if C is R else _blocks_per_row(np.asarray(C, np.int64), bs)
+            pair = rb[:, :, None] * nglob + cb[:, None, :]
+            keys.append(pair[(rb[:, :, None] >= 0) & (cb[:, None, :] >= 0)])
+        return np.unique(np.concatenate(keys))
+
+    def _call_couplings(self, bs: int, nglob: int) -> np.ndarray:
+        """:meth:`block_couplings` of the single ``setValues`` calls (local)."""
         if not self._calls:
             return np.empty(0, np.int64)
         n = len(self._calls)
@@ -335,10 +367,15 @@ class RecordedValues:
         total = int(rep.sum())
         first = np.repeat(np.cumsum(rep) - rep, rep)
         cols = c_blk[np.repeat(c_start[r_call], rep) + np.arange(total) - first]
-        return np.unique(np.repeat(r_blk, rep) * nglob + cols)
+        return np.repeat(r_blk, rep) * nglob + cols
 
     def replay(self, A: PETSc.Mat) -> None:
-        """The recorded calls, in order, on ``A`` (local; ``A.assemble()`` is the caller's)."""
+        """The recorded calls on ``A`` (local; ``A.assemble()`` is the caller's): the
+        batches first, then the single calls in order."""
+        ADD = PETSc.InsertMode.ADD_VALUES
+        for R, C, V in self._batches:
+            A.setValuesRCV(np.asarray(R, PETSc.IntType), np.asarray(C, PETSc.IntType), V, addv=ADD)
         for rows, cols, values in self._calls:
-            A.setValues(rows, cols, values, addv=PETSc.InsertMode.ADD_VALUES)
+            A.setValues(rows, cols, values, addv=ADD)
         self._calls = []
+        self._batches = []

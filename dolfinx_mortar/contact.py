@@ -248,21 +248,72 @@ HISTORY_GAP_TOL = 1e-2
 def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
     """A[rows_e, cols_e] += vals_e (global indices, −1 ignored) for the entries e, with
     rows (E, r), cols (E, c), vals (E, r, c); entries with equal ``key`` (E,) have the same
-    rows and columns and are summed first, one ``setValues`` per key (local)."""
+    rows and columns and are summed first; the sums that are not all zero go in with one
+    ``setValuesRCV`` (local)."""
     if not key.size:
         return
     order = np.argsort(key, kind="stable")
     k = key[order]
     start = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
     sums = np.add.reduceat(vals[order], start, axis=0)
-    for e, block in zip(order[start], sums, strict=True):
-        if np.any(block):
-            A.setValues(
-                rows[e].astype(PETSc.IntType),
-                cols[e].astype(PETSc.IntType),
-                block,
-                addv=PETSc.InsertMode.ADD_VALUES,
-            )
+    nz = np.any(sums != 0.0, axis=(1, 2))
+    sums, first = sums[nz], order[start][nz]
+    if first.size:
+        r = rows[first].astype(PETSc.IntType)
+        c = r if cols is rows else cols[first].astype(PETSc.IntType)
+        A.setValuesRCV(r, c, sums, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def _ragged_to_padded(off, sel):
+    """For the ragged rows ``sel`` of a CSR offset array ``off`` (local): the row and
+    position of each entry in a padded (sel.size, width) array, its source in the flat
+    data, and width, the longest row's length."""
+    n_sel = off[sel + 1] - off[sel]
+    row = np.repeat(np.arange(sel.size), n_sel)
+    pos = np.arange(row.size) - np.repeat(np.cumsum(n_sel) - n_sel, n_sel)
+    return row, pos, np.repeat(off[sel], n_sel) + pos, int(n_sel.max(initial=0))
+
+
+def _chunks(sel, off, chunk: int):
+    """``sel`` split so that each part's padded square blocks hold about ``chunk`` entries."""
+    width = int((off[sel + 1] - off[sel]).max(initial=1))
+    step = max(1, chunk // width**2)
+    return [sel[lo : lo + step] for lo in range(0, sel.size, step)]
+
+
+def add_outer_blocks(A, c_off, c_idx, c_val, coef, chunk: int = 1 << 22) -> None:
+    """A += Σ_I coef_I B^I ⊗ B^I over the nodes with coef_I > 0, B^I the CSR row
+    c_idx[c_off[I]:c_off[I+1]] (global dofs) with values c_val (local). The rows are
+    padded to the longest one with dof −1 (skipped by PETSc) and inserted with one
+    ``setValuesRCV`` per ``chunk`` entries instead of one ``setValues`` per node."""
+    nodes = np.flatnonzero((coef > 0.0) & (np.diff(c_off) > 0))
+    for sel in _chunks(nodes, c_off, chunk):
+        row, pos, src, width = _ragged_to_padded(c_off, sel)
+        idx = np.full((sel.size, width), -1, PETSc.IntType)
+        val = np.zeros((sel.size, width))
+        idx[row, pos] = c_idx[src]
+        val[row, pos] = c_val[src]
+        blocks = coef[sel, None, None] * val[:, :, None] * val[:, None, :]
+        A.setValuesRCV(idx, idx, blocks, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def add_square_blocks(A, u_off, U, k_off, K, chunk: int = 1 << 22) -> None:
+    """A[U_i, U_i] += K_i for the ragged blocks i: dofs U[u_off[i]:u_off[i+1]] (global,
+    −1 skipped), K_i = K[k_off[i]:k_off[i+1]] the n_i × n_i block in row-major order
+    (local). Padded as :func:`add_outer_blocks`, one ``setValuesRCV`` per ``chunk``
+    entries instead of one ``setValues`` per block."""
+    n = np.diff(u_off)
+    for sel in _chunks(np.flatnonzero(n > 0), u_off, chunk):
+        row, pos, src, width = _ragged_to_padded(u_off, sel)
+        idx = np.full((sel.size, width), -1, PETSc.IntType)
+        idx[row, pos] = U[src]
+        sq = n[sel] ** 2
+        blk = np.repeat(np.arange(sel.size), sq)
+        local = np.arange(blk.size) - np.repeat(np.cumsum(sq) - sq, sq)  # 0 … n_i² − 1
+        side = np.repeat(n[sel], sq)
+        blocks = np.zeros((sel.size, width, width))
+        blocks[blk, local // side, local % side] = K[np.repeat(k_off[sel], sq) + local]
+        A.setValuesRCV(idx, idx, blocks, addv=PETSc.InsertMode.ADD_VALUES)
 
 
 def resolve_tangential_weights(
@@ -1668,19 +1719,14 @@ class MortarContact:
         geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
         if not geometric:
             hess_val[:] = 0.0
-        ADD = PETSc.InsertMode.ADD_VALUES
-        for r in np.flatnonzero(res_idx.max(axis=1) >= 0):
-            idx = res_idx[r].astype(PETSc.IntType)
-            A.setValues(idx, idx, hess_val[r], addv=ADD)
+        rows = np.flatnonzero(res_idx.max(axis=1) >= 0)
+        if rows.size:  # every paired point's block in one call
+            idx = res_idx[rows].astype(PETSc.IntType)
+            A.setValuesRCV(idx, idx, hess_val[rows], addv=PETSc.InsertMode.ADD_VALUES)
         # B^I ⊗ B^I of the nodes with a tangent coefficient
         c_off, c_idx, c_val = self._b_rows(self.kcoef, sdofs, mdofs, b_count)
         self._dp_rows = None
-        for node in np.flatnonzero(self.kcoef > 0.0):
-            s, e = c_off[node], c_off[node + 1]
-            if e > s:
-                idx = c_idx[s:e].astype(PETSc.IntType)
-                v = c_val[s:e]
-                A.setValues(idx, idx, self.kcoef[node] * np.outer(v, v), addv=ADD)
+        add_outer_blocks(A, c_off, c_idx, c_val, self.kcoef)
         self._seg_motion = self._seg_c_rows = None
         if self.integration == "segment" and self.slave.num_facets:
             self._seg_motion = self._segment_motion()
@@ -2052,11 +2098,7 @@ class MortarContact:
                 np.concatenate(cat).astype(np.int64),
                 np.concatenate([np.empty(0)] + [r[1] for r in rows]),
             )
-            for i in range(nodes.size):
-                idx = U[u_off[i] : u_off[i + 1]].astype(PETSc.IntType)
-                if idx.size:
-                    K_i = K[k_off[i] : k_off[i + 1]].reshape(idx.size, idx.size)
-                    A.setValues(idx, idx, K_i, addv=PETSc.InsertMode.ADD_VALUES)
+            add_square_blocks(A, u_off, U, k_off, K)
             return
         for i, node in enumerate(nodes):  # segment integration: the moving points too
             s, e = self.s_off[node], self.s_off[node + 1]

@@ -755,3 +755,76 @@ def test_unique_runs_equals_np_unique():
     runs = np.concatenate([np.sort(rng.integers(0, 500, 40)) for _ in range(30)])
     for keys in (runs, np.sort(rng.integers(0, 50, 100)), np.empty(0, np.int64)):
         assert np.array_equal(unique_runs(keys.copy()), np.unique(keys))
+
+
+def _dense(A: PETSc.Mat, n: int) -> np.ndarray:
+    A.assemble()
+    return A.getValues(range(n), range(n))
+
+
+def _add_dense(ref: np.ndarray, rows, cols, block) -> None:
+    """ref[rows, cols] += block, repeated indices summed, −1 skipped."""
+    for a, r in enumerate(rows):
+        for b, c in enumerate(cols):
+            if r >= 0 and c >= 0:
+                ref[r, c] += block[a, b]
+
+
+def _open_matrix(n: int) -> PETSc.Mat:
+    A = PETSc.Mat().createAIJ((n, n), nnz=n, comm=MPI.COMM_SELF)
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    return A
+
+
+def test_batched_block_insertion_equals_one_call_per_block():
+    """contact.add_outer_blocks / add_square_blocks (one setValuesRCV over padded ragged
+    blocks) and assembly.RecordedValues.setValuesRCV (recorded, its block couplings, the
+    replay) against dense NumPy sums of the same blocks; −1 dofs are skipped."""
+    from dolfinx_mortar.assembly import RecordedValues
+
+    rng = np.random.default_rng(3)
+    n, bs = 24, 2
+    lengths = np.array([3, 0, 5, 1, 4])
+    off = np.concatenate([[0], np.cumsum(lengths)])
+    idx = rng.integers(-1, n, off[-1])
+    val = rng.standard_normal(off[-1])
+    coef = np.array([2.0, 1.0, 0.0, 0.5, 3.0])  # node 2 has no tangent coefficient
+    ref = np.zeros((n, n))
+    for i in range(lengths.size):
+        r, v = idx[off[i] : off[i + 1]], val[off[i] : off[i + 1]]
+        if coef[i] > 0:
+            _add_dense(ref, r, r, coef[i] * np.outer(v, v))
+    A = _open_matrix(n)
+    contact.add_outer_blocks(A, off, idx, val, coef, chunk=40)  # several chunks
+    assert np.allclose(_dense(A, n), ref, rtol=0, atol=1e-13)
+
+    blocks = [rng.standard_normal((k, k)) for k in lengths]
+    flat = np.concatenate([b.ravel() for b in blocks])
+    k_off = np.concatenate([[0], np.cumsum(lengths**2)])
+    ref = np.zeros((n, n))
+    for i, b in enumerate(blocks):
+        _add_dense(ref, idx[off[i] : off[i + 1]], idx[off[i] : off[i + 1]], b)
+    A = _open_matrix(n)
+    contact.add_square_blocks(A, off, idx, k_off, flat, chunk=30)
+    assert np.allclose(_dense(A, n), ref, rtol=0, atol=1e-13)
+
+    R = rng.integers(-1, n, (6, 4))
+    V = rng.standard_normal((6, 4, 4))
+    rec = RecordedValues()
+    rec.setValuesRCV(R, R, V, addv=PETSc.InsertMode.ADD_VALUES)
+    ints = PETSc.IntType
+    single = (np.array([0, 5], ints), np.array([7, 9, 11], ints), rng.standard_normal(6))
+    rec.setValues(*single, addv=PETSc.InsertMode.ADD_VALUES)
+    expect = {
+        (int(a) // bs) * (n // bs) + int(b) // bs for r in R for a in r[r >= 0] for b in r[r >= 0]
+    } | {(int(a) // bs) * (n // bs) + int(b) // bs for a in single[0] for b in single[1]}
+    assert rec.block_couplings(bs, n // bs).tolist() == sorted(expect)
+    ref = np.zeros((n, n))
+    for r, v in zip(R, V, strict=True):
+        _add_dense(ref, r, r, v)
+    _add_dense(ref, single[0], single[1], single[2].reshape(2, 3))
+    A = _open_matrix(n)
+    rec.replay(A)
+    assert np.allclose(_dense(A, n), ref, rtol=0, atol=1e-13)
+    with pytest.raises(ValueError):
+        rec.setValuesRCV(R, R, V, addv=PETSc.InsertMode.INSERT_VALUES)
