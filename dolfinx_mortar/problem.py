@@ -406,7 +406,7 @@ class ContactProblem:
                 out.axpy(weight, work)
             f = out.norm() / np.sqrt(6.0)
         finally:
-            self.timings = timings
+            self.timings.update(timings)
             for v in (u0, delta, out, work, x):
                 v.destroy()
         return float(f)
