@@ -530,31 +530,15 @@ class MortarContact:
         uzawa_acceleration=ACCELERATIONS[0],
         tangential_frame=TANGENTIAL_FRAMES[0],
     ):
-        if recovery not in RECOVERIES:
-            raise SceneError(
-                f"{key}.recovery",
-                f"recovery {recovery!r} is not available yet (have: {', '.join(RECOVERIES)})",
-            )
-        if integration not in INTEGRATIONS:
-            raise SceneError(
-                f"{key}.integration",
-                f"integration {integration!r} is not available yet (have: {', '.join(INTEGRATIONS)})",
-            )
-        if tangential_weights not in TANGENTIAL_WEIGHTS:
-            raise SceneError(
-                f"{key}.tangential_weights",
-                f"{tangential_weights!r} is not one of {', '.join(TANGENTIAL_WEIGHTS)}",
-            )
-        if tangential_recovery not in RECOVERIES:
-            raise SceneError(
-                f"{key}.tangential_recovery",
-                f"{tangential_recovery!r} is not one of {', '.join(RECOVERIES)}",
-            )
-        if tangential_frame not in TANGENTIAL_FRAMES:
-            raise SceneError(
-                f"{key}.tangential_frame",
-                f"{tangential_frame!r} is not one of {', '.join(TANGENTIAL_FRAMES)}",
-            )
+        for name, value, allowed in (
+            ("recovery", recovery, RECOVERIES),
+            ("integration", integration, INTEGRATIONS),
+            ("tangential_weights", tangential_weights, TANGENTIAL_WEIGHTS),
+            ("tangential_recovery", tangential_recovery, RECOVERIES),
+            ("tangential_frame", tangential_frame, TANGENTIAL_FRAMES),
+        ):
+            if value not in allowed:
+                raise SceneError(f"{key}.{name}", f"{value!r} is not one of {', '.join(allowed)}")
         self.tangential_frame = tangential_frame
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights

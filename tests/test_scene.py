@@ -656,3 +656,24 @@ def test_dump_scene_refuses_values_toml_cannot_hold(bad, key):
     with pytest.raises(SceneError) as exc:
         dump_scene({"steps": {"t_end": bad}})
     assert exc.value.key == key
+
+
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("recovery", "mixed"),
+        ("integration", "mortar"),
+        ("tangential_weights", "petrov"),
+        ("tangential_recovery", "exact"),
+        ("tangential_frame", "covariant"),
+    ],
+)
+def test_mortar_contact_names_a_bad_option(name, value):
+    """The Python API (``MortarContact(...)``) checks its options as the scene does: one
+    SceneError naming the key and the choices, before it looks at the problem."""
+    from dolfinx_mortar.contact import MortarContact
+
+    with pytest.raises(SceneError) as err:
+        MortarContact(None, "slave", "master", key="contact[0]", **{name: value})
+    assert err.value.key == f"contact[0].{name}"
+    assert repr(value) in str(err.value) and "is not one of" in str(err.value)
