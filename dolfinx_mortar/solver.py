@@ -193,6 +193,17 @@ FULL_STEP_ITERATIONS = 10
 #: later round they broke two frictional tests (docs/method-notes.md, "Chattering of the
 #: pairing").
 ROUND_FULL_STEPS = True
+#: The absolute tolerance of every solve is at least this many times the residual's
+#: measured round-off level f (``ContactProblem.residual_round_off``): ``atol`` is a force,
+#: and where the forces are large (E = 2e11 for steel in SI units) no iterate gets below
+#: it. With the hertz2d demo's E and load times 1e6, a later Uzawa round went 1.3 →
+#: 6.3e-7 and then hovered at 3–4e-7 (about 5 f) until max_it, and the step failed after
+#: every cutback. f is measured once a solve converges above ``atol`` (its relative
+#: tolerance governed: the forces are large), again after every such solve while
+#: ROUND_OFF_ATOL × f exceeds ``atol``, and when a solve fails, whose last iterate is
+#: then accepted if its norm is within ROUND_OFF_ATOL × f. Where ROUND_OFF_ATOL × f
+#: stays below ``atol`` (the demos' units: f ≈ 1e-13) nothing changes.
+ROUND_OFF_ATOL = 20.0
 #: ... and they stop (then the solve starts again with the configured line search) as soon
 #: as ‖R‖ exceeds this many times its value at the round's start (SNES's divergence
 #: tolerance): in hertz2d_nu049_p1 of the hard-case sweep the full steps of the second
@@ -359,6 +370,12 @@ class NewtonSolver:
         self.ldlt_fallbacks = 0
         #: Newton iterations of all solves, failed ones included
         self.all_iterations = 0
+        #: the residual's round-off level f where measured (ROUND_OFF_ATOL; 0: not yet)
+        self.round_off = 0.0
+        #: the largest first residual norm of the solves so far: the size of the forces
+        #: (0: no solve yet), and whether ``atol`` was found to be looser than rtol × it
+        self.force_scale = 0.0
+        self._warned_atol = False
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
@@ -409,6 +426,18 @@ class NewtonSolver:
         if np.isfinite(fnorm):
             snes.getSolution().copy(self._finite_x)
             self._has_finite = True
+            if its == 0 and fnorm > self.force_scale:  # a solve's first norm
+                self.force_scale = fnorm
+                atol = self._base_atol()
+                if not self._warned_atol and atol > self.settings.rtol * fnorm:
+                    self._warned_atol = True
+                    log.warning(
+                        "solver.atol = %.3g (a force) exceeds rtol × the first residual "
+                        "norm of this solve (%.3g): Newton may stop before its relative "
+                        "tolerance; set [solver] atol for the units of this scene",
+                        atol,
+                        self.settings.rtol * fnorm,
+                    )
 
     def _J(self, snes, x, A, P):
         # The line search may have evaluated F last at a trial point other than x: the
@@ -506,8 +535,8 @@ class NewtonSolver:
             self.snes.setFromOptions()
             self._dtol = dtol
         # the residual's round-off floor grows with stiff penalties (the note before
-        # contact.SOFT_START_RATIO)
-        atol = s.atol * getattr(self.problem, "round_off_scale", 1.0)
+        # contact.SOFT_START_RATIO) and with the size of the forces (ROUND_OFF_ATOL)
+        atol = self._atol()
         self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol)
         self.snes.setForceIteration(force)
         p = self.problem
@@ -557,6 +586,15 @@ class NewtonSolver:
                 self.backtracked_solves += 1
                 reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
                 its, norms = its + len(more), norms + more
+            if reason <= 0 and np.all(np.isfinite(norms)) and self._at_round_off(x, norms[-1]):
+                log.info(
+                    "Newton stopped at %.3e, within %g × the residual's round-off level "
+                    "(%.3e): converged",
+                    norms[-1],
+                    ROUND_OFF_ATOL,
+                    self.round_off,
+                )
+                reason = 1
             if reason <= 0 or not np.all(np.isfinite(norms)):
                 self.all_iterations += tried[0] + its
                 x.destroy()
@@ -566,7 +604,12 @@ class NewtonSolver:
                 )
             if tried[0]:  # the restart's first norm is the attempt's first
                 its, norms = tried[0] + its, tried[1] + norms[1:]
-            return self._accept(x, its, norms)
+            out = self._accept(x, its, norms)
+            measure = getattr(p, "residual_round_off", None)
+            floor_bound = self._atol() > self._base_atol()
+            if measure and norms[-1] > atol and (not self.round_off or floor_bound):
+                self.round_off = measure()
+            return out
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
 
@@ -631,6 +674,26 @@ class NewtonSolver:
         self._start.copy(x)
         self.problem.begin_solve()
         self._has_finite = False
+
+    def _base_atol(self) -> float:
+        """``atol`` scaled with the stiffest penalty (contact.SOFT_START_RATIO's note)."""
+        return self.settings.atol * getattr(self.problem, "round_off_scale", 1.0)
+
+    def _atol(self) -> float:
+        """The absolute tolerance of a solve: :meth:`_base_atol`, or ROUND_OFF_ATOL × the
+        measured round-off level if that is larger."""
+        return max(self._base_atol(), ROUND_OFF_ATOL * self.round_off)
+
+    def _at_round_off(self, x: PETSc.Vec, norm: float) -> bool:
+        """Whether a failed solve's last iterate x, of residual norm ``norm``, sits on the
+        residual's round-off floor: f measured there (collective; the problem's state
+        becomes x) and ``norm`` ≤ ROUND_OFF_ATOL × f (ROUND_OFF_ATOL)."""
+        measure = getattr(self.problem, "residual_round_off", None)
+        if measure is None:
+            return False
+        self.problem.update_contact(x)
+        self.round_off = max(self.round_off, measure())
+        return norm <= ROUND_OFF_ATOL * self.round_off
 
     def _history(self) -> tuple[int, list[float]]:
         """The iterations and residual norms (initial one included) of the last SNES solve."""

@@ -300,3 +300,12 @@ def test_bench_contact_cost_runs(tmp_path, material):
     assert rows[0]["active_nodes"] > 0 and rows[0]["slave_facets"] > 0
     assert all(rows[0][k] > 0 for k in ("search_s", "contact_assembly_s", "bulk_assembly_s"))
     assert len(_read(tmp_path / "c.csv")) == 1
+
+
+def test_bench_force_scale_runs(tmp_path):
+    """``bench/bench_force_scale.py`` at two scales: the demo's units and E × 1e9 (SI
+    units for steel) both finish, with the same contact force / scale (BENCHMARKS §25)."""
+    rows = _load("bench_force_scale").main(["--scales", "1", "1e9", "--out", str(tmp_path)])
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert all(r["force_error"] < 1e-9 for r in rows), rows
+    assert all(abs(a - b) <= 1 for a, b in zip(*(r["iterations"] for r in rows), strict=True))

@@ -916,3 +916,55 @@ def test_a_short_energy_step_ends_the_energy_line_search(cubic_vectors, monkeypa
         crept, _ = newton.solve()
         assert newton.full_step_solves == 1  # max_it reached, then full steps
     assert its <= 8 and crept > settings.max_it, (its, crept)  # measured 5 and 42
+
+
+class _NoisyCubic(_Cubic):
+    """_Cubic whose residual carries rounding noise of size ``level`` per entry (its sign
+    changes from one evaluation to the next, so no iterate gets below it), and which
+    measures it as ContactProblem does."""
+
+    def __init__(self, x0, level):
+        super().__init__(x0)
+        self.level = level
+        self._calls = 0
+
+    def residual(self, x, b):
+        self._calls += 1
+        sign = np.array([1.0, -1.0, 1.0]) * (-1.0) ** self._calls
+        b.array[:] = x.array**3 - 8.0 + self.level * sign
+
+    def residual_round_off(self):
+        return self.level
+
+
+def test_a_solve_on_the_round_off_floor_is_accepted(cubic_vectors):
+    """atol below the residual's rounding (a force: large forces put the floor above the
+    default 1e-10): the solve cannot meet its tolerances and fails; the solver measures
+    the round-off level f there and accepts the iterate when ‖R‖ ≤ ROUND_OFF_ATOL × f.
+    From then on every solve's atol is at least ROUND_OFF_ATOL × f, and the next one
+    stops there without failing."""
+    problem = _NoisyCubic(10.0, 1e-6)
+    settings = SolverSettings(rtol=1e-15, atol=1e-14, prefix="test_floor_")
+    with NewtonSolver(problem, settings) as newton:
+        its, norms = newton.solve()
+        assert its > settings.max_it  # ran out of iterations (and full steps), accepted
+        assert newton.round_off == 1e-6
+        assert norms[-1] <= solver_module.ROUND_OFF_ATOL * 1e-6
+        assert np.allclose(problem.u.vector.array, 2.0, atol=1e-6)
+        stalled = newton.full_step_solves
+        problem.u.vector.set(2.5)
+        its, norms = newton.solve()
+        assert newton.full_step_solves == stalled and its <= 6, (its, norms)
+        assert norms[-1] <= solver_module.ROUND_OFF_ATOL * 1e-6
+
+
+def test_without_a_round_off_measure_a_stall_still_fails(cubic_vectors):
+    """A problem without ``residual_round_off``: the stall is a ConvergenceError."""
+
+    class _Plain(_NoisyCubic):
+        residual_round_off = None
+
+    settings = SolverSettings(rtol=1e-15, atol=1e-14, prefix="test_floor_plain_")
+    with NewtonSolver(_Plain(10.0, 1e-6), settings) as newton:
+        with pytest.raises(ConvergenceError):
+            newton.solve()

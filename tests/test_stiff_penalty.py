@@ -165,3 +165,33 @@ def test_a_stiff_penalty_in_3d(tmp_path):
     fa = np.asarray(runs["auto"]["steps"][-1]["contact_force"][pair])
     fs = np.asarray(st["contact_force"][pair])
     assert np.linalg.norm(fs - fa) <= 1e-7 * np.linalg.norm(fa)
+
+
+def _scaled(scale: float) -> dict:
+    """HERTZ2D with E and the load times ``scale``: the same strains and pressures / scale."""
+    data = _scene()
+    data["material"] = [{**m, "E": m["E"] * scale} for m in data["material"]]
+    data["traction"] = [
+        {**t, "path": [[row[0]] + [v * scale for v in row[1:]] for row in t["path"]]}
+        for t in data["traction"]
+    ]
+    return data
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("scale", [1e6, 1e9])
+def test_large_forces_converge_as_the_unit_ones(shared_tmp, scale):
+    """E and the load times 1e6 or 1e9 (E = 2e11: steel in SI units). The absolute
+    tolerance 1e-10 is a force and lies below the residual's round-off level there
+    (about 1e-4 at 1e9); the solver raises it to solver.ROUND_OFF_ATOL × the measured
+    level. Before, a later Uzawa round hovered at 5 × that level until max_it, and the
+    run failed after every cutback. The same iterations as the unit run, ± 1 per step,
+    and the contact force / scale to 1e-9."""
+    unit = _run(_scene(), shared_tmp / "unit")
+    big = _run(_scaled(scale), shared_tmp / f"scaled_{scale:g}")
+    assert big["status"] == "ok", big.get("error")
+    for a, b in zip(unit["steps"], big["steps"], strict=True):
+        assert b["cutbacks"] == 0
+        assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
+        fa, fb = np.asarray(a["contact_force"][PAIR]), np.asarray(b["contact_force"][PAIR])
+        assert np.linalg.norm(fb / scale - fa) <= 1e-9 * np.linalg.norm(fa), (fa, fb / scale)
