@@ -233,7 +233,8 @@ def test_scotch_threads_set_on_import_unless_set(preset, expected):
 def test_residual_round_off_is_collective_and_leaves_the_state(shared_tmp, name, data):
     """``ContactProblem.residual_round_off`` at the converged states of a run: one value
     on every rank, at the level of the residual's rounding; the state it evaluated around
-    (u, the contact state, hence the residual) bitwise as before; and a run that measures
+    (u, the contact state, hence the residual) as before (bitwise serially; on several
+    ranks two assemblies of the same state differ at round-off anyway); and a run that measures
     it after every step (``run(..., round_off=True)``) ends where one that does not ends,
     frictional history included (bitwise serially; to 1e-8 on several ranks, where two
     equal runs differ at round-off too)."""
@@ -267,7 +268,14 @@ def test_residual_round_off_is_collective_and_leaves_the_state(shared_tmp, name,
     p.residual(p.u.vector, b0)
     f = p.residual_round_off()
     p.residual(p.u.vector, b1)
-    assert np.array_equal(p.u.x.array, u0)
-    assert np.array_equal(b0.array_r, b1.array_r)
+    # every assertion on a value every rank shares: one rank failing alone would leave the
+    # others waiting in the next collective call
+    assert comm.allreduce(int(np.array_equal(p.u.x.array, u0)), op=MPI.MIN) == 1
+    b1.axpy(-1.0, b0)
+    change = b1.norm()
+    if comm.size == 1:
+        assert change == 0.0
+    else:  # the off-rank sums of an assembly arrive in any order: equal to round-off
+        assert change <= 10.0 * f, (change, f)
     assert len(set(comm.allgather(f))) == 1
     assert f == pytest.approx(recorded[-1], rel=1e-6)
