@@ -193,6 +193,12 @@ FULL_STEP_ITERATIONS = 10
 #: later round they broke two frictional tests (docs/method-notes.md, "Chattering of the
 #: pairing").
 ROUND_FULL_STEPS = True
+#: ... and they stop (then the solve starts again with the configured line search) as soon
+#: as ‖R‖ exceeds this many times its value at the round's start (SNES's divergence
+#: tolerance): in hertz2d_nu049_p1 of the hard-case sweep the full steps of the second
+#: round went 10 → 65 → 5.3 → 71 … and failed after 10 iterations (a 52-iteration step
+#: instead of 43).
+ROUND_FULL_STEP_GROWTH = 1.0
 #: The absolute tolerance of every solve is at least this many times the residual's
 #: measured round-off level f (``ContactProblem.residual_round_off``): ``atol`` is a force,
 #: and where the forces are large (E = 2e11 for steel in SI units) no iterate gets below
@@ -204,12 +210,6 @@ ROUND_FULL_STEPS = True
 #: then accepted if its norm is within ROUND_OFF_ATOL × f. Where ROUND_OFF_ATOL × f
 #: stays below ``atol`` (the demos' units: f ≈ 1e-13) nothing changes.
 ROUND_OFF_ATOL = 20.0
-#: ... and they stop (then the solve starts again with the configured line search) as soon
-#: as ‖R‖ exceeds this many times its value at the round's start (SNES's divergence
-#: tolerance): in hertz2d_nu049_p1 of the hard-case sweep the full steps of the second
-#: round went 10 → 65 → 5.3 → 71 … and failed after 10 iterations (a 52-iteration step
-#: instead of 43).
-ROUND_FULL_STEP_GROWTH = 1.0
 #: The Uzawa rounds of a step stop (ConvergenceError, so the step is cut back) when this
 #: many rounds in a row have not brought the multiplier change, taken as the larger of
 #: two consecutive rounds, below half its smallest value before them. A rate slower than
@@ -687,13 +687,17 @@ class NewtonSolver:
     def _at_round_off(self, x: PETSc.Vec, norm: float) -> bool:
         """Whether a failed solve's last iterate x, of residual norm ``norm``, sits on the
         residual's round-off floor: f measured there (collective; the problem's state
-        becomes x) and ``norm`` ≤ ROUND_OFF_ATOL × f (ROUND_OFF_ATOL)."""
+        becomes x) and ``norm`` ≤ ROUND_OFF_ATOL × f (ROUND_OFF_ATOL), which then becomes
+        the solver's level."""
         measure = getattr(self.problem, "residual_round_off", None)
         if measure is None:
             return False
         self.problem.update_contact(x)
-        self.round_off = max(self.round_off, measure())
-        return norm <= ROUND_OFF_ATOL * self.round_off
+        f = measure()
+        if norm > ROUND_OFF_ATOL * f:  # not the floor: f of an iterate far from the root
+            return False  # says nothing of the converged states' level
+        self.round_off = max(self.round_off, f)
+        return True
 
     def _history(self) -> tuple[int, list[float]]:
         """The iterations and residual norms (initial one included) of the last SNES solve."""
