@@ -608,7 +608,8 @@ class NewtonSolver:
             measure = getattr(p, "residual_round_off", None)
             floor_bound = self._atol() > self._base_atol()
             if measure and norms[-1] > atol and (not self.round_off or floor_bound):
-                self.round_off = measure()
+                f = measure()
+                self.round_off = f if np.isfinite(f) else self.round_off
             return out
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
@@ -694,8 +695,10 @@ class NewtonSolver:
             return False
         self.problem.update_contact(x)
         f = measure()
-        if norm > ROUND_OFF_ATOL * f:  # not the floor: f of an iterate far from the root
-            return False  # says nothing of the converged states' level
+        # not the floor (or no level: a residual near x is not finite): the f of an
+        # iterate far from the root says nothing of the converged states' level
+        if not np.isfinite(f) or norm > ROUND_OFF_ATOL * f:
+            return False
         self.round_off = max(self.round_off, f)
         return True
 

@@ -968,3 +968,19 @@ def test_without_a_round_off_measure_a_stall_still_fails(cubic_vectors):
     with NewtonSolver(_Plain(10.0, 1e-6), settings) as newton:
         with pytest.raises(ConvergenceError):
             newton.solve()
+
+
+def test_a_stall_with_no_finite_round_off_level_still_fails(cubic_vectors):
+    """A level that is not finite (a residual near the failed iterate was not) accepts
+    nothing: the stall is a ConvergenceError, and the solver keeps no level (ironing2d's
+    tiny bench had accepted a failed solve at ‖R‖ = 42 this way, once)."""
+
+    class _NaNLevel(_NoisyCubic):
+        def residual_round_off(self):
+            return float("nan")
+
+    settings = SolverSettings(rtol=1e-15, atol=1e-14, prefix="test_floor_nan_")
+    with NewtonSolver(_NaNLevel(10.0, 1e-6), settings) as newton:
+        with pytest.raises(ConvergenceError):
+            newton.solve()
+        assert newton.round_off == 0.0
