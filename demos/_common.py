@@ -7,7 +7,7 @@
   ``normal_metrics``): L2 error of the piecewise-linear interpolant of the nodal
   pressures against the exact profile on [-1.25 a, 1.25 a], the peak pressure error
   and the contact half-width, evaluated with the MEASURED load;
-- :func:`newton_orders`, :func:`format_orders`: observed order of convergence of the last
+- :func:`newton_orders`, :func:`step_orders`, :func:`format_orders`: observed order of convergence of the last
   Newton iterations, read against each step's measured round-off level;
 - :func:`oscillation_index`, :func:`report`;
 - :func:`press_then_shift`, :func:`elastic`: scene pieces shared by the demos.
@@ -322,27 +322,24 @@ def _main_round(step: dict) -> list:
     return max(rounds, key=len) if rounds else []
 
 
+def step_orders(summary: dict) -> list[tuple[float, bool]]:
+    """Per step: :func:`solve_order` of the main Newton solve against the step's measured
+    round-off level, (order, whether it is the lower bound); nan where fewer than three
+    norms."""
+    return [
+        solve_order(_main_round(st), float(st.get("residual_round_off", 0.0)))
+        for st in summary["steps"]
+    ]
+
+
 def newton_orders(summary: dict) -> list[float]:
-    """Per step: the observed order (:func:`solve_order`) of the main Newton solve (nan
-    where it has fewer than three norms)."""
-    return [
-        solve_order(_main_round(st), float(st.get("residual_round_off", 0.0)))[0]
-        for st in summary["steps"]
-    ]
-
-
-def newton_order_bounds(summary: dict) -> list[bool]:
-    """Per step: whether :func:`newton_orders` is the lower bound of :func:`solve_order`."""
-    return [
-        solve_order(_main_round(st), float(st.get("residual_round_off", 0.0)))[1]
-        for st in summary["steps"]
-    ]
+    """Per step: the observed order of the main Newton solve (:func:`step_orders`)."""
+    return [q for q, _ in step_orders(summary)]
 
 
 def format_orders(summary: dict) -> str:
     """The per-step orders as the demos print them, a bound marked with "≥"."""
-    orders, bounds = newton_orders(summary), newton_order_bounds(summary)
-    return ", ".join(f"{'≥' if b else ''}{q:.2f}" for q, b in zip(orders, bounds, strict=True))
+    return ", ".join(f"{'≥' if b else ''}{q:.2f}" for q, b in step_orders(summary))
 
 
 def quadratic_constants(summary: dict) -> list[float]:
