@@ -138,6 +138,17 @@ ENERGY_LINE_SEARCH = "cp"
 #: converged state (with the switch: 22 + 2 + 1 iterations, against 26 + 5 + 1 with "l2"
 #: throughout). The steps of hertz3d's predicted round are 0.56–1.04.
 ENERGY_MIN_LAMBDA = 0.1
+#: The absolute tolerance of the SNES line search (``snes_linesearch_atol``; PETSc's
+#: default 1e-15). PETSc's "cp" line search ends the whole solve as converged
+#: (SNES_CONVERGED_FNORM_ABS) when |⟨R, Δu⟩| < that tolerance × ‖Δu‖ at the start of a
+#: step: an absolute force of 1e-15 that no option of the solver's own tolerances
+#: reaches. In units whose forces are small it decided convergence: with hertz2d's E and
+#: load times 1e-9 and ``atol`` scaled with them (1e-19), the first round of step 2 stopped
+#: at ‖R‖ = 1.5e-12 (3.5e-6 of its first norm), every later Uzawa round took no Newton
+#: iteration, and the contact force came out 8e-4 off. 0 leaves convergence to the SNES
+#: tolerances (rtol, and ``atol`` no lower than ROUND_OFF_ATOL × the round-off level); the
+#: demos' units are unchanged. A ``[solver.petsc]`` value overrides it.
+LINE_SEARCH_ATOL = 0.0
 
 
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
@@ -289,6 +300,7 @@ class NewtonSolver:
         defaults = {
             "snes_type": "newtonls",
             "snes_linesearch_type": settings.line_search,
+            "snes_linesearch_atol": LINE_SEARCH_ATOL,
             "snes_error_if_not_converged": False,
             "snes_divergence_tolerance": 1e4,
             **_linear_options(settings.linear, problem),

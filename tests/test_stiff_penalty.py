@@ -167,9 +167,12 @@ def test_a_stiff_penalty_in_3d(tmp_path):
     assert np.linalg.norm(fs - fa) <= 1e-7 * np.linalg.norm(fa)
 
 
-def _scaled(scale: float) -> dict:
-    """HERTZ2D with E and the load times ``scale``: the same strains and pressures / scale."""
+def _scaled(scale: float, atol: float | None = None) -> dict:
+    """HERTZ2D with E and the load times ``scale``: the same strains and pressures / scale;
+    ``atol``: the scene's [solver] atol (None: the scene's own)."""
     data = _scene()
+    if atol is not None:
+        data["solver"] = {**data.get("solver", {}), "atol": atol}
     data["material"] = [{**m, "E": m["E"] * scale} for m in data["material"]]
     data["traction"] = [
         {**t, "path": [[row[0]] + [v * scale for v in row[1:]] for row in t["path"]]}
@@ -193,5 +196,25 @@ def test_large_forces_converge_as_the_unit_ones(shared_tmp, scale):
     for a, b in zip(unit["steps"], big["steps"], strict=True):
         assert b["cutbacks"] == 0
         assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
+        fa, fb = np.asarray(a["contact_force"][PAIR]), np.asarray(b["contact_force"][PAIR])
+        assert np.linalg.norm(fb / scale - fa) <= 1e-9 * np.linalg.norm(fa), (fa, fb / scale)
+
+
+@pytest.mark.mpi
+def test_small_forces_converge_as_the_unit_ones(shared_tmp):
+    """E and the load times 1e-9, with ``atol`` times 1e-9 as well. PETSc's "cp" line
+    search (the energy line search of this symmetric problem) ended solves as converged
+    when |<R, du>| < 1e-15 ||du||, an absolute force of its own (solver.LINE_SEARCH_ATOL):
+    the first round of step 2 stopped at 3.5e-6 of its first norm, later Uzawa rounds took
+    no Newton iteration, and the contact force was 8e-4 off. Now the same iterations as
+    the unit run, ± 1 per step, and the contact force / scale to 1e-9."""
+    scale = 1e-9
+    unit = _run(_scene(), shared_tmp / "unit")
+    small = _run(_scaled(scale, atol=1e-10 * scale), shared_tmp / "scaled_small")
+    assert small["status"] == "ok", small.get("error")
+    for a, b in zip(unit["steps"], small["steps"], strict=True):
+        assert b["cutbacks"] == 0
+        assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
+        assert b["uzawa_rounds"] == a["uzawa_rounds"], (a["uzawa_rounds"], b["uzawa_rounds"])
         fa, fb = np.asarray(a["contact_force"][PAIR]), np.asarray(b["contact_force"][PAIR])
         assert np.linalg.norm(fb / scale - fa) <= 1e-9 * np.linalg.norm(fa), (fa, fb / scale)
