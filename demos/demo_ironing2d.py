@@ -262,7 +262,9 @@ def main(argv=None) -> dict:
         help='ε_T: a number or "auto" (10 E*/h); overrides --pt-factor',
     )
     ap.add_argument("--max-cutbacks", type=int, default=6, help="cutbacks per step [6]")
-    ap.add_argument("--atol", type=float, default=None, help="Newton absolute tolerance [1e-10]")
+    ap.add_argument(
+        "--atol", type=float, default=None, help="Newton absolute tolerance (a force) [auto]"
+    )
     ap.add_argument("--max-it", type=int, default=None, help="Newton iterations per solve [25]")
     ap.add_argument("--line-search", choices=("l2", "basic", "bt", "cp"), default=None, help="[l2]")
     ap.add_argument(

@@ -66,7 +66,8 @@ Schema (``*`` = required; defaults in brackets)::
 
     [solver]
       rtol         float > 0                   [1e-9]
-      atol         float >= 0                  [1e-10]
+      atol         float >= 0 | "auto"         ["auto": 1e-10, never looser than
+                                               rtol × the forces]
       max_it       int >= 1                    [25]
       linear       "mumps" | "lu" | "superlu_dist" | "petsc"  ["mumps"]
                    ("petsc": use the [solver.petsc] options as given)
@@ -395,7 +396,9 @@ class SolverOptions:
     rtol:
         SNES relative residual tolerance (dimensionless), > 0.
     atol:
-        SNES absolute residual tolerance (force unit), >= 0.
+        SNES absolute residual tolerance (force unit), >= 0, or ``"auto"`` (default):
+        1e-10, but never looser than rtol × the size of the forces (the largest first
+        residual norm of the solves so far; ``solver.AUTO_ATOL``).
     max_it:
         Maximum Newton iterations per solve, >= 1.
     linear:
@@ -414,7 +417,7 @@ class SolverOptions:
     """
 
     rtol: float = 1e-9
-    atol: float = 1e-10
+    atol: float | str = "auto"
     max_it: int = 25
     linear: str = "mumps"
     line_search: str = "l2"
@@ -625,17 +628,23 @@ def _int_at_least(value: Any, key: str, low: int) -> int:
     return n
 
 
-def _penalty(value: Any, key: str) -> float | str:
-    """A penalty: a finite number > 0 or the string ``"auto"``."""
+def _auto_or(number, value: Any, key: str, bound: str) -> float | str:
+    """The string ``"auto"``, or a number that ``number(value, key)`` checks (``bound``:
+    its condition, for the message)."""
     if isinstance(value, str):
         if value != "auto":
-            raise SceneError(key, f'expected a number > 0 or "auto", got {value!r}')
+            raise SceneError(key, f'expected a number {bound} or "auto", got {value!r}')
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise SceneError(
-            key, f'expected a number > 0 or "auto", got {_type_name(value)} {_show(value)}'
+            key, f'expected a number {bound} or "auto", got {_type_name(value)} {_show(value)}'
         )
-    return _positive(value, key)
+    return number(value, key)
+
+
+def _penalty(value: Any, key: str) -> float | str:
+    """A penalty: a finite number > 0 or the string ``"auto"``."""
+    return _auto_or(_positive, value, key, "> 0")
 
 
 def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
@@ -979,7 +988,7 @@ def _parse_solver(value: Any) -> SolverOptions:
     table = _table(value, "solver")
     _check_keys(table, _SOLVER_KEYS, "solver")
     rtol = _positive(table.get("rtol", 1e-9), "solver.rtol")
-    atol = _nonnegative(table.get("atol", 1e-10), "solver.atol")
+    atol = _auto_or(_nonnegative, table.get("atol", "auto"), "solver.atol", ">= 0")
     max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
     linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)
     line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)

@@ -71,7 +71,8 @@ class SolverSettings:
     defaults; ``step_depth_limit``: see :meth:`NewtonSolver._limit_step`."""
 
     rtol: float = 1e-9
-    atol: float = 1e-10
+    #: a force, or "auto": AUTO_ATOL, never looser than rtol × the forces
+    atol: float | str = "auto"
     max_it: int = 25
     linear: str = "mumps"
     line_search: str = "l2"
@@ -221,6 +222,14 @@ ROUND_FULL_STEP_GROWTH = 1.0
 #: then accepted if its norm is within ROUND_OFF_ATOL × f. Where ROUND_OFF_ATOL × f
 #: stays below ``atol`` (the demos' units: f ≈ 1e-13) nothing changes.
 ROUND_OFF_ATOL = 20.0
+#: ``atol = "auto"`` (the default): the absolute tolerance is min(AUTO_ATOL, rtol × F),
+#: with F the size of the forces, the largest first residual norm of the solves so far
+#: (``NewtonSolver.force_scale``). AUTO_ATOL is the fixed 1e-10 of earlier versions, a
+#: force in the demos' units; the cap keeps it from being looser than the relative
+#: tolerance where the forces are small (E and the load times 1e-9: 1e-10 stopped every
+#: solve early and the contact force was 6.5e-4 off; capped, the scaled runs take the
+#: unit run's iterations). Where the forces are larger than 0.1 nothing changes.
+AUTO_ATOL = 1e-10
 #: The Uzawa rounds of a step stop (ConvergenceError, so the step is cut back) when this
 #: many rounds in a row have not brought the multiplier change, taken as the larger of
 #: two consecutive rounds, below half its smallest value before them. A rate slower than
@@ -324,9 +333,7 @@ class NewtonSolver:
         self._has_finite = False
         self.snes.setFunction(self._F, self._b)
         self.snes.setJacobian(self._J, self._A, self._A)
-        self.snes.setTolerances(
-            rtol=settings.rtol, atol=settings.atol, stol=0.0, max_it=settings.max_it
-        )
+        self.snes.setTolerances(rtol=settings.rtol, atol=0.0, stol=0.0, max_it=settings.max_it)
         self.snes.setConvergenceHistory(
             length=2 * settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
         )
@@ -440,8 +447,11 @@ class NewtonSolver:
             self._has_finite = True
             if its == 0 and fnorm > self.force_scale:  # a solve's first norm
                 self.force_scale = fnorm
+                if self.settings.atol == "auto":  # before the convergence test
+                    snes.setTolerances(atol=self._atol())
                 atol = self._base_atol()
-                if not self._warned_atol and atol > self.settings.rtol * fnorm:
+                explicit = self.settings.atol != "auto"
+                if explicit and not self._warned_atol and atol > self.settings.rtol * fnorm:
                     self._warned_atol = True
                     log.warning(
                         "solver.atol = %.3g (a force) exceeds rtol × the first residual "
@@ -689,8 +699,11 @@ class NewtonSolver:
         self._has_finite = False
 
     def _base_atol(self) -> float:
-        """``atol`` scaled with the stiffest penalty (contact.SOFT_START_RATIO's note)."""
-        return self.settings.atol * getattr(self.problem, "round_off_scale", 1.0)
+        """``atol`` (AUTO_ATOL for "auto") scaled with the stiffest penalty
+        (contact.SOFT_START_RATIO's note)."""
+        s = self.settings
+        atol = min(AUTO_ATOL, s.rtol * self.force_scale) if s.atol == "auto" else s.atol
+        return atol * getattr(self.problem, "round_off_scale", 1.0)
 
     def _atol(self) -> float:
         """The absolute tolerance of a solve: :meth:`_base_atol`, or ROUND_OFF_ATOL × the

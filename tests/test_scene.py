@@ -209,7 +209,7 @@ def test_defaults_are_filled():
     assert s.dirichlet[0].components is None
     assert s.tractions == ()
     assert s.steps == scene_mod.Steps(t_end=1.0, n=10, max_cutbacks=6, output_times=())
-    assert s.solver.rtol == 1e-9 and s.solver.atol == 1e-10
+    assert s.solver.rtol == 1e-9 and s.solver.atol == "auto"
     assert s.solver.max_it == 25 and s.solver.linear == "mumps"
     assert s.solver.line_search == "l2" and s.solver.petsc == {}
     assert s.output.dir == BASE / "results" / "patch"
@@ -471,6 +471,8 @@ CASES = [
     # solver
     (("solver", "rtol"), 0.0, "solver.rtol", "must be > 0"),
     (("solver", "atol"), -1e-10, "solver.atol", "must be >= 0"),
+    (("solver", "atol"), "tight", "solver.atol", 'expected a number >= 0 or "auto"'),
+    (("solver", "atol"), True, "solver.atol", 'expected a number >= 0 or "auto"'),
     (("solver", "max_it"), 0, "solver.max_it", "must be >= 1"),
     (("solver", "linear"), "cg", "solver.linear", '"mumps", "lu", "superlu_dist", "petsc"'),
     (("solver", "line_search"), "newton", "solver.line_search", '"basic", "bt", "l2", "cp"'),

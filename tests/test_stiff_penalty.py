@@ -5,6 +5,8 @@ penalties")."""
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -201,20 +203,39 @@ def test_large_forces_converge_as_the_unit_ones(shared_tmp, scale):
 
 
 @pytest.mark.mpi
-def test_small_forces_converge_as_the_unit_ones(shared_tmp):
-    """E and the load times 1e-9, with ``atol`` times 1e-9 as well. PETSc's "cp" line
-    search (the energy line search of this symmetric problem) ended solves as converged
-    when |<R, du>| < 1e-15 ||du||, an absolute force of its own (solver.LINE_SEARCH_ATOL):
-    the first round of step 2 stopped at 3.5e-6 of its first norm, later Uzawa rounds took
-    no Newton iteration, and the contact force was 8e-4 off. Now the same iterations as
-    the unit run, ± 1 per step, and the contact force / scale to 1e-9."""
+@pytest.mark.parametrize("atol", ["scaled", "auto"])
+def test_small_forces_converge_as_the_unit_ones(shared_tmp, atol):
+    """E and the load times 1e-9, with ``atol`` times 1e-9 as well ("scaled") or the
+    default "auto" (1e-10, never looser than rtol × the forces: solver.AUTO_ATOL; a fixed
+    1e-10 stopped every solve early and the contact force was 6.5e-4 off). PETSc's "cp"
+    line search (the energy line search of this symmetric problem) ended solves as
+    converged when |<R, du>| < 1e-15 ||du||, an absolute force of its own
+    (solver.LINE_SEARCH_ATOL): with the scaled atol the first round of step 2 stopped at
+    3.5e-6 of its first norm, later Uzawa rounds took no Newton iteration, and the contact
+    force was 8e-4 off. Now the unit run's Uzawa rounds, its Newton iterations ± 1 per
+    step, and the contact force / scale to 1e-9."""
     scale = 1e-9
     unit = _run(_scene(), shared_tmp / "unit")
-    small = _run(_scaled(scale, atol=1e-10 * scale), shared_tmp / "scaled_small")
+    small = _run(
+        _scaled(scale, atol=1e-10 * scale if atol == "scaled" else None),
+        shared_tmp / f"scaled_small_{atol}",
+    )
     assert small["status"] == "ok", small.get("error")
     for a, b in zip(unit["steps"], small["steps"], strict=True):
         assert b["cutbacks"] == 0
-        assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
         assert b["uzawa_rounds"] == a["uzawa_rounds"], (a["uzawa_rounds"], b["uzawa_rounds"])
+        assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
         fa, fb = np.asarray(a["contact_force"][PAIR]), np.asarray(b["contact_force"][PAIR])
         assert np.linalg.norm(fb / scale - fa) <= 1e-9 * np.linalg.norm(fa), (fa, fb / scale)
+
+
+def test_an_explicit_atol_looser_than_the_forces_is_warned(tmp_path, caplog):
+    """An explicit ``atol`` is used as given, with one warning where it is looser than
+    rtol × the forces; the default "auto" is never looser, so it logs none."""
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
+        _run(_scaled(1e-9, atol=1e-10), tmp_path / "explicit")
+    assert sum("exceeds rtol" in r.getMessage() for r in caplog.records) == 1
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
+        _run(_scaled(1e-9), tmp_path / "auto")
+    assert not [r.getMessage() for r in caplog.records if "exceeds rtol" in r.getMessage()]
