@@ -679,6 +679,14 @@ class ContactProblem:
         for term in self.contacts:
             term.restore_step()
 
+    def open_pairs(self) -> list[str]:
+        """Names ("SLAVE:MASTER") of the contact pairs with no slave node in contact (mixed
+        pressure p̂ > 0) at the last contact update (collective)."""
+        counts = self.comm.allreduce(
+            np.array([int(np.count_nonzero(t.p_hat > 0)) for t in self.contacts], dtype=int)
+        )
+        return [t.name for t, c in zip(self.contacts, np.atleast_1d(counts), strict=True) if c == 0]
+
     def reactions(self) -> dict[str, list[float]]:
         """Force each Dirichlet boundary exerts on the body at the current state (collective)."""
         b = create_vector(self.F_form)

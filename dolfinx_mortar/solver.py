@@ -1042,6 +1042,23 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
 _CHANGED_STATES = ("unfrozen_states", "released_nodes", "unfrozen_qp_nodes")
 
 
+def _open_contact_hint(problem) -> str:
+    """A clause for the error of a run that stops, where no contact pair had a slave
+    node in contact at the failed attempt's last contact update (collective; "" where
+    some pair touched or the problem has no contact). A body that only contact holds is
+    then free, and Newton cannot reduce its load: the usual cause is a load pointing away
+    from the contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
+    if not getattr(problem, "contacts", None):
+        return ""
+    pairs = problem.open_pairs()
+    if len(pairs) < len(problem.contacts):
+        return ""
+    return (
+        f"; no slave node of {', '.join(pairs)} was in contact: a body held only by "
+        "contact is free there (check the direction of the loads)"
+    )
+
+
 def _released_pins(info_all: list[dict]) -> bool:
     """Whether the last Uzawa round's solve (``info_all``: per round, per pair, the
     ``uzawa_update`` information) ended with pinned points on some pair (the chattering
@@ -1175,6 +1192,7 @@ class LoadStepper:
                     resume=resume,
                 )
             except ConvergenceError as exc:
+                hint = _open_contact_hint(p)  # the failed attempt's contact state
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
@@ -1206,7 +1224,7 @@ class LoadStepper:
                     continue
                 if cutbacks >= self.max_cutbacks:
                     raise ConvergenceError(
-                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}"
+                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}{hint}"
                     ) from exc
                 cutbacks += 1
                 mid = 0.5 * (t + t_new)
@@ -1214,7 +1232,8 @@ class LoadStepper:
                     # repeated cutbacks over several steps can shrink the step without bound
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed and the step size {t_new - t:.3g} "
-                        f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): {exc}"
+                        f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): "
+                        f"{exc}{hint}"
                     ) from exc
                 pending.insert(0, mid)
                 log.warning(

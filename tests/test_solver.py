@@ -101,6 +101,48 @@ def test_shrinking_steps_stop_cleanly_at_the_minimum_step():
     assert steps.min() > MIN_STEP_FRACTION
 
 
+@pytest.mark.mpi
+def test_a_run_that_stops_with_every_contact_open_says_so(shared_tmp):
+    """The coarse hertz2d scene with its load reversed pulls the cylinder off the block:
+    the cylinder is held only by contact (and the symmetry plane), Newton cannot reduce
+    the load, and every cutback fails. The run stops cleanly, and its error names the
+    open pair and the likely cause, the direction of the load."""
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = {
+        **HERTZ2D,
+        "traction": [{"boundary": "cylinder_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.625]]}],
+        "steps": {"n": 2, "max_cutbacks": 1},
+    }
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp)
+    assert s["status"] == "failed" and s["steps"] == []
+    assert "failed after 1 cutbacks" in s["error"], s["error"]
+    assert "no slave node of cylinder_surface:block_top was in contact" in s["error"]
+    assert "check the direction of the loads" in s["error"]
+
+
+@pytest.mark.parametrize(
+    ("pairs", "open_pairs", "hint"), [(0, [], False), (2, ["a:b"], False), (1, ["a:b"], True)]
+)
+def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, hint):
+    """The hint is given only where every contact pair is open (a closed pair may hold
+    the body), and never without contact."""
+
+    class P:
+        contacts = [object()] * pairs
+
+        def open_pairs(self):
+            return open_pairs
+
+    text = solver_module._open_contact_hint(P())
+    assert bool(text) == hint
+    if hint:
+        assert "no slave node of a:b was in contact" in text
+
+
 class _NoPredictor(_Newton):
     """Fails every solve started from the predictor (the stepper passes dtol then)."""
 
