@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
+from _mpi_guard import pytest_runtest_logfinish, pytest_runtest_makereport  # noqa: F401
 from mpi4py import MPI
 
 
