@@ -380,6 +380,20 @@ def _faces_of(gmsh, vol: int) -> list[int]:
     return [t for _, t in gmsh.model.getBoundary([(3, vol)], combined=False, oriented=False)]
 
 
+#: OpenCASCADE pads every bounding box by its own absolute tolerance, 1e-7 in any units
+#: (Precision::Confusion): a face flat at z = 0 has the box z ∈ [−1e-7, 1e-7].
+OCC_BOX_PAD = 1e-7
+
+
+def _flat_tol(*lengths: float) -> float:
+    """The tolerance of :func:`_classify` for a geometry of these characteristic lengths:
+    1e-6 of the largest, but no less than 3 × OCC_BOX_PAD. With 1e-6 × size alone every
+    3D generator failed for lengths in millimetres given in metres (R = 0.008: the
+    tolerance 2e-8 lay below the pad, no face was flat, and the run stopped on
+    "mesh: KeyError: 'sphere_top'")."""
+    return max(1e-6 * max(lengths), 3.0 * OCC_BOX_PAD)
+
+
 def _classify(gmsh, dim: int, tags: list[int], rules, tol: float) -> dict[str, list[int]]:
     """Sort entities by bounding box: ``rules`` is a list of ``(name, axis, value)``
     (the entity is flat in ``axis`` at ``value``) and a final ``(name, None, None)``
@@ -583,7 +597,7 @@ def _build_hertz3d(R, gap0, W, H, c_zone, h_contact, h_far, grading, order, quad
     blk = occ.addBox(0.0, 0.0, -H, W / 2, W / 2, H)
     occ.synchronize()
 
-    tol = 1e-6 * max(R, W, H)
+    tol = _flat_tol(R, W, H)
     fs = _classify(
         gmsh,
         2,
@@ -694,7 +708,7 @@ def _build_patch3d(L, H, gap0, n_lower, n_upper, n_y, h_contact, h_far, margin, 
     up = occ.addBox(0.0, 0.0, gap0, L, L, H)
     occ.synchronize()
 
-    tol = 1e-6 * max(L, H)
+    tol = _flat_tol(L, H)
     mesh = gmsh.model.mesh
     g = _Groups(gmsh)
     g.add(3, [low], "lower")
@@ -1078,7 +1092,7 @@ def _build_ironing3d(
     occ.synchronize()
     _structured_ring(gmsh, ring, outer, ends, inner, corners, n_arc, n_thick)
 
-    tol = 1e-6 * max(r_out, L, W, H)
+    tol = _flat_tol(r_out, L, W, H)
     fd = _classify(
         gmsh,
         2,
@@ -1219,7 +1233,7 @@ def _build_twist3d(R, gap0, W, H, c_zone, h_contact, h_far, grading, order, quad
     blk = occ.addBox(-W / 2, -W / 2, -H, W, W, H)
     occ.synchronize()
 
-    tol = 1e-6 * max(R, W, H)
+    tol = _flat_tol(R, W, H)
     fs = _classify(
         gmsh, 2, _faces_of(gmsh, sph), [("sphere_top", 2, zc), ("sphere_surface", None, None)], tol
     )

@@ -239,3 +239,47 @@ def test_an_explicit_atol_looser_than_the_forces_is_warned(tmp_path, caplog):
     with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
         _run(_scaled(1e-9), tmp_path / "auto")
     assert not [r.getMessage() for r in caplog.records if "exceeds rtol" in r.getMessage()]
+
+
+@pytest.mark.mpi
+def test_si_units_with_lengths_in_millimetres(shared_tmp):
+    """The coarse quarter-model 3D Hertz in SI units: every length times 1e-3 (R = 8 mm
+    given as 0.008 m) and E and the traction times 1e9 (E = 2e11 Pa), so the forces are
+    1e3 times the unit run's. The mesh generator sorted its faces with a tolerance below
+    OpenCASCADE's 1e-7 box padding there (generators.OCC_BOX_PAD) and the run stopped on
+    "mesh: KeyError: 'sphere_top'". Now the unit run's iterations ± 1 per step, its
+    load × 1e3 to 1e-9 and its contact force × 1e3 to 1e-5."""
+    from test_contact_parallel import HERTZ3D
+
+    pair = "sphere_surface:block_top"
+    length, stress = 1e-3, 1e9
+    from dolfinx_mortar.generators import validate_params
+
+    params = validate_params("hertz3d", HERTZ3D["mesh"]["params"])  # with the defaults
+    lengths = ("R", "gap0", "W", "H", "c_zone", "h_contact", "h_far")
+    mesh = {
+        **HERTZ3D["mesh"],
+        "params": {k: v * length if k in lengths else v for k, v in params.items()},
+    }
+    si = {
+        **HERTZ3D,
+        "mesh": mesh,
+        "material": [{**m, "E": m["E"] * stress} for m in HERTZ3D["material"]],
+        "traction": [
+            {**t, "path": [[r[0]] + [v * stress for v in r[1:]] for r in t["path"]]}
+            for t in HERTZ3D["traction"]
+        ],
+    }
+    unit = _run(HERTZ3D, shared_tmp / "unit3d")
+    run_si = _run(si, shared_tmp / "si3d")
+    assert run_si["status"] == "ok", run_si.get("error")
+    assert run_si["dofs"] == unit["dofs"], (run_si["dofs"], unit["dofs"])
+    scale = stress * length**2
+    for a, b in zip(unit["steps"], run_si["steps"], strict=True):
+        assert abs(sum(a["newton_iterations"]) - sum(b["newton_iterations"])) <= 1
+        fa, fb = np.asarray(a["contact_force"][pair]), np.asarray(b["contact_force"][pair])
+        # the load (z) to 1e-9; the lateral components (the tilt of the deformed master,
+        # carried by the symmetry planes) depend on the mesh, which gmsh does not make
+        # scale-free to the node
+        assert abs(fb[2] / scale - fa[2]) <= 1e-9 * abs(fa[2]), (fa, fb / scale)
+        assert np.linalg.norm(fb / scale - fa) <= 1e-5 * np.linalg.norm(fa), (fa, fb / scale)
