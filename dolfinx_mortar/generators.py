@@ -284,16 +284,19 @@ def build(name: str, params: dict | None = None) -> dict:
     gen = GENERATORS[name]
     gmsh = _gmsh()
     _baseline_options(gmsh)
-    meta = gen.build(**p)
-    dim = gen.gdim
-    gmsh.model.mesh.generate(dim)
-    if p.get("quads") and dim == 2 and _has_mixed_2d(gmsh, meta):
-        # Blossom recombination left triangles: redo with the full-quad variant,
-        # which subdivides to guarantee quadrilaterals only.
-        gmsh.model.mesh.clear()
-        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
+    try:
+        meta = gen.build(**p)
+        dim = gen.gdim
         gmsh.model.mesh.generate(dim)
-    gmsh.model.mesh.setOrder(p["order"])
+        if p.get("quads") and dim == 2 and _has_mixed_2d(gmsh, meta):
+            # Blossom recombination left triangles: redo with the full-quad variant,
+            # which subdivides to guarantee quadrilaterals only.
+            gmsh.model.mesh.clear()
+            gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
+            gmsh.model.mesh.generate(dim)
+        gmsh.model.mesh.setOrder(p["order"])
+    except Exception as exc:  # gmsh and OpenCASCADE raise bare Exceptions
+        raise SceneError("mesh", f"generator {name!r} failed: {exc}{_tiny_hint(p)}") from exc
     out = {"generator": name, "gdim": dim, **p}
     out.update(meta)  # e.g. the effective element counts of the patch generators
     out.update(_mesh_stats(gmsh, meta, dim))
@@ -392,6 +395,26 @@ def _flat_tol(*lengths: float) -> float:
     tolerance 2e-8 lay below the pad, no face was flat, and the run stopped on
     "mesh: KeyError: 'sphere_top'")."""
     return max(1e-6 * max(lengths), 3.0 * OCC_BOX_PAD)
+
+
+#: The generators' parameters that size geometric features (not mesh sizes, positions or
+#: ratios): OpenCASCADE cannot model them much below its absolute tolerance.
+_FEATURE_LENGTHS = frozenset(
+    {"R", "H", "L", "W", "b", "block_height", "gap0", "margin", "t", "w_die", "slide"}
+    | {"r0", "r1", "r2", "r_in", "r_out"}
+)
+
+
+def _tiny_hint(params: dict) -> str:
+    """A clause for a failed build whose smallest feature length is within 100 ×
+    OCC_BOX_PAD (all generators fail at lengths of 1e-7 × the demos'); "" otherwise."""
+    small = [abs(v) for k, v in params.items() if k in _FEATURE_LENGTHS and v != 0.0]
+    if not small or min(small) >= 100.0 * OCC_BOX_PAD:
+        return ""
+    return (
+        f"; its smallest length, {min(small):g}, is near OpenCASCADE's absolute tolerance "
+        f"{OCC_BOX_PAD:g} (the same in any units): give the lengths in smaller units"
+    )
 
 
 def _classify(gmsh, dim: int, tags: list[int], rules, tol: float) -> dict[str, list[int]]:

@@ -220,6 +220,24 @@ def test_units_of_length(model, name, scale):
         assert abs(meta["cells_per_body"][body] - n) <= 0.1 * n, (body, meta, ref)
 
 
+def test_lengths_below_the_geometry_kernel_s_tolerance_are_named(model):
+    """hertz3d with every length times 1e-7 (R = 8e-7): OpenCASCADE, whose absolute
+    tolerance is 1e-7 in any units, cannot intersect the sphere. The error names the
+    generator, the kernel's reason, the smallest length and what to do."""
+    params = G.validate_params("hertz3d", COARSE["hertz3d"])
+    types = G.GENERATORS["hertz3d"].params
+    tiny = {
+        k: v * 1e-7 if types[k][0] is float and k not in NOT_LENGTHS else v
+        for k, v in params.items()
+    }
+    with pytest.raises(SceneError) as err:
+        G.build("hertz3d", tiny)
+    assert err.value.key == "mesh"
+    reason = err.value.reason
+    assert reason.startswith("generator 'hertz3d' failed: ")
+    assert "its smallest length, 8e-07," in reason and "give the lengths in smaller units" in reason
+
+
 @pytest.mark.parametrize(
     "name", ["hertz2d", "cattaneo2d", "wedge2d", "patch2d", "patch3d", "ironing2d", "tiedcurved2d"]
 )
