@@ -70,7 +70,14 @@ from .scene import (
     exact_update_applies,
 )
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
-from .surface import dual_coefficients, extract_facets, mixed_nodes, nodal_rule, quadrature
+from .surface import (
+    dual_coefficients,
+    extract_facets,
+    mixed_nodes,
+    nodal_rule,
+    quadrature,
+    shared_nodes,
+)
 
 log = logging.getLogger(__name__)
 
@@ -574,6 +581,14 @@ class MortarContact:
                 )
             if comm.allreduce(fa.num_facets) == 0:
                 raise SceneError(f"{key}.{k}", f"contact surface {name!r} is empty")
+        n_shared = shared_nodes(comm, self.ranges, slave_local.blocks, master_local.blocks)
+        if n_shared:
+            raise SceneError(
+                f"{key}.master",
+                f"contact surfaces {slave!r} and {master!r} share {n_shared} mesh node(s): a "
+                "slave and its master must lie on bodies with nodes of their own (not two "
+                "surfaces of one body that meet at an edge, nor bodies fused at some nodes)",
+            )
         self.ftype = slave_local.ftype
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
         self.mixed = mixed_nodes(self.ftype)

@@ -159,6 +159,26 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
     return fa, np.asarray(cells, np.int32), interior
 
 
+def shared_nodes(comm, ranges: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
+    """The number of mesh nodes in both of two node sets spread over the ranks
+    (collective; no rank gathers a set).
+
+    ``a`` and ``b``: this rank's global node (dof block) indices of each set, any shape
+    and with repeats (``FacetArrays.blocks``); ``ranges`` (size + 1,): the first global
+    node of each rank and the total. Each rank sends its nodes to their owners, which
+    intersect the two sets they receive."""
+    ranges = np.asarray(ranges, dtype=np.int64)
+
+    def to_owners(x):
+        x = np.unique(np.asarray(x, dtype=np.int64).ravel())
+        owner = np.searchsorted(ranges, x, side="right") - 1
+        return [x[owner == r] for r in range(comm.size)]
+
+    got_a = np.concatenate(comm.alltoall(to_owners(a)))
+    got_b = np.concatenate(comm.alltoall(to_owners(b)))
+    return comm.allreduce(int(np.intersect1d(got_a, got_b).size))
+
+
 def mixed_nodes(ftype: int) -> np.ndarray:
     """Facet-local nodes carrying the mixed fields (P1 vertices on 6-node triangles, where ∫N_vertex = 0)."""
     if ftype == TRIANGLE2:

@@ -207,6 +207,12 @@ CASES = [
     ),
     ("toml-syntax", "syntax", "", "TOML syntax error"),
     ("empty-contact-surface", _empty_surface, "contact[0].slave", "'ghost' is empty"),
+    (
+        "surfaces-share-nodes",
+        _add_contact(slave="top", master="left"),
+        "contact[0].master",
+        "'top' and 'left' share 1 mesh node(s)",
+    ),
     ("small-hyperelastic", _small_hyperelastic, "material[0].model", 'kinematics = "small"'),
 ]
 CASE_IDS = [c[0] for c in CASES]
@@ -336,6 +342,7 @@ def test_bad_input_serial(workdir, case_id, command):
         ("mesh-corrupt", "run"),
         ("unsorted-path", "run"),
         ("empty-contact-surface", "run"),
+        ("surfaces-share-nodes", "run"),
     ],
 )
 def test_bad_input_mpirun(workdir, case_id, command):

@@ -279,3 +279,20 @@ def test_residual_round_off_is_collective_and_leaves_the_state(shared_tmp, name,
         assert change <= 10.0 * f, (change, f)
     assert len(set(comm.allgather(f))) == 1
     assert f == pytest.approx(recorded[-1], rel=1e-6)
+
+
+@pytest.mark.mpi
+def test_shared_nodes_counts_across_ranks():
+    """surface.shared_nodes: rank r owns the global nodes 3r, 3r + 1, 3r + 2 and holds
+    a = {3r, 3r + 1} and b = {3r + 1, 3(r + 1) mod 3p}: the sets share 3r + 1 on every
+    rank and 3(r + 1) of the next rank's a, 2p nodes (p ranks; 2 serially), each counted
+    once however many ranks hold it."""
+    from dolfinx_mortar.surface import shared_nodes
+
+    comm = MPI.COMM_WORLD
+    r, p = comm.rank, comm.size
+    ranges = np.arange(p + 1) * 3
+    a = np.array([[3 * r, 3 * r + 1], [3 * r, 3 * r]])  # a repeat, 2D like blocks
+    b = np.array([3 * r + 1, (3 * (r + 1)) % (3 * p), 3 * r + 1])
+    assert shared_nodes(comm, ranges, a, b) == 2 * p
+    assert shared_nodes(comm, ranges, a, np.array([3 * r + 2])) == 0
