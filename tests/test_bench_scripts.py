@@ -309,3 +309,16 @@ def test_bench_force_scale_runs(tmp_path):
     assert [r["status"] for r in rows] == ["ok", "ok"]
     assert all(r["force_error"] < 1e-9 for r in rows), rows
     assert all(abs(a - b) <= 1 for a, b in zip(*(r["iterations"] for r in rows), strict=True))
+
+
+def test_bench_force_scale_si_units_3d(tmp_path):
+    """``--demo hertz3d --length 1e-3 --scales 1 1e9``: the 3D demo with its lengths in
+    millimetres given in metres, and E = 200 and 2e11 Pa, finishes (the generator failed
+    to mesh it before session 32), with the same contact force / (scale × 1e-6) to 1e-9.
+    Its nominal load is met to the area the mesh gives the sphere's top (about 1 %)."""
+    bench = _load("bench_force_scale")
+    args = ["--demo", "hertz3d", "--scales", "1", "1e9", "--length", "1e-3"]
+    rows = bench.main([*args, "--out", str(tmp_path)])
+    assert [r["status"] for r in rows] == ["ok", "ok"], rows
+    assert rows[1]["force_vs_first"] < 1e-9, rows
+    assert all(r["force_error"] < 0.02 for r in rows), rows
