@@ -331,6 +331,15 @@ class RecordedValues:
         if len(R):
             self._batches.append((R, C, V))
 
+    def indices(self) -> list[np.ndarray]:
+        """Copies of the row and column index arrays of the recorded batches, then of the
+        single calls, in order (local). Two recordings with equal lists fill the same
+        :meth:`block_couplings`."""
+        out = []
+        for rows, cols, _ in (*self._batches, *self._calls):
+            out += [np.array(rows, np.int64), np.array(cols, np.int64)]
+        return out
+
     def block_couplings(self, bs: int, nglob: int) -> np.ndarray:
         """The sorted global block couplings (block row × ``nglob`` + block column) that the
         recorded calls fill: for each call or block, its block rows × its block columns

@@ -354,6 +354,41 @@ def test_a_growing_contact_zone_does_not_reallocate_inside_setvalues(case):
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_a_jacobian_with_the_last_indices_reuses_their_couplings(case):
+    """ContactProblem._recorded_couplings: a Jacobian whose recorded contact indices
+    equal the last one's reuses its block couplings (the same array) instead of sorting
+    them again, and gives the same matrix; a different contact zone finds its own
+    couplings, equal to RecordedValues.block_couplings."""
+    from dolfinx_mortar.assembly import RecordedValues
+
+    problem = _problem(case, "element", "lumped")
+    term = problem.contacts[0]
+    body = CASES[case][4][0]
+    _set_state(problem, 0.08, body)
+    term.update(problem.u)
+    J = problem.create_matrix()
+    problem.jacobian(problem.u.vector, J)
+    keys = problem._recorded_last[1]
+    again = problem.create_matrix()
+    problem.jacobian(problem.u.vector, again)
+    assert problem._recorded_last[1] is keys
+    again.axpy(-1.0, J)
+    assert again.norm() <= 1e-14 * J.norm()
+    _set_state(problem, 0.02, body)  # a narrower contact zone: other indices
+    term.update(problem.u)
+    problem.jacobian(problem.u.vector, J)
+    values = RecordedValues()
+    term.add_jacobian(values)
+    fresh = values.block_couplings(problem._pattern.bs, problem._pattern.nblocks)
+    assert np.array_equal(problem._recorded_last[1], fresh)
+    changed = problem._recorded_last[1] is not keys
+    assert MPI.COMM_WORLD.allreduce(int(changed)) > 0  # on the ranks that hold contact
+    for mat in (J, again):
+        mat.destroy()
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("integration", ["element", "segment"])
 def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_moves(
     monkeypatch, integration
