@@ -9,12 +9,14 @@ relative error against the nominal load (``force_error``; in 3D it carries the m
 top's area, about 1 % short of the quarter disc's) and against the first run's force
 (``force_vs_first``, both / scale), and the residual's round-off level of the last step. ``--length L`` multiplies every length of the geometry and its mesh sizes by L as
 well (L = 1e-3 with scale 1e9: lengths in millimetres and E = 200 GPa, both in SI units;
-the contact force then scales with scale × L in 2D and scale × L² in 3D). Run from the
-repository root (serial or under mpirun):
+the contact force then scales with scale × L in 2D and scale × L² in 3D); ``--time T``
+multiplies the time axis (load paths, t_end). Run from the repository root (serial or
+under mpirun):
 
     /usr/bin/python3 bench/bench_force_scale.py --scales 1e-6 1e-3 1 1e3 1e6 1e9
     /usr/bin/python3 bench/bench_force_scale.py --scales 1e-9 1e-6 1 1e9 --atol 1e-10
     /usr/bin/python3 bench/bench_force_scale.py --demo hertz3d --scales 1 1e9 --length 1e-3
+    /usr/bin/python3 bench/bench_force_scale.py --scales 1 --time 1e-6
 
 (``--atol A``: the scene's ``[solver] atol`` is A × the scale, as a user would set it
 for those units.)
@@ -52,12 +54,23 @@ LENGTHS = ("R", "gap0", "W", "H", "c_zone", "h_contact", "h_far")
 
 
 def scaled_scene(
-    scale: float, atol: float | None = None, length: float = 1.0, demo: str = "hertz2d"
+    scale: float,
+    atol: float | None = None,
+    length: float = 1.0,
+    demo: str = "hertz2d",
+    time: float = 1.0,
 ) -> dict:
-    """The ``demo`` scene with E and the traction times ``scale`` and every length of
-    its geometry and mesh times ``length``; ``atol``: its ``[solver] atol`` (None: the
-    scene's default)."""
+    """The ``demo`` scene with E and the traction times ``scale``, every length of its
+    geometry and mesh times ``length`` and its time axis (paths, t_end, output times)
+    times ``time``; ``atol``: its ``[solver] atol`` (None: the scene's default)."""
     sc = DEMOS[demo][0].scene()
+    if time != 1.0:
+        for key in ("dirichlet", "traction"):
+            for entry in sc.get(key, []):
+                entry["path"] = [[row[0] * time, *row[1:]] for row in entry["path"]]
+        steps = sc["steps"]
+        steps["t_end"] = steps.get("t_end", 1.0) * time
+        steps["output_times"] = [t * time for t in steps.get("output_times", [])]
     if atol is not None:
         sc["solver"] = {**sc.get("solver", {}), "atol": atol}
     for m in sc["material"]:
@@ -84,6 +97,7 @@ def main(argv=None) -> list[dict]:
     ap.add_argument(
         "--length", type=float, default=1.0, help="every length of the geometry times this"
     )
+    ap.add_argument("--time", type=float, default=1.0, help="the time axis times this")
     ap.add_argument("--out", default="/tmp/bench_force_scale", help="run directories")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -94,7 +108,7 @@ def main(argv=None) -> list[dict]:
     for scale in args.scales:
         out = Path(args.out) / f"{args.demo}_scale_{scale:g}_length_{args.length:g}"
         atol = None if args.atol is None else args.atol * scale
-        sc = scaled_scene(scale, atol, args.length, args.demo)
+        sc = scaled_scene(scale, atol, args.length, args.demo, args.time)
         s = run(parse_scene(sc, out.parent), comm, out, round_off=True)
         row = {"scale": scale, "status": s["status"], "steps": len(s["steps"])}
         if s["steps"]:
