@@ -1044,10 +1044,11 @@ _CHANGED_STATES = ("unfrozen_states", "released_nodes", "unfrozen_qp_nodes")
 
 def _open_contact_hint(problem) -> str:
     """A clause for the error of a run that stops, where no contact pair had a slave
-    node in contact at the failed attempt's last contact update (collective; "" where
-    some pair touched or the problem has no contact). A body that only contact holds is
-    then free, and Newton cannot reduce its load: the usual cause is a load pointing away
-    from the contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
+    node in contact at the failed attempt's last contact update ("" where some pair
+    touched or the problem has no contact). Collective; called only when the run stops,
+    so one allreduce per run, not one per failed attempt. A body that only contact holds
+    is then free, and Newton cannot reduce its load: the usual cause is a load pointing
+    away from the contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
     if not getattr(problem, "contacts", None):
         return ""
     pairs = problem.open_pairs()
@@ -1192,7 +1193,6 @@ class LoadStepper:
                     resume=resume,
                 )
             except ConvergenceError as exc:
-                hint = _open_contact_hint(p)  # the failed attempt's contact state
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
@@ -1222,9 +1222,12 @@ class LoadStepper:
                     predictor_failures += 1
                     skip, backoff = backoff, min(2 * backoff, PREDICTOR_MAX_BACKOFF)
                     continue
+                # the run stops below: restore_step leaves the failed attempt's contact
+                # state (p_hat), which the hint reads (collective, every rank here)
                 if cutbacks >= self.max_cutbacks:
                     raise ConvergenceError(
-                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks: {exc}{hint}"
+                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks: "
+                        f"{exc}{_open_contact_hint(p)}"
                     ) from exc
                 cutbacks += 1
                 mid = 0.5 * (t + t_new)
@@ -1233,7 +1236,7 @@ class LoadStepper:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed and the step size {t_new - t:.3g} "
                         f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): "
-                        f"{exc}{hint}"
+                        f"{exc}{_open_contact_hint(p)}"
                     ) from exc
                 pending.insert(0, mid)
                 log.warning(
