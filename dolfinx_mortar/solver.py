@@ -445,20 +445,19 @@ class NewtonSolver:
         if np.isfinite(fnorm):
             snes.getSolution().copy(self._finite_x)
             self._has_finite = True
+            s = self.settings
             if its == 0 and fnorm > self.force_scale:  # a solve's first norm
                 self.force_scale = fnorm
-                if self.settings.atol == "auto":  # before the convergence test
+                if s.atol == "auto":  # follows the forces: before the test
                     snes.setTolerances(atol=self._atol())
-                atol = self._base_atol()
-                explicit = self.settings.atol != "auto"
-                if explicit and not self._warned_atol and atol > self.settings.rtol * fnorm:
+                elif not self._warned_atol and (atol := self._base_atol()) > s.rtol * fnorm:
                     self._warned_atol = True
                     log.warning(
                         "solver.atol = %.3g (a force) exceeds rtol × the first residual "
                         "norm of this solve (%.3g): Newton may stop before its relative "
                         "tolerance; set [solver] atol for the units of this scene",
                         atol,
-                        self.settings.rtol * fnorm,
+                        s.rtol * fnorm,
                     )
 
     def _J(self, snes, x, A, P):
