@@ -271,14 +271,22 @@ def _add_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
         A.setValuesRCV(r, c, sums, addv=PETSc.InsertMode.ADD_VALUES)
 
 
-def _ragged_to_padded(off, sel):
-    """For the ragged rows ``sel`` of a CSR offset array ``off`` (local): the row and
-    position of each entry in a padded (sel.size, width) array, its source in the flat
-    data, and width, the longest row's length."""
+def _padded(off, sel, *data):
+    """The ragged rows ``sel`` of CSR arrays sharing the offsets ``off``, padded to the
+    longest row (local): for each flat array in ``data``, a (sel.size, width) array with
+    −1 (integer data: a dof PETSc skips) or 0 (real data) after each row's entries."""
     n_sel = off[sel + 1] - off[sel]
     row = np.repeat(np.arange(sel.size), n_sel)
     pos = np.arange(row.size) - np.repeat(np.cumsum(n_sel) - n_sel, n_sel)
-    return row, pos, np.repeat(off[sel], n_sel) + pos, int(n_sel.max(initial=0))
+    src = np.repeat(off[sel], n_sel) + pos
+    width = int(n_sel.max(initial=0))
+    out = []
+    for d in data:
+        integer = np.issubdtype(d.dtype, np.integer)
+        a = np.full((sel.size, width), -1 if integer else 0, PETSc.IntType if integer else d.dtype)
+        a[row, pos] = d[src]
+        out.append(a)
+    return out
 
 
 def _chunks(sel, off, chunk: int):
@@ -295,11 +303,7 @@ def add_outer_blocks(A, c_off, c_idx, c_val, coef, chunk: int = 1 << 22) -> None
     ``setValuesRCV`` per ``chunk`` entries instead of one ``setValues`` per node."""
     nodes = np.flatnonzero((coef > 0.0) & (np.diff(c_off) > 0))
     for sel in _chunks(nodes, c_off, chunk):
-        row, pos, src, width = _ragged_to_padded(c_off, sel)
-        idx = np.full((sel.size, width), -1, PETSc.IntType)
-        val = np.zeros((sel.size, width))
-        idx[row, pos] = c_idx[src]
-        val[row, pos] = c_val[src]
+        idx, val = _padded(c_off, sel, c_idx, c_val)
         blocks = coef[sel, None, None] * val[:, :, None] * val[:, None, :]
         A.setValuesRCV(idx, idx, blocks, addv=PETSc.InsertMode.ADD_VALUES)
 
@@ -311,9 +315,8 @@ def add_square_blocks(A, u_off, U, k_off, K, chunk: int = 1 << 22) -> None:
     entries instead of one ``setValues`` per block."""
     n = np.diff(u_off)
     for sel in _chunks(np.flatnonzero(n > 0), u_off, chunk):
-        row, pos, src, width = _ragged_to_padded(u_off, sel)
-        idx = np.full((sel.size, width), -1, PETSc.IntType)
-        idx[row, pos] = U[src]
+        (idx,) = _padded(u_off, sel, U)
+        width = idx.shape[1]
         sq = n[sel] ** 2
         blk = np.repeat(np.arange(sel.size), sq)
         local = np.arange(blk.size) - np.repeat(np.cumsum(sq) - sq, sq)  # 0 … n_i² − 1
