@@ -221,7 +221,8 @@ PIN_OUTSIDE_TOL = 0.1
 #: point cycled in each of the five Uzawa rounds until its pin at the FREEZE_AFTER-th
 #: Jacobian: 4 + 9 + 9 + 9 + 9 + 11 Newton iterations.
 PIN_CARRY_TOL = 1e-3
-#: First contact: in a Newton solve that starts with no active node on the pair, at a
+#: First contact: in a Newton solve that starts with no active node on the pair, or with
+#: a pair that carries no load yet (MortarContact._drop_geometric_tangent), at a
 #: Jacobian whose active set (p̂^I > 0) differs from that of the previous Jacobian, the
 #: geometric part of the normal contact tangent, −Σ_I p^I ∫ Φ_I ∂²g (the variation of the
 #: projection and of the master normal), is left out; the penalty part ε/A B⊗B stays. The
@@ -749,9 +750,12 @@ class MortarContact:
         self.qp_flip = None
         self._carried_pins = None
         self._jac_active = None  # the active set at the previous Jacobian of the solve
-        #: whether the current Newton solve started with no active node on the pair (first
-        #: contact; decided at the solve's first Jacobian, the same on every rank)
+        #: whether the current Newton solve is a first contact of the pair (decided at the
+        #: solve's first Jacobian, the same on every rank; :meth:`_drop_geometric_tangent`)
         self.first_contact = False
+        #: whether some slave node of the pair (on any rank) carried pressure p̂^I > 0 in
+        #: the last committed step (False before the first; the same on every rank)
+        self.loaded = False
         #: the displacement change (owned dofs) implied by the last exact multiplier update
         #: (``_exact_multipliers``), for the problem to apply; None otherwise
         self.displacement_update = None
@@ -1153,13 +1157,24 @@ class MortarContact:
     def _drop_geometric_tangent(self) -> bool:
         """Whether the geometric part of the normal tangent is left out at this Jacobian
         (collective): the active set differs from that of the previous Jacobian of this
-        solve (at the first Jacobian of a solve: always), and either the solve started with
-        no active node on the pair or an active node is deeper than DEEP_PENETRATION_TOL ×
-        h_I. See GEOMETRIC_TANGENT_AT_FIRST_CONTACT."""
+        solve (at the first Jacobian of a solve: always), and either the solve is a first
+        contact of the pair or an active node is deeper than DEEP_PENETRATION_TOL × h_I.
+        See GEOMETRIC_TANGENT_AT_FIRST_CONTACT.
+
+        First contact (:attr:`first_contact`, decided at the solve's first Jacobian): the
+        solve starts with no active node on the pair, or the pair carries no load yet: no
+        pressure in the last committed step (:attr:`loaded`) and no Uzawa multiplier
+        λ^I > 0. The second case is a start with some nodes active but none in
+        equilibrium: the reference configuration of a curved P2 slave touching a flat
+        master, where the quadratic weights make the mixed gap of the touching vertex
+        negative for any convex gap profile (γ = −h²/(20R) for a P2 interval on an arc of
+        radius R), or meshes that overlap at t = 0."""
         act = self.p_hat > 0.0
         prev, self._jac_active = self._jac_active, act.copy()
         if prev is None:
-            self.first_contact = self.comm.allreduce(int(act.sum())) == 0
+            local = np.array([np.count_nonzero(act), np.count_nonzero(self.lmbda > 0.0)])
+            n_active, n_lmbda = self.comm.allreduce(local, op=MPI.SUM)
+            self.first_contact = n_active == 0 or (not self.loaded and n_lmbda == 0)
         moved = prev is None or (prev.shape == act.shape and bool(np.any(prev != act)))
         depth = float(np.max(-self.gamma[act] / self.h_node[act], initial=0.0))
         flags = self.comm.allreduce(int(moved) | int(depth > DEEP_PENETRATION_TOL) << 1, op=MPI.BOR)
@@ -2944,6 +2959,7 @@ class MortarContact:
         keep (u, τ) as the history of the next step (the state itself is still that of
         this step until :meth:`begin_step`, so outputs report this step)."""
         self.lmbda_committed = self.lmbda.copy()
+        self.loaded = self.comm.allreduce(int(np.any(self.p_hat > 0.0)), op=MPI.MAX) > 0
         if self.frictional:
             act = self.fstate > 0
             self.slip_length_committed = self.slip_length_committed + np.where(

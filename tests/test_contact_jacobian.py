@@ -100,7 +100,8 @@ def _problem(case, integration="element", recovery="lumped", comm=MPI.COMM_WORLD
 
 def _set_state(problem, depth, slave_body):
     """Slave body: push down by `depth` (z or y) with a sideways shift and a non-uniform part;
-    master body: a smooth non-affine deformation."""
+    master body: a smooth non-affine deformation. The pairs count as loaded (a state in a
+    step after contact was made, not a first contact: MortarContact.loaded)."""
     md = problem.mesh_data
     gdim = problem.gdim
     u = problem.u
@@ -131,6 +132,8 @@ def _set_state(problem, depth, slave_body):
     idx = (np.repeat(dofs * bs, bs) + np.tile(np.arange(bs), dofs.size)).astype(np.int64)
     u.x.array[idx] = w.x.array[idx]
     u.x.scatter_forward()
+    for term in problem.contacts:
+        term.loaded = True
 
 
 def _residual(problem, term, vec_u):
@@ -386,6 +389,45 @@ def test_a_jacobian_with_the_last_indices_reuses_their_couplings(case):
     assert MPI.COMM_WORLD.allreduce(int(changed)) > 0  # on the ranks that hold contact
     for mat in (J, again):
         mat.destroy()
+
+
+@pytest.mark.mpi
+def test_a_pair_that_carries_no_load_yet_is_a_first_contact():
+    """MortarContact.first_contact, decided at a solve's first Jacobian, on a state with
+    active nodes (the FD configuration hertz2d-P1, pressed 0.05): a first contact while
+    the pair carries no load (no pressure committed, ``loaded``, and no multiplier), not
+    once a multiplier is positive, even on one node of one rank, nor once a step with
+    pressure is committed (``commit_step`` sets ``loaded`` on every rank, those without
+    an active node included); with no active node, always one. The same on every rank."""
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
+    term.loaded = False
+    term.update(problem.u)
+    assert comm.allreduce(int((term.p_hat > 0.0).sum())) >= 3
+
+    def first_contact() -> bool:
+        term.begin_solve()
+        problem.contact_jacobian(problem.create_matrix())
+        decided = term.first_contact
+        assert comm.allgather(decided) == [decided] * comm.size
+        return decided
+
+    assert first_contact()
+    last = comm.allreduce(comm.rank if term.lmbda.size else -1, op=MPI.MAX)
+    if comm.rank == last:
+        term.lmbda[0] = 1e-3
+    assert not first_contact()
+    term.lmbda[:] = 0.0
+    assert first_contact()
+    term.commit_step()
+    assert term.loaded
+    assert not first_contact()
+    problem.u.x.array[:] = 0.0  # the open reference configuration
+    term.update(problem.u)
+    assert comm.allreduce(int((term.p_hat > 0.0).sum())) == 0
+    assert first_contact()
 
 
 @pytest.mark.mpi

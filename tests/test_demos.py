@@ -211,6 +211,21 @@ def test_a_bad_demo_option_is_one_line(capsys):
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi
+def test_the_p2_arc_touching_at_t0_is_a_first_contact(shared_tmp):
+    """hertz2d with P2 elements (``--order 2``): at t = 0 the arc touches the block at one
+    vertex, whose mixed gap the quadratic weights make negative (−h²/(20R), about 6e-5),
+    so the first solve starts with an active node but no load: a first contact
+    (MortarContact.loaded). Before, the energy line search ran there and took λ ≈ 6e-4:
+    the first Newton iteration left ‖R‖ unchanged (0.404, 0.404), and step 1 took 14
+    iterations; now its first iteration moves the body and it takes 6 (1–3 ranks)."""
+    summary, _ = cm.run_scene(demo_hertz2d.scene(0, order=2), shared_tmp / "hertz2d_p2")
+    first = summary["steps"][0]
+    main = first["residual_norms"][0]
+    assert abs(main[1] - main[0]) > 0.01 * main[0], main
+    assert sum(first["newton_iterations"]) <= 8, first["newton_iterations"]
+
+
 def test_energy_line_search(shared_tmp, monkeypatch):
     """hertz2d with a nearly incompressible bulk (ν = 0.49, P1 triangles: the hard-case
     sweep's hertz2d_nu049_p1): its last step starts from the extrapolated predictor with
