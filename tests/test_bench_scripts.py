@@ -322,3 +322,18 @@ def test_bench_force_scale_si_units_3d(tmp_path):
     assert [r["status"] for r in rows] == ["ok", "ok"], rows
     assert rows[1]["force_vs_first"] < 1e-9, rows
     assert all(r["force_error"] < 0.02 for r in rows), rows
+
+
+def test_bench_newton_order_runs(tmp_path):
+    """``bench/bench_newton_order.py`` on hertz2d with the demo's "auto" penalty and with
+    κ = 30: the same solution (Uzawa to 1e-6 takes the penalty out of it) and superlinear
+    Newton in every step either way; only the orders read from the residual norms move
+    (BENCHMARKS §27: 1.71 against 2.16 in step 3)."""
+    rows = _load("bench_newton_order").main(["--kappas", "auto", "30", "--out", str(tmp_path)])
+    assert [r["kappa"] for r in rows] == ["auto", "30"]
+    assert abs(rows[0]["errors"]["l2"] - rows[1]["errors"]["l2"]) <= 1e-6, rows
+    for r in rows:
+        assert len(r["order_values"]) == len(r["iterations"]) == 4, r
+        assert all(q > 1.5 for q in r["order_values"]), r
+    with pytest.raises(SystemExit):
+        _load("bench_newton_order").main(["--kappas", "-1"])
