@@ -1,8 +1,9 @@
 """Is the Newton of a demo scene quadratic? Checks at the iterates of one step's main solve.
 
-For the hertz2d demo scene (``--integration``, ``--recovery``), the load step ``--step``
-(1-based, default the last) is watched: at each Jacobian evaluation of its first Newton
-solve (the main one; the later Uzawa rounds start near the solution) this prints
+For the hertz2d demo scene (``--integration``, ``--recovery``, ``--order``, ``--tri``), the
+load step ``--step`` (1-based, default the last) is watched: at each Jacobian evaluation
+of its first Newton solve (the main one; the later Uzawa rounds start near the solution;
+``--solve N`` watches the N-th instead) this prints
 
 - ``|R|``: the residual norm at the iterate u, and ``|du|``: the Newton step
   du = K⁻¹R (MUMPS);
@@ -26,6 +27,7 @@ Run (serial)::
 
     /usr/bin/python3 bench/newton_diagnostics.py [--step 4] [--integration segment] [--tri]
     /usr/bin/python3 bench/newton_diagnostics.py --step 1 --polish 5
+    /usr/bin/python3 bench/newton_diagnostics.py --order 2 --integration segment --step 4 --solve 2
 
 An iterate that the l2 line search placed on a kink of the residual (an active-set or
 pairing switch; the search minimises ‖R‖ along the step, and minima sit at kinks) shows a
@@ -139,6 +141,10 @@ def main(argv=None) -> list:
     ap.add_argument("--integration", default="element", help="[element]")
     ap.add_argument("--recovery", default="lumped", help="[lumped]")
     ap.add_argument("--tri", action="store_true", help="the demo's --tri mesh (triangles)")
+    ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
+    ap.add_argument(
+        "--solve", type=int, default=1, help="Newton solve of the step to watch (1-based) [1]"
+    )
     ap.add_argument("--out", default="/tmp/newton_diagnostics", help="run directory")
     ap.add_argument("--polish", type=int, default=0, help="exact Newton steps after the solve [0]")
     args = ap.parse_args(argv)
@@ -151,7 +157,7 @@ def main(argv=None) -> list:
 
     def watched_j(self, snes, x, A, P):
         orig_j(self, snes, x, A, P)
-        if state["step"] == args.step and state["solve"] == 1:
+        if state["step"] == args.step and state["solve"] == args.solve:
             iterates.append(x.copy())
             self.problem.ensure_contact_at(x)
             check(self.problem, log)
@@ -160,7 +166,7 @@ def main(argv=None) -> list:
     def counted_solve(self, *a, **k):
         state["solve"] += 1
         out = orig_solve(self, *a, **k)
-        if state["step"] == args.step and state["solve"] == 1 and args.polish > 0:
+        if state["step"] == args.step and state["solve"] == args.solve and args.polish > 0:
             iterates.append(self.problem.u.vector.copy())
             norms, u_star = polish(self.problem, args.polish)
             errors = []
@@ -186,7 +192,9 @@ def main(argv=None) -> list:
 
     newton_cls._J, newton_cls.solve = watched_j, counted_solve
     try:
-        sc = demo_hertz2d.scene(0, 1, args.integration, quads=not args.tri, recovery=args.recovery)
+        sc = demo_hertz2d.scene(
+            0, args.order, args.integration, quads=not args.tri, recovery=args.recovery
+        )
         summary = run(
             parse_scene(sc, Path(".")), MPI.COMM_WORLD, Path(args.out), setup=setup, round_off=True
         )
@@ -195,7 +203,10 @@ def main(argv=None) -> list:
     if polished:
         polished["round_off"] = summary["steps"][args.step - 1]["residual_round_off"]
     if MPI.COMM_WORLD.rank == 0:
-        print(f"hertz2d {args.integration} {args.recovery}, step {args.step}, main solve:")
+        which = "main solve" if args.solve == 1 else f"solve {args.solve}"
+        print(
+            f"hertz2d P{args.order} {args.integration} {args.recovery}, step {args.step}, {which}:"
+        )
         print("  |R|        |du|       fd(K du)   quad t=1/4, 1/2, 1")
         for rn, dn, e, q in log:
             print(f"  {rn:.3e}  {dn:.3e}  {e:.1e}    " + ", ".join(f"{v:.4e}" for v in q))
