@@ -26,7 +26,10 @@ on a Delaunay triangulation of the slave nodes projected onto z = 0:
 
 Run::
 
-    mpirun -n 2 python3 demos/demo_hertz3d.py [--refine K] [--integration segment]
+    mpirun -n 2 python3 demos/demo_hertz3d.py [--refine K] [--integration segment] [--order 2]
+
+(``--order 2``: P2 tetrahedra, whose slave facets carry P1 mixed fields: the vertex
+functions of a P2 triangle integrate to zero.)
 
 The default mesh (h_contact = 0.25, block 10 × 10 × 10) is coarse (about 3 slave
 elements across the contact radius) so that it runs in seconds.
@@ -58,8 +61,10 @@ def scene(
     W: float = 10.0,
     steps: int = 2,
     recovery: str = "lumped",
+    order: int = 1,
 ) -> dict:
-    """The scene dict of the quarter model at refinement level ``refine``."""
+    """The scene dict of the quarter model at refinement level ``refine``, with P1 or P2
+    tetrahedra (``order``)."""
     h = H_CONTACT / 2**refine
     return {
         "title": f"hertz3d quarter model, refine {refine}, {integration}, {recovery}",
@@ -74,6 +79,7 @@ def scene(
                 "c_zone": 1.25,
                 "h_far": 2.5,
                 "grading": 0.3,
+                "order": order,
             },
         },
         "material": [
@@ -206,16 +212,17 @@ def main(argv=None) -> dict:
     )
     ap.add_argument("--W", type=float, default=10.0, help="block width and height [10]")
     ap.add_argument("--steps", type=int, default=2, help="load steps [2]")
+    ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
-    sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery)
+    sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery, args.order)
     cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(sc, args.out, round_off=True)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall
     cm.report(
-        f"hertz3d (quarter model): h_contact = {H_CONTACT / 2**args.refine:g}, {args.integration}, "
-        f"{args.recovery}, "
+        f"hertz3d (quarter model): h_contact = {H_CONTACT / 2**args.refine:g}, "
+        f"P{args.order}, {args.integration}, {args.recovery}, "
         f"{m['ranks']} rank(s), {m['dofs']} dofs, {m['slave_nodes']} slave nodes",
         [
             ("measured load P = 4 Fz", f"{m['P_measured']:.5f} (applied {P:g})"),
