@@ -332,12 +332,13 @@ class RecordedValues:
             self._batches.append((R, C, V))
 
     def indices(self) -> list[np.ndarray]:
-        """Copies of the row and column index arrays of the recorded batches, then of the
-        single calls, in order (local). Two recordings with equal lists fill the same
-        :meth:`block_couplings`."""
+        """The row and column index arrays of the recorded batches, then of the single
+        calls, in order (local; the recorded arrays themselves, not copies: a caller that
+        keeps them past the replay copies them). Two recordings with equal lists fill the
+        same :meth:`block_couplings`."""
         out = []
         for rows, cols, _ in (*self._batches, *self._calls):
-            out += [np.array(rows, np.int64), np.array(cols, np.int64)]
+            out += [np.asarray(rows), np.asarray(cols)]
         return out
 
     def block_couplings(self, bs: int, nglob: int) -> np.ndarray:

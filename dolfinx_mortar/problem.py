@@ -461,7 +461,8 @@ class ContactProblem:
         ):
             return last[1]
         keys = values.block_couplings(self._pattern.bs, self._pattern.nblocks)
-        self._recorded_last = index, keys
+        # copies: the terms may reuse the recorded arrays after the replay
+        self._recorded_last = [a.copy() for a in index], keys
         return keys
 
     def _add_contact_values(self, A, values: RecordedValues, keys: np.ndarray, bulk: bool):
