@@ -67,7 +67,7 @@ def scene(
     tetrahedra (``order``)."""
     h = H_CONTACT / 2**refine
     return {
-        "title": f"hertz3d quarter model, refine {refine}, {integration}, {recovery}",
+        "title": f"hertz3d quarter model, refine {refine}, P{order}, {integration}, {recovery}",
         "kinematics": "small",
         "mesh": {
             "generator": "hertz3d",
