@@ -277,7 +277,10 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     plus the last, about √2 f (measured: plateau 0.98–1.12e-13, f = 7.2e-14). The solve's
     last norm (1.5e-13) lies within FLOOR_FACTOR × f, on the floor, so the three-norm
     order of that solve is read as a bound (demos/_common.solve_order). The errors
-    against the polished state fall superlinearly."""
+    against the polished state fall superlinearly, and the solve's last error lies within
+    FLOOR_FACTOR × the polished state's own round-off level s (the median step of the
+    later polish steps; measured e_n = 7.5e-14, s = 5.6e-14), so the error order is read
+    as a bound as well."""
     log, pol = _load("newton_diagnostics").main(
         ["--step", "1", "--polish", "3", "--out", str(tmp_path)]
     )
@@ -293,14 +296,20 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     e = pol["errors"]
     assert e[-1] < e[-2] < e[-3]
     assert e[-1] / e[-2] < 0.1 * e[-2] / e[-3]  # faster than linear
+    s = pol["error_level"]
+    assert 0.0 < s < 1e-3 * e[-3], (s, e)
+    assert e[-1] <= cm.FLOOR_FACTOR * s and pol["error_order"][1], (e, s)
 
 
-def test_newton_diagnostics_rejects_a_negative_polish(capsys):
+@pytest.mark.parametrize("n", ["-1", "1"])
+def test_newton_diagnostics_rejects_a_polish_without_a_level(capsys, n):
     with pytest.raises(SystemExit) as exc:
-        _load("newton_diagnostics").main(["--polish", "-1"])
+        _load("newton_diagnostics").main(["--polish", n])
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].endswith("--polish must be 0 or more, not -1")
+    assert err[-1].endswith(
+        f"--polish must be 0 or at least 2 (the round-off level of u*), not {n}"
+    )
 
 
 @pytest.mark.parametrize("material", ["neo-hookean", "linear-elastic"])
