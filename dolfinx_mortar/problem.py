@@ -248,6 +248,17 @@ class ContactProblem:
         for bc in self.bcs:
             gdofs[np.asarray(bc.dof_indices()[0])] = -1
         self.global_dofs = gdofs
+        # the owned dofs whose reaction each boundary reports, per component: those of the
+        # components it prescribes that no earlier boundary prescribes (:meth:`reactions`)
+        claimed = np.zeros(self.global_dofs_all.size, bool)
+        self._reaction_dofs = []
+        for d in self._dirichlet:
+            per_comp = []
+            for c, dofs in enumerate(d.dofs_by_component):
+                mine = dofs[~claimed[dofs]] if c in d.components else dofs[:0]
+                claimed[mine] = True
+                per_comp.append(mine)
+            self._reaction_dofs.append((d.name, per_comp))
 
     # ---------------------------------------------------------------- set-up
     def add_dirichlet_field(self, name: str, field, components=None) -> None:
@@ -710,14 +721,22 @@ class ContactProblem:
         return [t.name for t, c in zip(self.contacts, np.atleast_1d(counts), strict=True) if c == 0]
 
     def reactions(self) -> dict[str, list[float]]:
-        """Force each Dirichlet boundary exerts on the body at the current state (collective)."""
+        """Force (gdim components) each Dirichlet boundary exerts on the bodies at the
+        current state: the residual without the conditions, R = f_int + f_contact − f_ext,
+        summed over the boundary's owned dofs (collective).
+
+        A boundary has reactions only in the components it prescribes (a symmetry plane
+        with u_x = 0 exerts no y or z force), and a dof prescribed by several boundaries (a
+        clamp's edge on a symmetry plane) counts in the first of them in declaration
+        order, so the reactions of all boundaries sum to the total force of the supports.
+        """
         b = create_vector(self.F_form)
         self.update_contact(self.u.vector)
         self.residual(self.u.vector, b, apply_bcs=False)
         arr = b.array_r
         out = {}
-        for d in self._dirichlet:
-            local = np.array([arr[dofs].sum() for dofs in d.dofs_by_component])
-            out[d.name] = [float(v) for v in self.comm.allreduce(local)]
+        for name, per_comp in self._reaction_dofs:
+            local = np.array([arr[dofs].sum() for dofs in per_comp])
+            out[name] = [float(v) for v in self.comm.allreduce(local)]
         b.destroy()
         return out

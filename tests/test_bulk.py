@@ -64,6 +64,42 @@ def test_small_strain_uniaxial(block_msh, shared_tmp, dim, quads):
     assert s["steps"][-1]["reactions"]["left"][0] == pytest.approx(-expected, rel=1e-8)
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+def test_reactions_only_where_prescribed_and_once(block_msh, shared_tmp, dim):
+    """summary.json's reactions: the force of each boundary in the components it
+    prescribes, a dof prescribed by several boundaries counted in the first of them.
+
+    A block clamped on its left face (every component), on rollers at the bottom (and
+    back), pulled at its right end: the clamp's edges on the roller faces are prescribed
+    by both. With no load but the prescribed displacements, the reactions of all
+    boundaries sum to zero (global equilibrium), the rollers and the pulled end have no
+    force in the components they leave free, and the clamp balances the pull. Counting the
+    shared edges in both boundaries (before session 34) broke the sum: the rollers
+    reported the clamp's lateral corner forces as well."""
+    msh = block_msh(dim, n=3)
+    data = _table(msh, dim, "linear-elastic", "small", 1e-3)
+    clamp = data["dirichlet"][0]  # the left face clamped
+    clamp["components"] = list(range(dim))
+    clamp["path"] = [[0.0] * (dim + 1), [1.0] + [0.0] * dim]
+    data["output"] = {"dir": str(shared_tmp / f"out_r{dim}"), "fields": ["displacement"]}
+    s = run(parse_scene(data, msh.parent), MPI.COMM_WORLD)
+    assert s["status"] == "ok"
+    reac = {k: np.asarray(v) for k, v in s["steps"][-1]["reactions"].items()}
+    scale = abs(reac["right"][0])
+    assert scale > 0.05
+    for name, prescribed in (("bottom", 1), ("right", 0), ("back", 2)):
+        if name in reac:
+            free = [c for c in range(dim) if c != prescribed]
+            assert np.all(reac[name][free] == 0.0), (name, reac[name])
+    total = sum(reac.values())
+    assert np.abs(total).max() <= 1e-10 * scale, (total, reac)
+    assert reac["left"][0] == pytest.approx(-reac["right"][0], rel=1e-10)
+    # the clamp restrains the lateral (Poisson) contraction: its corner forces in y are
+    # not zero, and the roller's share excludes them
+    assert abs(reac["left"][1]) > 1e-6 * scale, reac["left"]
+
+
 def _neo_hooke_uniaxial(stretch, dim):
     """P11 of compressible neo-Hooke in uniaxial stress (plane strain in 2D): lateral P22 = 0 by root find."""
     lm, mu = lame(E, NU)
