@@ -248,17 +248,19 @@ class ContactProblem:
         for bc in self.bcs:
             gdofs[np.asarray(bc.dof_indices()[0])] = -1
         self.global_dofs = gdofs
-        # the owned dofs whose reaction each boundary reports, per component: those of the
-        # components it prescribes that no earlier boundary prescribes (:meth:`reactions`)
+        # per boundary name and component, the owned dofs whose reaction it reports: those
+        # of the components it prescribes that no earlier entry prescribes (:meth:`reactions`)
         claimed = np.zeros(self.global_dofs_all.size, bool)
-        self._reaction_dofs = []
+        self._reaction_dofs: dict[str, list[np.ndarray]] = {}
         for d in self._dirichlet:
-            per_comp = []
-            for c, dofs in enumerate(d.dofs_by_component):
-                mine = dofs[~claimed[dofs]] if c in d.components else dofs[:0]
+            per_comp = self._reaction_dofs.setdefault(
+                d.name, [np.empty(0, np.int32) for _ in d.dofs_by_component]
+            )
+            for c in d.components:
+                dofs = d.dofs_by_component[c]
+                mine = dofs[~claimed[dofs]]
                 claimed[mine] = True
-                per_comp.append(mine)
-            self._reaction_dofs.append((d.name, per_comp))
+                per_comp[c] = np.concatenate([per_comp[c], mine])
 
     # ---------------------------------------------------------------- set-up
     def add_dirichlet_field(self, name: str, field, components=None) -> None:
@@ -730,13 +732,38 @@ class ContactProblem:
         clamp's edge on a symmetry plane) counts in the first of them in declaration
         order, so the reactions of all boundaries sum to the total force of the supports.
         """
+        arr = self._residual_without_bcs()
+        out = {}
+        for name, per_comp in self._reaction_dofs.items():
+            local = np.array([arr[dofs].sum() for dofs in per_comp])
+            out[name] = [float(v) for v in self.comm.allreduce(local)]
+        return out
+
+    def nodal_reactions(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """The reaction forces of the Dirichlet boundary ``name`` at the nodes this rank
+        owns, as :meth:`reactions` sums them (collective: one residual evaluation).
+
+        Returns X (n, 3), the nodes' reference coordinates, and F (n, gdim), the force the
+        boundary exerts on each node (0 in the components it does not prescribe or that
+        an earlier boundary prescribes at that node); n counts the owned nodes with at
+        least one such component. The moment of the reactions about the z axis, say, is
+        the allreduce of Σ (X_0 F_1 − X_1 F_0). Raises KeyError for a name that is not
+        a Dirichlet boundary."""
+        per_comp = self._reaction_dofs[name]
+        arr = self._residual_without_bcs()
+        bs = self.V.dofmap.index_map_bs
+        nodes = np.unique(np.concatenate([dofs // bs for dofs in per_comp]))
+        F = np.zeros((nodes.size, len(per_comp)))
+        for c, dofs in enumerate(per_comp):
+            F[np.searchsorted(nodes, dofs // bs), c] = arr[dofs]
+        return self.V.tabulate_dof_coordinates()[nodes], F
+
+    def _residual_without_bcs(self) -> np.ndarray:
+        """The local residual R = f_int + f_contact − f_ext at the current state, Dirichlet
+        rows included (collective); a copy of the owned entries, (owned dofs,)."""
         b = create_vector(self.F_form)
         self.update_contact(self.u.vector)
         self.residual(self.u.vector, b, apply_bcs=False)
-        arr = b.array_r
-        out = {}
-        for name, per_comp in self._reaction_dofs:
-            local = np.array([arr[dofs].sum() for dofs in per_comp])
-            out[name] = [float(v) for v in self.comm.allreduce(local)]
+        arr = b.array_r.copy()
         b.destroy()
-        return out
+        return arr

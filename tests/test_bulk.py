@@ -100,6 +100,30 @@ def test_reactions_only_where_prescribed_and_once(block_msh, shared_tmp, dim):
     assert abs(reac["left"][1]) > 1e-6 * scale, reac["left"]
 
 
+@pytest.mark.mpi
+def test_nodal_reactions_and_a_boundary_in_two_entries(block_msh):
+    """ContactProblem.nodal_reactions: per owned node, the forces that sum to
+    reactions(); a boundary named by two [[dirichlet]] entries (the pulled end's x, then
+    its y held) reports both components under its name."""
+    msh = block_msh(2, n=3)
+    data = _table(msh, 2, "linear-elastic", "small", 1e-3)
+    data["dirichlet"].append(
+        {"boundary": "right", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]}
+    )
+    box = {}
+    s = run(parse_scene(data, msh.parent), MPI.COMM_WORLD, setup=lambda p: box.update(p=p))
+    reac = s["steps"][-1]["reactions"]
+    problem = box["p"]  # at the converged final state
+    X, F = problem.nodal_reactions("right")
+    assert X.shape == (F.shape[0], 3) and F.shape[1] == 2
+    assert np.all(np.abs(X[:, 0] - 2.0) < 1e-12)  # the right end, x = 2
+    total = MPI.COMM_WORLD.allreduce(F.sum(axis=0))
+    assert total == pytest.approx(reac["right"], rel=1e-12, abs=1e-14)
+    assert abs(reac["right"][0]) > 0.05 and abs(reac["right"][1]) > 0.0, reac
+    with pytest.raises(KeyError):
+        problem.nodal_reactions("nowhere")
+
+
 def _neo_hooke_uniaxial(stretch, dim):
     """P11 of compressible neo-Hooke in uniaxial stress (plane strain in 2D): lateral P22 = 0 by root find."""
     lm, mu = lame(E, NU)
