@@ -21,8 +21,27 @@ from pathlib import Path
 from .errors import SceneError
 
 
+class _Versions(argparse.Action):
+    """``--version``: this package's version and the stack's (imported only when asked)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from mpi4py import MPI
+
+        from .runner import software_versions
+
+        v = software_versions()
+        mine = v.pop("dolfinx_mortar")
+        if MPI.COMM_WORLD.rank == 0:  # one line under mpirun
+            print(f"dolfinx-mortar {mine} ({', '.join(f'{k} {x}' for k, x in v.items())})")
+        parser.exit(0)
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dolfinx-mortar", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action=_Versions, help="print the versions and exit")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene (under mpirun for several ranks)")
     r.add_argument("scene", type=Path)

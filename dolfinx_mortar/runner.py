@@ -20,6 +20,28 @@ from .scene import Scene, check_components, check_groups
 log = logging.getLogger(__name__)
 
 
+def software_versions() -> dict[str, str]:
+    """The versions of this package and of the stack a run used (local): dolfinx_mortar,
+    dolfinx, PETSc, the MPI library, numpy and Python. summary.json records them under
+    ``versions``, so that a result can be traced to the software that produced it."""
+    import platform
+
+    import dolfinx
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from . import __version__
+
+    return {
+        "dolfinx_mortar": __version__,
+        "dolfinx": dolfinx.__version__,
+        "petsc": ".".join(str(v) for v in PETSc.Sys.getVersion()),
+        "mpi": " ".join([MPI.get_vendor()[0], ".".join(map(str, MPI.get_vendor()[1]))]),
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+    }
+
+
 def prepare(scene: Scene, comm, setup=None):
     """Load the mesh and build the problem with its contact terms; validates everything (collective).
 
@@ -129,6 +151,7 @@ def run(
         "modelled": modelled(scene, problem),
         "ranks": comm.size,
         "dofs": problem.num_dofs,
+        "versions": software_versions(),
         "steps": [],
     }
     writer = OutputWriter(out_dir, problem, summary, scene.output.fields)

@@ -435,6 +435,21 @@ def test_generators(tmp_path):
     assert res.stderr == ""
 
 
+@pytest.mark.parametrize("ranks", [0, 2])
+def test_version(tmp_path, ranks):
+    """``--version``: one line on stdout (rank 0 only under mpirun), exit 0."""
+    import dolfinx
+
+    import dolfinx_mortar
+
+    res = cli(tmp_path, "--version", ranks=ranks)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert len(lines) == 1, res.stdout
+    assert lines[0].startswith(f"dolfinx-mortar {dolfinx_mortar.__version__} (")
+    assert f"dolfinx {dolfinx.__version__}" in lines[0] and "petsc 3." in lines[0]
+
+
 def test_check_ok(workdir, tmp_path_factory):
     (workdir / "good.toml").write_text(to_toml(base_scene()))
     before = snapshot(workdir)
@@ -459,6 +474,17 @@ def test_run_ok(workdir):
     assert summary["status"] == "ok" and summary["error"] is None
     assert summary["ranks"] == 1
     assert summary["modelled"]["kinematics"] == "small"
+    import dolfinx_mortar
+
+    assert summary["versions"]["dolfinx_mortar"] == dolfinx_mortar.__version__
+    assert set(summary["versions"]) == {
+        "dolfinx_mortar",
+        "dolfinx",
+        "petsc",
+        "mpi",
+        "numpy",
+        "python",
+    }
     assert [s["t"] for s in summary["steps"]] == [1.0]
     assert all(s["converged"] for s in summary["steps"])
     assert (workdir / "fresh" / "results" / "fields.xdmf").is_file()
