@@ -88,13 +88,32 @@ CATTANEO2D = {
 }
 
 
+# Frictionless large sliding: the upper half-cylinder pressed in four steps, then dragged
+# by 1.0 (10 contact facets, 2.5 per step) over the lower one, 3 nodes still in contact at
+# the end. The master ghost layer is exchanged again whenever the surfaces have moved by
+# a quarter of its margin since the last exchange: twice on this path
+# (MortarContact._exchanges = 3 with the first).
+SLIDE2D = dict(
+    CATTANEO2D,
+    mesh={"generator": "cattaneo2d", "params": {"h_contact": 0.1, "c_zone": 1.5, "h_far": 3.0}},
+    contact=[{"slave": "upper_surface", "master": "lower_surface", "uzawa_tol": 1e-8}],
+    dirichlet=[
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+        {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.05], [2.0, 1.0, -0.05]]},
+    ],
+    steps={"t_end": 2.0, "n": 8},
+)
+
+
 def _with_recovery(data, recovery, **more):
     return dict(data, contact=[dict(data["contact"][0], recovery=recovery, **more)])
 
 
-def _run(data, out, comm):
+def _run(data, out, comm, box=None):
+    """Run ``data`` on ``comm``; ``box["problem"]`` receives the problem (if given)."""
     d = dict(data, output={"dir": str(out), "fields": ["displacement", "contact_pressure"]})
-    return run(parse_scene(d, pathlib.Path(".")), comm)
+    setup = None if box is None else (lambda problem: box.update(problem=problem))
+    return run(parse_scene(d, pathlib.Path(".")), comm, setup=setup)
 
 
 @pytest.mark.mpi
@@ -120,12 +139,16 @@ def _run(data, out, comm):
             _with_recovery(CATTANEO2D, "lumped", tangential_frame="master"),
             "upper_surface",
         ),
+        ("slide2d", SLIDE2D, "upper_surface"),
     ],
 )
 def test_parallel_equals_serial(shared_tmp, name, data, slave):
     comm = MPI.COMM_WORLD
-    par = _run(data, shared_tmp / f"{name}_par", comm)
+    box = {}
+    par = _run(data, shared_tmp / f"{name}_par", comm, box)
     assert par["status"] == "ok" and par["ranks"] == comm.size
+    if name == "slide2d":  # the ghost layer was exchanged again as the surfaces slid
+        assert box["problem"].contacts[0]._exchanges >= 3
     (pair,) = par["modelled"]["contact_pairs"].values()
     assert pair["recovery"] == data["contact"][0].get("recovery", "lumped")
     if pair["tangential_fields"]:
