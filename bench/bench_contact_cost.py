@@ -17,7 +17,11 @@ the repository root:
 
 The claim checked (issue "Mortar normal contact", performance): contact assembly per
 Newton iteration <= bulk assembly, and search time growing no faster than n log n in
-the number of slave facets (the fitted exponent is printed).
+the number of slave facets (the fitted exponent is printed). The row also gives the
+size of the master ghost layer (``ghost_master_facets_max``: the master facets a rank
+receives, on the rank that receives most) against the master facets its candidate search
+takes from it (``candidate_master_facets_max``) and the master surface's size
+(``master_facets``).
 """
 
 from __future__ import annotations
@@ -116,6 +120,10 @@ def run_level(args, level: int, comm) -> dict:
     t_bulk = float(np.median(split["bulk_assembly"]))
     nsf = comm.allreduce(term.slave.num_facets)
     active = comm.allreduce(int((term.p > 0).sum()))
+    # the master ghost layer (search.exchange_master_facets) against the master facets
+    # the candidate search takes from it, on the rank where each is largest
+    ghost = comm.allreduce(term.master.num_facets, op=MPI.MAX)
+    needed = comm.allreduce(int(np.unique(term.cand).size), op=MPI.MAX)
     row = {
         "generator": args.generator,
         "material": args.material,
@@ -126,6 +134,9 @@ def run_level(args, level: int, comm) -> dict:
         "dofs": problem.num_dofs,
         "slave_facets": nsf,
         "slave_nodes": term.n_global_nodes,
+        "master_facets": comm.allreduce(term.master_local.num_facets),
+        "ghost_master_facets_max": ghost,
+        "candidate_master_facets_max": needed,
         "active_nodes": active,
         "search_s": t_search,
         "contact_assembly_s": t_contact,

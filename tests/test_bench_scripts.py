@@ -323,6 +323,9 @@ def test_bench_contact_cost_runs(tmp_path, material):
     assert len(rows) == 1 and rows[0]["material"] == material
     assert rows[0]["active_nodes"] > 0 and rows[0]["slave_facets"] > 0
     assert all(rows[0][k] > 0 for k in ("search_s", "contact_assembly_s", "bulk_assembly_s"))
+    r = rows[0]
+    assert 0 < r["candidate_master_facets_max"] <= r["ghost_master_facets_max"]
+    assert r["ghost_master_facets_max"] <= r["master_facets"]
     assert len(_read(tmp_path / "c.csv")) == 1
 
 
