@@ -32,11 +32,12 @@ def software_versions() -> dict[str, str]:
 
     from . import __version__
 
+    mpi_name, mpi_version = MPI.get_vendor()
     return {
         "dolfinx_mortar": __version__,
         "dolfinx": dolfinx.__version__,
         "petsc": ".".join(str(v) for v in PETSc.Sys.getVersion()),
-        "mpi": " ".join([MPI.get_vendor()[0], ".".join(map(str, MPI.get_vendor()[1]))]),
+        "mpi": f"{mpi_name} {'.'.join(map(str, mpi_version))}",
         "numpy": np.__version__,
         "python": platform.python_version(),
     }
