@@ -28,6 +28,7 @@ from .kernels.shape import (
     tdim,
 )
 from .layout import FacetArrays
+from .search import block_owner
 
 _BASIX_CELL = {
     "triangle": basix.CellType.triangle,
@@ -171,7 +172,7 @@ def shared_nodes(comm, ranges: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
 
     def to_owners(x):
         x = np.unique(np.asarray(x, dtype=np.int64).ravel())
-        owner = np.searchsorted(ranges, x, side="right") - 1
+        owner = block_owner(ranges, x)
         return [x[owner == r] for r in range(comm.size)]
 
     got_a = np.concatenate(comm.alltoall(to_owners(a)))
