@@ -13,6 +13,8 @@ checks stay light):
 - :class:`ContactProblem` (:mod:`dolfinx_mortar.problem`) and
   :class:`MortarContact` (:mod:`dolfinx_mortar.contact`): the problem side
 - :class:`NewtonSolver`, :class:`LoadStepper` (:mod:`dolfinx_mortar.solver`)
+- :func:`register_law` (:mod:`dolfinx_mortar.laws`): a UFL stored-energy law of your
+  own, named as ``model`` in a scene
 - :class:`SceneError`, :class:`ConvergenceError`
 """
 
@@ -44,6 +46,7 @@ _LAZY = {
     "NewtonSolver": "solver",
     "LoadStepper": "solver",
     "SolverSettings": "solver",
+    "register_law": "laws",
 }
 
 __all__ = ["ConvergenceError", "SceneError", "__version__", *_LAZY]

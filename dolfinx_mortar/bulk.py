@@ -7,7 +7,8 @@ Laws (Lamé constants λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)); units of E):
 - ``saint-venant-kirchhoff``: ψ = λ/2 (tr E)² + μ tr(E²), E = (C − I)/2 (in 2D
   plane strain E₃₃ = 0, so the 2×2 formulas are exact);
 - ``linear-elastic`` (``kinematics = "small"`` only): σ = λ tr ε I + 2μ ε,
-  ε = sym ∇u.
+  ε = sym ∇u;
+- a law a script registered (:func:`dolfinx_mortar.laws.register_law`): its ψ(F, E, ν).
 
 The first Piola stress P = ∂ψ/∂F is obtained with ``ufl.diff``; the residual is
 R(u; v) = Σ_regions ∫ P : ∇v dX − Σ_tractions ∫ t̄ · v dA (reference
@@ -27,7 +28,10 @@ from __future__ import annotations
 
 import ufl
 
-MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
+from .errors import SceneError
+from .laws import BUILTIN_MODELS, registered_law
+
+MODELS = BUILTIN_MODELS
 #: the laws whose residual is linear in u (a bulk of these alone is assembled once:
 #: problem.LinearBulk)
 LINEAR_MODELS = ("linear-elastic",)
@@ -51,7 +55,11 @@ def quadrature_degree(model: str, degree: int, simplex: bool, affine: bool) -> i
 
 
 def strain_energy(model: str, E: float, nu: float, F):
-    """Stored energy density ψ(F) per unit reference volume (UFL expression)."""
+    """Stored energy density ψ(F) per unit reference volume (UFL expression); ``model``
+    a built-in hyperelastic law or a registered one."""
+    psi = registered_law(model)
+    if psi is not None:
+        return psi(F, E, nu)
     lmbda, mu = lame(E, nu)
     d = F.ufl_shape[0]
     C = F.T * F
@@ -74,6 +82,35 @@ def first_piola(model: str, E: float, nu: float, u):
         return lmbda * ufl.tr(eps) * ufl.Identity(d) + 2 * mu * eps
     F = ufl.variable(ufl.Identity(d) + ufl.grad(u))
     return ufl.diff(strain_energy(model, E, nu, F), F)
+
+
+def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
+    """Raise SceneError(``key``) unless the registered law ``model`` with the material's
+    ``E`` and ``nu`` gives a UFL scalar for a d × d deformation gradient (d = ``gdim``)
+    that UFL can differentiate (local and deterministic: every rank raises the same
+    error). Built-in laws pass."""
+    psi = registered_law(model)
+    if psi is None:
+        return
+    cell = ufl.triangle if gdim == 2 else ufl.tetrahedron
+    F = ufl.variable(
+        ufl.Identity(gdim) + ufl.grad(ufl.Coefficient(ufl.VectorElement("P", cell, 1)))
+    )
+    try:
+        value = psi(F, E, nu)
+        shape = getattr(value, "ufl_shape", None)
+        if shape != ():
+            what = f"shape {shape}" if shape is not None else type(value).__name__
+            raise SceneError(
+                key, f"law {model!r}: psi(F, E, nu) must return a UFL scalar, got {what}"
+            )
+        ufl.diff(value, F)
+    except SceneError:
+        raise
+    except Exception as exc:  # whatever the user's function raises
+        raise SceneError(
+            key, f"law {model!r}: psi(F, E, nu) failed: {type(exc).__name__}: {exc}"
+        ) from None
 
 
 def internal_residual(u, v, regions, cell_tags, simplex: bool):

@@ -66,8 +66,11 @@ def prepare(scene: Scene, comm, setup=None):
                 raise SceneError(
                     f"{key}[{i}].{field}", f"physical group {name!r} has no elements in the mesh"
                 )
+    from .bulk import check_law
     from .problem import ContactProblem
 
+    for i, mat in enumerate(scene.materials):
+        check_law(mat.model, mat.E, mat.nu, mesh_data.gdim, f"material[{i}].model")
     used = {mat.region for mat in scene.materials}
     unused = sorted(set(mesh_data.cell_groups) - used)
     if unused:

@@ -109,6 +109,7 @@ from pathlib import Path
 from typing import Any
 
 from dolfinx_mortar.errors import SceneError
+from dolfinx_mortar.laws import BUILTIN_MODELS, model_names
 
 __all__ = [
     "KNOWN_GENERATORS",
@@ -154,8 +155,9 @@ KNOWN_GENERATORS: set[str] = {
 
 #: Allowed values of ``kinematics``.
 KINEMATICS = ("finite", "small")
-#: Allowed values of ``material.model``.
-MODELS = ("neo-hookean", "saint-venant-kirchhoff", "linear-elastic")
+#: The built-in values of ``material.model``; a script may add laws of its own
+#: (:func:`dolfinx_mortar.laws.register_law`).
+MODELS = BUILTIN_MODELS
 #: Allowed values of ``contact.recovery`` (METHOD.md section 3).
 RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).
@@ -576,13 +578,13 @@ def _nonempty_string(value: Any, key: str) -> str:
     return text
 
 
-def _choice(value: Any, key: str, choices: Sequence[str]) -> str:
-    """Check that ``value`` is one of ``choices``."""
+def _choice(value: Any, key: str, choices: Sequence[str], hint: str = "") -> str:
+    """Check that ``value`` is one of ``choices`` (``hint`` ends the error message)."""
     text = _string(value, key)
     if text not in choices:
         options = ", ".join(f'"{c}"' for c in choices)
         raise SceneError(
-            key, f"unknown value {text!r} (choices: {options}){_suggest(text, choices)}"
+            key, f"unknown value {text!r} (choices: {options}){_suggest(text, choices)}{hint}"
         )
     return text
 
@@ -811,7 +813,12 @@ def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str) -> M
     """Parse one ``[[material]]``."""
     _check_keys(table, _MATERIAL_KEYS, prefix)
     region = _nonempty_string(_get(table, "region", prefix), _key(prefix, "region"))
-    model = _choice(_get(table, "model", prefix), _key(prefix, "model"), MODELS)
+    model = _choice(
+        _get(table, "model", prefix),
+        _key(prefix, "model"),
+        model_names(),
+        "; a law of your own is registered from Python with dolfinx_mortar.register_law",
+    )
     E = _number(_get(table, "E", prefix), _key(prefix, "E"))
     nu = _number(_get(table, "nu", prefix), _key(prefix, "nu"))
     if E <= 0.0:

@@ -250,3 +250,102 @@ def test_linear_bulk_equals_assembly(block_msh, dim, quads):
         assert A_got.norm() <= 1e-12 * A_ref.norm()
     for obj in (x, got, ref, A_got, A_ref):
         obj.destroy()
+
+
+# ---------------------------------------------------------------- laws of one's own
+def _hand_neo_hooke(F, E_, nu_):
+    """The compressible neo-Hookean ψ of bulk.py, written as a user would (plane strain)."""
+    import ufl
+
+    lm, mu = lame(E_, nu_)
+    d = F.ufl_shape[0]
+    J = ufl.det(F)
+    I1 = ufl.tr(F.T * F) + (1.0 if d == 2 else 0.0)
+    return mu / 2 * (I1 - 3 - 2 * ufl.ln(J)) + lm / 2 * ufl.ln(J) ** 2
+
+
+@pytest.fixture
+def no_laws(monkeypatch):
+    """An empty registry of laws for the test (the process's own is left as it was)."""
+    from dolfinx_mortar import laws
+
+    monkeypatch.setattr(laws, "_LAWS", {})
+    return laws
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+def test_registered_law_uniaxial_stretch(block_msh, shared_tmp, no_laws, dim):
+    """A law registered from Python (here neo-Hooke written by hand) is named in the scene
+    and gives the closed-form uniaxial reaction, as the built-in law does, to 1e-8."""
+    from dolfinx_mortar import register_law
+
+    register_law("hand-neo-hooke", _hand_neo_hooke)
+    msh = block_msh(dim, n=2, quads=(dim == 2))
+    L, stretch = 2.0, 1.3
+    out = shared_tmp / f"out_law{dim}"
+    s = run(_scene(msh, dim, "hand-neo-hooke", "finite", (stretch - 1) * L, out), MPI.COMM_WORLD)
+    assert s["status"] == "ok"
+    assert s["modelled"]["materials"] == {"body": "hand-neo-hooke"}
+    assert s["modelled"]["bulk"] == "nonlinear" and s["modelled"]["jacobian_symmetric"]
+    assert _reaction_right(s) == pytest.approx(_neo_hooke_uniaxial(stretch, dim), rel=1e-8)
+
+
+def test_register_law_rejects_what_it_cannot_use(no_laws):
+    from dolfinx_mortar import register_law
+
+    for name, psi, match in (
+        ("neo-hookean", _hand_neo_hooke, "built-in"),
+        ("", _hand_neo_hooke, "non-empty"),
+        ("law", 3.0, "callable"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            register_law(name, psi)
+    register_law("law", _hand_neo_hooke)
+    register_law("law", _hand_neo_hooke)  # the same function again: nothing changes
+    with pytest.raises(ValueError, match="already registered"):
+        register_law("law", lambda F, E, nu: 0 * F[0, 0])
+    other = lambda F, E, nu: 2 * _hand_neo_hooke(F, E, nu)  # noqa: E731
+    register_law("law", other, replace=True)
+    assert no_laws.registered_law("law") is other
+    assert no_laws.model_names()[-1] == "law"
+
+
+def test_scene_names_a_registered_law_only(block_msh, no_laws):
+    """An unknown model is a scene error that points at register_law; once registered
+    the name parses (finite kinematics only: "small" keeps linear elasticity)."""
+    from dolfinx_mortar import SceneError, register_law
+
+    msh = block_msh(2, n=2)
+    data = _table(msh, 2, "hand-neo-hooke", "finite", 0.1)
+    with pytest.raises(SceneError, match="register_law") as err:
+        parse_scene(data, msh.parent)
+    assert err.value.key == "material[0].model"
+    register_law("hand-neo-hooke", _hand_neo_hooke)
+    assert parse_scene(data, msh.parent).materials[0].model == "hand-neo-hooke"
+    with pytest.raises(SceneError, match='needs model = "linear-elastic"'):
+        parse_scene(_table(msh, 2, "hand-neo-hooke", "small", 0.1), msh.parent)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "psi, match",
+    [
+        (lambda F, E, nu: F, r"must return a UFL scalar, got shape \(2, 2\)"),
+        (lambda F, E, nu: 1.0, "must return a UFL scalar, got float"),
+        (lambda F, E, nu: 1 / 0, "failed: ZeroDivisionError"),
+    ],
+    ids=["matrix", "float", "raises"],
+)
+def test_a_bad_law_is_one_scene_error_on_every_rank(block_msh, shared_tmp, no_laws, psi, match):
+    """A registered ψ that does not give a UFL scalar stops the run before the problem is
+    built, with the same SceneError (key material[0].model) on every rank."""
+    from dolfinx_mortar import SceneError, register_law
+
+    register_law("bad", psi)
+    msh = block_msh(2, n=2)
+    scene = _scene(msh, 2, "bad", "finite", 0.1, shared_tmp / "out_bad")
+    with pytest.raises(SceneError, match=match) as err:
+        run(scene, MPI.COMM_WORLD)
+    assert err.value.key == "material[0].model"
+    assert "\n" not in str(err.value)
