@@ -1,5 +1,9 @@
 """Command line: ``dolfinx-mortar run | check | generators | bench`` (or ``python3 -m`` it).
 
+``run`` and ``check`` take ``--laws FILE``: a Python file, run on every rank before the
+scene is read, that registers bulk laws of one's own (:func:`dolfinx_mortar.register_law`)
+for the scene's ``[[material]]`` to name.
+
 ``bench hard`` and ``bench locking`` run the hard-case sweep and the surface-locking
 study of a source checkout (``bench/bench_hard_cases.py``, ``bench/bench_locking.py``);
 the arguments after the name go to the script (``dolfinx-mortar bench hard --help``).
@@ -57,6 +61,17 @@ def _parser() -> argparse.ArgumentParser:
     )
     c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
     c.add_argument("scene", type=Path)
+    for x in (r, c):
+        x.add_argument(
+            "--laws",
+            type=Path,
+            action="append",
+            default=[],
+            metavar="FILE",
+            help="a Python file that registers bulk laws of your own with "
+            "dolfinx_mortar.register_law, run on every rank before the scene is read "
+            "(repeatable)",
+        )
     sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
     b = sub.add_parser(
         "bench", help="mesh-level sweep of a benchmark: CSV row per run and PNG plots"
@@ -117,6 +132,21 @@ def _check_out_dir(out: Path, key: str) -> None:
     if not p.is_dir():
         where = "" if p == Path(out).absolute() else f" ({p} is not a directory)"
         raise SceneError(key, f"cannot use {out} as output directory: not a directory{where}")
+
+
+def load_laws(path: Path) -> None:
+    """Run the Python file ``path`` (``--laws``; local: every rank runs it): it registers
+    bulk laws with :func:`dolfinx_mortar.register_law` for the scene to name. Raises
+    SceneError (key ``--laws``) where the file is missing or raises."""
+    import runpy
+
+    if not Path(path).is_file():
+        raise SceneError("--laws", f"file not found: {path}")
+    try:
+        runpy.run_path(str(path), run_name="__dolfinx_mortar_laws__")
+    except Exception as exc:  # whatever the user's file raises
+        reason = " ".join(f"{type(exc).__name__}: {exc}".split())
+        raise SceneError("--laws", f"{path} failed: {reason}") from None
 
 
 def _progress(comm):
@@ -246,6 +276,8 @@ def main(argv=None) -> int:
             return 0
         from .scene import load_scene
 
+        for path in args.laws:
+            load_laws(path)
         scene = load_scene(args.scene)
         if petsc:  # command-line PETSc options override the scene's
             import dataclasses

@@ -14,9 +14,10 @@ density ψ(F), and then name it as ``model`` in a scene's ``[[material]]``::
 
 The bulk then takes P = ∂ψ/∂F with ``ufl.diff`` as for the built-in laws
 (:mod:`dolfinx_mortar.bulk`), so the Jacobian stays the exact, symmetric Hessian of
-the energy. The registry lives in each process: the command line (``dolfinx-mortar
-run``) knows only the built-in laws. This module imports neither UFL nor dolfinx, so
-that scene checks stay light.
+the energy. The registry lives in each process: on the command line, a file that
+registers laws is named with ``dolfinx-mortar run --laws FILE`` (every rank runs it
+before the scene is read). This module imports neither UFL nor dolfinx, so that scene
+checks stay light.
 """
 
 from __future__ import annotations

@@ -490,6 +490,61 @@ def test_run_ok(workdir):
     assert (workdir / "fresh" / "results" / "fields.xdmf").is_file()
 
 
+LAWS_FILE = """
+import ufl
+from dolfinx_mortar import register_law
+from dolfinx_mortar.bulk import lame
+
+
+def psi(F, E, nu):  # the compressible neo-Hookean law of bulk.py, written by hand
+    lm, mu = lame(E, nu)
+    J = ufl.det(F)
+    I1 = ufl.tr(F.T * F) + (1.0 if F.ufl_shape[0] == 2 else 0.0)
+    return mu / 2 * (I1 - 3 - 2 * ufl.ln(J)) + lm / 2 * ufl.ln(J) ** 2
+
+
+register_law("hand-neo-hooke", psi, replace=True)
+"""
+
+
+def _one_error_line(res, ranks: int, key: str, reason: str) -> None:
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 2 and "Traceback" not in res.stderr, where
+    lines = res.stderr.splitlines()
+    assert len(lines) == ranks and len(set(lines)) == 1, where
+    m = ERROR_LINE.match(lines[0])
+    assert m and m.group("key") == key and reason in m.group("reason"), where
+
+
+@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
+def test_laws_file(workdir, ranks):
+    """``--laws FILE`` runs a Python file that registers a law on every rank, so that a
+    scene run from the command line can name it; without it, or with a file that is
+    missing or raises, the scene is one error line per rank, exit status 2."""
+    (workdir / "laws.py").write_text(LAWS_FILE)
+    (workdir / "broken.py").write_text("raise RuntimeError('no such law\\nhere')\n")
+    scene = base_scene()
+    scene["kinematics"] = "finite"
+    scene["material"][0]["model"] = "hand-neo-hooke"
+    scene["output"]["dir"] = "law_out"
+    (workdir / "law.toml").write_text(to_toml(scene))
+    n = max(ranks, 1)
+    res = cli(workdir, "check", "law.toml", "--laws", "laws.py", ranks=ranks)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("law.toml: ok (2D")
+    res = cli(workdir, "run", "law.toml", "--laws", "laws.py", ranks=ranks)
+    assert res.returncode == 0, res.stderr
+    summary = json.loads((workdir / "law_out" / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["ranks"] == n
+    assert summary["modelled"]["materials"] == {"body": "hand-neo-hooke"}
+    res = cli(workdir, "run", "law.toml", ranks=ranks)
+    _one_error_line(res, n, "material[0].model", "dolfinx_mortar.register_law")
+    res = cli(workdir, "check", "law.toml", "--laws", "missing.py", ranks=ranks)
+    _one_error_line(res, n, "--laws", "file not found: missing.py")
+    res = cli(workdir, "run", "law.toml", "--laws", "broken.py", ranks=ranks)
+    _one_error_line(res, n, "--laws", "broken.py failed: RuntimeError: no such law here")
+
+
 def test_run_not_converging(workdir):
     """Newton cannot converge: exit 1, summary.json says failed with an error, step 0 kept."""
     scene = base_scene()
