@@ -26,12 +26,21 @@ assembly of the ironing3d demo's short path 2.09 → 1.69 s).
 
 from __future__ import annotations
 
+import logging
+
 import ufl
+from ufl.algorithms import expand_derivatives
 
 from .errors import SceneError
 from .laws import BUILTIN_MODELS, registered_law
 
 MODELS = BUILTIN_MODELS
+#: A registered law whose small-strain moduli at F = I (from ∂²ψ/∂F²) differ from the
+#: material's E (relative) or ν (absolute) by more than this gets a warning
+#: (:func:`check_law`): the contact pairs read E* from the material's values.
+MODULI_TOL = 1e-3
+
+log = logging.getLogger(__name__)
 #: the laws whose residual is linear in u (a bulk of these alone is assembled once:
 #: problem.LinearBulk)
 LINEAR_MODELS = ("linear-elastic",)
@@ -93,9 +102,8 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
     if psi is None:
         return
     cell = ufl.triangle if gdim == 2 else ufl.tetrahedron
-    F = ufl.variable(
-        ufl.Identity(gdim) + ufl.grad(ufl.Coefficient(ufl.VectorElement("P", cell, 1)))
-    )
+    u = ufl.Coefficient(ufl.VectorElement("P", cell, 1))
+    F = ufl.variable(ufl.Identity(gdim) + ufl.grad(u))
     try:
         value = psi(F, E, nu)
         shape = getattr(value, "ufl_shape", None)
@@ -111,6 +119,49 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
         raise SceneError(
             key, f"law {model!r}: psi(F, E, nu) failed: {type(exc).__name__}: {exc}"
         ) from None
+    _check_reference_state(model, value, F, u, E, nu, gdim)
+
+
+def _check_reference_state(model: str, psi, F, u, E: float, nu: float, gdim: int) -> None:
+    """Warn where the law ``psi`` (UFL scalar of the variable F = I + ∇u) is not stress-free
+    at F = I, or where its small-strain Lamé constants λ = ∂²ψ/∂F₁₁∂F₂₂ and
+    μ = ∂²ψ/∂F₁₂∂F₁₂ at F = I give another E or ν than the material's (by MODULI_TOL). A
+    law whose derivatives UFL cannot evaluate there is not checked."""
+    zero = ufl.as_vector([0.0] * gdim)
+    try:
+        P = expand_derivatives(ufl.diff(psi, F))
+        A = expand_derivatives(ufl.diff(ufl.diff(psi, F), F))
+        P0 = ufl.replace(P, {u: zero})
+        A0 = ufl.replace(A, {u: zero})
+        stress = max(abs(float(P0[i, j])) for i in range(gdim) for j in range(gdim))
+        lam, mu = float(A0[0, 0, 1, 1]), float(A0[0, 1, 0, 1])
+    except Exception as exc:  # a law UFL cannot evaluate at a constant F
+        log.debug("law %r: reference state not checked (%s)", model, exc)
+        return
+    if stress > 1e-9 * E:
+        log.warning(
+            "law %r is not stress-free at F = I (largest |P_ij| = %.3g): the unloaded "
+            "bodies of this material are prestressed",
+            model,
+            stress,
+        )
+    if mu <= 0.0 or lam + mu <= 0.0:
+        log.warning(
+            "law %r: no positive small-strain moduli at F = I (λ = %.4g, μ = %.4g)", model, lam, mu
+        )
+        return
+    E_law, nu_law = mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu))
+    if abs(E_law / E - 1.0) > MODULI_TOL or abs(nu_law - nu) > MODULI_TOL:
+        log.warning(
+            "law %r: its small-strain moduli at F = I are E = %.6g, nu = %.4g, the "
+            "material gives E = %.6g, nu = %.4g; the contact pairs read E* (penalty "
+            '"auto") from the material\'s values',
+            model,
+            E_law,
+            nu_law,
+            E,
+            nu,
+        )
 
 
 def internal_residual(u, v, regions, cell_tags, simplex: bool):

@@ -39,7 +39,9 @@ def register_law(name: str, psi: Callable, replace: bool = False) -> None:
     the law is taken in plane strain: F₃₃ = 1 is for ``psi`` to add where it needs the
     third dimension). E and nu are the ``[[material]]``'s values: they must be the law's
     small-strain Young's modulus and Poisson's ratio, since the contact pairs read their
-    E* from them (``penalty = "auto"``). A law is used with ``kinematics = "finite"``.
+    E* from them (``penalty = "auto"``; a run warns where the law's moduli at F = I
+    differ, :func:`dolfinx_mortar.bulk.check_law`). A law is used with
+    ``kinematics = "finite"``.
 
     Call it on every rank before the scene is parsed. Raises ValueError for a name that
     is empty or built in, a ``psi`` that is not callable, or a name already registered

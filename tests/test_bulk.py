@@ -349,3 +349,37 @@ def test_a_bad_law_is_one_scene_error_on_every_rank(block_msh, shared_tmp, no_la
         run(scene, MPI.COMM_WORLD)
     assert err.value.key == "material[0].model"
     assert "\n" not in str(err.value)
+
+
+def test_a_law_is_checked_at_the_reference_state(no_laws, caplog):
+    """check_law reads the law's small-strain moduli and stress at F = I (UFL's second
+    derivative of ψ there): a law written for other moduli than the material's E and ν,
+    or one that is not stress-free, gets a warning; neo-Hooke written by hand none, in 2D
+    and 3D."""
+    import logging
+
+    import ufl
+
+    from dolfinx_mortar import register_law
+    from dolfinx_mortar.bulk import check_law
+
+    def fixed(F, E_, nu_):  # neo-Hooke with E = 100, nu = 0.25 whatever the material says
+        return _hand_neo_hooke(F, 100.0, 0.25)
+
+    def prestressed(F, E_, nu_):
+        return _hand_neo_hooke(F, E_, nu_) + 3.0 * ufl.tr(F)
+
+    for name, psi in (("hand", _hand_neo_hooke), ("fixed", fixed), ("pre", prestressed)):
+        register_law(name, psi)
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.bulk"):
+        for dim in (2, 3):
+            check_law("hand", E, NU, dim, "k")
+            check_law("neo-hookean", E, NU, dim, "k")  # built in: not checked
+        assert caplog.records == []
+        check_law("fixed", E, NU, 3, "k")
+        (rec,) = caplog.records
+        assert "'fixed': its small-strain moduli at F = I are E = 100, nu = 0.25" in rec.message
+        caplog.clear()
+        check_law("pre", E, NU, 2, "k")
+        (rec,) = caplog.records
+        assert "'pre' is not stress-free at F = I (largest |P_ij| = 3)" in rec.message
