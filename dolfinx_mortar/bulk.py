@@ -97,7 +97,9 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
     """Raise SceneError(``key``) unless the registered law ``model`` with the material's
     ``E`` and ``nu`` gives a UFL scalar for a d × d deformation gradient (d = ``gdim``)
     that UFL can differentiate (local and deterministic: every rank raises the same
-    error). Built-in laws pass."""
+    error); then warns where the law is not stress-free at F = I or its small-strain
+    moduli there are not ``E`` and ``nu`` (:func:`_check_reference_state`). Built-in laws
+    pass unchecked."""
     psi = registered_law(model)
     if psi is None:
         return
