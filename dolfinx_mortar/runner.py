@@ -14,6 +14,7 @@ from time import perf_counter
 import numpy as np
 
 from .errors import ConvergenceError, SceneError
+from .laws import registered_law
 from .mesh import load_mesh
 from .scene import Scene, check_components, check_groups
 
@@ -91,6 +92,18 @@ def prepare(scene: Scene, comm, setup=None):
     return problem, mesh_data
 
 
+def _law_origin(name: str) -> str:
+    """``module.qualname (file)`` of the psi registered under ``name``."""
+    import inspect
+
+    psi = registered_law(name)
+    where = f"{getattr(psi, '__module__', '?')}.{getattr(psi, '__qualname__', repr(psi))}"
+    try:
+        return f"{where} ({inspect.getsourcefile(psi)})"
+    except TypeError:  # not a Python function (a builtin, a C callable)
+        return where
+
+
 def modelled(scene: Scene, problem) -> dict:
     """What the run models (summary.json ``modelled``)."""
     from .solver import FIRST_CONTACT_DEPTH_LIMIT
@@ -99,6 +112,8 @@ def modelled(scene: Scene, problem) -> dict:
         "dimension": problem.gdim,
         "kinematics": scene.kinematics,
         "materials": {m.region: m.model for m in scene.materials},
+        # the registered laws the materials name: where their psi is defined
+        "laws": {m.model: _law_origin(m.model) for m in scene.materials if registered_law(m.model)},
         # linear: every region linear-elastic, stiffness assembled once (problem.LinearBulk)
         "bulk": "linear" if problem.linear_bulk is not None else "nonlinear",
         "displacement_degree": problem.degree,

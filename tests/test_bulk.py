@@ -287,6 +287,8 @@ def test_registered_law_uniaxial_stretch(block_msh, shared_tmp, no_laws, dim):
     s = run(_scene(msh, dim, "hand-neo-hooke", "finite", (stretch - 1) * L, out), MPI.COMM_WORLD)
     assert s["status"] == "ok"
     assert s["modelled"]["materials"] == {"body": "hand-neo-hooke"}
+    origin = s["modelled"]["laws"]["hand-neo-hooke"]
+    assert origin.startswith("test_bulk._hand_neo_hooke (") and origin.endswith("test_bulk.py)")
     assert s["modelled"]["bulk"] == "nonlinear" and s["modelled"]["jacobian_symmetric"]
     assert _reaction_right(s) == pytest.approx(_neo_hooke_uniaxial(stretch, dim), rel=1e-8)
 

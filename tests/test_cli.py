@@ -537,6 +537,7 @@ def test_laws_file(workdir, ranks):
     summary = json.loads((workdir / "law_out" / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["ranks"] == n
     assert summary["modelled"]["materials"] == {"body": "hand-neo-hooke"}
+    assert summary["modelled"]["laws"]["hand-neo-hooke"].endswith(".psi (laws.py)")
     res = cli(workdir, "run", "law.toml", ranks=ranks)
     _one_error_line(res, n, "material[0].model", "dolfinx_mortar.register_law")
     res = cli(workdir, "check", "law.toml", "--laws", "missing.py", ranks=ranks)
