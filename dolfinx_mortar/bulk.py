@@ -34,16 +34,16 @@ from ufl.algorithms import expand_derivatives
 from .errors import SceneError
 from .laws import BUILTIN_MODELS, registered_law
 
+log = logging.getLogger(__name__)
+
 MODELS = BUILTIN_MODELS
+#: the laws whose residual is linear in u (a bulk of these alone is assembled once:
+#: problem.LinearBulk)
+LINEAR_MODELS = ("linear-elastic",)
 #: A registered law whose small-strain moduli at F = I (from ∂²ψ/∂F²) differ from the
 #: material's E (relative) or ν (absolute) by more than this gets a warning
 #: (:func:`check_law`): the contact pairs read E* from the material's values.
 MODULI_TOL = 1e-3
-
-log = logging.getLogger(__name__)
-#: the laws whose residual is linear in u (a bulk of these alone is assembled once:
-#: problem.LinearBulk)
-LINEAR_MODELS = ("linear-elastic",)
 
 
 def lame(E: float, nu: float) -> tuple[float, float]:
