@@ -334,10 +334,15 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     """In 3D, ``"auto"`` keeps Aitken on a frictional pair (the finite-difference products
     cost a 3D search each); ``"newton"`` on request works there: the 3D frictional patch
     test in uniform sliding (two steps) reaches the same contact forces in each step
-    (the applied traction at the end, [−1, 0, 2], to 1e-12) in fewer rounds, every
-    update exact.
+    (the applied traction at the end, [−1, 0, 2], to 1e-12) in fewer rounds in all,
+    every update exact.
     Measured serially: 12 + 2 Newton iterations in 7 + 2 rounds with Aitken, 7 + 2 in 3 + 2
-    with the exact update; 1–3 ranks."""
+    with the exact update; 1–3 ranks. A step may take one round more than Aitken's: the
+    second step's update leaves a multiplier change of 8e-11 … 1.3e-10 against
+    uzawa_tol = 1e-9 (six runs on 3 ranks), the round-off of its finite-difference
+    products (step 1e-7) being near that tolerance, and MUMPS's parallel factorization
+    varies at round-off between runs; once (session 35, 3 ranks, the whole suite) it left
+    more than 1e-9 and the step took 3 rounds against Aitken's 2."""
     import sys
     from pathlib import Path
 
@@ -355,8 +360,10 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
         for acc, o in out.items()
     }
     assert resolved == {"auto": "aitken", "newton": "newton"}
+    rounds = {acc: [st["uzawa_rounds"] for st in o["steps"]] for acc, o in out.items()}
+    assert sum(rounds["newton"]) < sum(rounds["auto"]), rounds
     for sa, sn in zip(out["auto"]["steps"], out["newton"]["steps"], strict=True):
-        assert sn["uzawa_rounds"] <= sa["uzawa_rounds"]
+        assert sn["uzawa_rounds"] <= sa["uzawa_rounds"] + 1, rounds
         updates = [next(iter(r.values())) for r in sn["uzawa"][:-1]]
         assert all(u["exact_update"].startswith("newton") for u in updates)
         fa, fn = (np.asarray(next(iter(o["contact_force"].values()))) for o in (sa, sn))
