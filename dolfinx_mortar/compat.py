@@ -19,6 +19,7 @@ from petsc4py import PETSc
 
 __all__ = [
     "vector_space",
+    "facet_submesh",
     "model_to_mesh",
     "tagged_entities",
     "global_dof_numbers",
@@ -34,6 +35,15 @@ __all__ = [
 def vector_space(mesh, degree: int):
     """Vector Lagrange space of the given degree on ``mesh`` (block size = gdim)."""
     return fem.VectorFunctionSpace(mesh, ("CG", degree))
+
+
+def facet_submesh(mesh, facets: np.ndarray):
+    """The facets ``facets`` (local indices) of ``mesh`` as a mesh of their own
+    (collective). dolfinx 0.5.2 builds curved (P2) facets with a wrong geometry, so the
+    caller must only ask for affine ones."""
+    from dolfinx.mesh import create_submesh
+
+    return create_submesh(mesh, mesh.topology.dim - 1, facets)[0]
 
 
 def model_to_mesh(model, comm, gdim: int):

@@ -6,7 +6,11 @@
   reference coordinates, identical for any number of ranks;
 - ``fields.xdmf`` (+ ``.h5``): displacement and the contact fields (pressure,
   gap, state; tangential traction and slip where friction is modelled) as
-  nodal functions of the mesh's degree, zero away from slave surfaces.
+  nodal functions of the mesh's degree, zero away from slave surfaces;
+- ``contact_<SLAVE>.xdmf`` (+ ``.h5``), one per slave surface: the same fields on the
+  slave surface as a mesh of its own (its facets), for plots of the contact zone alone;
+  on meshes with affine facets (dolfinx 0.5.2 cannot cut out curved ones; then only
+  ``fields.xdmf`` has them).
 """
 
 from __future__ import annotations
@@ -19,6 +23,9 @@ from pathlib import Path
 
 import numpy as np
 from dolfinx import fem, io
+from scipy.spatial import cKDTree
+
+from . import compat
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +65,53 @@ def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
     )
 
 
+class SurfaceFields:
+    """The nodal fields of a volume mesh restricted to one of its facet groups, written as
+    ``contact_<name>.xdmf`` on that surface's own mesh (collective construction and
+    writes).
+
+    ``Q``: the scalar Lagrange space of the volume fields (its dofs, in blocks, are those
+    of the displacement space: the same element, the same layout); ``facets``: local
+    indices of the group's facets. Each OWNED surface dof is matched, on its rank, to the
+    volume dof at the same coordinates (a k-d tree over the rank's volume dofs):
+    ``parent`` (n_owned_surface_dofs,) holds their local indices; the surface's ghost
+    values then come from their owners."""
+
+    def __init__(self, path: Path, Q, facets: np.ndarray):
+        mesh, comm = Q.mesh, Q.mesh.comm
+        self.surface = compat.facet_submesh(mesh, facets)
+        degree = Q.ufl_element().degree()
+        self.Q = fem.FunctionSpace(self.surface, ("CG", degree))
+        self.V = compat.vector_space(self.surface, degree)
+        owned = self.Q.dofmap.index_map.size_local
+        x_sur = self.Q.tabulate_dof_coordinates()[:owned]
+        x_vol = Q.tabulate_dof_coordinates()
+        dist, self.parent = cKDTree(x_vol).query(x_sur)
+        scale = max(float(np.ptp(x_vol, axis=0).max(initial=0.0)) if x_vol.size else 0.0, 1e-300)
+        lost = comm.allreduce(int(np.sum(dist > 1e-10 * scale)))
+        if lost:  # on every rank, so that none waits in a collective
+            raise RuntimeError(f"{path.name}: {lost} surface dof(s) without a volume dof")
+        self.file = io.XDMFFile(comm, str(path), "w")
+        self.file.write_mesh(self.surface)
+        self._functions: dict[str, fem.Function] = {}
+
+    def write(self, f: fem.Function, t: float) -> None:
+        """Write the volume function ``f`` (scalar on Q, or vector on the displacement
+        space) restricted to the surface, at time t (collective)."""
+        name = f.name
+        g = self._functions.get(name)
+        if g is None:
+            space = self.V if f.function_space.dofmap.index_map_bs > 1 else self.Q
+            g = self._functions[name] = fem.Function(space, name=name)
+        bs = g.function_space.dofmap.index_map_bs
+        g.x.array.reshape(-1, bs)[: self.parent.size] = f.x.array.reshape(-1, bs)[self.parent]
+        g.x.scatter_forward()
+        self.file.write_function(g, t)
+
+    def close(self) -> None:
+        self.file.close()
+
+
 class OutputWriter:
     """Writes a run's files into ``out_dir`` (collective: every rank calls every method).
 
@@ -80,6 +134,7 @@ class OutputWriter:
         self.fields = tuple(fields)
         self._xdmf = None
         self._contact_functions = {}
+        self._surfaces: list[SurfaceFields] = []
 
     def start(self) -> None:
         """Create the directory, remove the contact CSV files a previous run of the same
@@ -108,13 +163,29 @@ class OutputWriter:
             for key, name in names.items():
                 if key in self.fields or key == "slip":
                     self._contact_functions[key] = fem.Function(Q, name=name)
+            self._start_surfaces(Q)
         self.write_step(0, 0.0, None)
+
+    def _start_surfaces(self, Q) -> None:
+        """One :class:`SurfaceFields` per slave surface, on meshes with affine facets."""
+        p = self.problem
+        if p.mesh.geometry.cmap.degree > 1:
+            log.info("contact_<SLAVE>.xdmf not written: curved facets (dolfinx 0.5.2)")
+            return
+        md = p.mesh_data
+        for name in dict.fromkeys(term.slave_name for term in p.contacts):
+            facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
+            self._surfaces.append(SurfaceFields(self.out_dir / f"contact_{name}.xdmf", Q, facets))
 
     def write_step(self, step: int, t: float, record: dict | None) -> None:
         """Write the state of converged step ``step`` at time t; ``record`` joins summary.json."""
         p = self.problem
         if "displacement" in self.fields:
             self._xdmf.write_function(p.u, t)
+            if self._surfaces:
+                p.u.x.scatter_forward()
+                for surface in self._surfaces:
+                    surface.write(p.u, t)
         for term in p.contacts:
             table = term.node_table()  # gathered on rank 0
             if self.comm.rank == 0:
@@ -129,6 +200,8 @@ class OutputWriter:
             for f in self._contact_functions.values():
                 f.x.scatter_forward()
                 self._xdmf.write_function(f, t)
+                for surface in self._surfaces:
+                    surface.write(f, t)
         if record is not None:
             self.summary["steps"].append(record)
         self._flush()
@@ -142,6 +215,9 @@ class OutputWriter:
         if self._xdmf is not None:
             self._xdmf.close()
             self._xdmf = None
+        for surface in self._surfaces:
+            surface.close()
+        self._surfaces = []
         self._flush()
 
     def _flush(self) -> None:

@@ -1,0 +1,115 @@
+"""The slave-surface XDMF files (``contact_<SLAVE>.xdmf``, output.SurfaceFields), serial
+and under MPI: the surface mesh is the facet group, and each surface dof carries the
+volume field's value at its place."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dolfinx_mortar import compat
+from dolfinx_mortar.mesh import load_mesh
+from dolfinx_mortar.output import SurfaceFields
+
+DEMOS = Path(__file__).resolve().parents[1] / "demos"
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim, quads", [(2, False), (2, True), (3, False), (3, True)])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads, degree):
+    """A scalar and a vector field of the block restricted to its top face: every surface
+    dof (owned and ghost) holds the volume field's value at its coordinates, which for
+    these polynomials is the expression itself, to round-off; the surface has the face's
+    facets."""
+    from dolfinx import fem
+
+    md = load_mesh(MPI.COMM_WORLD, file=block_msh(dim, n=2, quads=quads))
+    Q = fem.FunctionSpace(md.mesh, ("CG", degree))
+    V = compat.vector_space(md.mesh, degree)
+    f = fem.Function(Q, name="scalar")
+    f.interpolate(lambda x: 1.0 + x[0] + 2.0 * x[1] ** degree - 3.0 * x[2])
+    u = fem.Function(V, name="vector")
+    u.interpolate(lambda x: np.array([x[c] ** degree + c for c in range(dim)]))
+    facets = compat.tagged_entities(md.facet_tags, md.facet_groups["top"])
+    path = shared_tmp / f"top_{dim}{quads}{degree}.xdmf"
+    surface = SurfaceFields(path, Q, facets)
+    surface.write(f, 0.0)
+    surface.write(u, 0.0)
+    surface.close()
+    # owned dofs: dolfinx 0.5.2 gives a submesh's ghost vertices no coordinates (0, 0, 0),
+    # so tabulate_dof_coordinates cannot check the ghosts; their values are the owners'
+    n = surface.Q.dofmap.index_map.size_local
+    x = surface.Q.tabulate_dof_coordinates()[:n]
+    g = surface._functions["scalar"].x.array[:n]
+    w = surface._functions["vector"].x.array.reshape(-1, dim)[:n]
+    err = [
+        np.abs(g - (1.0 + x[:, 0] + 2.0 * x[:, 1] ** degree - 3.0 * x[:, 2])).max(initial=0.0),
+        *(np.abs(w[:, c] - (x[:, c] ** degree + c)).max(initial=0.0) for c in range(dim)),
+        np.abs(x[:, 1] - 1.0).max(initial=0.0),  # the top face, y = 1
+    ]
+    comm = MPI.COMM_WORLD
+    err = comm.allreduce(max(err), op=MPI.MAX)  # every rank asserts the same
+    assert err <= 1e-12, err
+    assert comm.allreduce(n) == comm.allreduce(
+        int(
+            np.sum(
+                np.abs(Q.tabulate_dof_coordinates()[: Q.dofmap.index_map.size_local, 1] - 1.0)
+                < 1e-12
+            )
+        )
+    )
+    fdim = dim - 1
+    cells = surface.surface.topology.index_map(fdim).size_local
+    owned = md.mesh.topology.index_map(fdim).size_local
+    assert comm.allreduce(cells) == comm.allreduce(int(np.sum(facets < owned)))
+
+
+def _xdmf_counts(path: Path) -> tuple[int, int]:
+    """(number of surface cells, number of time stamps) of an XDMF file written by dolfinx."""
+    text = path.read_text()
+    cells = int(re.search(r'NumberOfElements="(\d+)"', text).group(1))
+    return cells, len(re.findall(r"<Time Value=", text))
+
+
+@pytest.mark.mpi
+def test_a_run_writes_the_slave_surface(shared_tmp):
+    """The hertz2d demo's run writes contact_cylinder_surface.xdmf: the slave facets
+    (summary.json's slave_facets), with contact_pressure, gap and contact_state at step 0
+    and after each of the 4 steps; the P2 mesh (curved facets) writes none, and
+    fields.xdmf has the fields either way."""
+    sys.path.insert(0, str(DEMOS))
+    import demo_hertz2d
+
+    out = shared_tmp / "surface_q1"
+    demo_hertz2d.main(["--out", str(out)])
+    out2 = shared_tmp / "surface_p2"
+    demo_hertz2d.main(["--out", str(out2), "--order", "2", "--steps", "1"])
+    # the surface mesh, read back by dolfinx (collective), has the CSV's slave nodes
+    from dolfinx import io
+    from scipy.spatial import cKDTree
+
+    comm = MPI.COMM_WORLD
+    with io.XDMFFile(comm, str(out / "contact_cylinder_surface.xdmf"), "r") as xf:
+        mesh = xf.read_mesh(name="mesh")
+    x = np.concatenate(comm.allgather(mesh.geometry.x[:, :2]))
+    if comm.rank == 0:
+        table = np.loadtxt(out / "contact_cylinder_surface_0.csv", delimiter=",", skiprows=1)
+        X = table[:, 2:4]  # the reference coordinates (CSV_FIELDS_2D)
+        assert cKDTree(X).query(x)[0].max() <= 1e-12
+        assert len(np.unique(x.round(12), axis=0)) == len(X)
+    if comm.rank == 0:
+        import json
+
+        summary = json.loads((out / "summary.json").read_text())
+        pair = next(iter(summary["modelled"]["contact_pairs"].values()))
+        cells, stamps = _xdmf_counts(out / "contact_cylinder_surface.xdmf")
+        assert cells == pair["slave_facets"]
+        assert stamps == 3 * 5
+        assert not (out2 / "contact_cylinder_surface.xdmf").exists()
+        assert (out2 / "fields.xdmf").is_file()
