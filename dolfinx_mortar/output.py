@@ -73,9 +73,10 @@ class SurfaceFields:
     ``Q``: the scalar Lagrange space of the volume fields (its dofs, in blocks, are those
     of the displacement space: the same element, the same layout); ``facets``: local
     indices of the group's facets. Each OWNED surface dof is matched, on its rank, to the
-    volume dof at the same coordinates (a k-d tree over the rank's volume dofs):
-    ``parent`` (n_owned_surface_dofs,) holds their local indices; the surface's ghost
-    values then come from their owners."""
+    volume dof at the same coordinates among the dofs of those facets (a k-d tree; not
+    among all dofs: a touching body can have a node at the same place): ``parent``
+    (n_owned_surface_dofs,) holds their local indices; the surface's ghost values then
+    come from their owners."""
 
     def __init__(self, path: Path, Q, facets: np.ndarray):
         mesh, comm = Q.mesh, Q.mesh.comm
@@ -85,8 +86,13 @@ class SurfaceFields:
         self.V = compat.vector_space(self.surface, degree)
         owned = self.Q.dofmap.index_map.size_local
         x_sur = self.Q.tabulate_dof_coordinates()[:owned]
-        x_vol = Q.tabulate_dof_coordinates()
-        dist, self.parent = cKDTree(x_vol).query(x_sur)
+        mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+        candidates = fem.locate_dofs_topological(Q, mesh.topology.dim - 1, facets)
+        x_vol = Q.tabulate_dof_coordinates()[candidates]
+        dist, nearest = cKDTree(x_vol).query(x_sur) if x_vol.size else (np.zeros(0), [])
+        if x_vol.size == 0 and owned:
+            dist = np.full(owned, np.inf)
+        self.parent = np.asarray(candidates, dtype=np.int64)[np.asarray(nearest, dtype=np.int64)]
         scale = max(float(np.ptp(x_vol, axis=0).max(initial=0.0)) if x_vol.size else 0.0, 1e-300)
         lost = comm.allreduce(int(np.sum(dist > 1e-10 * scale)))
         if lost:  # on every rank, so that none waits in a collective

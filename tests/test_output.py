@@ -70,6 +70,35 @@ def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads
     assert comm.allreduce(cells) == comm.allreduce(int(np.sum(facets < owned)))
 
 
+@pytest.mark.mpi
+def test_surface_fields_take_the_slave_body_where_bodies_touch(shared_tmp):
+    """hertz2d's cylinder touches the block at t = 0: its bottom node and the block's top
+    node share their coordinates. A field that is 1 on the cylinder and 0 on the block,
+    restricted to the cylinder's surface, is 1 at every owned surface dof, the touching
+    node included (the match looks among the surface's own dofs only)."""
+    from dolfinx import fem
+
+    md = load_mesh(MPI.COMM_WORLD, generator="hertz2d")
+    Q = fem.FunctionSpace(md.mesh, ("CG", 1))
+    f = fem.Function(Q, name="body")
+    cylinder = md.cell_tags.find(md.cell_groups["cylinder"])
+    f.interpolate(lambda x: np.ones(x.shape[1]), cylinder)
+    f.x.scatter_forward()
+    facets = compat.tagged_entities(md.facet_tags, md.facet_groups["cylinder_surface"])
+    surface = SurfaceFields(shared_tmp / "touch.xdmf", Q, facets)
+    surface.write(f, 0.0)
+    surface.close()
+    n = surface.Q.dofmap.index_map.size_local
+    x = surface.Q.tabulate_dof_coordinates()[:n]
+    comm = MPI.COMM_WORLD
+    worst = comm.allreduce(
+        np.abs(surface._functions["body"].x.array[:n] - 1.0).max(initial=0), op=MPI.MAX
+    )
+    at_apex = comm.allreduce(int(np.sum(np.linalg.norm(x[:, :2], axis=1) < 1e-12)))
+    assert at_apex == 1  # the touching node is on the surface, once
+    assert worst == 0.0
+
+
 def _xdmf_counts(path: Path) -> tuple[int, int]:
     """(number of surface cells, number of time stamps) of an XDMF file written by dolfinx."""
     text = path.read_text()
