@@ -23,6 +23,7 @@ element rule (≤ 2 %) with ``element``.
 Run::
 
     mpirun -n 2 python3 demos/demo_friction_patch.py [--dim 3] [--mode slide] [--integration segment]
+        [--uzawa-acceleration newton]
 """
 
 from __future__ import annotations
@@ -138,14 +139,20 @@ def evaluate(summary: dict, out_dir, dim: int, mode: str) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser("Frictional contact patch test", "results/demo_friction_patch", frame=True)
+    ap = cm.parser(
+        "Frictional contact patch test",
+        "results/demo_friction_patch",
+        frame=True,
+        acceleration=True,
+    )
     ap.add_argument("--dim", type=int, choices=(2, 3), default=2, help="dimension [2]")
     ap.add_argument("--mode", choices=("stick", "slide"), default="stick", help="[stick]")
     ap.add_argument("--tri", action="store_true", help="triangles/tetrahedra")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sc = scene(args.dim, args.mode, args.integration, args.refine, quads=not args.tri)
-    summary, wall = cm.run_scene(cm.set_frame(sc, args.frame), args.out, comm)
+    cm.set_acceleration(cm.set_frame(sc, args.frame), args.uzawa_acceleration)
+    summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, args.dim, args.mode, comm=comm)
     m["wall_time"] = wall
     cm.report(

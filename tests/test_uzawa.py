@@ -338,11 +338,11 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     every update exact.
     Measured serially: 12 + 2 Newton iterations in 7 + 2 rounds with Aitken, 7 + 2 in 3 + 2
     with the exact update; 1–3 ranks. A step may take one round more than Aitken's: the
-    second step's update leaves a multiplier change of 8e-11 … 1.3e-10 against
-    uzawa_tol = 1e-9 (six runs on 3 ranks), the round-off of its finite-difference
-    products (step 1e-7) being near that tolerance, and MUMPS's parallel factorization
-    varies at round-off between runs; once (session 35, 3 ranks, the whole suite) it left
-    more than 1e-9 and the step took 3 rounds against Aitken's 2."""
+    second step's update leaves a multiplier change of about 2e-10 against
+    uzawa_tol = 1e-9 (BENCHMARKS §32), the round-off of its finite-difference products
+    (step 1e-7) being near that tolerance, and MUMPS's parallel factorization varies at
+    round-off between runs; once (session 35, 3 ranks, the whole suite) it left more than
+    1e-9 and the step took 3 rounds against Aitken's 2."""
     import sys
     from pathlib import Path
 
