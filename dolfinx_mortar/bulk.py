@@ -32,11 +32,10 @@ import ufl
 from ufl.algorithms import expand_derivatives
 
 from .errors import SceneError
-from .laws import BUILTIN_MODELS, registered_law
+from .laws import registered_law
 
 log = logging.getLogger(__name__)
 
-MODELS = BUILTIN_MODELS
 #: the laws whose residual is linear in u (a bulk of these alone is assembled once:
 #: problem.LinearBulk)
 LINEAR_MODELS = ("linear-elastic",)
