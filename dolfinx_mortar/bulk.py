@@ -113,25 +113,25 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
             raise SceneError(
                 key, f"law {model!r}: psi(F, E, nu) must return a UFL scalar, got {what}"
             )
-        ufl.diff(value, F)
+        P = expand_derivatives(ufl.diff(value, F))
     except SceneError:
         raise
     except Exception as exc:  # whatever the user's function raises
         raise SceneError(
             key, f"law {model!r}: psi(F, E, nu) failed: {type(exc).__name__}: {exc}"
         ) from None
-    _check_reference_state(model, value, F, u, E, nu, gdim)
+    _check_reference_state(model, P, F, u, E, nu, gdim)
 
 
-def _check_reference_state(model: str, psi, F, u, E: float, nu: float, gdim: int) -> None:
-    """Warn where the law ``psi`` (UFL scalar of the variable F = I + ∇u) is not stress-free
-    at F = I, or where its small-strain Lamé constants λ = ∂²ψ/∂F₁₁∂F₂₂ and
-    μ = ∂²ψ/∂F₁₂∂F₁₂ at F = I give another E or ν than the material's (by MODULI_TOL). A
-    law whose derivatives UFL cannot evaluate there is not checked."""
+def _check_reference_state(model: str, P, F, u, E: float, nu: float, gdim: int) -> None:
+    """Warn where a law with first Piola stress ``P`` = ∂ψ/∂F (UFL, of the variable
+    F = I + ∇u) is not stress-free at F = I, or where its small-strain Lamé constants
+    λ = ∂²ψ/∂F₁₁∂F₂₂ and μ = ∂²ψ/∂F₁₂∂F₁₂ at F = I give another E or ν than the
+    material's (by MODULI_TOL). A law whose derivatives UFL cannot evaluate there is not
+    checked."""
     zero = ufl.as_vector([0.0] * gdim)
     try:
-        P = expand_derivatives(ufl.diff(psi, F))
-        A = expand_derivatives(ufl.diff(ufl.diff(psi, F), F))
+        A = expand_derivatives(ufl.diff(P, F))
         P0 = ufl.replace(P, {u: zero})
         A0 = ufl.replace(A, {u: zero})
         stress = max(abs(float(P0[i, j])) for i in range(gdim) for j in range(gdim))

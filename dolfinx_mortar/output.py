@@ -89,14 +89,14 @@ class SurfaceFields:
         mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
         candidates = fem.locate_dofs_topological(Q, mesh.topology.dim - 1, facets)
         x_vol = Q.tabulate_dof_coordinates()[candidates]
-        dist, nearest = cKDTree(x_vol).query(x_sur) if x_vol.size else (np.zeros(0), [])
-        if x_vol.size == 0 and owned:
-            dist = np.full(owned, np.inf)
-        self.parent = np.asarray(candidates, dtype=np.int64)[np.asarray(nearest, dtype=np.int64)]
-        scale = max(float(np.ptp(x_vol, axis=0).max(initial=0.0)) if x_vol.size else 0.0, 1e-300)
-        lost = comm.allreduce(int(np.sum(dist > 1e-10 * scale)))
+        lost, nearest = owned, np.zeros(0, np.int64)
+        if x_vol.size:
+            dist, nearest = cKDTree(x_vol).query(x_sur)
+            lost = int(np.sum(dist > 1e-10 * max(float(np.ptp(x_vol, axis=0).max()), 1e-300)))
+        lost = comm.allreduce(lost)
         if lost:  # on every rank, so that none waits in a collective
             raise RuntimeError(f"{path.name}: {lost} surface dof(s) without a volume dof")
+        self.parent = np.asarray(candidates, dtype=np.int64)[nearest]
         self.file = io.XDMFFile(comm, str(path), "w")
         self.file.write_mesh(self.surface)
         self._functions: dict[str, fem.Function] = {}
