@@ -12,7 +12,8 @@ checks stay light):
 - :func:`run` (:mod:`dolfinx_mortar.runner`): run a scene, write its outputs
 - :class:`ContactProblem` (:mod:`dolfinx_mortar.problem`) and
   :class:`MortarContact` (:mod:`dolfinx_mortar.contact`): the problem side
-- :class:`NewtonSolver`, :class:`LoadStepper` (:mod:`dolfinx_mortar.solver`)
+- :class:`NewtonSolver`, :class:`SolverSettings`, :class:`LoadStepper`
+  (:mod:`dolfinx_mortar.solver`)
 - :func:`register_law` (:mod:`dolfinx_mortar.laws`): a UFL stored-energy law of your
   own, named as ``model`` in a scene
 - :class:`SceneError`, :class:`ConvergenceError`

@@ -1,4 +1,5 @@
-"""Command line: ``dolfinx-mortar run | check | generators | bench`` (or ``python3 -m`` it).
+"""Command line: ``dolfinx-mortar run | check | generators | bench`` (or Debian's
+``/usr/bin/python3 -m dolfinx_mortar``).
 
 ``run`` and ``check`` take ``--laws FILE``: a Python file, run on every rank before the
 scene is read, that registers bulk laws of one's own (:func:`dolfinx_mortar.register_law`)
@@ -44,7 +45,9 @@ class _Versions(argparse.Action):
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="dolfinx-mortar", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(
+        prog="dolfinx-mortar", description=__doc__.split("\n\n")[0].replace("``", "")
+    )
     p.add_argument("--version", action=_Versions, help="print the versions and exit")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene (under mpirun for several ranks)")
@@ -97,7 +100,9 @@ def _parser() -> argparse.ArgumentParser:
         help="recovery(ies) to run, each a curve of the plots [lumped]",
     )
     b.add_argument(
-        "--tiny", action="store_true", help="coarse level 0 (h_contact 0.4 in 2D): a smoke run"
+        "--tiny",
+        action="store_true",
+        help="coarser level-0 meshes (bench.TINY_H0: h_contact 0.4 for hertz2d): a smoke run",
     )
     return p
 

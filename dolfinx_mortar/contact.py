@@ -506,7 +506,8 @@ class MortarContact:
         "newton": the exact update of :meth:`_exact_multipliers` (frictionless) or
         :meth:`_exact_multipliers_fd` (friction), pairs with the lumped recovery (and
         lumped tangential recovery) only, otherwise ValueError; "auto", the default:
-        "newton" where it applies, "aitken" elsewhere, :func:`resolve_acceleration`).
+        "newton" where it applies, except with friction in 3D, "aitken" elsewhere,
+        :func:`resolve_acceleration`).
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
@@ -1818,7 +1819,7 @@ class MortarContact:
 
         with γ_h = Σ_J Φ_J γ^J and p_h = Σ_J Φ_J p^J at ξ_q (the nodal γ^I, p^I and no
         derivative on a partially paired facet, whose block of M is lumped). The motion of
-        the points in the slip integrals of friction: :meth:`_segment_slip_rows`."""
+        the points in the slip integrals of friction: :meth:`_segment_slip_motion`."""
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
         k, nloc = d - 1, (ns + nm) * d
         fr_, qr = np.nonzero(self.qp_m >= 0)

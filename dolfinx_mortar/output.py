@@ -125,7 +125,8 @@ class OutputWriter:
     ----------
     out_dir: output directory (created on the first write, never before).
     problem: the ContactProblem (its ``u``, ``V`` and contact terms are read).
-    summary: the run-level part of summary.json (scene, modelled, ranks, dofs).
+    summary: the run-level part of summary.json (scene, source, modelled, ranks, dofs,
+        versions).
     fields: the output field names requested by the scene.
     """
 

@@ -2,13 +2,17 @@
 
 The problem knows how to evaluate the residual R(u) and its Jacobian at a
 given time t; it knows nothing about Newton, load stepping or Uzawa rounds,
-which belong to :mod:`dolfinx_mortar.solver`. Contact terms plug in through a
-small interface (:class:`ContactTerm`): they are updated before every residual
-evaluation (search and pairing), add their residual and Jacobian contributions
-with global PETSc indices, report the dof couplings for the sparsity pattern,
-and update their multipliers in the solver's Uzawa loop.
+which belong to :mod:`dolfinx_mortar.solver`. Contact terms
+(:class:`dolfinx_mortar.contact.MortarContact`, added with :meth:`ContactProblem.add_contact`)
+are updated before every residual evaluation (``update``: search and pairing), add their
+residual and Jacobian contributions with global PETSc indices (``add_residual``,
+``add_jacobian``), report the dof couplings for the sparsity pattern
+(``block_couplings``, ``coupling_cover``), and update their multipliers in the solver's
+Uzawa loop (``uzawa_update``); the other hooks ContactProblem calls follow the step's
+life cycle (``begin_step``, ``begin_solve``, ``commit_step``, ``restore_step``).
 
-Sign convention: R(u) = F_int(u) − F_ext(t) − F_contact(u); the reaction of a
+Sign convention: R(u) = F_int(u) − F_ext(t) − F_contact(u), F_contact the nodal forces
+of the contact tractions on the bodies; the reaction of a
 Dirichlet boundary (the force it exerts on the body) is the sum of R over that
 boundary's dofs, per component.
 """
@@ -724,7 +728,7 @@ class ContactProblem:
 
     def reactions(self) -> dict[str, list[float]]:
         """Force (gdim components) each Dirichlet boundary exerts on the bodies at the
-        current state: the residual without the conditions, R = f_int + f_contact − f_ext,
+        current state: the residual without the conditions, R = F_int − F_ext − F_contact,
         summed over the boundary's owned dofs (collective).
 
         A boundary has reactions only in the components it prescribes (a symmetry plane
@@ -759,7 +763,7 @@ class ContactProblem:
         return self.V.tabulate_dof_coordinates()[nodes], F
 
     def _residual_without_bcs(self) -> np.ndarray:
-        """The local residual R = f_int + f_contact − f_ext at the current state, Dirichlet
+        """The local residual R = F_int − F_ext − F_contact at the current state, Dirichlet
         rows included (collective); a copy of the owned entries, (owned dofs,)."""
         b = create_vector(self.F_form)
         self.update_contact(self.u.vector)

@@ -22,7 +22,8 @@ Schema (``*`` = required; defaults in brackets)::
 
     [[material]] *   one or more; distinct regions
       region *   string, physical group of cells
-      model *    "neo-hookean" | "saint-venant-kirchhoff" | "linear-elastic"
+      model *    "neo-hookean" | "saint-venant-kirchhoff" | "linear-elastic" | a law
+                 registered with dolfinx_mortar.register_law (``--laws FILE``)
                  (kinematics "small" requires "linear-elastic"; "finite" forbids it)
       E *        float > 0 (Young's modulus, stress units)
       nu *       float in (-1, 0.5) (Poisson's ratio)
@@ -47,7 +48,7 @@ Schema (``*`` = required; defaults in brackets)::
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
                  ("newton": recovery = "lumped" and, with friction,
                  tangential_recovery = "lumped" only; "auto": "newton" where it
-                 applies, "aitken" elsewhere)
+                 applies, except with friction in 3D, "aitken" elsewhere)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -172,7 +173,8 @@ TANGENTIAL_WEIGHTS = ("auto", "dual", "standard")
 #: "Friction"; :class:`dolfinx_mortar.friction.MasterFrames`).
 TANGENTIAL_FRAMES = ("slave", "master")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
-#: augmentation"; the first is the default: "newton" where it applies, else "aitken").
+#: augmentation"; the first is the default: "newton" where it applies, except with friction
+#: in 3D, else "aitken").
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
 
 
@@ -234,7 +236,8 @@ class Material:
     region:
         Name of the physical group of cells.
     model:
-        ``"neo-hookean"``, ``"saint-venant-kirchhoff"`` or ``"linear-elastic"``.
+        ``"neo-hookean"``, ``"saint-venant-kirchhoff"``, ``"linear-elastic"`` or the
+        name of a law registered with :func:`dolfinx_mortar.register_law`.
     E:
         Young's modulus (stress unit, e.g. MPa), > 0.
     nu:
@@ -293,7 +296,8 @@ class ContactPair:
         relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
         ``"newton"`` (the exact update of the multipliers; pairs with the lumped
         recovery, and with friction the lumped tangential recovery, only) or ``"auto"``
-        (default: ``"newton"`` where it applies, ``"aitken"`` on the other pairs).
+        (default: ``"newton"`` where it applies, except with friction in 3D, ``"aitken"``
+        on the other pairs; :func:`dolfinx_mortar.contact.resolve_acceleration`).
     """
 
     slave: str

@@ -86,7 +86,8 @@ class SolverSettings:
 
 
 #: The penetration limit of the Newton steps of a first-contact solve (a solve that starts
-#: with no active node on the pair: ``MortarContact.first_contact``) when the settings'
+#: with no active node on the pair, or on a pair that has carried no load yet:
+#: ``MortarContact.first_contact``) when the settings'
 #: ``step_depth_limit`` is 0; in units of h_I; 0 = off. A displacement-driven press from
 #: the open state otherwise plunges the slave body into the master at the first Newton
 #: step (peers problem B, level 3: 2.6 h deep, 13 → 22 → 35 → 6 → 34 active nodes over
