@@ -197,6 +197,15 @@ class ContactProblem:
                 _Dirichlet(name, comps, np.asarray(path, float), consts, bcs, by_comp)
             )
         self._fields = []  # (function, field, components) of add_dirichlet_field
+        x = mesh.geometry.x[:, :gdim]
+        box = (
+            np.concatenate([-x.min(axis=0), x.max(axis=0)])
+            if x.size
+            else np.full(2 * gdim, -np.inf)
+        )
+        self.comm.Allreduce(MPI.IN_PLACE, box, op=MPI.MAX)
+        #: the diagonal of the mesh's bounding box (length; the same on every rank)
+        self.extent = float(np.linalg.norm(box[gdim:] + box[:gdim]))
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
         self._collect_bcs()
         self.contacts: list = []

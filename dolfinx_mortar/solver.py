@@ -223,6 +223,19 @@ ROUND_FULL_STEP_GROWTH = 1.0
 #: then accepted if its norm is within ROUND_OFF_ATOL × f. Where ROUND_OFF_ATOL × f
 #: stays below ``atol`` (the demos' units: f ≈ 1e-13) nothing changes.
 ROUND_OFF_ATOL = 20.0
+#: ... but a failed solve's last iterate is not accepted where its round-off level
+#: exceeds this fraction of the forces (``force_scale``), or where its residual is no
+#: smaller than the solve's first: the state has then lost that many digits, and its
+#: rounding says nothing of a converged state's. A body that nothing holds against a
+#: rigid motion drifts (a singular Jacobian): a scene with a block free along x grew
+#: ‖R‖ from 1.05 to 2.6e3 with u ≈ 1e16, at a "round-off level" of 7.6e2 that made
+#: that iterate, and every later step, count as converged.
+ROUND_OFF_MAX_RELATIVE = 1e-6
+#: A solve whose displacement exceeds this many times the mesh's extent (its bounding
+#: box's diagonal, ``problem.extent``) fails: no contact problem moves a body a thousand
+#: times its own size in one step, and where Newton gets there a body is free to move
+#: along a rigid motion that neither a Dirichlet boundary nor contact holds.
+MAX_DISPLACEMENT_EXTENTS = 1e3
 #: ``atol = "auto"`` (the default): the absolute tolerance is min(AUTO_ATOL, rtol × F),
 #: with F the size of the forces, the largest first residual norm of the solves so far
 #: (``NewtonSolver.force_scale``). AUTO_ATOL is the fixed 1e-10 of earlier versions, a
@@ -608,7 +621,12 @@ class NewtonSolver:
                 self.backtracked_solves += 1
                 reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
                 its, norms = its + len(more), norms + more
-            if reason <= 0 and np.all(np.isfinite(norms)) and self._at_round_off(x, norms[-1]):
+            if (
+                reason <= 0
+                and np.all(np.isfinite(norms))
+                and norms[-1] < norms[0]
+                and self._at_round_off(x, norms[-1])
+            ):
                 log.info(
                     "Newton stopped at %.3e, within %g × the residual's round-off level "
                     "(%.3e): converged",
@@ -626,6 +644,7 @@ class NewtonSolver:
                 )
             if tried[0]:  # the restart's first norm is the attempt's first
                 its, norms = tried[0] + its, tried[1] + norms[1:]
+            self._check_drift(x, tried[0] + its)
             out = self._accept(x, its, norms)
             measure = getattr(p, "residual_round_off", None)
             floor_bound = self._atol() > self._base_atol()
@@ -713,19 +732,40 @@ class NewtonSolver:
     def _at_round_off(self, x: PETSc.Vec, norm: float) -> bool:
         """Whether a failed solve's last iterate x, of residual norm ``norm``, sits on the
         residual's round-off floor: f measured there (collective; the problem's state
-        becomes x) and ``norm`` ≤ ROUND_OFF_ATOL × f (ROUND_OFF_ATOL), which then becomes
-        the solver's level."""
+        becomes x) and ``norm`` ≤ ROUND_OFF_ATOL × f (ROUND_OFF_ATOL), with f at most
+        ROUND_OFF_MAX_RELATIVE × the forces; f then becomes the solver's level."""
         measure = getattr(self.problem, "residual_round_off", None)
         if measure is None:
             return False
         self.problem.update_contact(x)
         f = measure()
         # not the floor (or no level: a residual near x is not finite): the f of an
-        # iterate far from the root says nothing of the converged states' level
+        # iterate far from the root says nothing of the converged states' level, nor does
+        # that of a state that lost its digits (ROUND_OFF_MAX_RELATIVE)
         if not np.isfinite(f) or norm > ROUND_OFF_ATOL * f:
+            return False
+        if f > ROUND_OFF_MAX_RELATIVE * self.force_scale:
             return False
         self.round_off = max(self.round_off, f)
         return True
+
+    def _check_drift(self, x: PETSc.Vec, its: int) -> None:
+        """Raise ConvergenceError (x destroyed, ``its`` counted) where the solve's end x
+        moved a dof by more than MAX_DISPLACEMENT_EXTENTS × the mesh's extent: a body
+        free along a rigid motion (collective)."""
+        extent = getattr(self.problem, "extent", 0.0)
+        if not extent > 0.0:
+            return
+        umax = x.norm(PETSc.NormType.NORM_INFINITY)
+        if umax <= MAX_DISPLACEMENT_EXTENTS * extent:
+            return
+        self.all_iterations += its
+        x.destroy()
+        raise ConvergenceError(
+            f"the displacement reached {umax:.3g}, {umax / extent:.3g} times the mesh's "
+            "extent: a body is free along a rigid motion that no [[dirichlet]] boundary "
+            "and no contact holds (a singular Jacobian)"
+        )
 
     def _history(self) -> tuple[int, list[float]]:
         """The iterations and residual norms (initial one included) of the last SNES solve."""

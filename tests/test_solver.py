@@ -124,6 +124,31 @@ def test_a_run_that_stops_with_every_contact_open_says_so(shared_tmp):
     assert "check the direction of the loads" in s["error"]
 
 
+@pytest.mark.mpi
+def test_a_body_that_nothing_holds_stops_the_run(shared_tmp):
+    """patch2d without its Dirichlet boundaries: both blocks are free, the Jacobian is
+    singular, and Newton's iterates drift (u grew to 1e16 at a "round-off level" that
+    made the run count that state, and every later step, as converged: status "ok" with
+    garbage). The run now stops cleanly: status "failed", no step kept."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = {
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "kinematics": "small",
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "traction": [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -2.0]]}],
+        "steps": {"n": 1, "max_cutbacks": 1},
+    }
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp / "free")
+    assert s["status"] == "failed" and s["steps"] == [], s["steps"]
+    assert "failed after 1 cutbacks" in s["error"], s["error"]
+
+
 @pytest.mark.parametrize(
     ("pairs", "open_pairs", "hint"), [(0, [], False), (2, ["a:b"], False), (1, ["a:b"], True)]
 )
@@ -998,6 +1023,36 @@ def test_a_solve_on_the_round_off_floor_is_accepted(cubic_vectors):
         its, norms = newton.solve()
         assert newton.full_step_solves == stalled and its <= 6, (its, norms)
         assert norms[-1] <= solver_module.ROUND_OFF_ATOL * 1e-6
+
+
+def test_a_state_that_lost_its_digits_is_not_on_the_round_off_floor(cubic_vectors):
+    """The same stall, but with rounding noise above ROUND_OFF_MAX_RELATIVE × the forces
+    (the first residual norm, about 1.7e3, times 1e-6): that is a state that lost its
+    digits (a body drifting along a rigid motion grew u to 1e16), not a converged one, and
+    the solve fails; the round-off level stays unmeasured."""
+    level = 10.0 * solver_module.ROUND_OFF_MAX_RELATIVE * 992.0 * np.sqrt(3.0)
+    settings = SolverSettings(rtol=1e-15, atol=1e-14, prefix="test_floor_lost_")
+    with NewtonSolver(_NoisyCubic(10.0, level), settings) as newton:
+        with pytest.raises(ConvergenceError):
+            newton.solve()
+        assert newton.round_off == 0.0
+
+
+def test_a_solve_that_drifts_beyond_the_mesh_fails(cubic_vectors):
+    """A solve whose end moves a dof by more than MAX_DISPLACEMENT_EXTENTS × the mesh's
+    extent fails with an error that names a free rigid motion: the root x = 2 of _Cubic
+    with an extent of 1e-3 (limit 1); with an extent of 1 it converges."""
+    problem = _Cubic(10.0)
+    problem.extent = 1e-3
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_drift_")
+    with NewtonSolver(problem, settings) as newton:
+        with pytest.raises(ConvergenceError, match="free along a rigid motion"):
+            newton.solve()
+        assert newton.all_iterations > 0
+        problem.extent = 1.0
+        problem.u.vector.set(10.0)
+        newton.solve()
+    assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
 
 
 def test_without_a_round_off_measure_a_stall_still_fails(cubic_vectors):
