@@ -91,11 +91,37 @@ def _inspect_model(gmsh) -> dict:
             count += sum(len(t) for t in elem_tags)
         if count == 0:
             empty.append((d, tag))
+    # dolfinx 0.5.2's model_to_mesh crashes (SIGSEGV on every rank) on a physical group
+    # of facets whose elements are not on any cell of a physical group of cells (a body
+    # left without a physical group, its boundary named)
+    nodes = {}
+    for d, tag in groups:
+        for ent in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+            found = [np.asarray(n, np.int64) for n in gmsh.model.mesh.getElements(d, ent)[2]]
+            nodes.setdefault((d, tag), []).extend(found)
+    cell_nodes = np.concatenate(
+        [np.zeros(0, np.int64)] + [n for (d, _), ns in nodes.items() if d == tdim for n in ns]
+    )
+    for (d, tag), ns in nodes.items():
+        if d < tdim and ns and not np.isin(np.concatenate(ns), cell_nodes).all():
+            name = gmsh.model.getPhysicalName(d, tag) or str(tag)
+            raise SceneError(
+                "mesh",
+                f"the physical group {name!r} (dimension {d}) lies outside every physical "
+                f"group of cells: give every body a physical group of cells",
+            )
     names: dict[tuple[int, int], str] = {}
     for d, tag in groups:
         name = gmsh.model.getPhysicalName(d, tag)
         if not name:
             name = str(tag)
+        twin = next((dt for dt, n in names.items() if n == name and dt[0] == d), None)
+        if twin is not None:
+            raise SceneError(
+                "mesh",
+                f"the physical name {name!r} is given to two groups of dimension {d} "
+                f"(tags {twin[1]} and {tag}): names must be unique",
+            )
         names[(d, tag)] = name
     cell_groups = {n: t for (d, t), n in names.items() if d == tdim}
     facet_groups = {n: t for (d, t), n in names.items() if d == tdim - 1}
@@ -155,6 +181,8 @@ def load_mesh(
             if file is not None:
                 if not Path(file).is_file():
                     raise SceneError("mesh.file", f"file not found: {file}")
+                if Path(file).stat().st_size == 0:
+                    raise SceneError("mesh.file", f"{file} is empty")
                 try:
                     gmsh.open(str(file))
                 except Exception as exc:  # gmsh raises bare Exceptions

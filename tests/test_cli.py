@@ -214,6 +214,13 @@ CASES = [
         "'top' and 'left' share 1 mesh node(s)",
     ),
     ("small-hyperelastic", _small_hyperelastic, "material[0].model", 'kinematics = "small"'),
+    ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
+    (
+        "mesh-loose-nodes",
+        _set("mesh", None, file="loose.msh"),
+        "mesh",
+        "lies outside every physical group of cells",
+    ),
 ]
 CASE_IDS = [c[0] for c in CASES]
 CASE_BY_ID = {c[0]: c for c in CASES}
@@ -238,12 +245,15 @@ def meshes(tmp_path_factory) -> Path:
     finally:
         gmsh.finalize()
     write_two_squares_msh(d / "inner.msh")
+    write_two_squares_msh(d / "loose.msh", loose=True)
+    (d / "empty.msh").write_bytes(b"")
     return d
 
 
-def write_two_squares_msh(path: Path) -> None:
+def write_two_squares_msh(path: Path, loose: bool = False) -> None:
     """Two unit squares sharing the edge x = 1: groups body, inner (the shared, interior
-    edge) and top."""
+    edge) and top. ``loose``: the group body holds the first square only, so the file has
+    nodes of the second that no cell uses (dolfinx 0.5.2 crashed on those)."""
     import gmsh
 
     gmsh.initialize(["-noenv"], readConfigFiles=False)
@@ -254,7 +264,7 @@ def write_two_squares_msh(path: Path) -> None:
         occ.fragment([(2, a)], [(2, b)])
         occ.synchronize()
         model = gmsh.model
-        model.setPhysicalName(2, model.addPhysicalGroup(2, [a, b]), "body")
+        model.setPhysicalName(2, model.addPhysicalGroup(2, [a] if loose else [a, b]), "body")
         for name, axis, value in (("inner", 0, 1.0), ("top", 1, 1.0)):
             tags = [
                 t
@@ -274,7 +284,7 @@ def workdir(meshes, tmp_path) -> Path:
     """A fresh working directory with the meshes and the output of an earlier run."""
     cwd = tmp_path / "work"
     cwd.mkdir()
-    for name in ("block.msh", "ghost.msh", "inner.msh"):
+    for name in ("block.msh", "ghost.msh", "inner.msh", "loose.msh", "empty.msh"):
         shutil.copy(meshes / name, cwd / name)
     out = cwd / "out"
     (out / "sub").mkdir(parents=True)
