@@ -61,7 +61,7 @@ Schema (``*`` = required; defaults in brackets)::
 
     [steps]
       t_end        float > 0                   [1.0]
-      n            int >= 1                    [10]
+      n            int in [1, MAX_STEPS]       [10]
       max_cutbacks int >= 0                    [6]
       output_times list of float in (0, t_end] [[]]
 
@@ -380,7 +380,7 @@ class Steps:
     t_end:
         Final pseudo-time, > 0; steps run from 0 to ``t_end``.
     n:
-        Initial number of equal steps, >= 1.
+        Initial number of equal steps, in [1, MAX_STEPS].
     max_cutbacks:
         How many times a failed step may be halved, >= 0.
     output_times:
@@ -777,6 +777,8 @@ _CONTACT_KEYS = (
 _DIRICHLET_KEYS = ("boundary", "components", "path")
 _TRACTION_KEYS = ("boundary", "path")
 _STEPS_KEYS = ("t_end", "n", "max_cutbacks", "output_times")
+#: The most load steps ``steps.n`` may ask for (each writes its own output)
+MAX_STEPS = 1_000_000
 _SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "step_depth_limit")
 _OUTPUT_KEYS = ("dir", "fields")
 
@@ -974,6 +976,8 @@ def _parse_steps(value: Any) -> Steps:
     _check_keys(table, _STEPS_KEYS, "steps")
     t_end = _positive(table.get("t_end", 1.0), "steps.t_end")
     n = _int_at_least(table.get("n", 10), "steps.n", 1)
+    if n > MAX_STEPS:
+        raise SceneError("steps.n", f"at most {MAX_STEPS} load steps, got {n}")
     max_cutbacks = _int_at_least(table.get("max_cutbacks", 6), "steps.max_cutbacks", 0)
     raw = table.get("output_times", [])
     if not isinstance(raw, list | tuple):
@@ -1095,6 +1099,21 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         _parse_contact(t, f"contact[{i}]")
         for i, t in enumerate(_tables(table.get("contact", []), "contact"))
     )
+    pairs: dict[tuple[str, str], int] = {}
+    for i, c in enumerate(contacts):
+        if (c.slave, c.master) in pairs:
+            raise SceneError(
+                f"contact[{i}]",
+                f"the pair {c.slave}:{c.master} is contact[{pairs[c.slave, c.master]}] again",
+            )
+        if (c.master, c.slave) in pairs:
+            raise SceneError(
+                f"contact[{i}]",
+                f"the pair {c.slave}:{c.master} is contact[{pairs[c.master, c.slave]}] with "
+                "slave and master swapped: one pair per two surfaces (the mortar "
+                "integrals of a second pass would count the contact twice)",
+            )
+        pairs[c.slave, c.master] = i
     dirichlet = tuple(
         _parse_dirichlet(t, f"dirichlet[{i}]")
         for i, t in enumerate(_tables(table.get("dirichlet", []), "dirichlet"))

@@ -126,6 +126,13 @@ def _add_contact(**kw):
     return edit
 
 
+def _pairs(*pairs):
+    def edit(s):
+        s["contact"] = [_contact(slave=a, master=b) for a, b in pairs]
+
+    return edit
+
+
 def _small_hyperelastic(s):
     s["kinematics"] = "small"
     s["material"][0]["model"] = "neo-hookean"
@@ -214,6 +221,14 @@ CASES = [
         "'top' and 'left' share 1 mesh node(s)",
     ),
     ("small-hyperelastic", _small_hyperelastic, "material[0].model", 'kinematics = "small"'),
+    ("pair-twice", _pairs(("top", "bottom"), ("top", "bottom")), "contact[1]", "contact[0] again"),
+    (
+        "pair-reversed",
+        _pairs(("top", "bottom"), ("bottom", "top")),
+        "contact[1]",
+        "slave and master swapped",
+    ),
+    ("too-many-steps", _set("steps", None, n=10**20), "steps.n", "at most 1000000 load steps"),
     ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
     (
         "mesh-loose-nodes",
