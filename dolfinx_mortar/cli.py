@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import shutil
 import sys
 import traceback
 from pathlib import Path
@@ -44,17 +45,24 @@ class _Versions(argparse.Action):
         parser.exit(0)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse whose usage errors are one line, ``dolfinx-mortar: error: command line:
+    MESSAGE``, with exit status 2 (every rank parses its arguments, so under mpirun each
+    prints that line once; the subcommands' parsers are of this class too)."""
+
+    def error(self, message: str):
+        self.exit(2, f"dolfinx-mortar: error: command line: {' '.join(message.split())}\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _OneLineParser(
         prog="dolfinx-mortar", description=__doc__.split("\n\n")[0].replace("``", "")
     )
     p.add_argument("--version", action=_Versions, help="print the versions and exit")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene (under mpirun for several ranks)")
     r.add_argument("scene", type=Path)
-    r.add_argument(
-        "--out", type=Path, default=None, help="output directory (overrides [output] dir)"
-    )
+    r.add_argument("--out", default=None, help="output directory (overrides [output] dir)")
     r.add_argument(
         "-v", "--verbose", action="count", default=0, help="log at INFO level (DEBUG with -vv)"
     )
@@ -127,16 +135,42 @@ def _error_line(text: str) -> None:
     sys.stderr.flush()
 
 
-def _check_out_dir(out: Path, key: str) -> None:
-    """Raise SceneError if the output directory cannot be created: it, or the nearest of
-    its ancestors that exists, is not a directory (a clean error instead of an OSError
-    from the writer, after the set-up)."""
+def _check_out_dir(out: Path | str, key: str, comm) -> None:
+    """Raise SceneError on every rank if the output directory cannot be used (collective;
+    rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
+    link, or one that cannot be created. A missing directory is created to find out, and
+    removed again with the parents created for it: nothing is left (a clean error instead
+    of an OSError from the writer, after the set-up)."""
+    reason = None
+    if comm.rank == 0:
+        reason = _out_dir_problem(str(out))
+    reason = comm.bcast(reason, root=0)
+    if reason is not None:
+        raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
+
+
+def _out_dir_problem(out: str) -> str | None:
+    """Why ``out`` cannot be the output directory, or None (local)."""
+    if not out.strip():
+        return "empty name"
+    if "\0" in out:
+        return "the name holds a NUL character"
     p = Path(out).absolute()
-    while not p.exists() and p != p.parent:
-        p = p.parent
-    if not p.is_dir():
-        where = "" if p == Path(out).absolute() else f" ({p} is not a directory)"
-        raise SceneError(key, f"cannot use {out} as output directory: not a directory{where}")
+    if p.is_symlink() and not p.exists():
+        return "a link to nothing (dangling or looping)"
+    if p.exists():
+        return None if p.is_dir() else "it exists and is not a directory"
+    top = p  # the outermost directory to create
+    while not top.parent.exists() and top.parent != top:
+        top = top.parent
+    if not top.parent.is_dir():
+        return f"{top.parent} is not a directory"
+    try:
+        p.mkdir(parents=True)
+    except OSError as exc:
+        return (exc.strerror or type(exc).__name__).lower()
+    shutil.rmtree(top, ignore_errors=True)
+    return None
 
 
 def load_laws(path: Path) -> None:
@@ -149,9 +183,26 @@ def load_laws(path: Path) -> None:
         raise SceneError("--laws", f"file not found: {path}")
     try:
         runpy.run_path(str(path), run_name="__dolfinx_mortar_laws__")
-    except Exception as exc:  # whatever the user's file raises
+    except (Exception, SystemExit) as exc:  # whatever the user's file raises, or exit()
         reason = " ".join(f"{type(exc).__name__}: {exc}".split())
         raise SceneError("--laws", f"{path} failed: {reason}") from None
+
+
+def _on_every_rank(comm, action, *args) -> None:
+    """``action(*args)`` on every rank (collective): where it raises SceneError on some
+    ranks, every rank raises the first rank's error (naming that rank where others did
+    not fail), so that no rank waits alone in a later collective."""
+    error = None
+    try:
+        action(*args)
+    except SceneError as exc:
+        error = (exc.key, exc.reason)
+    errors = comm.allgather(error)
+    failed = [r for r, e in enumerate(errors) if e is not None]
+    if failed:
+        key, reason = errors[failed[0]]
+        where = "" if len(failed) == comm.size else f" (on rank {failed[0]})"
+        raise SceneError(key, reason + where)
 
 
 def _progress(comm):
@@ -273,7 +324,7 @@ def main(argv=None) -> int:
         if args.command == "bench":
             from .bench import INTEGRATIONS, RECOVERIES, TINY_H0, run_bench
 
-            _check_out_dir(args.out, "--out")
+            _check_out_dir(args.out, "--out", comm)
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
             recs = RECOVERIES if args.recovery == "all" else (args.recovery,)
@@ -282,7 +333,7 @@ def main(argv=None) -> int:
         from .scene import load_scene
 
         for path in args.laws:
-            load_laws(path)
+            _on_every_rank(comm, load_laws, path)
         scene = load_scene(args.scene)
         if petsc:  # command-line PETSc options override the scene's
             import dataclasses
@@ -300,12 +351,13 @@ def main(argv=None) -> int:
                 )
             return 0
         if args.out is not None:
-            _check_out_dir(args.out, "--out")
+            _check_out_dir(args.out, "--out", comm)
         else:
-            _check_out_dir(scene.output.dir, "output.dir")
+            _check_out_dir(scene.output.dir, "output.dir", comm)
         from .runner import run
 
-        summary = run(scene, comm, out_dir=args.out, progress=_progress(comm))
+        out = None if args.out is None else Path(args.out)
+        summary = run(scene, comm, out_dir=out, progress=_progress(comm))
     except SceneError as exc:
         _error_line(f"dolfinx-mortar: error: {exc}")
         return 2

@@ -421,6 +421,40 @@ def test_output_dir_is_a_file(workdir, where):
     assert snapshot(workdir) == before
 
 
+@pytest.mark.parametrize(
+    "out, reason",
+    [
+        ("", "empty name"),
+        ("../dangling", "a link to nothing"),
+        ("/proc/dolfinx_mortar_test", "no such file or directory"),
+    ],
+    ids=["empty", "dangling-link", "cannot-create"],
+)
+def test_output_dir_that_cannot_be_used(workdir, out, reason):
+    """Other output directories that cannot be used: one line naming ``--out``, exit 2,
+    nothing written (an empty ``--out`` wrote into the working directory; a dangling
+    link or a directory that cannot be created gave a traceback after the set-up)."""
+    (workdir / "good.toml").write_text(to_toml(base_scene()))
+    (workdir.parent / "dangling").symlink_to(workdir / "nowhere" / "at_all")
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "good.toml", "--out", out)
+    _one_error_line(res, 1, "--out", reason)
+    assert snapshot(workdir) == before
+
+
+def test_usage_errors_are_one_line(workdir):
+    """argparse's usage errors are one ``dolfinx-mortar: error: command line: ...`` line
+    per rank, exit 2 (they printed the usage and a second line)."""
+    for args, reason in (
+        ((), "the following arguments are required: command"),
+        (("run",), "the following arguments are required: scene"),
+        (("run", "s.toml", "--out"), "argument --out: expected one argument"),
+        (("frobnicate",), "invalid choice: 'frobnicate'"),
+    ):
+        _one_error_line(cli(workdir, *args), 1, "command line", reason)
+    _one_error_line(cli(workdir, "run", ranks=2), 2, "command line", "required: scene")
+
+
 def test_interior_contact_surface(workdir):
     """A contact surface made of interior facets (shared by two cells) is unusable."""
     scene = base_scene("inner.msh")
@@ -569,6 +603,16 @@ def test_laws_file(workdir, ranks):
     _one_error_line(res, n, "--laws", "file not found: missing.py")
     res = cli(workdir, "run", "law.toml", "--laws", "broken.py", ranks=ranks)
     _one_error_line(res, n, "--laws", "broken.py failed: RuntimeError: no such law here")
+    (workdir / "quits.py").write_text("import sys\nsys.exit(0)\n")
+    res = cli(workdir, "run", "law.toml", "--laws", "quits.py", ranks=ranks)
+    _one_error_line(res, n, "--laws", "quits.py failed: SystemExit: 0")
+    if ranks:  # a file that fails on one rank only: every rank reports it, none waits
+        (workdir / "rank1.py").write_text(
+            "from mpi4py import MPI\n"
+            "if MPI.COMM_WORLD.rank == 1:\n    raise RuntimeError('only here')\n"
+        )
+        res = cli(workdir, "check", "law.toml", "--laws", "rank1.py", ranks=ranks)
+        _one_error_line(res, n, "--laws", "RuntimeError: only here (on rank 1)")
 
 
 def test_run_not_converging(workdir):
