@@ -29,6 +29,7 @@ __all__ = [
     "cell_geometry_nodes",
     "set_lag_preconditioner",
     "lag_preconditioner_available",
+    "option_used",
 ]
 
 
@@ -157,16 +158,21 @@ def line_search_lambda(snes: PETSc.SNES) -> float | None:
     return lam.value
 
 
-def _line_search(snes: PETSc.SNES):
-    """The SNES's SNESLineSearch as a ctypes pointer, or None without the C library."""
+def _c_function(name: str):
+    """The PETSc C function ``name`` (ctypes), or None without the C library or it."""
     try:
         lib = _petsc_c_library()
     except OSError:
         return None
-    if not hasattr(lib, "SNESLineSearchSetTolerances"):
+    return getattr(lib, name) if hasattr(lib, name) else None
+
+
+def _line_search(snes: PETSc.SNES):
+    """The SNES's SNESLineSearch as a ctypes pointer, or None without the C library."""
+    if _c_function("SNESLineSearchSetTolerances") is None:
         return None
     ls = ctypes.c_void_p()
-    if lib.SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)) != 0:
+    if _petsc_c_library().SNESGetLineSearch(ctypes.c_void_p(snes.handle), ctypes.byref(ls)):
         raise RuntimeError("SNESGetLineSearch failed")
     return ls
 
@@ -206,5 +212,25 @@ def _petsc_c_library():
                 ctypes.POINTER(ctypes.c_double),
             ]
             lib.SNESLineSearchGetLambda.restype = ctypes.c_int
+        if hasattr(lib, "PetscOptionsUsed"):
+            lib.PetscOptionsUsed.argtypes = [
+                ctypes.c_void_p,
+                ctypes.c_char_p,
+                ctypes.POINTER(ctypes.c_int),
+            ]
+            lib.PetscOptionsUsed.restype = ctypes.c_int
         _petsc_c_library.lib = lib
     return _petsc_c_library.lib
+
+
+def option_used(name: str) -> bool | None:
+    """Whether PETSc has read the option ``name`` (without the leading "-") of the global
+    options database (``PetscOptionsUsed`` through ctypes; petsc4py 3.18 does not wrap
+    it), or None where the C function is not found. Not collective."""
+    options_used = _c_function("PetscOptionsUsed")
+    if options_used is None:
+        return None
+    used = ctypes.c_int()
+    if options_used(None, name.encode(), ctypes.byref(used)) != 0:
+        raise RuntimeError(f"PetscOptionsUsed({name!r}) failed")
+    return bool(used.value)

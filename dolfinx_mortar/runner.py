@@ -2,16 +2,19 @@
 
 Everything that can be wrong with the input is checked before the output
 directory is touched; a run whose load stepping fails after its cutbacks stops
-with ``status = "failed"`` and keeps every finished step.
+with ``status = "failed"`` and keeps every finished step. So does a run whose PETSc
+options PETSc accepted at set-up but refuses in the solve (``snes_max_it = -1``, a MUMPS
+ICNTL out of range): PETSc checks those only there.
 """
 
 from __future__ import annotations
 
 import logging
 from pathlib import Path
-from time import perf_counter
+from time import perf_counter, sleep
 
 import numpy as np
+from petsc4py import PETSc
 
 from .errors import ConvergenceError, SceneError
 from .laws import registered_law
@@ -214,10 +217,40 @@ def run(
     except ConvergenceError as exc:
         status, error = "failed", str(exc)
         log.error("run stopped: %s", exc)
+    except PETSc.Error as exc:
+        # an option PETSc accepted when the solver was set up but refuses in the solve
+        # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
+        # failed alike, otherwise the exception (the command line then aborts every rank)
+        if not _every_rank_arrives(comm, PETSC_ERROR_WAIT):
+            raise
+        lines = [ln.split("]", 1)[-1].strip() for ln in str(exc).strip().splitlines()]
+        status = "failed"
+        error = (
+            f"PETSc failed in the solve ({lines[0]}: {lines[-1]}); check the PETSc "
+            "options of [solver.petsc] and the command line"
+        )
+        log.error("run stopped: %s", error)
     finally:
         newton.destroy()
     writer.finish(status, error, totals)
     return writer.summary
+
+
+#: Seconds the ranks wait for each other after a PETSc error in the solve before the
+#: exception goes on (a rank-local error would otherwise leave the others waiting).
+PETSC_ERROR_WAIT = 30.0
+
+
+def _every_rank_arrives(comm, seconds: float) -> bool:
+    """Whether every rank of ``comm`` enters this call within ``seconds`` (a non-blocking
+    barrier, polled; collective where it returns True)."""
+    request = comm.Ibarrier()
+    t0 = perf_counter()
+    while not request.Test():
+        if perf_counter() - t0 > seconds:
+            return False
+        sleep(0.005)
+    return True
 
 
 def step_record(problem, res) -> dict:

@@ -316,6 +316,8 @@ class NewtonSolver:
     def __init__(self, problem, settings: SolverSettings | None = None):
         self.problem = problem
         self.settings = settings = settings or SolverSettings()
+        #: whether a solve has run (the options were read: _warn_unused_options)
+        self._solved = False
         comm = problem.comm
         self.snes = PETSc.SNES().create(comm)
         self.snes.setOptionsPrefix(settings.prefix)
@@ -381,7 +383,6 @@ class NewtonSolver:
             self.snes.setLineSearchPreCheck(self._limit_step)
         if hasattr(problem, "linear_inverse"):
             problem.linear_inverse = self.solve_with_last_jacobian
-        self._n_solves = 0
         self._dtol = None
         #: whether the current solve uses ENERGY_LINE_SEARCH (decided at its first Jacobian)
         self._energy = False
@@ -563,6 +564,7 @@ class NewtonSolver:
         counted). Raises ConvergenceError.
         """
         s = self.settings
+        self._solved = True
         if dtol != self._dtol:
             key = s.prefix + "snes_divergence_tolerance"
             opts = PETSc.Options()
@@ -847,6 +849,8 @@ class NewtonSolver:
     def destroy(self) -> None:
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
+        if self._solved:
+            self._warn_unused_options()
         opts = PETSc.Options()
         for key in self._option_keys:
             opts.delValue(key)
@@ -857,6 +861,19 @@ class NewtonSolver:
         self._finite_x.destroy()
         self._trial.destroy()
         self._start.destroy()
+
+    def _warn_unused_options(self) -> None:
+        """Log a warning naming the options of ``settings.petsc`` (the scene's
+        ``[solver.petsc]`` and the command line's ``-dm_...``) that PETSc never read in
+        this solver's solves: a typo, or an option of a solver or type not in use."""
+        prefix = self.settings.prefix
+        unused = [k for k in self.settings.petsc if compat.option_used(prefix + k) is False]
+        if unused:
+            log.warning(
+                "PETSc never read the option(s) %s of [solver.petsc] / the command line: "
+                "a typo, or an option of a solver not in use",
+                ", ".join(f"-{prefix}{k}" for k in unused),
+            )
 
     def __enter__(self):
         return self

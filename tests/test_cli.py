@@ -455,6 +455,30 @@ def test_usage_errors_are_one_line(workdir):
     _one_error_line(cli(workdir, "run", ranks=2), 2, "command line", "required: scene")
 
 
+def test_petsc_errors_in_the_solve_stop_the_run(workdir):
+    """PETSc options that PETSc accepts at set-up but refuses in the solve stop the run
+    cleanly (exit 1, summary.json "failed" with PETSc's reason, no traceback; they gave a
+    traceback); an option PETSc never read is named in a warning."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_max_it": -1}}
+    scene["output"]["dir"] = "bad_petsc"
+    (workdir / "s.toml").write_text(to_toml(scene))
+    for ranks in (0, 2):
+        res = cli(workdir, "run", "s.toml", ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 1 and "Traceback" not in res.stderr, where
+        summary = json.loads((workdir / "bad_petsc" / "summary.json").read_text())
+        assert summary["status"] == "failed" and summary["steps"] == [], summary
+        assert "PETSc failed in the solve" in summary["error"], summary["error"]
+        assert "without setting converged reason" in summary["error"], summary["error"]
+    scene["solver"] = {"petsc": {"snes_monitr": True}}
+    scene["output"]["dir"] = "typo"
+    (workdir / "s.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "s.toml")
+    assert res.returncode == 0, res.stderr
+    assert "PETSc never read the option(s) -dm_snes_monitr" in res.stderr, res.stderr
+
+
 def test_interior_contact_surface(workdir):
     """A contact surface made of interior facets (shared by two cells) is unusable."""
     scene = base_scene("inner.msh")
