@@ -1027,7 +1027,7 @@ def test_a_solve_on_the_round_off_floor_is_accepted(cubic_vectors):
 
 def test_a_state_that_lost_its_digits_is_not_on_the_round_off_floor(cubic_vectors):
     """The same stall, but with rounding noise above ROUND_OFF_MAX_RELATIVE × the forces
-    (the first residual norm, about 1.7e3, times 1e-6): that is a state that lost its
+    (the first residual norm, about 1.7e3, times that fraction): a state that lost its
     digits (a body drifting along a rigid motion grew u to 1e16), not a converged one, and
     the solve fails; the round-off level stays unmeasured."""
     level = 10.0 * solver_module.ROUND_OFF_MAX_RELATIVE * 992.0 * np.sqrt(3.0)
