@@ -231,6 +231,12 @@ CASES = [
     ("too-many-steps", _set("steps", None, n=10**20), "steps.n", "at most 1000000 load steps"),
     ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
     (
+        "mesh-twin-names",
+        _set("mesh", None, file="twins.msh"),
+        "mesh",
+        "the physical name 'inner' is given to two groups of dimension 1",
+    ),
+    (
         "mesh-loose-nodes",
         _set("mesh", None, file="loose.msh"),
         "mesh",
@@ -262,6 +268,10 @@ def meshes(tmp_path_factory) -> Path:
     write_two_squares_msh(d / "inner.msh")
     write_two_squares_msh(d / "loose.msh", loose=True)
     (d / "empty.msh").write_bytes(b"")
+    # gmsh's API refuses a second group of one name, a .msh file can hold it
+    inner = (d / "inner.msh").read_text()
+    assert inner.count('"top"') == 1
+    (d / "twins.msh").write_text(inner.replace('"top"', '"inner"'))
     return d
 
 
@@ -299,7 +309,7 @@ def workdir(meshes, tmp_path) -> Path:
     """A fresh working directory with the meshes and the output of an earlier run."""
     cwd = tmp_path / "work"
     cwd.mkdir()
-    for name in ("block.msh", "ghost.msh", "inner.msh", "loose.msh", "empty.msh"):
+    for name in ("block.msh", "ghost.msh", "inner.msh", "loose.msh", "empty.msh", "twins.msh"):
         shutil.copy(meshes / name, cwd / name)
     out = cwd / "out"
     (out / "sub").mkdir(parents=True)
