@@ -78,7 +78,12 @@ def prepare(scene: Scene, comm, setup=None):
     used = {mat.region for mat in scene.materials}
     unused = sorted(set(mesh_data.cell_groups) - used)
     if unused:
-        raise SceneError("material", f"cell group(s) {', '.join(unused)} have no [[material]]")
+        groups = mesh_data.cell_groups
+        names = [
+            f"{n!r}" if n != str(groups[n]) else f"{n!r} (a physical group without a name: its tag)"
+            for n in unused
+        ]
+        raise SceneError("material", f"cell group(s) {', '.join(names)} have no [[material]]")
     problem = ContactProblem(
         mesh_data,
         [(mat.region, mat.model, mat.E, mat.nu) for mat in scene.materials],

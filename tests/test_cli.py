@@ -133,6 +133,12 @@ def _pairs(*pairs):
     return edit
 
 
+def _unnamed_group(s):
+    s["mesh"]["file"] = "unnamed.msh"
+    s["dirichlet"][0]["boundary"] = "top"
+    del s["traction"]
+
+
 def _small_hyperelastic(s):
     s["kinematics"] = "small"
     s["material"][0]["model"] = "neo-hookean"
@@ -237,6 +243,12 @@ CASES = [
         "the physical name 'inner' is given to two groups of dimension 1",
     ),
     (
+        "mesh-unnamed-group",
+        _unnamed_group,
+        "material",
+        "cell group(s) '2' (a physical group without a name: its tag) have no [[material]]",
+    ),
+    (
         "mesh-loose-nodes",
         _set("mesh", None, file="loose.msh"),
         "mesh",
@@ -267,6 +279,7 @@ def meshes(tmp_path_factory) -> Path:
         gmsh.finalize()
     write_two_squares_msh(d / "inner.msh")
     write_two_squares_msh(d / "loose.msh", loose=True)
+    write_two_squares_msh(d / "unnamed.msh", unnamed=True)
     (d / "empty.msh").write_bytes(b"")
     # gmsh's API refuses a second group of one name, a .msh file can hold it
     inner = (d / "inner.msh").read_text()
@@ -275,10 +288,11 @@ def meshes(tmp_path_factory) -> Path:
     return d
 
 
-def write_two_squares_msh(path: Path, loose: bool = False) -> None:
+def write_two_squares_msh(path: Path, loose: bool = False, unnamed: bool = False) -> None:
     """Two unit squares sharing the edge x = 1: groups body, inner (the shared, interior
     edge) and top. ``loose``: the group body holds the first square only, so the file has
-    nodes of the second that no cell uses (dolfinx 0.5.2 crashed on those)."""
+    nodes of the second that no cell uses (dolfinx 0.5.2 crashed on those); ``unnamed``:
+    body holds the first square, the second is a physical group without a name."""
     import gmsh
 
     gmsh.initialize(["-noenv"], readConfigFiles=False)
@@ -289,7 +303,11 @@ def write_two_squares_msh(path: Path, loose: bool = False) -> None:
         occ.fragment([(2, a)], [(2, b)])
         occ.synchronize()
         model = gmsh.model
-        model.setPhysicalName(2, model.addPhysicalGroup(2, [a] if loose else [a, b]), "body")
+        model.setPhysicalName(
+            2, model.addPhysicalGroup(2, [a] if loose or unnamed else [a, b]), "body"
+        )
+        if unnamed:
+            model.addPhysicalGroup(2, [b])
         for name, axis, value in (("inner", 0, 1.0), ("top", 1, 1.0)):
             tags = [
                 t
@@ -309,7 +327,15 @@ def workdir(meshes, tmp_path) -> Path:
     """A fresh working directory with the meshes and the output of an earlier run."""
     cwd = tmp_path / "work"
     cwd.mkdir()
-    for name in ("block.msh", "ghost.msh", "inner.msh", "loose.msh", "empty.msh", "twins.msh"):
+    for name in (
+        "block.msh",
+        "ghost.msh",
+        "inner.msh",
+        "loose.msh",
+        "empty.msh",
+        "twins.msh",
+        "unnamed.msh",
+    ):
         shutil.copy(meshes / name, cwd / name)
     out = cwd / "out"
     (out / "sub").mkdir(parents=True)
