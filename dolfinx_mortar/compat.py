@@ -30,6 +30,7 @@ __all__ = [
     "set_lag_preconditioner",
     "lag_preconditioner_available",
     "option_used",
+    "petsc_error_lines",
 ]
 
 
@@ -221,6 +222,12 @@ def _petsc_c_library():
             lib.PetscOptionsUsed.restype = ctypes.c_int
         _petsc_c_library.lib = lib
     return _petsc_c_library.lib
+
+
+def petsc_error_lines(exc: Exception) -> list[str]:
+    """The lines of a petsc4py ``PETSc.Error``'s message without their ``[rank]``
+    prefixes: the first is "error code N", the last PETSc's reason (local)."""
+    return [ln.split("]", 1)[-1].strip() for ln in str(exc).strip().splitlines()] or [""]
 
 
 def option_used(name: str) -> bool | None:

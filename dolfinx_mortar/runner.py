@@ -16,6 +16,7 @@ from time import perf_counter, sleep
 import numpy as np
 from petsc4py import PETSc
 
+from . import compat
 from .errors import ConvergenceError, SceneError
 from .laws import registered_law
 from .mesh import load_mesh
@@ -228,7 +229,7 @@ def run(
         # failed alike, otherwise the exception (the command line then aborts every rank)
         if not _every_rank_arrives(comm, PETSC_ERROR_WAIT):
             raise
-        lines = [ln.split("]", 1)[-1].strip() for ln in str(exc).strip().splitlines()]
+        lines = compat.petsc_error_lines(exc)
         status = "failed"
         error = (
             f"PETSc failed in the solve ({lines[0]}: {lines[-1]}); check the PETSc "

@@ -361,10 +361,10 @@ class NewtonSolver:
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
             self.destroy()
-            lines = [ln.split("]", 1)[-1].strip() for ln in str(exc).strip().splitlines()]
             raise SceneError(
                 "solver.petsc",
-                f"PETSc rejected the options {sorted(settings.petsc)}: {lines[-1]}",
+                f"PETSc rejected the options {sorted(settings.petsc)}: "
+                f"{compat.petsc_error_lines(exc)[-1]}",
             ) from None
         self.timings = {"linear_solve": 0.0}
         #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
