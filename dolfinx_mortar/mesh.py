@@ -40,7 +40,8 @@ class MeshData:
     mesh: dolfinx mesh (gdim = tdim = 2 or 3).
     cell_tags, facet_tags: dolfinx MeshTags of the physical groups.
     cell_groups, facet_groups: physical name -> tag value.
-    info: what rank 0 read (cell type, counts), for the summary.
+    info: what rank 0 read (cell type, counts, the groups without elements or without a
+        name), for the summary and the scene checks.
     """
 
     mesh: object
@@ -111,10 +112,12 @@ def _inspect_model(gmsh) -> dict:
                 f"group of cells: give every body a physical group of cells",
             )
     names: dict[tuple[int, int], str] = {}
+    unnamed = []  # groups without a physical name: known by their tag
     for d, tag in groups:
         name = gmsh.model.getPhysicalName(d, tag)
         if not name:
             name = str(tag)
+            unnamed.append(name)
         twin = next((dt for dt, n in names.items() if n == name and dt[0] == d), None)
         if twin is not None:
             raise SceneError(
@@ -141,6 +144,7 @@ def _inspect_model(gmsh) -> dict:
         "num_nodes": int(coords.shape[0]),
         "all_groups": {f"{d}:{t}": n for (d, t), n in names.items()},
         "empty_groups": [names[dt] for dt in empty],
+        "unnamed_groups": unnamed,
         "empty_dimtags": empty,
     }
 

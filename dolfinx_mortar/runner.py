@@ -79,9 +79,9 @@ def prepare(scene: Scene, comm, setup=None):
     used = {mat.region for mat in scene.materials}
     unused = sorted(set(mesh_data.cell_groups) - used)
     if unused:
-        groups = mesh_data.cell_groups
+        unnamed = set(mesh_data.info.get("unnamed_groups", ()))
         names = [
-            f"{n!r}" if n != str(groups[n]) else f"{n!r} (a physical group without a name: its tag)"
+            f"{n!r} (a physical group without a name: its tag)" if n in unnamed else f"{n!r}"
             for n in unused
         ]
         raise SceneError("material", f"cell group(s) {', '.join(names)} have no [[material]]")
