@@ -176,7 +176,7 @@ def _out_dir_problem(out: str) -> str | None:
 def load_laws(path: Path) -> None:
     """Run the Python file ``path`` (``--laws``; local: every rank runs it): it registers
     bulk laws with :func:`dolfinx_mortar.register_law` for the scene to name. Raises
-    SceneError (key ``--laws``) where the file is missing or raises."""
+    SceneError (key ``--laws``) where the file is missing, raises or calls sys.exit()."""
     import runpy
 
     if not Path(path).is_file():
