@@ -122,15 +122,32 @@ def set_line_search_max_it(snes: PETSc.SNES, max_it: int) -> bool:
     wraps neither this nor ``SNESGetLineSearch``: ctypes as in :func:`
     set_lag_preconditioner`. Returns False where the C functions are not found (nothing
     set). Not collective."""
+    return _set_line_search_tolerances(snes, max_it=max_it)
+
+
+def set_line_search_max_step(snes: PETSc.SNES, max_step: float) -> bool:
+    """The ``maxstep`` tolerance of the SNES's line search (``SNESLineSearchSetTolerances``,
+    the others unchanged; PETSc's default 1e8): the largest λ that "l2" and "cp" take, the
+    largest ‖λ y‖ for "bt". ctypes as in :func:`set_line_search_max_it`; returns False
+    where the C functions are not found (nothing set). Not collective."""
+    return _set_line_search_tolerances(snes, max_step=max_step)
+
+
+def _set_line_search_tolerances(
+    snes: PETSc.SNES, max_step: float | None = None, max_it: int | None = None
+) -> bool:
+    """``SNESLineSearchSetTolerances`` with the given values, PETSC_DEFAULT (keep) for the
+    rest; False without the C functions."""
     ls = _line_search(snes)
     if ls is None:
         return False
     keep = ctypes.c_double(-2.0)  # PETSC_DEFAULT
-    if (
-        _petsc_c_library().SNESLineSearchSetTolerances(ls, keep, keep, keep, keep, keep, max_it)
-        != 0
-    ):
-        raise RuntimeError(f"SNESLineSearchSetTolerances(max_its={max_it}) failed")
+    step = keep if max_step is None else ctypes.c_double(max_step)
+    its = -2 if max_it is None else max_it
+    if _petsc_c_library().SNESLineSearchSetTolerances(ls, keep, step, keep, keep, keep, its):
+        raise RuntimeError(
+            f"SNESLineSearchSetTolerances(maxstep={max_step}, max_its={max_it}) failed"
+        )
     return True
 
 

@@ -412,7 +412,9 @@ class SolverOptions:
         :attr:`petsc` as given).
     line_search:
         SNES line search: ``"l2"`` (default: secant on the residual norm, robust when the
-        active set changes), ``"basic"`` (full Newton step), ``"bt"``, ``"cp"``.
+        active set changes; never beyond the full Newton step,
+        :data:`dolfinx_mortar.solver.L2_MAX_STEP`), ``"basic"`` (full Newton step),
+        ``"bt"``, ``"cp"``.
     petsc:
         Extra PETSc options, names without the leading ``-`` (``{"ksp_type": "gmres"}``).
     step_depth_limit:

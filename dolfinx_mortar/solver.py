@@ -140,6 +140,22 @@ ENERGY_LINE_SEARCH = "cp"
 #: converged state (with the switch: 22 + 2 + 1 iterations, against 26 + 5 + 1 with "l2"
 #: throughout). The steps of hertz3d's predicted round are 0.56–1.04.
 ENERGY_MIN_LAMBDA = 0.1
+#: The longest step of the "l2" line search, in units of the Newton step (its ``maxstep``
+#: tolerance, PETSc's default 1e8; "cp" and "bt" keep the default, and a
+#: ``[solver.petsc]`` snes_linesearch_maxstep overrides it). "l2" fits a parabola to ‖R‖²
+#: at λ = 0, 1/2 and 1; where the fit is concave (the residual has a kink between the
+#: samples: a node that opens or closes, a QP active set that switches) it steps to the
+#: right of the samples, uphill of all three. In the constrained recovery's hertz2d
+#: step 3 (samples ‖R‖ = 57 at 0, 1231 at 1/2, 822 at 1) it went to λ = 1.43 and
+#: ‖R‖ = 1104, and the solve wandered at 500–1700 until max_it (25 iterations, then 8
+#: full steps). Capped at the full step the main solve takes 28 iterations instead of 37,
+#: and the hard-case sweep 653 instead of 659 (BENCHMARKS.md §33). The energy search
+#: "cp" keeps its extrapolation: capping it too cost the sweep's large sliding 134 → 153
+#: iterations and a cutback.
+L2_MAX_STEP = 1.0
+#: PETSc's default ``maxstep`` of a line search, restored for the line searches other
+#: than "l2" (for "bt" it bounds the step's norm).
+_DEFAULT_MAX_STEP = 1e8
 #: The absolute tolerance of the SNES line search (``snes_linesearch_atol``; PETSc's
 #: default 1e-15). PETSc's "cp" line search ends the whole solve as converged
 #: (SNES_CONVERGED_FNORM_ABS) when |⟨R, Δu⟩| < that tolerance × ‖Δu‖ at the start of a
@@ -486,9 +502,12 @@ class NewtonSolver:
         self.problem.ensure_contact_at(x)
         self.problem.timings["search"] += perf_counter() - t0
         self.problem.jacobian(x, A)
+        first_iteration = snes.getIterationNumber() == 0
         if self._line_search_type() != "l2":  # the scene's, or a continuation's
             self._energy = False
-        elif snes.getIterationNumber() == 0:
+            if first_iteration:
+                self._set_max_step(_DEFAULT_MAX_STEP)
+        elif first_iteration:
             # first_contact is decided at the solve's first Jacobian (collective)
             p = self.problem
             first = any(term.first_contact for term in p.contacts)
@@ -508,14 +527,22 @@ class NewtonSolver:
             # parabola (FIRST_CONTACT_L2_STEPS)
             steps = FIRST_CONTACT_L2_STEPS if first and soft else 1
             compat.set_line_search_max_it(snes, 1 if self._energy else steps)
+            self._set_max_step(_DEFAULT_MAX_STEP if self._energy else L2_MAX_STEP)
         elif self._energy and (compat.line_search_lambda(snes) or 0.0) < ENERGY_MIN_LAMBDA:
             # the secant step on a kinked ⟨R, Δu⟩ came out short: "l2" from here on
             log.info("energy line search took a short step; l2 for the rest of the solve")
             compat.set_line_search_type(snes, "l2")
             compat.set_line_search_max_it(snes, 1)
+            self._set_max_step(L2_MAX_STEP)
             self._energy = False
-        if self._reusing and snes.getIterationNumber() > 0:
+        if self._reusing and not first_iteration:
             self._reuse_mode(False)  # only the first iteration of a solve reuses
+
+    def _set_max_step(self, max_step: float) -> None:
+        """The line search's ``maxstep`` (L2_MAX_STEP), unless the scene sets
+        snes_linesearch_maxstep (local)."""
+        if "snes_linesearch_maxstep" not in self.settings.petsc:
+            compat.set_line_search_max_step(self.snes, max_step)
 
     def _line_search_type(self) -> str:
         """The line search configured now: the options database's, where the configured

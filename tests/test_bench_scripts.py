@@ -274,13 +274,15 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     ‖R‖ on a plateau of round-off. ContactProblem.residual_round_off, measured
     independently at the step's end from three residual evaluations (no Newton step),
     predicts it: a Newton step from a residual that is only noise leaves the next noise
-    plus the last, about √2 f (measured: plateau 0.98–1.12e-13, f = 7.2e-14). The solve's
-    last norm (1.5e-13) lies within FLOOR_FACTOR × f, on the floor, so the three-norm
-    order of that solve is read as a bound (demos/_common.solve_order). The errors
+    plus the last, about √2 f (measured: plateau 0.91–1.36e-13, f = 8.9e-14). The solve's
+    last norm (1.4e-13) lies within FLOOR_FACTOR × f, on the floor, so the three-norm
+    order of that solve may be read as a bound (demos/_common.solve_order). The errors
     against the polished state fall superlinearly, and the solve's last error lies within
     FLOOR_FACTOR × the polished state's own round-off level s (the median step of the
-    later polish steps; measured e_n = 7.5e-14, s = 5.6e-14), so the error order is read
-    as a bound as well."""
+    later polish steps; measured e_n = 1.4e-14, s = 1.3e-13: not a measurement of the
+    error, BENCHMARKS §28). (Until session 37 the solve took 7 iterations and its error
+    order was read as the bound; since the l2 cap, 6, and the three errors above the floor
+    read 1.69, more than the bound.)"""
     log, pol = _load("newton_diagnostics").main(
         ["--step", "1", "--polish", "3", "--out", str(tmp_path)]
     )
@@ -298,7 +300,7 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     assert e[-1] / e[-2] < 0.1 * e[-2] / e[-3]  # faster than linear
     s = pol["error_level"]
     assert 0.0 < s < 1e-3 * e[-3], (s, e)
-    assert e[-1] <= cm.FLOOR_FACTOR * s and pol["error_order"][1], (e, s)
+    assert e[-1] <= cm.FLOOR_FACTOR * s, (e, s)
 
 
 @pytest.mark.parametrize("n", ["-1", "1"])

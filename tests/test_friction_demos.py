@@ -212,8 +212,10 @@ def test_ironing2d_first_press_step_without_cutback(shared_tmp, monkeypatch):
     tangent is left out while the active set moves, and the step converges without a NaN
     (20 Newton iterations). F_y agrees with the same press in 4 steps to 0.5 % (measured
     0.0875 and 0.0877; friction makes the press path-dependent). The exact-tangent run
-    takes one secant step in its l2 line search, as before session 23: with the two of
-    first-contact solves (solver.FIRST_CONTACT_L2_STEPS) it also avoids the NaN here."""
+    takes one secant step in its l2 line search, as before session 23, and lets l2 step
+    beyond the Newton step, as before session 37: with the two secant steps of
+    first-contact solves (solver.FIRST_CONTACT_L2_STEPS), or with l2 capped at the full
+    step (solver.L2_MAX_STEP), it also avoids the NaN here."""
     from dolfinx_mortar import contact, solver
 
     # the rule alone: without the penetration limit of the demo's default, which keeps
@@ -224,6 +226,7 @@ def test_ironing2d_first_press_step_without_cutback(shared_tmp, monkeypatch):
     four = demo_ironing2d.main(common + ["--press-steps", "4", "--out", str(shared_tmp / "p4")])
     monkeypatch.setattr(contact, "GEOMETRIC_TANGENT_AT_FIRST_CONTACT", True)
     monkeypatch.setattr(solver, "FIRST_CONTACT_L2_STEPS", 1)
+    monkeypatch.setattr(solver, "L2_MAX_STEP", 1e8)
     exact = demo_ironing2d.main(common + ["--press-steps", "1", "--out", str(shared_tmp / "px")])
     for m in (one, exact):
         assert m["status"] == "ok" and m["cutbacks"] == 0

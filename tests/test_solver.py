@@ -849,9 +849,9 @@ def test_a_failed_ldlt_factorization_falls_back_to_lu(cubic_vectors):
     assert np.allclose(problem.u.vector.array, [2.0, 1.0])
 
 
-def _line_search_max_it(snes) -> int:
-    """The line search's max_its (SNESLineSearchGetTolerances through ctypes, as
-    compat.set_line_search_max_it sets it)."""
+def _line_search_tolerances(snes) -> tuple[float, int]:
+    """The line search's maxstep and max_its (SNESLineSearchGetTolerances through ctypes,
+    as compat.set_line_search_max_step and set_line_search_max_it set them)."""
     import ctypes
 
     from dolfinx_mortar import compat
@@ -865,7 +865,12 @@ def _line_search_max_it(snes) -> int:
     get.argtypes = [ctypes.c_void_p] + [ctypes.POINTER(ctypes.c_double)] * 5
     get.argtypes += [ctypes.POINTER(int_t)]
     assert get(ls, *(ctypes.byref(r) for r in reals), ctypes.byref(n)) == 0
-    return n.value
+    return reals[1].value, n.value
+
+
+def _line_search_max_it(snes) -> int:
+    """The line search's max_its (:func:`_line_search_tolerances`)."""
+    return _line_search_tolerances(snes)[1]
 
 
 @pytest.mark.parametrize(
@@ -941,6 +946,52 @@ def test_energy_line_search_where_the_residual_is_a_gradient(
         newton.solve()
         assert _line_search_type(newton.snes) == "l2"
     assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
+class _Bump(_Cubic):
+    """R(x) = x − 1 + 3.5 b(x) per entry, b the hat of height 1 on [0.2, 0.8] (a kink of
+    the residual between the samples of a line search), J = R′: from x = 0 the Newton step
+    lands on the root x = 1, and ‖R‖² along it is 3, 27, 0 at λ = 0, 1/2, 1 (three
+    entries), a concave fit that "l2" follows to λ = 1 + 35/68 ≈ 1.51."""
+
+    def residual(self, x, b):
+        hat = np.maximum(0.0, 1.0 - np.abs(x.array - 0.5) / 0.3)
+        b.array[:] = x.array - 1.0 + 3.5 * hat
+
+    def jacobian(self, x, A):
+        A.zeroEntries()
+        for i, v in enumerate(x.array):
+            slope = -np.sign(v - 0.5) / 0.3 if abs(v - 0.5) < 0.3 else 0.0
+            A.setValue(i, i, 1.0 + 3.5 * slope)
+        A.assemble()
+
+
+@pytest.mark.parametrize("cap", ["L2_MAX_STEP", "none", "scene"])
+def test_l2_does_not_step_beyond_the_newton_step(cubic_vectors, monkeypatch, cap):
+    """The line search "l2" takes at most the full Newton step (L2_MAX_STEP = 1): where
+    its parabola is concave it would step beyond it, uphill of all its samples. On _Bump
+    the full step is the root (one iteration); uncapped (L2_MAX_STEP = PETSc's 1e8, or a
+    scene's snes_linesearch_maxstep, which overrides the cap) "l2" lands at λ ≈ 1.51 and
+    needs a second. A later "bt" solve of the same solver gets PETSc's maxstep back (for
+    "bt" a bound on the step's norm)."""
+    assert solver_module.L2_MAX_STEP == 1.0
+    petsc = {"snes_linesearch_maxstep": 1e8} if cap == "scene" else {}
+    if cap == "none":
+        monkeypatch.setattr(solver_module, "L2_MAX_STEP", 1e8)
+    problem = _Bump(0.0)
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, petsc=petsc, prefix="test_l2_cap_")
+    with NewtonSolver(problem, settings) as newton:
+        its, norms = newton.solve()
+        assert _line_search_type(newton.snes) == "l2"
+        if cap == "L2_MAX_STEP":
+            assert its == 1 and _line_search_tolerances(newton.snes)[0] == 1.0
+        else:
+            assert its == 2 and norms[1] == pytest.approx(np.sqrt(3) * 35 / 68, rel=1e-9)
+        problem.u.vector.set(0.0)
+        with newton._line_search_as("bt", 20):
+            newton.solve()
+        assert _line_search_tolerances(newton.snes)[0] == 1e8
+    assert np.allclose(problem.u.vector.array, 1.0, rtol=1e-9)
 
 
 class _Kink(_Cubic):

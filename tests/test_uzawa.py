@@ -334,10 +334,12 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     """In 3D, ``"auto"`` keeps Aitken on a frictional pair (the finite-difference products
     cost a 3D search each); ``"newton"`` on request works there: the 3D frictional patch
     test in uniform sliding (two steps) reaches the same contact forces in each step
-    (the applied traction at the end, [−1, 0, 2], to 1e-12) in fewer rounds in all,
+    (the applied traction at the end, [−1, 0, 2], to 1e-12) in no more rounds in all,
     every update exact.
-    Measured serially: 12 + 2 Newton iterations in 7 + 2 rounds with Aitken, 7 + 2 in 3 + 2
-    with the exact update; 1–3 ranks. A step may take one round more than Aitken's: the
+    Measured on 1–3 ranks since session 37 ("l2" capped at the full Newton step,
+    solver.L2_MAX_STEP): 8 + 2 Newton iterations in 2 + 2 rounds with either update;
+    before, 12 + 2 in 7 + 2 rounds with Aitken and 7 + 2 in 3 + 2 with the exact update
+    (BENCHMARKS §33). A step may take one round more than Aitken's: the
     second step's update leaves a multiplier change of about 2e-10 against
     uzawa_tol = 1e-9 (BENCHMARKS §32), the round-off of its finite-difference products
     (step 1e-7) being near that tolerance, and MUMPS's parallel factorization varies at
@@ -361,7 +363,7 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     }
     assert resolved == {"auto": "aitken", "newton": "newton"}
     rounds = {acc: [st["uzawa_rounds"] for st in o["steps"]] for acc, o in out.items()}
-    assert sum(rounds["newton"]) < sum(rounds["auto"]), rounds
+    assert sum(rounds["newton"]) <= sum(rounds["auto"]), rounds
     for sa, sn in zip(out["auto"]["steps"], out["newton"]["steps"], strict=True):
         assert sn["uzawa_rounds"] <= sa["uzawa_rounds"] + 1, rounds
         updates = [next(iter(r.values())) for r in sn["uzawa"][:-1]]
@@ -370,8 +372,6 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
         assert np.allclose(fn, fa, atol=1e-12), (fa, fn)
     force = np.asarray(next(iter(out["newton"]["steps"][-1]["contact_force"].values())))
     assert np.allclose(force, [-1.0, 0.0, 2.0], atol=1e-12), force
-    first = (out["auto"]["steps"][0], out["newton"]["steps"][0])
-    assert first[1]["uzawa_rounds"] < first[0]["uzawa_rounds"]
 
 
 def test_the_forcing_of_the_exact_update():
