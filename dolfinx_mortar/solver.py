@@ -520,23 +520,28 @@ class NewtonSolver:
             )
             # False where the PETSc library cannot be reached (the line search stays)
             self._energy = bool(energy) and compat.set_line_search_type(snes, ENERGY_LINE_SEARCH)
-            if not self._energy:
-                compat.set_line_search_type(snes, "l2")
-            # more secant steps of l2 at first contact, not with penalties stiffer than
-            # the auto value (round_off_scale > 1), whose kinks defeat the fitted
-            # parabola (FIRST_CONTACT_L2_STEPS)
-            steps = FIRST_CONTACT_L2_STEPS if first and soft else 1
-            compat.set_line_search_max_it(snes, 1 if self._energy else steps)
-            self._set_max_step(_DEFAULT_MAX_STEP if self._energy else L2_MAX_STEP)
+            if self._energy:
+                compat.set_line_search_max_it(snes, 1)
+                self._set_max_step(_DEFAULT_MAX_STEP)
+            else:
+                # more secant steps of l2 at first contact, not with penalties stiffer
+                # than the auto value (round_off_scale > 1), whose kinks defeat the
+                # fitted parabola (FIRST_CONTACT_L2_STEPS)
+                self._use_l2(FIRST_CONTACT_L2_STEPS if first and soft else 1)
         elif self._energy and (compat.line_search_lambda(snes) or 0.0) < ENERGY_MIN_LAMBDA:
             # the secant step on a kinked ⟨R, Δu⟩ came out short: "l2" from here on
             log.info("energy line search took a short step; l2 for the rest of the solve")
-            compat.set_line_search_type(snes, "l2")
-            compat.set_line_search_max_it(snes, 1)
-            self._set_max_step(L2_MAX_STEP)
+            self._use_l2(1)
             self._energy = False
         if self._reusing and not first_iteration:
             self._reuse_mode(False)  # only the first iteration of a solve reuses
+
+    def _use_l2(self, secant_steps: int) -> None:
+        """The SNES's line search becomes "l2" with ``secant_steps`` secant steps and
+        steps of at most L2_MAX_STEP (local; inside a solve too)."""
+        compat.set_line_search_type(self.snes, "l2")
+        compat.set_line_search_max_it(self.snes, secant_steps)
+        self._set_max_step(L2_MAX_STEP)
 
     def _set_max_step(self, max_step: float) -> None:
         """The line search's ``maxstep`` (L2_MAX_STEP), unless the scene sets
