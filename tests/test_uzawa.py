@@ -334,17 +334,15 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     """In 3D, ``"auto"`` keeps Aitken on a frictional pair (the finite-difference products
     cost a 3D search each); ``"newton"`` on request works there: the 3D frictional patch
     test in uniform sliding (two steps) reaches the same contact forces in each step
-    (the applied traction at the end, [−1, 0, 2], to 1e-12) in no more rounds in all,
+    (the applied traction at the end, [−1, 0, 2], to 1e-12) in no more rounds per step,
     every update exact.
-    Measured on 1–3 ranks since session 37 ("l2" capped at the full Newton step,
-    solver.L2_MAX_STEP): 8 + 2 Newton iterations in 2 + 2 rounds with either update;
-    before, 12 + 2 in 7 + 2 rounds with Aitken and 7 + 2 in 3 + 2 with the exact update
-    (BENCHMARKS §33). A step may take one round more than Aitken's: the
-    second step's update leaves a multiplier change of about 2e-10 against
-    uzawa_tol = 1e-9 (BENCHMARKS §32), the round-off of its finite-difference products
-    (step 1e-7) being near that tolerance, and MUMPS's parallel factorization varies at
-    round-off between runs; once (session 35, 3 ranks, the whole suite) it left more than
-    1e-9 and the step took 3 rounds against Aitken's 2."""
+    The test runs at uzawa_tol = 1e-8, not the demo's 1e-9: after one exact update the
+    first step's multiplier change is 4e-10 to 1.7e-9 (1–3 ranks, runs vary at round-off;
+    BENCHMARKS §34), the GMRES of the update stopping after one product far below its
+    relative tolerance (max(EXACT_FD_RTOL, ...) = 1e-6 at a change of 1). At 1e-9 whether
+    a third round follows was a coin toss (3 rounds against Aitken's 2 in CI, sessions 35
+    and 37); at 1e-8 both take 2 + 2 rounds (8 + 2 Newton iterations), Aitken's second
+    round leaving 4.4e-10."""
     import sys
     from pathlib import Path
 
@@ -356,6 +354,7 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
         data = demo_friction_patch.scene(3, "slide", "element")
         for pair in data["contact"]:
             pair["uzawa_acceleration"] = acc
+            pair["uzawa_tol"] = 1e-8
         out[acc] = _run_scene(data, tmp_path_factory, acc)
     resolved = {
         acc: next(iter(o["modelled"]["contact_pairs"].values()))["uzawa_acceleration"]
@@ -363,9 +362,8 @@ def test_the_frictional_exact_update_on_request_in_3d(tmp_path_factory):
     }
     assert resolved == {"auto": "aitken", "newton": "newton"}
     rounds = {acc: [st["uzawa_rounds"] for st in o["steps"]] for acc, o in out.items()}
-    assert sum(rounds["newton"]) <= sum(rounds["auto"]), rounds
     for sa, sn in zip(out["auto"]["steps"], out["newton"]["steps"], strict=True):
-        assert sn["uzawa_rounds"] <= sa["uzawa_rounds"] + 1, rounds
+        assert sn["uzawa_rounds"] <= sa["uzawa_rounds"], rounds
         updates = [next(iter(r.values())) for r in sn["uzawa"][:-1]]
         assert all(u["exact_update"].startswith("newton") for u in updates)
         fa, fn = (np.asarray(next(iter(o["contact_force"].values()))) for o in (sa, sn))
