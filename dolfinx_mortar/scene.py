@@ -78,7 +78,8 @@ Schema (``*`` = required; defaults in brackets)::
                    out of contact (the step is shortened), in every solve; 0 =
                    in first-contact solves only, with solver.FIRST_CONTACT_DEPTH_LIMIT [0]
       [solver.petsc]  table of PETSc options: string / int / float / bool values
-                      (true: a bare flag, e.g. snes_monitor = true)
+                      (true: a bare flag, e.g. snes_monitor = true);
+                      snes_linesearch_maxstep must be > 0
 
     [output]
       dir          string, relative to the scene file's directory
@@ -1011,6 +1012,10 @@ def _parse_solver(value: Any) -> SolverOptions:
     line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
     petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
+    if "snes_linesearch_maxstep" in petsc and not isinstance(
+        petsc["snes_linesearch_maxstep"], str
+    ):  # PETSc takes any number and then steps backwards or not at all
+        _positive(petsc["snes_linesearch_maxstep"], "solver.petsc.snes_linesearch_maxstep")
     depth = _nonnegative(table.get("step_depth_limit", 0.0), "solver.step_depth_limit")
     return SolverOptions(
         rtol=rtol,

@@ -632,9 +632,9 @@ class NewtonSolver:
                     return self._accept(x, its, norms)
                 self.full_step_restarts += 1
                 log.info(
-                    "Full Newton steps failed (SNES reason %d, %d iterations); the solve "
+                    "Full Newton steps failed (SNES reason %s, %d iterations); the solve "
                     "starts again with line search %s",
-                    reason,
+                    _reason_name(PETSc.SNES.ConvergedReason, reason),
                     its,
                     self._line_search,
                 )
@@ -675,8 +675,12 @@ class NewtonSolver:
             if reason <= 0 or not np.all(np.isfinite(norms)):
                 self.all_iterations += tried[0] + its
                 x.destroy()
+                why = _reason_name(PETSc.SNES.ConvergedReason, reason)
+                if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+                    ksp = self.snes.getKSP().getConvergedReason()
+                    why += f" (KSP reason {_reason_name(PETSc.KSP.ConvergedReason, ksp)})"
                 raise ConvergenceError(
-                    f"Newton did not converge (SNES reason {reason}, {tried[0] + its} "
+                    f"Newton did not converge (SNES reason {why}, {tried[0] + its} "
                     f"iterations, residual {norms[-1] if norms else float('nan'):.3e})"
                 )
             if tried[0]:  # the restart's first norm is the attempt's first
@@ -857,10 +861,10 @@ class NewtonSolver:
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         log.info(
-            "Newton solve continued with %d steps of line search %s: SNES reason %d",
+            "Newton solve continued with %d steps of line search %s: SNES reason %s",
             its,
             line_search,
-            reason,
+            _reason_name(PETSc.SNES.ConvergedReason, reason),
         )
         return reason, [float(r) for r in self.snes.getConvergenceHistory()[0][1 : its + 1]]
 
@@ -921,6 +925,13 @@ def _create_vector(problem):
     from dolfinx.fem.petsc import create_vector
 
     return create_vector(problem.F_form)
+
+
+def _reason_name(enum, reason: int) -> str:
+    """``reason`` with its PETSc name, e.g. "-3 DIVERGED_LINEAR_SOLVE" (``enum``:
+    ``PETSc.SNES.ConvergedReason`` or ``PETSc.KSP.ConvergedReason``; local)."""
+    names = [k for k in dir(enum) if k.isupper() and getattr(enum, k) == reason]
+    return f"{reason} {min(names, key=len)}" if names else str(reason)
 
 
 def _ksp_time() -> float:

@@ -510,10 +510,22 @@ def test_full_steps_are_bounded(cubic_vectors, monkeypatch):
         assert newton.full_step_solves == 1
 
 
+def test_a_failed_linear_solve_is_named(cubic_vectors):
+    """A singular Jacobian (the cubic at x = 0: J = 0) fails the factorization; the error
+    names the SNES reason and the KSP's, so that a user sees the linear solver failed."""
+    settings = SolverSettings(prefix="test_singular_")
+    with NewtonSolver(_Cubic(0.0), settings) as newton:
+        with pytest.raises(
+            ConvergenceError,
+            match=r"SNES reason -3 DIVERGED_LINEAR_SOLVE \(KSP reason -11 DIVERGED_PCSETUP_FAILED\)",
+        ):
+            newton.solve()
+
+
 def test_no_continuation_with_the_basic_line_search(cubic_vectors):
     settings = SolverSettings(max_it=2, line_search="basic", prefix="test_basic_")
     with NewtonSolver(_Cubic(10.0), settings) as newton:
-        with pytest.raises(ConvergenceError, match="SNES reason -5"):
+        with pytest.raises(ConvergenceError, match="SNES reason -5 DIVERGED_MAX_IT"):
             newton.solve()
         assert newton.full_step_solves == 0
 
@@ -747,7 +759,7 @@ def test_no_restart_without_rescue(cubic_vectors):
     problem = _CubicWithHole(0.5)
     settings = SolverSettings(line_search="basic", prefix="test_norescue_")
     with NewtonSolver(problem, settings) as newton:
-        with pytest.raises(ConvergenceError, match="SNES reason -4"):
+        with pytest.raises(ConvergenceError, match="SNES reason -4 DIVERGED_FNORM_NAN"):
             newton.solve(rescue=False)
         assert newton.backtracked_solves == 0
     assert np.allclose(problem.u.vector.array, 0.5)
