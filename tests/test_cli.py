@@ -463,8 +463,9 @@ def test_output_dir_is_a_file(workdir, where):
         ("", "empty name"),
         ("../dangling", "a link to nothing"),
         ("/proc/dolfinx_mortar_test", "no such file or directory"),
+        ("../looping/results", "too many levels of symbolic links"),
     ],
-    ids=["empty", "dangling-link", "cannot-create"],
+    ids=["empty", "dangling-link", "cannot-create", "looping-link"],
 )
 def test_output_dir_that_cannot_be_used(workdir, out, reason):
     """Other output directories that cannot be used: one line naming ``--out``, exit 2,
@@ -472,9 +473,22 @@ def test_output_dir_that_cannot_be_used(workdir, out, reason):
     link or a directory that cannot be created gave a traceback after the set-up)."""
     (workdir / "good.toml").write_text(to_toml(base_scene()))
     (workdir.parent / "dangling").symlink_to(workdir / "nowhere" / "at_all")
+    (workdir.parent / "looping").symlink_to(workdir.parent / "looping")
     before = snapshot(workdir)
     res = cli(workdir, "run", "good.toml", "--out", out)
     _one_error_line(res, 1, "--out", reason)
+    assert snapshot(workdir) == before
+
+
+def test_output_dir_with_a_nul_character(workdir):
+    """A NUL in ``output.dir`` (TOML's \\u0000; a command line cannot hold one) is one
+    error line naming the key, exit 2, nothing written (os calls raise ValueError)."""
+    scene = base_scene()
+    scene["output"]["dir"] = "res\0ults"
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "good.toml")
+    _one_error_line(res, 1, "output.dir", "the name holds a NUL character")
     assert snapshot(workdir) == before
 
 
