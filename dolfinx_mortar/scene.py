@@ -1012,10 +1012,6 @@ def _parse_solver(value: Any) -> SolverOptions:
     line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
     petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
-    if "snes_linesearch_maxstep" in petsc and not isinstance(
-        petsc["snes_linesearch_maxstep"], str
-    ):  # PETSc takes any number: a cap <= 0 ran "ok", with more Newton iterations
-        _positive(petsc["snes_linesearch_maxstep"], "solver.petsc.snes_linesearch_maxstep")
     depth = _nonnegative(table.get("step_depth_limit", 0.0), "solver.step_depth_limit")
     return SolverOptions(
         rtol=rtol,

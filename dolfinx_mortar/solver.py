@@ -382,6 +382,14 @@ class NewtonSolver:
                 f"PETSc rejected the options {sorted(settings.petsc)}: "
                 f"{compat.petsc_error_lines(exc)[-1]}",
             ) from None
+        if "snes_linesearch_maxstep" in settings.petsc:
+            # PETSc takes any number: a cap <= 0 ran "ok", with more Newton iterations
+            max_step = PETSc.Options().getReal(settings.prefix + "snes_linesearch_maxstep")
+            if not max_step > 0.0:
+                self.destroy()
+                raise SceneError(
+                    "solver.petsc.snes_linesearch_maxstep", f"must be > 0, got {max_step:g}"
+                )
         self.timings = {"linear_solve": 0.0}
         #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
         self._line_search = str(defaults["snes_linesearch_type"])
@@ -544,7 +552,8 @@ class NewtonSolver:
         self._set_max_step(L2_MAX_STEP)
 
     def _set_max_step(self, max_step: float) -> None:
-        """The line search's ``maxstep`` (L2_MAX_STEP), unless the scene sets
+        """The line search's ``maxstep`` (L2_MAX_STEP), unless ``settings.petsc`` (the
+        scene's [solver.petsc] or the command line's -dm_...) sets
         snes_linesearch_maxstep (local)."""
         if "snes_linesearch_maxstep" not in self.settings.petsc:
             compat.set_line_search_max_step(self.snes, max_step)

@@ -739,6 +739,23 @@ def test_petsc_options_flag_and_rejected_value(workdir):
     assert snapshot(workdir) == before
 
 
+def test_line_search_max_step_must_be_positive(workdir):
+    """``snes_linesearch_maxstep`` <= 0, in [solver.petsc] or on the command line, is one
+    error line per rank naming the key, exit 2, nothing written (PETSc takes any number;
+    a cap <= 0 ran "ok" with more Newton iterations)."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_linesearch_maxstep": -1.0}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    scene["solver"] = {}
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    key = "solver.petsc.snes_linesearch_maxstep"
+    _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, "must be > 0, got -1")
+    res = cli(workdir, "run", "good.toml", "-dm_snes_linesearch_maxstep", "0")
+    _one_error_line(res, 1, key, "must be > 0, got 0")
+    assert snapshot(workdir) == before
+
+
 def test_petsc_options_on_the_command_line(workdir):
     """``run SCENE -dm_KEY [VALUE]``: PETSc options with the solver prefix override the
     scene's [solver.petsc]; a bare option is a flag; any other extra argument is a usage
