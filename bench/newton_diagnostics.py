@@ -7,6 +7,10 @@ of its first Newton solve (the main one; the later Uzawa rounds start near the s
 
 - ``|R|``: the residual norm at the iterate u, and ``|du|``: the Newton step
   du = K⁻¹R (MUMPS);
+- ``|du|_K``: the Newton step in the energy norm of the tangent, √(R·du) = √(duᵀ K du)
+  (the Newton decrement: invariant under a change of the unknowns, so it does not weigh a
+  stiff direction by its stiffness as ‖R‖ does, nor a soft one by its softness as ‖du‖
+  does; K is symmetric positive definite here, frictionless);
 - ``fd``: ‖K du − (R(u + h du) − R(u − h du))/2h‖ / ‖…‖ with h = 1e-4 (relative to
   ‖du‖ = 1). The check is along the Newton step, so Dirichlet dofs do not move (a random
   direction would perturb them, and K does not see that);
@@ -97,7 +101,7 @@ def check(problem, log) -> None:
         rt = _residual(problem, ut)
         rt.axpy(-(1.0 - t), r)
         quad.append(rt.norm() / t**2)
-    log.append((r.norm(), du.norm(), kdu.norm() / fd.norm(), quad))
+    log.append((r.norm(), du.norm(), kdu.norm() / fd.norm(), quad, abs(r.dot(du)) ** 0.5))
     problem.update_contact(u0)
     for v in (K, ksp, r, du, up, um, fd, kdu):
         v.destroy()
@@ -215,13 +219,18 @@ def main(argv=None) -> list:
         print(
             f"hertz2d P{args.order} {args.integration} {args.recovery}, step {args.step}, {which}:"
         )
-        print("  |R|        |du|       fd(K du)   quad t=1/4, 1/2, 1")
-        for rn, dn, e, q in log:
-            print(f"  {rn:.3e}  {dn:.3e}  {e:.1e}    " + ", ".join(f"{v:.4e}" for v in q))
+        print("  |R|        |du|       |du|_K     fd(K du)   quad t=1/4, 1/2, 1")
+        for rn, dn, e, q, dk in log:
+            print(f"  {rn:.3e}  {dn:.3e}  {dk:.3e}  {e:.1e}    " + ", ".join(f"{v:.4e}" for v in q))
         steps = [x[1] for x in log]
         if len(steps) >= 3:
             c = [steps[k + 1] / steps[k] ** 2 for k in range(len(steps) - 1)]
             print("  |du_k+1|/|du_k|^2:", ", ".join(f"{v:.3g}" for v in c))
+            dec = [x[4] for x in log]
+            print(
+                "  order of the last three |du|_K (the errors' energy norms):",
+                f"{cm.observed_order(dec):.2f}",
+            )
         if polished:
             print(
                 "  residual norms of the solve:", ", ".join(f"{v:.3g}" for v in polished["solve"])

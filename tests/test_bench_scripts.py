@@ -245,13 +245,16 @@ def test_newton_diagnostics_hertz2d(tmp_path, mesh):
     # by 16. The last iterate's remainder is that noise alone: quad 7.9e-12, 2.5e-12,
     # 6.7e-13 (session 24, LDLᵀ), 1.1e-11, 2.1e-12, 5.4e-13 with the Uzawa multipliers of
     # the exact update's forcing (contact.EXACT_FORCING), which differ at 1e-10.
-    smooth = [max(quad) / min(quad) < 1.01 or max(quad) - min(quad) < 3e-11 for *_, quad in log]
+    smooth = [max(q) / min(q) < 1.01 or max(q) - min(q) < 3e-11 for _, _, _, q, _ in log]
     assert smooth[-2:] == [True, True], log  # the quadratic regime
     assert sum(smooth) >= 3, log
-    for (r, _, fd, _), ok in zip(log, smooth, strict=True):
+    for (r, _, fd, _, _), ok in zip(log, smooth, strict=True):
         if ok or mesh:  # triangles: at every iterate
             assert fd < 1e-5, (r, fd)
     assert log[-1][0] < 1e-2 * log[0][0]
+    # |du|_K = √(R·du): K is symmetric positive definite (frictionless, lumped), so R·du > 0,
+    # and by Cauchy–Schwarz |du|_K ≤ √(|R| |du|)
+    assert all(0.0 < dk <= (r * d) ** 0.5 * (1 + 1e-12) for r, d, _, _, dk in log), log
 
 
 def test_newton_diagnostics_p2(tmp_path):
@@ -262,7 +265,7 @@ def test_newton_diagnostics_p2(tmp_path):
     ``--solve 2`` watches step 1's second Uzawa round instead (one Jacobian)."""
     bench = _load("newton_diagnostics")
     log = bench.main(["--order", "2", "--step", "2", "--out", str(tmp_path / "a")])
-    smooth = [(r, fd) for r, _, fd, quad in log if max(quad) / min(quad) < 1.05]
+    smooth = [(r, fd) for r, _, fd, quad, _ in log if max(quad) / min(quad) < 1.05]
     assert len(smooth) >= 2, log
     assert all(fd < 1e-5 for _, fd in smooth), smooth
     log2 = bench.main(["--order", "2", "--step", "1", "--solve", "2", "--out", str(tmp_path / "b")])
