@@ -26,7 +26,7 @@ from time import perf_counter
 
 import numpy as np
 import ufl
-from dolfinx import fem
+from dolfinx import fem, la
 from dolfinx.fem.petsc import (
     apply_lifting,
     assemble_matrix,
@@ -36,6 +36,8 @@ from dolfinx.fem.petsc import (
 )
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from . import compat
 from .assembly import MatrixPattern, RecordedValues, sorted_contains, unique_runs
@@ -129,6 +131,68 @@ class LinearBulk:
         A.setValuesCSR(*self._KD_csr, addv=PETSc.InsertMode.ADD_VALUES)
 
 
+def body_labels(V) -> tuple[np.ndarray, np.ndarray]:
+    """The bodies of the mesh: its connected parts, cells joined by shared dofs.
+
+    Returns a body number per local cell (num_cells,) and per local dof block, owned and
+    ghost (num_blocks,); the numbers run from 0 to the number of bodies − 1 and are the
+    same on every rank. Each rank labels its own cells' components (scipy), then joins
+    the components that meet at a ghost block across ranks (one ghost scatter and one
+    allgather of the joining pairs). Collective."""
+    comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    n_own, n_blocks = imap.size_local, imap.size_local + imap.num_ghosts
+    cells = V.dofmap.list
+    n_cells = cells.num_nodes
+    cell_blocks = cells.array.reshape(n_cells, -1) if n_cells else np.empty((0, 1), np.int32)
+    rows = np.repeat(np.arange(n_cells), cell_blocks.shape[1])
+    cols = n_cells + cell_blocks.ravel()
+    n = n_cells + n_blocks
+    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    n_local, labels = connected_components(graph, directed=False) if n else (0, np.empty(0))
+    labels = labels.astype(np.int64) + (comm.exscan(n_local) or 0)
+    # the owner's component of each ghost block
+    vec = la.create_petsc_vector(imap, 1)
+    vec.array[:] = labels[n_cells : n_cells + n_own]
+    vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    with vec.localForm() as loc:
+        owner = np.rint(loc.array[n_own:n_blocks]).astype(np.int64)
+    vec.destroy()
+    mine = labels[n_cells + n_own :]
+    pairs = np.unique(np.stack([mine, owner], axis=1)[mine != owner], axis=0)
+    pairs = np.concatenate([pairs.reshape(-1, 2), *comm.allgather(pairs.reshape(-1, 2))])
+    total = comm.allreduce(n_local)
+    joined = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(total, total))
+    _, body = connected_components(joined, directed=False)
+    labels = body[labels]
+    return labels[:n_cells], labels[n_cells:]
+
+
+def rigid_modes(r: np.ndarray, comps: np.ndarray, gdim: int) -> np.ndarray:
+    """The rigid motions' values at dofs: (ndofs, 3) in 2D (translations x, y; the
+    rotation r ↦ (−r_y, r_x)), (ndofs, 6) in 3D (translations; rotations e_a × r about the
+    three axes). ``r`` (ndofs, gdim) the dofs' positions about a centre (length, scaled
+    as the caller likes), ``comps`` (ndofs,) their displacement components."""
+    n = len(comps)
+    trans = (comps[:, None] == np.arange(gdim)).astype(float)
+    if gdim == 2:
+        rot = np.where(comps == 0, -r[:, 1], r[:, 0]).reshape(n, 1)
+    else:
+        # (e_a × r)_c = ε_{c a b} r_b
+        eps = np.zeros((3, 3, 3))
+        eps[0, 1, 2] = eps[1, 2, 0] = eps[2, 0, 1] = 1.0
+        eps[0, 2, 1] = eps[2, 1, 0] = eps[1, 0, 2] = -1.0
+        rot = np.einsum("nab,nb->na", eps[comps], r[:, :3]) if n else np.zeros((0, 3))
+    return np.concatenate([trans, rot], axis=1)
+
+
+#: A body counts as held by its Dirichlet conditions when the smallest eigenvalue of the
+#: Gram matrix of its rigid motions at the constrained dofs (positions scaled by the mesh
+#: extent) exceeds this times the largest: a body held at a single node (free to rotate
+#: about it) gives 0 to round-off.
+RIGID_MODE_TOL = 1e-10
+
+
 class ContactProblem:
     """Bulk forms plus contact terms (collective construction).
 
@@ -206,6 +270,7 @@ class ContactProblem:
         self.comm.Allreduce(MPI.IN_PLACE, box, op=MPI.MAX)
         #: the diagonal of the mesh's bounding box (length; the same on every rank)
         self.extent = float(np.linalg.norm(box[gdim:] + box[:gdim]))
+        self._centre = 0.5 * (box[gdim:] - box[:gdim])
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
         self._collect_bcs()
         self.contacts: list = []
@@ -253,6 +318,7 @@ class ContactProblem:
 
     def _collect_bcs(self) -> None:
         self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        self._bodies = None  # (cell_body, held) of bodies_held(): the conditions changed
         if self.linear_bulk is not None:
             self.linear_bulk.set_bcs(self.bcs)
         # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
@@ -307,6 +373,34 @@ class ContactProblem:
         self._dirichlet.append(_Dirichlet(name, comps, np.zeros((1, 1)), [], bcs, by_comp))
         self._collect_bcs()
         self._set_fields(getattr(self, "t", 0.0))
+
+    def bodies_held(self, cells: np.ndarray) -> bool:
+        """Whether every body (:func:`body_labels`) holding one of the local ``cells`` on
+        some rank is held against all rigid motions by the Dirichlet conditions
+        (collective). A body is held where the rigid motions (:func:`rigid_modes`) take
+        values of full rank at its constrained dofs: a clamped face holds a body, a
+        symmetry plane alone (u_x = 0) leaves it free to move along the plane. Contact
+        terms ask it of their two surfaces' bodies: a pair whose bodies are all held needs
+        no contact predictor (:class:`~dolfinx_mortar.contact.MortarContact`). Computed
+        once (two ghost scatters' worth of communication), then cached."""
+        if self._bodies is None:
+            cell_body, block_body = body_labels(self.V)
+            nbodies = 1 + self.comm.allreduce(int(max(cell_body.max(initial=-1), -1)), MPI.MAX)
+            bs = self.V.dofmap.index_map_bs
+            n_own = self.V.dofmap.index_map.size_local * bs
+            dofs = np.flatnonzero(self.global_dofs[:n_own] < 0)  # owned, constrained
+            blocks, comps = np.divmod(dofs, bs)
+            x = self.V.tabulate_dof_coordinates()[blocks, : self.gdim]
+            m = rigid_modes((x - self._centre) / max(self.extent, 1e-300), comps, self.gdim)
+            gram = np.zeros((nbodies, m.shape[1], m.shape[1]))
+            np.add.at(gram, block_body[blocks], m[:, :, None] * m[:, None, :])
+            self.comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
+            eig = np.linalg.eigvalsh(gram) if nbodies else np.zeros((0, 1))
+            held = eig[:, 0] > RIGID_MODE_TOL * eig[:, -1]
+            self._bodies = (cell_body, held)
+        cell_body, held = self._bodies
+        free = bool(np.any(~held[cell_body[np.asarray(cells, np.int64)]]))
+        return not self.comm.allreduce(free, op=MPI.LOR)
 
     def _set_fields(self, t: float) -> None:
         for gc, field, c in self._fields:

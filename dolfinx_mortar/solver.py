@@ -1157,17 +1157,22 @@ _CHANGED_STATES = ("unfrozen_states", "released_nodes", "unfrozen_qp_nodes")
 def _open_contact_hint(problem) -> str:
     """A clause for the error of a run that stops, where no contact pair had a slave
     node in contact at the failed attempt's last contact update ("" where some pair
-    touched or the problem has no contact). Collective; called only when the run stops,
-    so one allreduce per run, not one per failed attempt. A body that only contact holds
-    is then free, and Newton cannot reduce its load: the usual cause is a load pointing
-    away from the contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
+    touched or the problem has no contact), naming the open pairs with a body that the
+    Dirichlet conditions leave free (``free_body``; "" where there is none: the failure
+    is not a free body's). Collective; called only when the run stops, so one allreduce
+    per run, not one per failed attempt. A body that only contact holds is then free, and
+    Newton cannot reduce its load: the usual cause is a load pointing away from the
+    contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
     if not getattr(problem, "contacts", None):
         return ""
     pairs = problem.open_pairs()
     if len(pairs) < len(problem.contacts):
         return ""
+    free = [t.name for t in problem.contacts if t.free_body and t.name in pairs]
+    if not free:
+        return ""
     return (
-        f"; no slave node of {', '.join(pairs)} was in contact: a body held only by "
+        f"; no slave node of {', '.join(free)} was in contact: a body held only by "
         "contact is free there (check the direction of the loads)"
     )
 

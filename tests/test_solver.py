@@ -150,14 +150,25 @@ def test_a_body_that_nothing_holds_stops_the_run(shared_tmp):
 
 
 @pytest.mark.parametrize(
-    ("pairs", "open_pairs", "hint"), [(0, [], False), (2, ["a:b"], False), (1, ["a:b"], True)]
+    ("pairs", "open_pairs", "free", "hint"),
+    [
+        (0, [], True, False),
+        (2, ["a:b"], True, False),
+        (1, ["a:b"], True, True),
+        (1, ["a:b"], False, False),
+    ],
 )
-def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, hint):
+def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, free, hint):
     """The hint is given only where every contact pair is open (a closed pair may hold
-    the body), and never without contact."""
+    the body) and an open pair has a body that the Dirichlet conditions leave free
+    (``free_body``), and never without contact."""
+
+    class Term:
+        name = "a:b"
+        free_body = free
 
     class P:
-        contacts = [object()] * pairs
+        contacts = [Term()] * pairs
 
         def open_pairs(self):
             return open_pairs
