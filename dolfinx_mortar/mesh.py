@@ -126,6 +126,25 @@ def _inspect_model(gmsh) -> dict:
                 f"(tags {twin[1]} and {tag}): names must be unique",
             )
         names[(d, tag)] = name
+    # dolfinx keeps one tag per cell and per facet: a cell in two groups of cells broke
+    # model_to_mesh (heap corruption, a crash or a hang, in `check` too), and a facet in
+    # two groups of facets was silently left in one of them (a traction on the other
+    # acted on nothing)
+    owner: dict[tuple[int, int], str] = {}
+    for (d, tag), name in names.items():
+        if d < tdim - 1:
+            continue
+        for ent in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+            other = owner.setdefault((d, int(ent)), name)
+            if other != name:
+                what = "cells" if d == tdim else "facets"
+                raise SceneError(
+                    "mesh",
+                    f"the physical groups {other!r} and {name!r} share {what} (entity "
+                    f"{ent} of dimension {d}): a mesh can give each of its {what} one "
+                    f"physical group only (drop the overlapping group, e.g. a whole-domain "
+                    "group, or split the entity)",
+                )
     cell_groups = {n: t for (d, t), n in names.items() if d == tdim}
     facet_groups = {n: t for (d, t), n in names.items() if d == tdim - 1}
     _, coords, _ = gmsh.model.mesh.getNodes()

@@ -254,6 +254,18 @@ CASES = [
         "mesh",
         "lies outside every physical group of cells",
     ),
+    (
+        "mesh-cells-in-two-groups",
+        _set("mesh", None, file="overlap.msh"),
+        "mesh",
+        "the physical groups 'body' and 'all' share cells",
+    ),
+    (
+        "mesh-facets-in-two-groups",
+        _set("mesh", None, file="twofacet.msh"),
+        "mesh",
+        "the physical groups 'top' and 'load' share facets",
+    ),
 ]
 CASE_IDS = [c[0] for c in CASES]
 CASE_BY_ID = {c[0]: c for c in CASES}
@@ -280,6 +292,8 @@ def meshes(tmp_path_factory) -> Path:
     write_two_squares_msh(d / "inner.msh")
     write_two_squares_msh(d / "loose.msh", loose=True)
     write_two_squares_msh(d / "unnamed.msh", unnamed=True)
+    write_two_squares_msh(d / "overlap.msh", extra_group=(2, "all"))
+    write_two_squares_msh(d / "twofacet.msh", extra_group=(1, "load"))
     (d / "empty.msh").write_bytes(b"")
     # gmsh's API refuses a second group of one name, a .msh file can hold it
     inner = (d / "inner.msh").read_text()
@@ -288,11 +302,16 @@ def meshes(tmp_path_factory) -> Path:
     return d
 
 
-def write_two_squares_msh(path: Path, loose: bool = False, unnamed: bool = False) -> None:
+def write_two_squares_msh(
+    path: Path, loose: bool = False, unnamed: bool = False, extra_group=None
+) -> None:
     """Two unit squares sharing the edge x = 1: groups body, inner (the shared, interior
     edge) and top. ``loose``: the group body holds the first square only, so the file has
     nodes of the second that no cell uses (dolfinx 0.5.2 crashed on those); ``unnamed``:
-    body holds the first square, the second is a physical group without a name."""
+    body holds the first square, the second is a physical group without a name;
+    ``extra_group`` (dim, name): one more group of the squares (dim 2, as a whole-domain
+    group "all": cells in two groups, which broke dolfinx's mesh creation) or of the top
+    edges (dim 1: facets in two groups, of which dolfinx kept one)."""
     import gmsh
 
     gmsh.initialize(["-noenv"], readConfigFiles=False)
@@ -315,6 +334,10 @@ def write_two_squares_msh(path: Path, loose: bool = False, unnamed: bool = False
                 if abs(occ.getCenterOfMass(1, t)[axis] - value) < 1e-9
             ]
             model.setPhysicalName(1, model.addPhysicalGroup(1, tags), name)
+            if extra_group and extra_group[0] == 1 and name == "top":
+                model.setPhysicalName(1, model.addPhysicalGroup(1, tags), extra_group[1])
+        if extra_group and extra_group[0] == 2:
+            model.setPhysicalName(2, model.addPhysicalGroup(2, [a, b]), extra_group[1])
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
         model.mesh.generate(2)
         gmsh.write(str(path))
@@ -335,6 +358,8 @@ def workdir(meshes, tmp_path) -> Path:
         "empty.msh",
         "twins.msh",
         "unnamed.msh",
+        "overlap.msh",
+        "twofacet.msh",
     ):
         shutil.copy(meshes / name, cwd / name)
     out = cwd / "out"
