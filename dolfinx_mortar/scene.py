@@ -66,7 +66,7 @@ Schema (``*`` = required; defaults in brackets)::
       output_times list of float in (0, t_end] [[]]
 
     [solver]
-      rtol         float > 0                   [1e-9]
+      rtol         float in (0, 1)             [1e-9]
       atol         float >= 0 | "auto"         ["auto": 1e-10, never looser than
                                                rtol × the forces]
       max_it       int >= 1                    [25]
@@ -1006,6 +1006,10 @@ def _parse_solver(value: Any) -> SolverOptions:
     table = _table(value, "solver")
     _check_keys(table, _SOLVER_KEYS, "solver")
     rtol = _positive(table.get("rtol", 1e-9), "solver.rtol")
+    if rtol >= 1.0:  # PETSc's SNESSetTolerances refuses it, in the middle of the run
+        raise SceneError(
+            "solver.rtol", f"must be < 1 (a relative residual reduction), got {rtol:g}"
+        )
     atol = _auto_or(_nonnegative, table.get("atol", "auto"), "solver.atol", ">= 0")
     max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
     linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)

@@ -390,6 +390,15 @@ class NewtonSolver:
                 raise SceneError(
                     "solver.petsc.snes_linesearch_maxstep", f"must be > 0, got {max_step:g}"
                 )
+        if self.snes.getType() in _LINEAR_SNES_TYPES:
+            # one linear solve, no residual history: every step failed after 6 cutbacks
+            kind = self.snes.getType()
+            self.destroy()
+            raise SceneError(
+                "solver.petsc.snes_type",
+                f"{kind!r} solves one linear system and contact is nonlinear: use a "
+                "Newton method (the default newtonls)",
+            )
         self.timings = {"linear_solve": 0.0}
         #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
         self._line_search = str(defaults["snes_linesearch_type"])
@@ -652,6 +661,20 @@ class NewtonSolver:
                 reuse = False
             reason = self._run(x, reuse)
             its, norms = self._history()
+            if not norms:
+                # the SNES stopped before its first residual norm: a non-finite first
+                # residual, or a [solver.petsc] snes_type that keeps no history
+                self.all_iterations += tried[0]
+                x.destroy()
+                why = (
+                    "the first residual is not finite"
+                    if reason in _NONFINITE
+                    else f"SNES type {self.snes.getType()} recorded no residual norm"
+                )
+                raise ConvergenceError(
+                    "Newton did not converge (SNES reason "
+                    f"{_reason_name(PETSc.SNES.ConvergedReason, reason)}: {why})"
+                )
             target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
             budget = min(FULL_STEP_ITERATIONS, s.max_it)
             stalled = reason in _STALLED and self._line_search != "basic"
@@ -934,6 +957,10 @@ def _create_vector(problem):
     from dolfinx.fem.petsc import create_vector
 
     return create_vector(problem.F_form)
+
+
+#: SNES types that do one linear solve instead of Newton's method
+_LINEAR_SNES_TYPES = ("ksponly", "ksptransposeonly")
 
 
 def _reason_name(enum, reason: int) -> str:

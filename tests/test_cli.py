@@ -191,6 +191,7 @@ CASES = [
     ("nu-half", _set("material", 0, nu=0.5), "material[0].nu", "(-1, 0.5)"),
     ("nu-minus-one", _set("material", 0, nu=-1.0), "material[0].nu", "(-1, 0.5)"),
     ("mu-negative", _add_contact(friction=-0.1), "contact[0].friction", "must be >= 0"),
+    ("rtol-one", lambda s: s.update(solver={"rtol": 1.0}), "solver.rtol", "must be < 1"),
     (
         "slave-is-master",
         _add_contact(slave="top", master="top"),
@@ -779,6 +780,39 @@ def test_line_search_max_step_must_be_positive(workdir):
     res = cli(workdir, "run", "good.toml", "-dm_snes_linesearch_maxstep", "0")
     _one_error_line(res, 1, key, "must be > 0, got 0")
     assert snapshot(workdir) == before
+
+
+def test_a_linear_snes_type_is_refused(workdir):
+    """``snes_type = "ksponly"`` (one linear solve, no residual history) is one error line
+    per rank naming the key, in [solver.petsc] or on the command line, exit 2, nothing
+    written. Before, every step stopped on an IndexError (no residual norm), with a
+    traceback and summary.json left "running"."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_type": "ksponly"}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    scene["solver"] = {}
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    key = "solver.petsc.snes_type"
+    _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, "'ksponly' solves one")
+    res = cli(workdir, "run", "good.toml", "-dm_snes_type", "ksponly")
+    _one_error_line(res, 1, key, "contact is nonlinear")
+    assert snapshot(workdir) == before
+
+
+def test_a_non_finite_first_residual_stops_the_run_cleanly(workdir):
+    """A traction of 1e300 makes the first residual norm overflow: PETSc's SNES stops
+    before it records a norm. The step is cut back, then the run stops with the reason
+    (exit 1, summary.json "failed", no traceback); before, an IndexError."""
+    scene = base_scene()
+    scene["traction"][0]["path"] = [[0.0, 0.0, 0.0], [1.0, 1e300, 0.0]]
+    scene["steps"]["max_cutbacks"] = 1
+    (workdir / "big.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "big.toml", "--out", "o_big")
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    assert "DIVERGED_FNORM_NAN: the first residual is not finite" in res.stderr, res.stderr
+    summary = json.loads((workdir / "o_big" / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["steps"] == []
 
 
 def test_petsc_options_on_the_command_line(workdir):
