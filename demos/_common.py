@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from dolfinx_mortar.output import contact_stem
 from dolfinx_mortar.scene import TANGENTIAL_FRAMES
 
 #: A slave node counts as "in contact" when p > ACTIVE_TOL * max(p) (as the peers).
@@ -154,14 +155,15 @@ def run_scene(scene: dict, out_dir, comm=MPI.COMM_WORLD, **hooks) -> tuple[dict,
 
 def final_csv(out_dir, slave: str) -> dict[str, np.ndarray]:
     """Columns of ``contact_<slave>_<k>.csv`` with the largest k (the final state), as arrays."""
-    pattern = re.compile(rf"contact_{re.escape(slave)}_(\d+)\.csv$")
+    stem = contact_stem(slave)
+    pattern = re.compile(rf"{re.escape(stem)}_(\d+)\.csv$")
     files = {}
-    for f in Path(out_dir).glob(f"contact_{slave}_*.csv"):
+    for f in Path(out_dir).iterdir():
         m = pattern.match(f.name)
         if m:
             files[int(m.group(1))] = f
     if not files:
-        raise FileNotFoundError(f"no contact_{slave}_<step>.csv in {out_dir}")
+        raise FileNotFoundError(f"no {stem}_<step>.csv in {out_dir}")
     with open(files[max(files)], newline="") as fh:
         rows = [r for r in csv.reader(fh) if r]
     head = [c.strip() for c in rows[0]]

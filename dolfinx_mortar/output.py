@@ -11,6 +11,10 @@
   slave surface as a mesh of its own (its facets), for plots of the contact zone alone;
   on meshes with affine facets (dolfinx 0.5.2 cannot cut out curved ones; then only
   ``fields.xdmf`` has them).
+
+<SLAVE> is the slave surface's physical name, with every character other than a letter,
+a digit, "_", "." or "-" replaced by "_" (:func:`contact_stem`): a name holding "/" wrote
+into a subdirectory, and "../x" outside the output directory.
 """
 
 from __future__ import annotations
@@ -46,6 +50,13 @@ def _json_default(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def contact_stem(slave: str) -> str:
+    """The file-name stem of a slave surface's output: ``contact_<SLAVE>``, with every
+    character of the physical name other than a letter, a digit, "_", "." or "-" replaced
+    by "_" (no path separators: the files stay in the output directory)."""
+    return "contact_" + re.sub(r"[^\w.-]", "_", slave)
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
@@ -150,8 +161,9 @@ class OutputWriter:
         if self.comm.rank == 0:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             for term in self.problem.contacts:
-                pattern = re.compile(rf"contact_{re.escape(term.slave_name)}_\d+\.csv$")
-                for f in self.out_dir.glob(f"contact_{term.slave_name}_*.csv"):
+                stem = contact_stem(term.slave_name)
+                pattern = re.compile(rf"{re.escape(stem)}_\d+\.csv$")
+                for f in self.out_dir.iterdir():
                     if pattern.match(f.name):
                         f.unlink()
         self.comm.barrier()
@@ -182,7 +194,8 @@ class OutputWriter:
         md = p.mesh_data
         for name in dict.fromkeys(term.slave_name for term in p.contacts):
             facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
-            self._surfaces.append(SurfaceFields(self.out_dir / f"contact_{name}.xdmf", Q, facets))
+            path = self.out_dir / f"{contact_stem(name)}.xdmf"
+            self._surfaces.append(SurfaceFields(path, Q, facets))
 
     def write_step(self, step: int, t: float, record: dict | None) -> None:
         """Write the state of converged step ``step`` at time t; ``record`` joins summary.json."""
@@ -197,7 +210,7 @@ class OutputWriter:
             table = term.node_table()  # gathered on rank 0
             if self.comm.rank == 0:
                 write_contact_csv(
-                    self.out_dir / f"contact_{term.slave_name}_{step}.csv", table, p.gdim
+                    self.out_dir / f"{contact_stem(term.slave_name)}_{step}.csv", table, p.gdim
                 )
         if self._contact_functions:
             for f in self._contact_functions.values():

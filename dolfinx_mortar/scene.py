@@ -1120,6 +1120,15 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
                 "slave and master swapped: one pair per two surfaces (the mortar "
                 "integrals of a second pass would count the contact twice)",
             )
+        slave_of = next((j for (sl, _), j in pairs.items() if sl == c.slave), None)
+        if slave_of is not None:
+            raise SceneError(
+                f"contact[{i}].slave",
+                f"{c.slave!r} is already the slave of contact[{slave_of}]: each pair needs "
+                "a slave surface of its own (the contact output, contact_<SLAVE>_<step>.csv "
+                "and the slave's fields, is per slave surface); split the physical group by "
+                "master",
+            )
         pairs[c.slave, c.master] = i
     dirichlet = tuple(
         _parse_dirichlet(t, f"dirichlet[{i}]")

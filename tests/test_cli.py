@@ -235,6 +235,12 @@ CASES = [
         "contact[1]",
         "slave and master swapped",
     ),
+    (
+        "slave-twice",
+        _pairs(("top", "bottom"), ("top", "left")),
+        "contact[1].slave",
+        "'top' is already the slave of contact[0]",
+    ),
     ("too-many-steps", _set("steps", None, n=10**20), "steps.n", "at most 1000000 load steps"),
     ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
     (

@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 from dolfinx_mortar import compat
 from dolfinx_mortar.mesh import load_mesh
-from dolfinx_mortar.output import SurfaceFields
+from dolfinx_mortar.output import SurfaceFields, contact_stem
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
@@ -142,3 +142,17 @@ def test_a_run_writes_the_slave_surface(shared_tmp):
         assert stamps == 3 * 5
         assert not (out2 / "contact_cylinder_surface.xdmf").exists()
         assert (out2 / "fields.xdmf").is_file()
+
+
+def test_contact_file_names_stay_in_the_output_directory():
+    """A slave's physical name becomes a file-name stem without path separators: "/"
+    wrote into a subdirectory, "../x" outside the output directory (it went to
+    OUT/../x_0.csv)."""
+    assert contact_stem("cylinder_surface") == "contact_cylinder_surface"
+    assert contact_stem("upper/bottom") == "contact_upper_bottom"
+    assert contact_stem("../../escaped") == "contact_.._.._escaped"
+    assert contact_stem("top face") == "contact_top_face"
+    assert contact_stem("Fläche-2.b") == "contact_Fläche-2.b"
+    for name in ("a/b", "../x", "a\\b", "c:d"):
+        assert Path(contact_stem(name) + "_1.csv").name == contact_stem(name) + "_1.csv"
+        assert "/" not in contact_stem(name) and "\\" not in contact_stem(name)
