@@ -283,6 +283,22 @@ def _bench_script(name: str, argv: list[str]) -> int:
     return 0
 
 
+def _import_dolfinx() -> None:
+    """Import dolfinx with a command line it can take (local). Its import hands
+    ``sys.argv`` to its C++ logging, which refuses an argument that is not valid UTF-8 (a
+    scene file named in latin-1 bytes: a TypeError traceback before any check). Such
+    bytes are replaced in the copy that dolfinx sees; the arguments keep them, so the
+    file opens as named."""
+    if "dolfinx" in sys.modules:
+        return
+    argv = sys.argv
+    sys.argv = [a.encode("utf-8", "surrogateescape").decode("utf-8", "replace") for a in argv]
+    try:
+        import dolfinx  # noqa: F401
+    finally:
+        sys.argv = argv
+
+
 def main(argv=None) -> int:
     tokens = list(sys.argv[1:] if argv is None else argv)
     if len(tokens) >= 2 and tokens[0] == "bench" and tokens[1] in BENCH_SCRIPTS:
@@ -318,6 +334,7 @@ def main(argv=None) -> int:
 
     from mpi4py import MPI
 
+    _import_dolfinx()
     comm = MPI.COMM_WORLD
     _setup_logging(comm.rank, getattr(args, "verbose", 0))
     try:

@@ -788,6 +788,24 @@ def test_line_search_max_step_must_be_positive(workdir):
     assert snapshot(workdir) == before
 
 
+def test_a_scene_file_name_that_is_not_utf8(workdir):
+    """A scene file named in latin-1 bytes: dolfinx's import handed sys.argv to its C++
+    logging, which refused it (a TypeError traceback, exit 1, before any check). The
+    command now sees the file as named."""
+    name = "sc\udce9ne.toml"  # the byte 0xE9 (surrogate escape): not valid UTF-8
+    (workdir / name).write_text(to_toml(base_scene()))
+    res = subprocess.run(
+        [sys.executable, "-m", "dolfinx_mortar", "check", name],
+        cwd=workdir,
+        env=_env(),
+        capture_output=True,
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+    assert res.returncode == 0 and b"Traceback" not in res.stderr, res.stderr
+    assert b"sc\xe9ne.toml: ok" in res.stdout, res.stdout
+
+
 def test_a_linear_snes_type_is_refused(workdir):
     """``snes_type = "ksponly"`` (one linear solve, no residual history) is one error line
     per rank naming the key, in [solver.petsc] or on the command line, exit 2, nothing
