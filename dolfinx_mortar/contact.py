@@ -655,10 +655,11 @@ class MortarContact:
         self.predictor_tol = 1e-3 * self.h_mean
         #: whether a body of the pair is free in some rigid motion (not held by the
         #: Dirichlet conditions: ContactProblem.bodies_held): only then does a state with
-        #: nothing in contact get the contact predictor. Where the conditions hold both
-        #: bodies, the Jacobian is regular without it, and its tangent-only stiffness
-        #: would only slow Newton down once the contact opens (an unloaded press: ‖R‖
-        #: fell 0.3 % per iteration until the step was cut back without end)
+        #: nothing in contact get the contact predictor throughout a solve
+        #: (:meth:`_predictor_wanted`). Where the conditions hold both bodies, the Jacobian
+        #: is regular without it, and its tangent-only stiffness slows Newton down once
+        #: the contact opens (an unloaded press: ‖R‖ fell 0.3 % per iteration until the
+        #: step was cut back without end)
         self.free_body = not problem.bodies_held(np.concatenate([slave_cells, master_cells]))
         self.h_slave_max = comm.allreduce(h_all.max(initial=0.0), op=MPI.MAX)
         self.margin = 2.0 * self.h_slave_max
@@ -1459,7 +1460,7 @@ class MortarContact:
         self.active = active
         self.predictor_nodes = 0
         self._no_contact = self.comm.allreduce(int(active.sum())) == 0
-        if self._no_contact and self.free_body:
+        if self._no_contact and self._predictor_wanted():
             # Nothing in contact: a body held only by contact would have a singular Jacobian.
             # The nodes closest to contact (rc.near_contact) get the penalty stiffness in the
             # TANGENT only (the residual stays exact), so the first Newton step brings the
@@ -1475,6 +1476,17 @@ class MortarContact:
             self.active = np.zeros_like(active)
         if self.frictional:
             self._recover_tangential()
+
+    def _predictor_wanted(self) -> bool:
+        """Whether a state with nothing in contact gets the contact predictor (local; the
+        same on every rank): always in a pair with a free body (:attr:`free_body`); where
+        the Dirichlet conditions hold both bodies, only up to the solve's first Jacobian.
+        There the springs keep the first iterate of a displacement-driven approach from
+        pressing deep without contact forces (without them, ironing2d's first press step
+        took a cutback); later in the solve, nothing in contact means the contact opens,
+        and the springs would only slow Newton down (a press lifted off stopped after 6
+        cutbacks)."""
+        return self.free_body or self._jac_active is None
 
     def _recover_mixed(self, has) -> None:
         """Unconstrained or constrained recovery on the gathered slave-surface system: the
@@ -1517,7 +1529,7 @@ class MortarContact:
             eps,
             has_all > 0.5,
             self.qp_frozen,
-            predictor=(self.predictor_tol, h_all) if self.free_body else None,
+            predictor=(self.predictor_tol, h_all) if self._predictor_wanted() else None,
         )
         own = slice(self.gid_offset, self.gid_offset + n)
         self.gamma, self.p_hat, self.p = rec.gamma[own], rec.p_hat[own], rec.p[own]

@@ -98,38 +98,39 @@ LIFT_OFF = {
     ],
     "contact": [{"slave": "cylinder_surface", "master": "block_top"}],
     "dirichlet": [
-        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
-        {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [2.0, 0.0]]},
+        {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]},
+        {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [3.0, 0.0]]},
         {
             "boundary": "cylinder_top",
             "components": [1],
-            "path": [[0.0, 0.0], [1.0, -0.1], [2.0, 0.02]],
+            "path": [[0.0, 0.0], [1.0, -0.1], [2.0, 0.02], [3.0, 0.05]],
         },
     ],
-    "steps": {"t_end": 2.0, "n": 4},
+    "steps": {"t_end": 3.0, "n": 6},
 }
 
 
 def test_a_press_lifted_off_ends_without_contact(shared_tmp):
     """Both bodies are held by their Dirichlet conditions (the cylinder by its top's u_y
-    and the symmetry plane's u_x), so the pair gets no contact predictor. Before, once the
-    contact opened, the predictor's tangent-only penalty stiffness made Newton contract
-    ‖R‖ by 0.3 % per iteration: the last step failed after 6 cutbacks at t = 1.877, with a
-    hint blaming a free body. Now the last step opens the contact in a few exact Newton
-    iterations, and the run ends with no force and no node in contact."""
+    and the symmetry plane's u_x), so the pair gets the contact predictor only up to a
+    solve's first Jacobian. Before, once the contact opened, the predictor's tangent-only
+    penalty stiffness made Newton contract ‖R‖ by 0.3 % per iteration: the step to t = 2
+    failed after 6 cutbacks at t = 1.877, with a hint blaming a free body. Now that step
+    opens the contact in a few exact Newton iterations, and the two steps with the bodies
+    apart converge at once; the run ends with no force and no node in contact."""
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
     out = shared_tmp / "lift_off"
     summary = run(parse_scene(LIFT_OFF, out), MPI.COMM_WORLD, out_dir=out)
     steps = summary["steps"]
-    assert summary["status"] == "ok" and len(steps) == 4, summary.get("error")
-    assert [s["cutbacks"] for s in steps] == [0, 0, 0, 0]
+    assert summary["status"] == "ok" and len(steps) == 6, summary.get("error")
+    assert [s["cutbacks"] for s in steps] == [0] * 6
     pair = "cylinder_surface:block_top"
     assert max(abs(f) for f in steps[1]["contact_force"][pair]) > 1.0  # pressed
-    assert steps[-1]["contact_force"][pair] == [0.0, 0.0]
-    assert steps[-1]["active_nodes"] == 0
-    assert sum(steps[-1]["newton_iterations"]) <= 5, steps[-1]["newton_iterations"]
+    for st in steps[3:]:  # t = 2, 2.5, 3: apart (measured 3, 2, 0 Newton iterations)
+        assert st["contact_force"][pair] == [0.0, 0.0] and st["active_nodes"] == 0
+        assert sum(st["newton_iterations"]) <= 4, st["newton_iterations"]
 
 
 def test_a_body_held_by_contact_keeps_the_predictor():
