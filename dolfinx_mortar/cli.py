@@ -349,7 +349,7 @@ def main(argv=None) -> int:
             return 0
         from .scene import load_scene
 
-        for path in args.laws:
+        for path in dict.fromkeys(args.laws):  # a file named twice runs once
             _on_every_rank(comm, load_laws, path)
         scene = load_scene(args.scene)
         if petsc:  # command-line PETSc options override the scene's

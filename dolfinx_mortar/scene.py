@@ -1175,7 +1175,8 @@ def load_scene(path: str | Path) -> Scene:
     """
     path = Path(path).expanduser()
     try:
-        text = path.read_bytes().decode("utf-8")
+        # "utf-8-sig": a byte-order mark (editors on Windows write one) is not TOML
+        text = path.read_bytes().decode("utf-8-sig")
     except OSError as exc:
         reason = exc.strerror or str(exc)
         raise SceneError("", f"cannot read scene file {path}: {reason}") from None

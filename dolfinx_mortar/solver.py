@@ -390,6 +390,16 @@ class NewtonSolver:
                 raise SceneError(
                     "solver.petsc.snes_linesearch_maxstep", f"must be > 0, got {max_step:g}"
                 )
+        owned = sorted(set(settings.petsc) & set(_TOLERANCE_OPTIONS))
+        if owned:
+            # NewtonSolver sets these on every solve: PETSc counted them as read, and a
+            # scene or command line value was silently ignored
+            self.destroy()
+            raise SceneError(
+                f"solver.petsc.{owned[0]}",
+                f"set by [solver] {_TOLERANCE_OPTIONS[owned[0]]} (the solver sets it on "
+                "every solve): give it there",
+            )
         if self.snes.getType() in _LINEAR_SNES_TYPES:
             # one linear solve, no residual history: every step failed after 6 cutbacks
             kind = self.snes.getType()
@@ -959,6 +969,9 @@ def _create_vector(problem):
     return create_vector(problem.F_form)
 
 
+#: SNES tolerances that NewtonSolver sets from [solver] on every solve, and the [solver]
+#: key that sets each
+_TOLERANCE_OPTIONS = {"snes_rtol": "rtol", "snes_atol": "atol"}
 #: SNES types that do one linear solve instead of Newton's method
 _LINEAR_SNES_TYPES = ("ksponly", "ksptransposeonly")
 

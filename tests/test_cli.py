@@ -697,6 +697,9 @@ def test_laws_file(workdir, ranks):
     res = cli(workdir, "check", "law.toml", "--laws", "laws.py", ranks=ranks)
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("law.toml: ok (2D")
+    # a file named twice runs once (its second run registered another function: an error)
+    res = cli(workdir, "check", "law.toml", "--laws", "laws.py", "--laws", "laws.py")
+    assert res.returncode == 0 and res.stdout.startswith("law.toml: ok (2D"), res.stderr
     res = cli(workdir, "run", "law.toml", "--laws", "laws.py", ranks=ranks)
     assert res.returncode == 0, res.stderr
     summary = json.loads((workdir / "law_out" / "summary.json").read_text())
@@ -804,6 +807,32 @@ def test_a_scene_file_name_that_is_not_utf8(workdir):
     )
     assert res.returncode == 0 and b"Traceback" not in res.stderr, res.stderr
     assert b"sc\xe9ne.toml: ok" in res.stdout, res.stdout
+
+
+def test_the_solver_tolerances_are_set_in_the_solver_table(workdir):
+    """``snes_rtol`` and ``snes_atol`` in [solver.petsc] or on the command line were
+    silently ignored (the solver sets them from [solver] rtol and atol on every solve,
+    and PETSc counted them as read): one error line naming the key and where to give
+    it, exit 2."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_atol": 1e-3}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    scene["solver"] = {}
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "bad.toml")
+    _one_error_line(res, 1, "solver.petsc.snes_atol", "set by [solver] atol")
+    res = cli(workdir, "run", "good.toml", "-dm_snes_rtol", "-1", ranks=2)
+    _one_error_line(res, 2, "solver.petsc.snes_rtol", "set by [solver] rtol")
+    assert snapshot(workdir) == before
+
+
+def test_a_scene_file_with_a_byte_order_mark(workdir):
+    """A UTF-8 byte-order mark (editors on Windows write one) is not TOML; the scene
+    reads as without it (it was "line 1, column 1: TOML syntax error")."""
+    (workdir / "bom.toml").write_bytes(b"\xef\xbb\xbf" + to_toml(base_scene()).encode())
+    res = cli(workdir, "check", "bom.toml")
+    assert res.returncode == 0 and res.stdout.startswith("bom.toml: ok (2D"), res.stderr
 
 
 def test_a_linear_snes_type_is_refused(workdir):
