@@ -381,11 +381,12 @@ class ContactProblem:
         values of full rank at its constrained dofs: a clamped face holds a body, a
         symmetry plane alone (u_x = 0) leaves it free to move along the plane. Contact
         terms ask it of their two surfaces' bodies: a pair whose bodies are all held needs
-        no contact predictor (:class:`~dolfinx_mortar.contact.MortarContact`). Computed
-        once (two ghost scatters' worth of communication), then cached."""
+        the contact predictor at a solve's first Jacobian only
+        (:class:`~dolfinx_mortar.contact.MortarContact`). Computed once (one ghost scatter
+        and a few reductions), then cached."""
         if self._bodies is None:
             cell_body, block_body = body_labels(self.V)
-            nbodies = 1 + self.comm.allreduce(int(max(cell_body.max(initial=-1), -1)), MPI.MAX)
+            nbodies = 1 + self.comm.allreduce(int(cell_body.max(initial=-1)), MPI.MAX)
             bs = self.V.dofmap.index_map_bs
             n_own = self.V.dofmap.index_map.size_local * bs
             dofs = np.flatnonzero(self.global_dofs[:n_own] < 0)  # owned, constrained

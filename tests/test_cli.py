@@ -774,20 +774,39 @@ def test_petsc_options_flag_and_rejected_value(workdir):
     assert snapshot(workdir) == before
 
 
-def test_line_search_max_step_must_be_positive(workdir):
-    """``snes_linesearch_maxstep`` <= 0, in [solver.petsc] or on the command line, is one
-    error line per rank naming the key, exit 2, nothing written (PETSc takes any number;
-    a cap <= 0 ran "ok" with more Newton iterations)."""
+#: [solver.petsc] options the solver refuses: (option, a bad value in the scene, its
+#: error, a bad value on the command line (-dm_...), its error, the key named)
+REFUSED_PETSC_OPTIONS = [
+    # PETSc takes any number: a cap <= 0 ran "ok" with more Newton iterations
+    ("snes_linesearch_maxstep", -1.0, "must be > 0, got -1", "0", "must be > 0, got 0"),
+    # silently ignored: the solver sets them from [solver] rtol and atol on every solve,
+    # and PETSc counted them as read
+    ("snes_atol", 1e-3, "set by [solver] atol", "1", "set by [solver] atol"),
+    ("snes_rtol", 1e-3, "set by [solver] rtol", "-1", "set by [solver] rtol"),
+    # one linear solve, no residual history: every step stopped on an IndexError (no
+    # residual norm), with a traceback and summary.json left "running"
+    ("snes_type", "ksponly", "'ksponly' solves one", "ksponly", "contact is nonlinear"),
+]
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "reason", "cli_value", "cli_reason"),
+    REFUSED_PETSC_OPTIONS,
+    ids=[o[0] for o in REFUSED_PETSC_OPTIONS],
+)
+def test_refused_solver_petsc_options(workdir, option, value, reason, cli_value, cli_reason):
+    """Options of [solver.petsc] that the solver refuses, in the scene (2 ranks) or on the
+    command line: one error line per rank naming the key, exit 2, nothing written."""
     scene = base_scene()
-    scene["solver"] = {"petsc": {"snes_linesearch_maxstep": -1.0}}
+    scene["solver"] = {"petsc": {option: value}}
     (workdir / "bad.toml").write_text(to_toml(scene))
     scene["solver"] = {}
     (workdir / "good.toml").write_text(to_toml(scene))
     before = snapshot(workdir)
-    key = "solver.petsc.snes_linesearch_maxstep"
-    _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, "must be > 0, got -1")
-    res = cli(workdir, "run", "good.toml", "-dm_snes_linesearch_maxstep", "0")
-    _one_error_line(res, 1, key, "must be > 0, got 0")
+    key = f"solver.petsc.{option}"
+    _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, reason)
+    res = cli(workdir, "run", "good.toml", f"-dm_{option}", cli_value)
+    _one_error_line(res, 1, key, cli_reason)
     assert snapshot(workdir) == before
 
 
@@ -809,48 +828,12 @@ def test_a_scene_file_name_that_is_not_utf8(workdir):
     assert b"sc\xe9ne.toml: ok" in res.stdout, res.stdout
 
 
-def test_the_solver_tolerances_are_set_in_the_solver_table(workdir):
-    """``snes_rtol`` and ``snes_atol`` in [solver.petsc] or on the command line were
-    silently ignored (the solver sets them from [solver] rtol and atol on every solve,
-    and PETSc counted them as read): one error line naming the key and where to give
-    it, exit 2."""
-    scene = base_scene()
-    scene["solver"] = {"petsc": {"snes_atol": 1e-3}}
-    (workdir / "bad.toml").write_text(to_toml(scene))
-    scene["solver"] = {}
-    (workdir / "good.toml").write_text(to_toml(scene))
-    before = snapshot(workdir)
-    res = cli(workdir, "run", "bad.toml")
-    _one_error_line(res, 1, "solver.petsc.snes_atol", "set by [solver] atol")
-    res = cli(workdir, "run", "good.toml", "-dm_snes_rtol", "-1", ranks=2)
-    _one_error_line(res, 2, "solver.petsc.snes_rtol", "set by [solver] rtol")
-    assert snapshot(workdir) == before
-
-
 def test_a_scene_file_with_a_byte_order_mark(workdir):
     """A UTF-8 byte-order mark (editors on Windows write one) is not TOML; the scene
     reads as without it (it was "line 1, column 1: TOML syntax error")."""
     (workdir / "bom.toml").write_bytes(b"\xef\xbb\xbf" + to_toml(base_scene()).encode())
     res = cli(workdir, "check", "bom.toml")
     assert res.returncode == 0 and res.stdout.startswith("bom.toml: ok (2D"), res.stderr
-
-
-def test_a_linear_snes_type_is_refused(workdir):
-    """``snes_type = "ksponly"`` (one linear solve, no residual history) is one error line
-    per rank naming the key, in [solver.petsc] or on the command line, exit 2, nothing
-    written. Before, every step stopped on an IndexError (no residual norm), with a
-    traceback and summary.json left "running"."""
-    scene = base_scene()
-    scene["solver"] = {"petsc": {"snes_type": "ksponly"}}
-    (workdir / "bad.toml").write_text(to_toml(scene))
-    scene["solver"] = {}
-    (workdir / "good.toml").write_text(to_toml(scene))
-    before = snapshot(workdir)
-    key = "solver.petsc.snes_type"
-    _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, "'ksponly' solves one")
-    res = cli(workdir, "run", "good.toml", "-dm_snes_type", "ksponly")
-    _one_error_line(res, 1, key, "contact is nonlinear")
-    assert snapshot(workdir) == before
 
 
 def test_a_non_finite_first_residual_stops_the_run_cleanly(workdir):
