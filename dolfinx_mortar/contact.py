@@ -653,14 +653,9 @@ class MortarContact:
         self.h_mean = comm.allreduce(h_all.sum()) / max(comm.allreduce(h_all.size), 1)
         #: gap window of the contact predictor (rc.near_contact), length
         self.predictor_tol = 1e-3 * self.h_mean
-        #: whether a body of the pair is free in some rigid motion (not held by the
-        #: Dirichlet conditions: ContactProblem.bodies_held): only then does a state with
-        #: nothing in contact get the contact predictor throughout a solve
-        #: (:meth:`_predictor_wanted`). Where the conditions hold both bodies, the Jacobian
-        #: is regular without it, and its tangent-only stiffness slows Newton down once
-        #: the contact opens (an unloaded press: ‖R‖ fell 0.3 % per iteration until the
-        #: step was cut back without end)
-        self.free_body = not problem.bodies_held(np.concatenate([slave_cells, master_cells]))
+        # the local cells of the pair's two surfaces, and free_body once asked
+        self._body_cells = np.concatenate([slave_cells, master_cells])
+        self._free_body = None
         self.h_slave_max = comm.allreduce(h_all.max(initial=0.0), op=MPI.MAX)
         self.margin = 2.0 * self.h_slave_max
         E_s = self._surface_modulus(slave_cells)
@@ -1477,6 +1472,20 @@ class MortarContact:
         if self.frictional:
             self._recover_tangential()
 
+    @property
+    def free_body(self) -> bool:
+        """Whether a body of the pair is free in some rigid motion, not held by the
+        Dirichlet conditions (ContactProblem.bodies_held; collective at the first use,
+        which every rank makes at the same point, then cached). Only then does a state
+        with nothing in contact get the contact predictor throughout a solve
+        (:meth:`_predictor_wanted`). Where the conditions hold both bodies, the Jacobian is
+        regular without it, and its tangent-only stiffness slows Newton down once the
+        contact opens (an unloaded press: ‖R‖ fell 0.3 % per iteration until the step was
+        cut back without end)."""
+        if self._free_body is None:
+            self._free_body = not self.problem.bodies_held(self._body_cells)
+        return self._free_body
+
     def _predictor_wanted(self) -> bool:
         """Whether a state with nothing in contact gets the contact predictor (local; the
         same on every rank): always in a pair with a free body (:attr:`free_body`); where
@@ -1485,8 +1494,9 @@ class MortarContact:
         pressing deep without contact forces (without them, ironing2d's first press step
         took a cutback); later in the solve, nothing in contact means the contact opens,
         and the springs would only slow Newton down (a press lifted off stopped after 6
-        cutbacks)."""
-        return self.free_body or self._jac_active is None
+        cutbacks). Collective (:attr:`free_body`, asked only after the solve's first
+        Jacobian)."""
+        return self._jac_active is None or self.free_body
 
     def _recover_mixed(self, has) -> None:
         """Unconstrained or constrained recovery on the gathered slave-surface system: the
