@@ -206,7 +206,6 @@ def run(
         if progress is not None:
             progress(step, record)
 
-    uzawa_max = max([c.uzawa_max for c in problem.contacts] or [1])
     stepper = LoadStepper(
         problem,
         newton,
@@ -214,7 +213,6 @@ def run(
         scene.steps.n,
         scene.steps.max_cutbacks,
         scene.steps.output_times,
-        uzawa_max=uzawa_max,
         on_step=on_step,
     )
     status, error = "ok", None

@@ -1262,6 +1262,12 @@ def _path_bends(problem, t0: float, t1: float, t2: float) -> bool:
     return bool(np.any(np.abs(a - b) > PATH_RATE_TOL * np.maximum(np.abs(a), np.abs(b))))
 
 
+def default_uzawa_max(problem) -> int:
+    """The Uzawa rounds a load step may take: the largest ``uzawa_max`` of the problem's
+    contact terms, 1 without contact (local)."""
+    return max([term.uzawa_max for term in getattr(problem, "contacts", ())] or [1])
+
+
 class LoadStepper:
     """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective).
 
@@ -1278,7 +1284,9 @@ class LoadStepper:
     converged step, with the problem holding the converged state. Each step starts from
     the extrapolated predictor except at a corner of the load path (``problem.load_values``,
     :data:`PATH_RATE_TOL`) and after a jump (``problem.increment_norm``,
-    :data:`PREDICTOR_JUMP_RATIO`).
+    :data:`PREDICTOR_JUMP_RATIO`). ``uzawa_max`` bounds the Uzawa rounds per step; None
+    (the default) takes the largest ``uzawa_max`` of the problem's contact terms (1
+    without contact), as a scene run does.
     """
 
     def __init__(
@@ -1289,7 +1297,7 @@ class LoadStepper:
         n: int,
         max_cutbacks: int = 6,
         output_times=(),
-        uzawa_max: int = 1,
+        uzawa_max: int | None = None,
         on_step: Callable | None = None,
         predictor: bool = True,
     ):
@@ -1299,6 +1307,10 @@ class LoadStepper:
         grid = set(np.linspace(0.0, t_end, n + 1)[1:].tolist()) | {float(t) for t in output_times}
         self.targets = sorted(t for t in grid if 0.0 < t <= t_end * (1 + 1e-12))
         self.max_cutbacks = max_cutbacks
+        if uzawa_max is None:
+            # the terms' own bound: a default of 1 round stopped every step of a patch test
+            # built through the Python API ("did not converge in 1 rounds")
+            uzawa_max = default_uzawa_max(problem)
         self.uzawa_max = uzawa_max
         self.on_step = on_step
         self.predictor = predictor

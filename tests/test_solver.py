@@ -1155,3 +1155,32 @@ def test_a_stall_with_no_finite_round_off_level_still_fails(cubic_vectors):
         with pytest.raises(ConvergenceError):
             newton.solve()
         assert newton.round_off == 0.0
+
+
+@pytest.mark.mpi
+def test_load_stepper_takes_the_terms_uzawa_rounds():
+    """A patch test assembled through the Python API with LoadStepper's defaults: its
+    Uzawa rounds per step default to the contact term's ``uzawa_max`` (20), as a scene
+    run's do. The default used to be 1 round, and every step failed after 6 cutbacks
+    ("Uzawa augmentation did not converge in 1 rounds")."""
+    from dolfinx_mortar import ContactProblem, MortarContact
+    from dolfinx_mortar.mesh import load_mesh
+
+    md = load_mesh(MPI.COMM_WORLD, generator="patch2d", params={"n_lower": 3, "n_upper": 4})
+    mats = [("lower", "linear-elastic", 100.0, 0.3), ("upper", "linear-elastic", 100.0, 0.3)]
+    p = ContactProblem(
+        md,
+        mats,
+        [("lower_bottom", None, [[0, 0, 0], [1, 0, 0]]), ("upper_left", (0,), [[0, 0], [1, 0]])],
+        [("upper_top", [[0, 0, 0], [1, 0, -1.0]])],
+    )
+    term = MortarContact(p, "upper_bottom", "lower_top", integration="segment")
+    p.add_contact(term)
+    with NewtonSolver(p, SolverSettings()) as newton:
+        stepper = LoadStepper(p, newton, 1.0, 2)
+        assert stepper.uzawa_max == term.uzawa_max == 20
+        results = stepper.run()
+    assert [r.cutbacks for r in results] == [0, 0]
+    assert max(r.uzawa_rounds for r in results) > 1
+    force = p.comm.allreduce(float(np.sum(term.p * term.A)))  # Σ p^I A^I = the load
+    assert force == pytest.approx(1.0, rel=1e-5)  # to the Uzawa tolerance (1e-6): 2.4e-7
