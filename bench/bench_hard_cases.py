@@ -385,8 +385,15 @@ def main(argv=None) -> list[dict]:
         "recoveries) [the scenes' own: auto, i.e. newton on those, aitken elsewhere]",
     )
     args = ap.parse_args(argv)
+    if not args.timeout > 0.0:
+        ap.error(f"--timeout must be > 0 seconds, got {args.timeout:g}")
     cases = args.cases or (list(QUICK) if args.quick else ALL_CASES)
     out = Path(args.out).resolve()
+    from mpi4py import MPI
+
+    from dolfinx_mortar.output import check_out_dir
+
+    check_out_dir(out, "--out", MPI.COMM_SELF)  # SceneError: one line from the CLI
     out.mkdir(parents=True, exist_ok=True)
     command = "OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py " + " ".join(
         argv if argv is not None else sys.argv[1:]

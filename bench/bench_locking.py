@@ -91,6 +91,8 @@ import demo_hertz2d as hz  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
+from dolfinx_mortar.output import check_out_dir  # noqa: E402
+
 RATIOS = (0.25, 0.5, 1.0, 2.0, 4.0)
 KAPPAS = (1.0, 10.0, 100.0, 1e3, 1e4)
 INTEGRATIONS = ("element", "segment", "node")
@@ -621,6 +623,7 @@ def main(argv=None, comm=None) -> list[dict]:
     comm = comm or MPI.COMM_WORLD
     logging.getLogger("dolfinx_mortar").setLevel(logging.ERROR)  # cutback warnings: in the CSV
     out = Path(args.out).resolve()
+    check_out_dir(out, "--out", comm)  # SceneError: one line from the CLI
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
     comm.barrier()

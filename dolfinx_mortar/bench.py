@@ -76,6 +76,11 @@ FRICTIONAL = ("cattaneo2d", "ironing2d")
 #: integration there when the caps were set; 55–67 s with element integration in
 #: session 26, BENCHMARKS §12); ``bench NAME --levels K`` is not capped.
 ALL_LEVEL_CAPS = {"hertz3d": 2, "ironing2d": 2}
+#: The most levels ``--levels`` takes: each level halves the contact element size, so
+#: level 5 has about 4⁵ ≈ 1000 times level 0's dofs in 2D (hertz2d: 3.3 million) and
+#: 8⁵ ≈ 33 000 times in 3D. An unbounded K ran on until memory or time ran out, writing a
+#: directory per level.
+MAX_LEVELS = 6
 INTEGRATIONS = ("element", "segment")
 RECOVERIES = ("lumped", "unconstrained", "constrained")
 
@@ -364,8 +369,8 @@ def run_bench(
     bad = [r for r in recoveries if r not in RECOVERIES]
     if bad or not recoveries:
         raise SceneError("--recovery", f"must be one of {', '.join(RECOVERIES)} or all, got {bad}")
-    if int(levels) < 1:
-        raise SceneError("--levels", f"must be >= 1, got {levels}")
+    if not 1 <= int(levels) <= MAX_LEVELS:
+        raise SceneError("--levels", f"must be in 1 .. {MAX_LEVELS}, got {levels}")
     mods = _import_demos()
     out_dir = Path(out_dir).resolve()
     if comm.rank == 0:

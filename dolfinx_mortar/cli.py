@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import shutil
 import sys
 import traceback
 from pathlib import Path
@@ -135,44 +134,6 @@ def _error_line(text: str) -> None:
     sys.stderr.flush()
 
 
-def _check_out_dir(out: Path | str, key: str, comm) -> None:
-    """Raise SceneError on every rank if the output directory cannot be used (collective;
-    rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
-    link, or one that cannot be created. A missing directory is created to find out, and
-    removed again with the parents created for it: nothing is left (a clean error instead
-    of an OSError from the writer, after the set-up)."""
-    reason = None
-    if comm.rank == 0:
-        reason = _out_dir_problem(str(out))
-    reason = comm.bcast(reason, root=0)
-    if reason is not None:
-        raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
-
-
-def _out_dir_problem(out: str) -> str | None:
-    """Why ``out`` cannot be the output directory, or None (local)."""
-    if not out.strip():
-        return "empty name"
-    if "\0" in out:
-        return "the name holds a NUL character"
-    p = Path(out).absolute()
-    if p.is_symlink() and not p.exists():
-        return "a link to nothing (dangling or looping)"
-    if p.exists():
-        return None if p.is_dir() else "it exists and is not a directory"
-    top = p  # the outermost directory to create
-    while not top.parent.exists() and top.parent != top:
-        top = top.parent
-    if not top.parent.is_dir():
-        return f"{top.parent} is not a directory"
-    try:
-        p.mkdir(parents=True)
-    except OSError as exc:
-        return (exc.strerror or type(exc).__name__).lower()
-    shutil.rmtree(top, ignore_errors=True)
-    return None
-
-
 def load_laws(path: Path) -> None:
     """Run the Python file ``path`` (``--laws``; local: every rank runs it): it registers
     bulk laws with :func:`dolfinx_mortar.register_law` for the scene to name. Raises
@@ -278,6 +239,9 @@ def _bench_script(name: str, argv: list[str]) -> int:
     prog, sys.argv[0] = sys.argv[0], f"dolfinx-mortar bench {name}"  # argparse's usage line
     try:
         module.main(argv)
+    except SceneError as exc:  # e.g. --out on a file
+        _error_line(f"dolfinx-mortar: error: {exc}")
+        return 2
     finally:
         sys.argv[0] = prog
     return 0
@@ -335,13 +299,15 @@ def main(argv=None) -> int:
     from mpi4py import MPI
 
     _import_dolfinx()
+    from .output import check_out_dir
+
     comm = MPI.COMM_WORLD
     _setup_logging(comm.rank, getattr(args, "verbose", 0))
     try:
         if args.command == "bench":
             from .bench import INTEGRATIONS, RECOVERIES, TINY_H0, run_bench
 
-            _check_out_dir(args.out, "--out", comm)
+            check_out_dir(args.out, "--out", comm)
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
             recs = RECOVERIES if args.recovery == "all" else (args.recovery,)
@@ -368,9 +334,9 @@ def main(argv=None) -> int:
                 )
             return 0
         if args.out is not None:
-            _check_out_dir(args.out, "--out", comm)
+            check_out_dir(args.out, "--out", comm)
         else:
-            _check_out_dir(scene.output.dir, "output.dir", comm)
+            check_out_dir(scene.output.dir, "output.dir", comm)
         from .runner import run
 
         out = None if args.out is None else Path(args.out)

@@ -23,6 +23,7 @@ import json
 import logging
 import os
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,7 @@ from dolfinx import fem, io
 from scipy.spatial import cKDTree
 
 from . import compat
+from .errors import SceneError
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +52,44 @@ def _json_default(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def check_out_dir(out: Path | str, key: str, comm) -> None:
+    """Raise SceneError on every rank if the output directory cannot be used (collective;
+    rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
+    link, or one that cannot be created. A missing directory is created to find out, and
+    removed again with the parents created for it: nothing is left (a clean error instead
+    of an OSError from the writer, after the set-up)."""
+    reason = None
+    if comm.rank == 0:
+        reason = _out_dir_problem(str(out))
+    reason = comm.bcast(reason, root=0)
+    if reason is not None:
+        raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
+
+
+def _out_dir_problem(out: str) -> str | None:
+    """Why ``out`` cannot be the output directory, or None (local)."""
+    if not out.strip():
+        return "empty name"
+    if "\0" in out:
+        return "the name holds a NUL character"
+    p = Path(out).absolute()
+    if p.is_symlink() and not p.exists():
+        return "a link to nothing (dangling or looping)"
+    if p.exists():
+        return None if p.is_dir() else "it exists and is not a directory"
+    top = p  # the outermost directory to create
+    while not top.parent.exists() and top.parent != top:
+        top = top.parent
+    if not top.parent.is_dir():
+        return f"{top.parent} is not a directory"
+    try:
+        p.mkdir(parents=True)
+    except OSError as exc:
+        return (exc.strerror or type(exc).__name__).lower()
+    shutil.rmtree(top, ignore_errors=True)
+    return None
 
 
 def contact_stem(slave: str) -> str:

@@ -48,13 +48,26 @@ def software_versions() -> dict[str, str]:
     }
 
 
+def _check_scene(scene, caller: str) -> None:
+    """TypeError unless ``scene`` is a Scene (a dict or a path failed deep inside, with
+    "'dict' object has no attribute 'mesh'"; local)."""
+    if not isinstance(scene, Scene):
+        raise TypeError(
+            f"{caller}() takes a Scene, not {type(scene).__name__}: build it with "
+            "dolfinx_mortar.parse_scene(data, base_dir) from a dict, or "
+            "dolfinx_mortar.load_scene(path) from a file"
+        )
+
+
 def prepare(scene: Scene, comm, setup=None):
     """Load the mesh and build the problem with its contact terms; validates everything (collective).
 
     ``setup(problem)``, if given, is called before the contact terms are added (e.g. to
     :meth:`~dolfinx_mortar.problem.ContactProblem.add_dirichlet_field`).
-    Returns ``(problem, mesh_data)``. Raises SceneError on every rank for bad input.
+    Returns ``(problem, mesh_data)``. Raises SceneError on every rank for bad input,
+    TypeError when ``scene`` is not a :class:`~dolfinx_mortar.scene.Scene`.
     """
+    _check_scene(scene, "prepare")
     m = scene.mesh
     mesh_data = load_mesh(comm, file=m.file, generator=m.generator, params=m.params)
     check_groups(scene, mesh_data.cell_groups, mesh_data.facet_groups)
@@ -155,14 +168,19 @@ def run(
     level of the residual at the converged state
     (:meth:`~dolfinx_mortar.problem.ContactProblem.residual_round_off`: three more
     residual evaluations per step), against which the demos read ``residual_norms``.
-    Raises SceneError before writing anything when the input is bad.
+    Raises SceneError before writing anything when the input is bad (the output
+    directory too: checked before the set-up), TypeError when ``scene`` is not a
+    :class:`~dolfinx_mortar.scene.Scene`.
     """
-    from .output import OutputWriter
+    from .output import OutputWriter, check_out_dir
     from .solver import LoadStepper, NewtonSolver, SolverSettings
 
+    _check_scene(scene, "run")
     t_setup = perf_counter()
-    problem, _ = prepare(scene, comm, setup)
+    key = "out_dir" if out_dir is not None else "output.dir"
     out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
+    check_out_dir(out_dir, key, comm)
+    problem, _ = prepare(scene, comm, setup)
     so = scene.solver
     settings = SolverSettings(
         so.rtol,

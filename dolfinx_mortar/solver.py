@@ -1185,7 +1185,9 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
                 resume=after_first,
             )
     raise ConvergenceError(
-        f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]})"
+        f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]}); a "
+        "change that still falls needs more rounds ([[contact]] uzawa_max) or a looser "
+        "uzawa_tol"
     )
 
 

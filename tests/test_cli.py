@@ -925,6 +925,29 @@ def test_bench_hard_refuses_mpirun_and_a_missing_script(tmp_path, monkeypatch, c
     assert len(err) == 1 and "no_such_script.py not found" in err[0], err
 
 
+@pytest.mark.parametrize("name", ["hard", "locking"])
+def test_bench_scripts_refuse_an_output_path_on_a_file(tmp_path, name):
+    """``bench hard|locking --out FILE``: one error line naming --out, exit 2 (it was a
+    FileExistsError traceback, exit 1)."""
+    (tmp_path / "afile").write_text("x\n")
+    res = cli(tmp_path, "bench", name, "--quick", "--out", "afile")
+    _one_error_line(res, 1, "--out", "it exists and is not a directory")
+    assert (tmp_path / "afile").read_text() == "x\n"
+
+
+def test_bench_levels_and_timeout_bounds(tmp_path):
+    """``bench NAME --levels K`` takes 1 .. MAX_LEVELS (K = 100000 ran on, writing a
+    directory per level, until it was killed); ``bench hard --timeout`` must be > 0 (a
+    negative one recorded every case as timed out, exit 0). Nothing written."""
+    from dolfinx_mortar.bench import MAX_LEVELS
+
+    res = cli(tmp_path, "bench", "patch2d", "--levels", str(MAX_LEVELS + 1), "--out", "b")
+    _one_error_line(res, 1, "--levels", f"must be in 1 .. {MAX_LEVELS}, got {MAX_LEVELS + 1}")
+    res = cli(tmp_path, "bench", "hard", "--cases", "hertz2d_auto", "--timeout", "-5")
+    assert res.returncode == 2 and "--timeout must be > 0 seconds" in res.stderr, res.stderr
+    assert not list(tmp_path.iterdir())
+
+
 def test_bench_locking_takes_the_study_options(tmp_path):
     """``dolfinx-mortar bench locking`` hands its arguments to bench/bench_locking.py."""
     res = cli(tmp_path, "bench", "locking", "--help")

@@ -156,3 +156,30 @@ def test_contact_file_names_stay_in_the_output_directory():
     for name in ("a/b", "../x", "a\\b", "c:d"):
         assert Path(contact_stem(name) + "_1.csv").name == contact_stem(name) + "_1.csv"
         assert "/" not in contact_stem(name) and "\\" not in contact_stem(name)
+
+
+def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
+    """``run`` and ``prepare`` given a dict or a path: a TypeError that says how to build a
+    Scene (it was "'dict' object has no attribute 'mesh'" deep inside); ``run`` with
+    ``out_dir`` on a file: a SceneError before the set-up (it was a FileExistsError after
+    it)."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+    from dolfinx_mortar.runner import prepare
+
+    data = {
+        "mesh": {"generator": "patch2d"},
+        "material": [
+            {"region": r, "model": "neo-hookean", "E": 1.0, "nu": 0.3} for r in ("lower", "upper")
+        ],
+    }
+    for fn in (run, prepare):
+        with pytest.raises(
+            TypeError, match=r"takes a Scene, not dict: build it with .*parse_scene"
+        ):
+            fn(data, MPI.COMM_SELF)
+    with pytest.raises(TypeError, match="takes a Scene, not str"):
+        run("scene.toml", MPI.COMM_SELF)
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(SceneError, match="out_dir: cannot use .* it exists and is not a directory"):
+        run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "afile")
