@@ -214,6 +214,8 @@ def run(
     writer.start()
     totals["setup"] = perf_counter() - t_setup
 
+    mark = [0.0]  # when the set-up or the last converged step ended
+
     def on_step(step, res):
         record = step_record(problem, res)
         if round_off:
@@ -223,6 +225,7 @@ def run(
         writer.write_step(step, res.t, record)
         if progress is not None:
             progress(step, record)
+        mark[0] = perf_counter()
 
     stepper = LoadStepper(
         problem,
@@ -234,10 +237,13 @@ def run(
         on_step=on_step,
     )
     status, error = "ok", None
+    mark[0] = perf_counter()
     try:
         stepper.run()
     except ConvergenceError as exc:
         status, error = "failed", str(exc)
+        # the step that stopped the run (its failed attempts and cutbacks): not in a step
+        totals["unfinished"] = perf_counter() - mark[0]
         log.error("run stopped: %s", exc)
     except PETSc.Error as exc:
         # an option PETSc accepted when the solver was set up but refuses in the solve

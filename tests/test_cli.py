@@ -849,6 +849,8 @@ def test_a_non_finite_first_residual_stops_the_run_cleanly(workdir):
     assert "DIVERGED_FNORM_NAN: the first residual is not finite" in res.stderr, res.stderr
     summary = json.loads((workdir / "o_big" / "summary.json").read_text())
     assert summary["status"] == "failed" and summary["steps"] == []
+    # the failed step's attempts are timed in the run-level "unfinished"
+    assert summary["timings"]["unfinished"] > 0.0 and summary["timings"]["total"] == 0.0
 
 
 def test_petsc_options_on_the_command_line(workdir):
