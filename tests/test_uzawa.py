@@ -499,3 +499,60 @@ def test_the_warm_up_leaves_no_state_behind(tmp_path_factory, monkeypatch):
         fw = next(iter(sw["contact_force"].values()))
         fc = next(iter(sc["contact_force"].values()))
         assert np.allclose(fw, fc, rtol=1e-10, atol=1e-12)
+
+
+def test_slow_aitken_rounds_switch_to_the_exact_update(tmp_path_factory):
+    """ "auto" on a 3D frictional pair with lumped recoveries is Aitken, but a step whose
+    rounds contract slowly switches to the exact update (contact.AUTO_EXACT_ROUNDS). A
+    coarse tetrahedral press with μ = 0.3 (stick-dominated): its Aitken rounds contracted
+    by 0.90–0.94 each, and every step, whatever its size, ended at a change of 4.6e-5
+    after 20 rounds (6 cutbacks, the run stopped). Now each press step switches after
+    its eighth round and converges in 11 or 10 (measured)."""
+    mats = [
+        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ]
+    data = {
+        "mesh": {
+            "generator": "patch3d",
+            "params": {"n_lower": 3, "n_upper": 4, "n_y": 1, "quads": False},
+        },
+        "material": mats,
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": 0.3,
+                "integration": "segment",
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.01]]},
+        ],
+        "steps": {"t_end": 1.0, "n": 2},
+    }
+    summary = _run_scene(data, tmp_path_factory, "auto_exact")
+    for st in summary["steps"]:
+        assert st["cutbacks"] == 0 and st["uzawa_rounds"] <= 14, st["uzawa_rounds"]
+        infos = [next(iter(r.values())) for r in st["uzawa"]]
+        switched = [k for k, i in enumerate(infos) if "acceleration_switch" in i]
+        assert len(switched) == 1 and switched[0] >= 3, switched  # after AUTO_EXACT_ROUNDS
+        assert "newton" in infos[switched[0] + 1].get("exact_update", ""), infos
+    assert (
+        summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"]["uzawa_acceleration"]
+        == "aitken"
+    )
+
+
+def test_slow_rounds_rule():
+    """contact._slow_rounds: after AUTO_EXACT_ROUNDS rounds, a last change above
+    AUTO_EXACT_CONTRACTION^(k−1) times the one k − 1 rounds before."""
+    from dolfinx_mortar.contact import AUTO_EXACT_CONTRACTION, AUTO_EXACT_ROUNDS, _slow_rounds
+
+    k, c = AUTO_EXACT_ROUNDS, AUTO_EXACT_CONTRACTION
+    assert not _slow_rounds([1.0] * (k - 1))
+    assert _slow_rounds([1.0] * k)
+    fast = [c ** (2 * (k - 1) * i) for i in range(k)]  # twice as many decades as allowed
+    assert not _slow_rounds(fast)
+    assert _slow_rounds([1.0, 0.06, 0.022, 0.0095, 0.0064, 0.0048, 0.0035, 0.0037])
+    assert not _slow_rounds([1.0, 0.06, 0.022, 0.0095, 0.0064, 0.0048, 0.0035])
