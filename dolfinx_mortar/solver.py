@@ -382,33 +382,10 @@ class NewtonSolver:
                 f"PETSc rejected the options {sorted(settings.petsc)}: "
                 f"{compat.petsc_error_lines(exc)[-1]}",
             ) from None
-        if "snes_linesearch_maxstep" in settings.petsc:
-            # PETSc takes any number: a cap <= 0 ran "ok", with more Newton iterations
-            max_step = PETSc.Options().getReal(settings.prefix + "snes_linesearch_maxstep")
-            if not max_step > 0.0:
-                self.destroy()
-                raise SceneError(
-                    "solver.petsc.snes_linesearch_maxstep", f"must be > 0, got {max_step:g}"
-                )
-        owned = sorted(set(settings.petsc) & set(_TOLERANCE_OPTIONS))
-        if owned:
-            # NewtonSolver sets these on every solve: PETSc counted them as read, and a
-            # scene or command line value was silently ignored
+        refused = self._refused_option()
+        if refused is not None:
             self.destroy()
-            raise SceneError(
-                f"solver.petsc.{owned[0]}",
-                f"set by [solver] {_TOLERANCE_OPTIONS[owned[0]]} (the solver sets it on "
-                "every solve): give it there",
-            )
-        if self.snes.getType() in _LINEAR_SNES_TYPES:
-            # one linear solve, no residual history: every step failed after 6 cutbacks
-            kind = self.snes.getType()
-            self.destroy()
-            raise SceneError(
-                "solver.petsc.snes_type",
-                f"{kind!r} solves one linear system and contact is nonlinear: use a "
-                "Newton method (the default newtonls)",
-            )
+            raise SceneError(*refused)
         self.timings = {"linear_solve": 0.0}
         #: the effective line search (a ``[solver.petsc]`` snes_linesearch_type overrides)
         self._line_search = str(defaults["snes_linesearch_type"])
@@ -456,6 +433,36 @@ class NewtonSolver:
         #: (0: no solve yet), and whether ``atol`` was found to be looser than rtol × it
         self.force_scale = 0.0
         self._warned_atol = False
+
+    def _refused_option(self) -> tuple[str, str] | None:
+        """(key, reason) of a PETSc option, read from the scene's [solver.petsc] or the
+        command line's -dm_..., that the solver cannot take, or None (local: the options
+        are the same on every rank)."""
+        petsc = self.settings.petsc
+        if "snes_linesearch_maxstep" in petsc:
+            # PETSc takes any number: a cap <= 0 ran "ok", with more Newton iterations
+            key = self.settings.prefix + "snes_linesearch_maxstep"
+            max_step = PETSc.Options().getReal(key)
+            if not max_step > 0.0:
+                return "solver.petsc.snes_linesearch_maxstep", f"must be > 0, got {max_step:g}"
+        owned = sorted(set(petsc) & set(_TOLERANCE_OPTIONS))
+        if owned:
+            # NewtonSolver sets these on every solve: PETSc counted them as read, and a
+            # scene or command line value was silently ignored
+            return (
+                f"solver.petsc.{owned[0]}",
+                f"set by [solver] {_TOLERANCE_OPTIONS[owned[0]]} (the solver sets it on "
+                "every solve): give it there",
+            )
+        kind = self.snes.getType()
+        if kind in _LINEAR_SNES_TYPES:
+            # one linear solve, no residual history: every step failed after 6 cutbacks
+            return (
+                "solver.petsc.snes_type",
+                f"{kind!r} solves one linear system and contact is nonlinear: use a "
+                "Newton method (the default newtonls)",
+            )
+        return None
 
     def _F(self, snes, x, b):
         t0 = perf_counter()
