@@ -388,11 +388,11 @@ def resolve_acceleration(
 #: step: after at least AUTO_EXACT_ROUNDS rounds, when the change of the last round is
 #: above AUTO_EXACT_CONTRACTION^(AUTO_EXACT_ROUNDS − 1) times that of AUTO_EXACT_ROUNDS − 1
 #: rounds before. A coarse 3D frictional press of stick-dominated steps (patch3d,
-#: tetrahedra, μ = 0.3) contracted slowly (plain Uzawa: 0.8 per round, then up to 0.96), one slow tangential pattern
-#: alternating from node to node; Aitken hit its cap OMEGA_MAX again and again and every
-#: step ended at the same change 4.6e-5 after 20 rounds whatever its size (6 cutbacks,
-#: then the run stopped); 45–46 rounds to 1e-6 with uzawa_max = 100, 5 with the exact
-#: update.
+#: tetrahedra, μ = 0.3) contracted slowly (plain Uzawa: 0.8 per round, then up to 0.96),
+#: one slow tangential pattern alternating from node to node; Aitken hit its cap
+#: OMEGA_MAX again and again and every step ended at the same change 4.6e-5 after 20
+#: rounds whatever its size (6 cutbacks, then the run stopped); 45–46 rounds to 1e-6
+#: with uzawa_max = 100, 5 with the exact update.
 AUTO_EXACT_ROUNDS = 4
 AUTO_EXACT_CONTRACTION = 0.8
 

@@ -232,7 +232,7 @@ class OutputWriter:
             log.info("contact_<SLAVE>.xdmf not written: curved facets (dolfinx 0.5.2)")
             return
         md = p.mesh_data
-        for name in dict.fromkeys(term.slave_name for term in p.contacts):
+        for name in (term.slave_name for term in p.contacts):  # one pair per slave (scene)
             facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
             path = self.out_dir / f"{contact_stem(name)}.xdmf"
             self._surfaces.append(SurfaceFields(path, Q, facets))

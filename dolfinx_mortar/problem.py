@@ -408,7 +408,12 @@ class ContactProblem:
             gc.interpolate(lambda x, field=field, c=c: field(t, x)[c])
 
     def add_contact(self, term) -> None:
-        """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`)."""
+        """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`).
+        Raises ValueError where another term has the same slave surface: the contact
+        output is per slave surface (a scene says so as ``contact[i].slave``)."""
+        slave = getattr(term, "slave_name", None)
+        if slave is not None and any(t.slave_name == slave for t in self.contacts):
+            raise ValueError(f"{slave!r} is already the slave surface of a contact term")
         self.contacts.append(term)
 
     @property

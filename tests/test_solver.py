@@ -1184,3 +1184,6 @@ def test_load_stepper_takes_the_terms_uzawa_rounds():
     assert max(r.uzawa_rounds for r in results) > 1
     force = p.comm.allreduce(float(np.sum(term.p * term.A)))  # Σ p^I A^I = the load
     assert force == pytest.approx(1.0, rel=1e-5)  # to the Uzawa tolerance (1e-6): 2.4e-7
+    # one term per slave surface, as a scene's pairs (their output is per slave)
+    with pytest.raises(ValueError, match="'upper_bottom' is already the slave surface"):
+        p.add_contact(MortarContact(p, "upper_bottom", "lower_top", integration="element"))
