@@ -160,7 +160,7 @@ def body_labels(V) -> tuple[np.ndarray, np.ndarray]:
     vec.destroy()
     mine = labels[n_cells + n_own :]
     pairs = np.unique(np.stack([mine, owner], axis=1)[mine != owner], axis=0)
-    pairs = np.concatenate([pairs.reshape(-1, 2), *comm.allgather(pairs.reshape(-1, 2))])
+    pairs = np.concatenate(comm.allgather(pairs.reshape(-1, 2)))
     total = comm.allreduce(n_local)
     joined = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(total, total))
     _, body = connected_components(joined, directed=False)
