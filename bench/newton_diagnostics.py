@@ -12,7 +12,8 @@ of its first Newton solve (the main one; the later Uzawa rounds start near the s
   stiff direction by its stiffness as ‖R‖ does, nor a soft one by its softness as ‖du‖
   does; K is symmetric positive definite here, frictionless);
 - ``fd``: ‖K du − (R(u + h du) − R(u − h du))/2h‖ / ‖…‖ with h = 1e-4 (relative to
-  ‖du‖ = 1). The check is along the Newton step, so Dirichlet dofs do not move (a random
+  ‖du‖ = 1; ``--fd-step``: a residual that has a kink within that distance of u reads
+  far from 0 at a larger h and close to 0 at a smaller one). The check is along the Newton step, so Dirichlet dofs do not move (a random
   direction would perturb them, and K does not see that);
 - ``quad``: ‖R(u − t du) − (1 − t) R(u)‖ / t² for t = 1/4, 1/2, 1. For a smooth residual
   and an exact tangent this is constant: the remainder of the Newton step is quadratic
@@ -36,6 +37,8 @@ Run (serial)::
     /usr/bin/python3 bench/newton_diagnostics.py [--step 4] [--integration segment] [--tri]
     /usr/bin/python3 bench/newton_diagnostics.py --step 1 --polish 5
     /usr/bin/python3 bench/newton_diagnostics.py --order 2 --integration segment --step 4 --solve 2
+    /usr/bin/python3 bench/newton_diagnostics.py --step 3 --fd-step 1e-3
+    /usr/bin/python3 bench/newton_diagnostics.py --refine 1 --steps 8 --step 6 --polish 4
 
 An iterate that the l2 line search placed on a kink of the residual (an active-set or
 pairing switch; the search minimises ‖R‖ along the step, and minima sit at kinks) shows a
@@ -71,8 +74,9 @@ def _residual(problem, x):
     return b
 
 
-def check(problem, log) -> None:
-    """The checks at the problem's current state (collective)."""
+def check(problem, log, fd_step: float = 1e-4) -> None:
+    """The checks at the problem's current state (collective); ``fd_step``: the length of
+    the central differences' perturbation along the Newton step."""
     u0 = problem.u.vector.copy()
     K = problem.create_matrix()
     r = _residual(problem, u0)
@@ -84,7 +88,7 @@ def check(problem, log) -> None:
     ksp.getPC().setFactorSolverType("mumps")
     du = u0.copy()
     ksp.solve(r, du)
-    h = 1e-4 / max(du.norm(), 1e-300)
+    h = fd_step / max(du.norm(), 1e-300)
     up, um = u0.copy(), u0.copy()
     up.axpy(h, du)
     um.axpy(-h, du)
@@ -155,11 +159,20 @@ def main(argv=None) -> list:
     ap.add_argument(
         "--solve", type=int, default=1, help="Newton solve of the step to watch (1-based) [1]"
     )
+    ap.add_argument("--refine", type=int, choices=(0, 1, 2), default=0, help="mesh level [0]")
+    ap.add_argument("--steps", type=int, default=4, help="load steps of the scene [4]")
+    ap.add_argument(
+        "--fd-step", type=float, default=1e-4, help="length of the fd perturbation [1e-4]"
+    )
     ap.add_argument("--out", default="/tmp/newton_diagnostics", help="run directory")
     ap.add_argument("--polish", type=int, default=0, help="exact Newton steps after the solve [0]")
     args = ap.parse_args(argv)
     if args.polish < 0 or args.polish == 1:
         ap.error(f"--polish must be 0 or at least 2 (the round-off level of u*), not {args.polish}")
+    if not 1 <= args.steps <= 64 or not 1 <= args.step <= args.steps:
+        ap.error(f"need 1 <= --step <= --steps <= 64, got --step {args.step} --steps {args.steps}")
+    if not 0.0 < args.fd_step < 1.0:
+        ap.error(f"--fd-step must lie in (0, 1), got {args.fd_step}")
     box, log, state = {}, [], {"step": 0, "solve": 0}
     iterates, polished = [], {}
     newton_cls = solver_module.NewtonSolver
@@ -170,7 +183,7 @@ def main(argv=None) -> list:
         if state["step"] == args.step and state["solve"] == args.solve:
             iterates.append(x.copy())
             self.problem.ensure_contact_at(x)
-            check(self.problem, log)
+            check(self.problem, log, args.fd_step)
             self.problem.ensure_contact_at(x)
 
     def counted_solve(self, *a, **k):
@@ -203,7 +216,12 @@ def main(argv=None) -> list:
     newton_cls._J, newton_cls.solve = watched_j, counted_solve
     try:
         sc = demo_hertz2d.scene(
-            0, args.order, args.integration, quads=not args.tri, recovery=args.recovery
+            args.refine,
+            args.order,
+            args.integration,
+            args.steps,
+            quads=not args.tri,
+            recovery=args.recovery,
         )
         summary = run(
             parse_scene(sc, Path(".")), MPI.COMM_WORLD, Path(args.out), setup=setup, round_off=True

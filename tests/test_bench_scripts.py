@@ -306,6 +306,42 @@ def test_newton_diagnostics_round_off_plateau(tmp_path):
     assert e[-1] <= cm.FLOOR_FACTOR * s, (e, s)
 
 
+def test_newton_diagnostics_fd_step_finds_the_kink_near_hertz2d_step3(tmp_path):
+    """``--fd-step``: near the solution of hertz2d's step 3 (element integration) the
+    residual is smooth within 1e-4 along the last Newton steps but not within 1e-3 (a slave
+    quadrature point lies 0.0027 of a master facet from a master node), so the central
+    differences of the tangent match at h = 1e-5 (measured 1e-11 … 3e-9) and miss at
+    h = 1e-3 (0.97 and 0.099 at the second and third of the four iterates); with segment
+    integration the same check at h = 1e-3 matches at the last two (6e-6, 9e-8: the h²
+    of central differences).
+    BENCHMARKS §38."""
+    bench = _load("newton_diagnostics")
+    fine = bench.main(["--step", "3", "--fd-step", "1e-5", "--out", str(tmp_path / "a")])
+    coarse = bench.main(["--step", "3", "--fd-step", "1e-3", "--out", str(tmp_path / "b")])
+    seg = bench.main(
+        ["--step", "3", "--fd-step", "1e-3", "--integration", "segment", "--out", str(tmp_path)]
+    )
+    assert len(fine) == len(coarse) >= 4
+    assert all(fd < 1e-7 for _, _, fd, _, _ in fine), fine
+    assert min(fd for _, _, fd, _, _ in coarse[1:3]) > 1e-2, coarse
+    assert all(fd < 1e-4 for _, _, fd, _, _ in seg[-2:]), seg
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["--steps", "3", "--step", "4"], "need 1 <= --step <= --steps <= 64"),
+        (["--steps", "0"], "need 1 <= --step <= --steps <= 64"),
+        (["--fd-step", "0"], "--fd-step must lie in (0, 1), got 0.0"),
+    ],
+)
+def test_newton_diagnostics_rejects_bad_steps(capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        _load("newton_diagnostics").main(argv)
+    assert exc.value.code == 2
+    assert message in capsys.readouterr().err.strip().splitlines()[-1]
+
+
 @pytest.mark.parametrize("n", ["-1", "1"])
 def test_newton_diagnostics_rejects_a_polish_without_a_level(capsys, n):
     with pytest.raises(SystemExit) as exc:
@@ -369,3 +405,27 @@ def test_bench_newton_order_runs(tmp_path):
         assert all(q > 1.5 for q in r["order_values"]), r
     with pytest.raises(SystemExit):
         _load("bench_newton_order").main(["--kappas", "-1"])
+
+
+def test_bench_newton_order_sweeps_steps_and_integration(tmp_path, capsys):
+    """``--steps``, ``--refine``, ``--integration``: every combination runs, each row says
+    which, and the last line counts the runs whose every step reads >= 1.8 (BENCHMARKS
+    §38: element and segment with 3 load steps read >=2.51, 3.34, 2.13 and >=2.41, 2.64,
+    1.87)."""
+    bench = _load("bench_newton_order")
+    argv = ["--kappas", "auto", "--steps", "3", "--integration", "element", "segment"]
+    rows = bench.main(argv + ["--out", str(tmp_path)])
+    assert [(r["integration"], r["steps"], r["refine"]) for r in rows] == [
+        ("element", 3, 0),
+        ("segment", 3, 0),
+    ]
+    for r in rows:
+        assert len(r["order_values"]) == len(r["iterations"]) == 3, r
+        assert all(q > 1.5 for q in r["order_values"]), r
+        assert abs(r["errors"]["l2"] - 0.0191) < 5e-4, r  # the same solution (L2 1.91 %)
+    met = sum(all(q >= bench.ORDER for q in r["order_values"]) for r in rows)
+    out = capsys.readouterr().out
+    assert f"every step's order >= 1.8: {met} of 2 runs" in out, out
+    for bad in (["--steps", "0"], ["--refine", "4"], ["--integration", "node"]):
+        with pytest.raises(SystemExit):
+            bench.main(bad)
