@@ -631,6 +631,15 @@ class MortarContact:
         # quadrature: the element rule on every slave facet, or the rule per segment
         qdeg = quadrature_degree or DEFAULT_QUADRATURE_DEGREE[self.ftype]
         self.rule = quadrature(self.ftype, qdeg)
+        #: (nsf,) reference area (length in 2D) of each local slave facet
+        self.facet_area = np.zeros(nsf)
+        if nsf:
+            xi0, w0 = (
+                np.zeros((nsf, self.rule[1].size, self.rule[0].shape[1])),
+                np.zeros((nsf, self.rule[1].size)),
+            )
+            kmortar.reference_weights(self.ftype, self.slave.X, *self.rule, xi0, w0)
+            self.facet_area = w0.sum(axis=1)
         if integration == "node":
             try:
                 self.qp_xi, self.qp_w = nodal_rule(self.ftype, self.slave.X)
@@ -1452,12 +1461,6 @@ class MortarContact:
         arrays of all ranks, concatenated in rank order, are in g order. ``facet_gid``
         (nsf, nphi) numbers every mixed node of the local slave facets (collective)."""
         comm = self.comm
-        nsf = self.slave.num_facets
-        nq = self.rule[1].size
-        xi, w = np.zeros((nsf, nq, self.rule[0].shape[1])), np.zeros((nsf, nq))
-        if nsf:
-            kmortar.reference_weights(self.ftype, self.slave.X, *self.rule, xi, w)
-        self.facet_area = w.sum(axis=1)
         counts = comm.allgather(self.node_blocks.size)
         self.gid_offset = int(sum(counts[: comm.rank]))
         blocks = np.concatenate(comm.allgather(self.node_blocks))
@@ -1520,6 +1523,22 @@ class MortarContact:
         if self._free_body is None:
             self._free_body = not self.problem.bodies_held(self._body_cells)
         return self._free_body
+
+    def edge_facets_in_contact(self) -> int:
+        """Local count of this rank's slave facets that segment integration pairs over part
+        of their area only (a facet across the master surface's edge: paired area below
+        (1 − PARTIAL_FACET_TOL) × its area) and that touch there (some paired point with
+        gap ≤ 0) at the last contact update; 0 for element and node integration. Across
+        such an edge the paired area has a kink in the displacement (docs/method-notes.md,
+        "Segment integration"), which Newton can cycle on; the stop message names it. Not
+        collective."""
+        if self.integration != "segment" or self.slave.num_facets == 0:
+            return 0
+        paired = self.qp_m >= 0
+        area = np.where(paired, self.qp_w, 0.0).sum(axis=1)
+        partial = (area > 0.0) & (area < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
+        touching = np.any(paired & (self.qp_g <= 0.0), axis=1)
+        return int(np.count_nonzero(partial & touching))
 
     def _predictor_wanted(self) -> bool:
         """Whether a state with nothing in contact gets the contact predictor (local; the

@@ -835,6 +835,15 @@ class ContactProblem:
         )
         return [t.name for t, c in zip(self.contacts, np.atleast_1d(counts), strict=True) if c == 0]
 
+    def edge_facet_pairs(self) -> dict[str, int]:
+        """Per contact pair with segment integration ("SLAVE:MASTER"), the number of slave
+        facets in contact across the master surface's edge at the last contact update
+        (:meth:`~dolfinx_mortar.contact.MortarContact.edge_facets_in_contact`), pairs with
+        none left out (collective)."""
+        local = np.array([t.edge_facets_in_contact() for t in self.contacts], dtype=np.int64)
+        counts = np.atleast_1d(self.comm.allreduce(local))
+        return {t.name: int(c) for t, c in zip(self.contacts, counts, strict=True) if c > 0}
+
     def reactions(self) -> dict[str, list[float]]:
         """Force (gdim components) each Dirichlet boundary exerts on the bodies at the
         current state: the residual without the conditions, R = F_int − F_ext − F_contact,

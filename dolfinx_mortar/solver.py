@@ -1228,6 +1228,32 @@ def _open_contact_hint(problem) -> str:
     )
 
 
+def _edge_hint(problem) -> str:
+    """A clause for the error of a run that stops where slave facets in contact lie
+    across the master surface's edge under segment integration (``problem.edge_facet_pairs``;
+    "" where none): the paired area has a kink there, and Newton can cycle between its
+    sides (docs/method-notes.md, "Segment integration": a press or a slide with the slave's
+    boundary on the master's, with friction). Collective; called only when the run stops."""
+    pairs = getattr(problem, "edge_facet_pairs", None)
+    found = pairs() if pairs is not None and getattr(problem, "contacts", None) else {}
+    if not found:
+        return ""
+    where = ", ".join(
+        f"{n} slave facet{'s' if n > 1 else ''} of {name}" for name, n in found.items()
+    )
+    return (
+        f"; {where} in contact across the master surface's edge, where the paired area of "
+        "segment integration has a kink that Newton can cycle on (docs/method-notes.md, "
+        '"Segment integration"): integration = "element", or a master surface that extends '
+        "beyond the slave, avoids it"
+    )
+
+
+def _stop_hints(problem) -> str:
+    """The clauses of :func:`_open_contact_hint` and :func:`_edge_hint` (collective)."""
+    return _open_contact_hint(problem) + _edge_hint(problem)
+
+
 def _released_pins(info_all: list[dict]) -> bool:
     """Whether the last Uzawa round's solve (``info_all``: per round, per pair, the
     ``uzawa_update`` information) ended with pinned points on some pair (the chattering
@@ -1407,7 +1433,7 @@ class LoadStepper:
                 if cutbacks >= self.max_cutbacks:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks: "
-                        f"{exc}{_open_contact_hint(p)}"
+                        f"{exc}{_stop_hints(p)}"
                     ) from exc
                 cutbacks += 1
                 mid = 0.5 * (t + t_new)
@@ -1416,7 +1442,7 @@ class LoadStepper:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed and the step size {t_new - t:.3g} "
                         f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): "
-                        f"{exc}{_open_contact_hint(p)}"
+                        f"{exc}{_stop_hints(p)}"
                     ) from exc
                 pending.insert(0, mid)
                 log.warning(

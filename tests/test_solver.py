@@ -124,6 +124,86 @@ def test_a_run_that_stops_with_every_contact_open_says_so(shared_tmp):
     assert "check the direction of the loads" in s["error"]
 
 
+def _coarse_press_slide(integration: str = "segment", margin: float = 0.0, slide: bool = True):
+    """patch2d with 3 × 4 elements, one through the thickness, linear-elastic, small
+    strain, μ = 0.3: a press of 0.01 in 2 steps, then a slide of 0.02 in 2 (``slide``).
+    With the slave's ends on the master's (``margin`` 0) and segment integration, the
+    first slide step stalls (docs/method-notes.md, "Segment integration")."""
+    path = [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]] + ([[2.0, 0.02, -0.01]] if slide else [])
+    return {
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"n_lower": 3, "n_upper": 4, "n_y": 1, "margin": margin},
+        },
+        "kinematics": "small",
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": 0.3,
+                "integration": integration,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": path},
+        ],
+        "steps": {"t_end": 2.0 if slide else 1.0, "n": 4 if slide else 2, "max_cutbacks": 1},
+    }
+
+
+@pytest.mark.mpi
+def test_a_run_that_stalls_across_the_master_edge_says_so(shared_tmp):
+    """The coarse frictional slide with the slave's ends on the master's and segment
+    integration stops in its first slide step (a 2-cycle of the residual norms at every
+    cutback): the press steps are kept, and the error names the slave facet in contact
+    across the master surface's edge (the end that slid off; the other slid inside), the kink of the segment-integrated paired area, and
+    the ways around it."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    s = run(parse_scene(_coarse_press_slide(), shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp)
+    assert s["status"] == "failed", s.get("error")
+    assert [st["t"] for st in s["steps"]] == [0.5, 1.0]
+    assert "failed after 1 cutbacks" in s["error"], s["error"]
+    assert (
+        "; 1 slave facet of upper_bottom:lower_top in contact across the master surface's edge"
+        in s["error"]
+    ), s["error"]
+    assert 'integration = "element", or a master surface that extends beyond' in s["error"]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "integration,margin,expected",
+    [("segment", 0.0, 2), ("segment", 0.05, 0), ("element", 0.0, 0)],
+    ids=["segment-edge", "segment-margin", "element"],
+)
+def test_edge_facet_pairs(shared_tmp, integration, margin, expected):
+    """``ContactProblem.edge_facet_pairs`` after the press (which converges either way):
+    the two slave end facets touch across the master's edge with segment integration
+    and no margin; none where the master extends beyond the slave, and none with element
+    integration (not counted: its kink is another one). The same count on 1–3 ranks."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    box = {}
+    data = _coarse_press_slide(integration, margin, slide=False)
+    s = run(
+        parse_scene(data, shared_tmp),
+        MPI.COMM_WORLD,
+        out_dir=shared_tmp / f"{integration}_{margin}",
+        setup=lambda problem: box.update(p=problem),
+    )
+    assert s["status"] == "ok", s.get("error")
+    found = box["p"].edge_facet_pairs()
+    assert found == ({"upper_bottom:lower_top": expected} if expected else {}), found
+
+
 @pytest.mark.mpi
 def test_a_body_that_nothing_holds_stops_the_run(shared_tmp):
     """patch2d without its Dirichlet boundaries: both blocks are free, the Jacobian is
