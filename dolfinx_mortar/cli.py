@@ -117,8 +117,10 @@ def _parser() -> argparse.ArgumentParser:
 def _setup_logging(rank: int, verbose: int) -> None:
     level = logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG
     level = level if rank == 0 else logging.ERROR
+    # force: importing dolfinx has already put a handler on the root logger, which made
+    # basicConfig a no-op and left the root at WARNING (-v and -vv printed nothing)
     logging.basicConfig(
-        level=level, format="[%(levelname)s %(name)s] %(message)s", stream=sys.stderr
+        level=level, format="[%(levelname)s %(name)s] %(message)s", stream=sys.stderr, force=True
     )
     # The level goes on the handlers too: setuptools (used by the JIT compilation of forms)
     # lowers the root logger's level, which would print its build log on stderr.

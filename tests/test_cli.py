@@ -590,6 +590,20 @@ def test_verbosity_flags():
     assert _parser().parse_args(["run", "-vv", "s.toml"]).verbose == 2
 
 
+@pytest.mark.parametrize("flag,levels", [("", set()), ("-v", {"INFO"}), ("-vv", {"INFO", "DEBUG"})])
+def test_verbosity_reaches_the_log(workdir, flag, levels):
+    """-v and -vv change what the run logs on stderr (importing dolfinx puts a handler on
+    the root logger first: without ``force`` the flags printed nothing); without them,
+    nothing but the step lines on stdout."""
+    (workdir / "good.toml").write_text(to_toml(base_scene()))
+    res = cli(workdir, "run", *([flag] if flag else []), "good.toml")
+    assert res.returncode == 0, res.stderr
+    found = set(re.findall(r"^\[(INFO|DEBUG) dolfinx_mortar[.\w]*\] ", res.stderr, re.M))
+    assert found == levels, res.stderr
+    if not flag:
+        assert res.stderr == "", res.stderr
+
+
 # --------------------------------------------------------------------------- good input
 
 
