@@ -239,6 +239,9 @@ def _bench_script(name: str, argv: list[str]) -> int:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     prog, sys.argv[0] = sys.argv[0], f"dolfinx-mortar bench {name}"  # argparse's usage line
+    # the script's usage errors become one line too, as the command line's own
+    # (_OneLineParser): argparse printed its whole usage block before the message
+    error, argparse.ArgumentParser.error = argparse.ArgumentParser.error, _bench_error(name)
     try:
         module.main(argv)
     except SceneError as exc:  # e.g. --out on a file
@@ -246,7 +249,18 @@ def _bench_script(name: str, argv: list[str]) -> int:
         return 2
     finally:
         sys.argv[0] = prog
+        argparse.ArgumentParser.error = error
     return 0
+
+
+def _bench_error(name: str):
+    """An ``argparse.ArgumentParser.error`` that exits with the one line
+    ``dolfinx-mortar: error: bench NAME: MESSAGE``, status 2."""
+
+    def error(parser: argparse.ArgumentParser, message: str):
+        parser.exit(2, f"dolfinx-mortar: error: bench {name}: {' '.join(message.split())}\n")
+
+    return error
 
 
 def _import_dolfinx() -> None:
