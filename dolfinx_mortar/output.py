@@ -148,13 +148,27 @@ class SurfaceFields:
         if lost:  # on every rank, so that none waits in a collective
             raise RuntimeError(f"{path.name}: {lost} surface dof(s) without a volume dof")
         self.parent = np.asarray(candidates, dtype=np.int64)[nearest]
-        self.file = io.XDMFFile(comm, str(path), "w")
-        self.file.write_mesh(self.surface)
+        self.path = path
+        with io.XDMFFile(comm, str(path), "w") as file:
+            file.write_mesh(self.surface)
+        #: the file, open in append mode between :meth:`begin_step` and :meth:`end_step`
+        self.file = None
         self._functions: dict[str, fem.Function] = {}
+
+    def begin_step(self) -> None:
+        """Open the file for the writes of one step (collective)."""
+        self.file = io.XDMFFile(self.surface.comm, str(self.path), "a")
+
+    def end_step(self) -> None:
+        """Close the file: the step's data are on disk (collective)."""
+        if self.file is not None:
+            self.file.close()
+            self.file = None
 
     def write(self, f: fem.Function, t: float) -> None:
         """Write the volume function ``f`` (scalar on Q, or vector on the displacement
-        space) restricted to the surface, at time t (collective)."""
+        space) restricted to the surface, at time t, between :meth:`begin_step` and
+        :meth:`end_step` (collective)."""
         name = f.name
         g = self._functions.get(name)
         if g is None:
@@ -166,7 +180,7 @@ class SurfaceFields:
         self.file.write_function(g, t)
 
     def close(self) -> None:
-        self.file.close()
+        self.end_step()
 
 
 class OutputWriter:
@@ -190,7 +204,7 @@ class OutputWriter:
         self.summary["status"] = "running"
         self.summary["error"] = None
         self.fields = tuple(fields)
-        self._xdmf = None
+        self._xdmf = None  # fields.xdmf, open in append mode while a step is written
         self._contact_functions = {}
         self._surfaces: list[SurfaceFields] = []
 
@@ -208,8 +222,8 @@ class OutputWriter:
                         f.unlink()
         self.comm.barrier()
         p = self.problem
-        self._xdmf = io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "w")
-        self._xdmf.write_mesh(p.mesh)
+        with io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "w") as file:
+            file.write_mesh(p.mesh)
         if p.contacts:
             Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
             names = {
@@ -238,7 +252,33 @@ class OutputWriter:
             self._surfaces.append(SurfaceFields(path, Q, facets))
 
     def write_step(self, step: int, t: float, record: dict | None) -> None:
-        """Write the state of converged step ``step`` at time t; ``record`` joins summary.json."""
+        """Write the state of converged step ``step`` at time t; ``record`` joins summary.json.
+
+        The XDMF files are opened in append mode for the step and closed after it, so
+        that the HDF5 data of every finished step is on disk: dolfinx 0.5.2's XDMFFile has
+        no flush, and a file left open had an empty superblock until it was closed (a run
+        killed by a batch job's time limit lost all its fields)."""
+        self._xdmf = io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "a")
+        for surface in self._surfaces:
+            surface.begin_step()
+        try:
+            self._write_fields(step, t)
+        finally:
+            self._close_files()
+        if record is not None:
+            self.summary["steps"].append(record)
+        self._flush()
+
+    def _close_files(self) -> None:
+        """Close the XDMF files opened for a step (collective)."""
+        if self._xdmf is not None:
+            self._xdmf.close()
+            self._xdmf = None
+        for surface in self._surfaces:
+            surface.end_step()
+
+    def _write_fields(self, step: int, t: float) -> None:
+        """The step's fields and contact CSVs (the files open; collective)."""
         p = self.problem
         if "displacement" in self.fields:
             self._xdmf.write_function(p.u, t)
@@ -262,9 +302,6 @@ class OutputWriter:
                 self._xdmf.write_function(f, t)
                 for surface in self._surfaces:
                     surface.write(f, t)
-        if record is not None:
-            self.summary["steps"].append(record)
-        self._flush()
 
     def finish(self, status: str, error: str | None = None, timings: dict | None = None) -> None:
         """Close the files and write the final summary (status "ok" or "failed")."""
@@ -272,11 +309,7 @@ class OutputWriter:
         self.summary["error"] = error
         if timings is not None:
             self.summary["timings"] = timings
-        if self._xdmf is not None:
-            self._xdmf.close()
-            self._xdmf = None
-        for surface in self._surfaces:
-            surface.close()
+        self._close_files()
         self._surfaces = []
         self._flush()
 

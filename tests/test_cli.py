@@ -604,6 +604,45 @@ def test_verbosity_reaches_the_log(workdir, flag, levels):
         assert res.stderr == "", res.stderr
 
 
+def test_a_killed_run_keeps_the_fields_of_its_finished_steps(workdir):
+    """A run killed between steps (a batch job's time limit: SIGKILL) keeps every step it
+    finished in fields.xdmf / fields.h5, as SCENES.md promises: the HDF5 file is closed
+    after each step. It was left open, and its superblock was still empty when the run
+    died, so no field of any step could be read."""
+    import signal
+
+    from dolfinx import io
+    from mpi4py import MPI
+
+    scene = base_scene()
+    scene["steps"]["n"] = 400
+    scene["output"]["fields"] = ["displacement"]
+    (workdir / "long.toml").write_text(to_toml(scene))
+    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
+    proc = subprocess.Popen(
+        cmd, cwd=workdir, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+    )
+    try:
+        seen = 0
+        for line in proc.stdout:
+            seen += line.startswith("step")
+            if seen == 3:
+                proc.send_signal(signal.SIGKILL)
+                break
+    finally:
+        proc.kill()
+        proc.wait(timeout=TIMEOUT)
+    out = workdir / "out"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "running" and len(summary["steps"]) >= 3, summary["status"]
+    assert (out / "fields.h5").read_bytes()[:8] == b"\x89HDF\r\n\x1a\n"
+    with io.XDMFFile(MPI.COMM_SELF, str(out / "fields.xdmf"), "r") as f:
+        mesh = f.read_mesh(name="mesh")
+    assert mesh.topology.index_map(mesh.topology.dim).size_local > 0
+    times = re.findall(r'<Time Value="([^"]+)"', (out / "fields.xdmf").read_text())
+    assert len(times) >= len(summary["steps"]) + 1, times  # step 0 and every finished step
+
+
 # --------------------------------------------------------------------------- good input
 
 

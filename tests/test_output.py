@@ -39,6 +39,7 @@ def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads
     facets = compat.tagged_entities(md.facet_tags, md.facet_groups["top"])
     path = shared_tmp / f"top_{dim}{quads}{degree}.xdmf"
     surface = SurfaceFields(path, Q, facets)
+    surface.begin_step()
     surface.write(f, 0.0)
     surface.write(u, 0.0)
     surface.close()
@@ -86,6 +87,7 @@ def test_surface_fields_take_the_slave_body_where_bodies_touch(shared_tmp):
     f.x.scatter_forward()
     facets = compat.tagged_entities(md.facet_tags, md.facet_groups["cylinder_surface"])
     surface = SurfaceFields(shared_tmp / "touch.xdmf", Q, facets)
+    surface.begin_step()
     surface.write(f, 0.0)
     surface.close()
     n = surface.Q.dofmap.index_map.size_local
