@@ -170,7 +170,10 @@ def run(
     residual evaluations per step), against which the demos read ``residual_norms``.
     Raises SceneError before writing anything when the input is bad (the output
     directory too: checked before the set-up), TypeError when ``scene`` is not a
-    :class:`~dolfinx_mortar.scene.Scene`.
+    :class:`~dolfinx_mortar.scene.Scene`. A run that stops (a step that fails after its
+    cutbacks, an option PETSc refuses in the solve) raises nothing: the summary's
+    ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
+    reports it, as the command line does in one line).
     """
     from .output import OutputWriter, check_out_dir
     from .solver import LoadStepper, NewtonSolver, SolverSettings
@@ -244,7 +247,7 @@ def run(
         status, error = "failed", str(exc)
         # the step that stopped the run (its failed attempts and cutbacks): not in a step
         totals["unfinished"] = perf_counter() - mark[0]
-        log.error("run stopped: %s", exc)
+        log.info("run stopped: %s", exc)
     except PETSc.Error as exc:
         # an option PETSc accepted when the solver was set up but refuses in the solve
         # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
@@ -253,11 +256,12 @@ def run(
             raise
         lines = compat.petsc_error_lines(exc)
         status = "failed"
+        totals["unfinished"] = perf_counter() - mark[0]
         error = (
             f"PETSc failed in the solve ({lines[0]}: {lines[-1]}); check the PETSc "
             "options of [solver.petsc] and the command line"
         )
-        log.error("run stopped: %s", error)
+        log.info("run stopped: %s", error)
     finally:
         newton.destroy()
     writer.finish(status, error, totals)

@@ -553,6 +553,9 @@ def test_petsc_errors_in_the_solve_stop_the_run(workdir):
         assert summary["status"] == "failed" and summary["steps"] == [], summary
         assert "PETSc failed in the solve" in summary["error"], summary["error"]
         assert "without setting converged reason" in summary["error"], summary["error"]
+        assert summary["timings"]["unfinished"] > 0.0, summary["timings"]  # docs/scenes.md
+        # one line says why, on rank 0 (the runner logged it once more on every rank)
+        assert res.stderr.count(summary["error"]) == 1, where
     scene["solver"] = {"petsc": {"snes_monitr": True}}
     scene["output"]["dir"] = "typo"
     (workdir / "s.toml").write_text(to_toml(scene))
@@ -901,6 +904,7 @@ def test_a_non_finite_first_residual_stops_the_run_cleanly(workdir):
     assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
     assert "DIVERGED_FNORM_NAN: the first residual is not finite" in res.stderr, res.stderr
     summary = json.loads((workdir / "o_big" / "summary.json").read_text())
+    assert res.stderr.count(summary["error"]) == 1, res.stderr  # once, not logged as well
     assert summary["status"] == "failed" and summary["steps"] == []
     # the failed step's attempts are timed in the run-level "unfinished"
     assert summary["timings"]["unfinished"] > 0.0 and summary["timings"]["total"] == 0.0
