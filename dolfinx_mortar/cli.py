@@ -279,6 +279,15 @@ def _import_dolfinx() -> None:
         sys.argv = argv
 
 
+def _subcommand_options(parser: argparse.ArgumentParser, command: str | None) -> set[str]:
+    """The option strings (``-v``, ``--out``, …) of the subcommand ``command`` of the
+    command line's ``parser`` (empty for none)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            return set(action.choices[command]._option_string_actions)
+    return set()
+
+
 def main(argv=None) -> int:
     tokens = list(sys.argv[1:] if argv is None else argv)
     if len(tokens) >= 2 and tokens[0] == "bench" and tokens[1] in BENCH_SCRIPTS:
@@ -292,13 +301,22 @@ def main(argv=None) -> int:
                 raise ValueError(extra[0])
             petsc = petsc_arguments(extra)
         except ValueError as exc:
+            bad = str(exc)
+            if bad in _subcommand_options(parser, args.command):
+                hint = f"an option of `{args.command}`: put it after `{args.command}`"
+            else:
+                hint = "PETSc options of `run` take the prefix -dm_"
             _error_line(
-                f"dolfinx-mortar: error: command line: unrecognized argument {exc} "
-                "(PETSc options of `run` take the prefix -dm_)"
+                f"dolfinx-mortar: error: command line: unrecognized argument {bad} ({hint})"
             )
             return 2
     if args.command == "generators":
+        from mpi4py import MPI
+
         from .generators import GENERATORS
+
+        if MPI.COMM_WORLD.rank > 0:  # the list once under mpirun
+            return 0
 
         lines = []
         for g in GENERATORS.values():

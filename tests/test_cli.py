@@ -532,6 +532,9 @@ def test_usage_errors_are_one_line(workdir):
         (("run",), "the following arguments are required: scene"),
         (("run", "s.toml", "--out"), "argument --out: expected one argument"),
         (("frobnicate",), "invalid choice: 'frobnicate'"),
+        # an option of the subcommand before it: where it goes, not the PETSc prefix
+        (("-v", "run", "s.toml"), "unrecognized argument -v (an option of `run`: put it after"),
+        (("-x", "run", "s.toml"), "unrecognized argument -x (PETSc options of `run` take"),
     ):
         _one_error_line(cli(workdir, *args), 1, "command line", reason)
     _one_error_line(cli(workdir, "run", ranks=2), 2, "command line", "required: scene")
@@ -649,10 +652,12 @@ def test_a_killed_run_keeps_the_fields_of_its_finished_steps(workdir):
 # --------------------------------------------------------------------------- good input
 
 
-def test_generators(tmp_path):
-    res = cli(tmp_path, "generators")
+@pytest.mark.parametrize("ranks", [0, 2])
+def test_generators(tmp_path, ranks):
+    """The list of generators, once (rank 0 only under mpirun: it was once per rank)."""
+    res = cli(tmp_path, "generators", ranks=ranks)
     assert res.returncode == 0, res.stderr
-    assert re.search(r"^hertz2d: ", res.stdout, re.M), res.stdout
+    assert len(re.findall(r"^hertz2d: ", res.stdout, re.M)) == 1, res.stdout
     assert res.stderr == ""
 
 
