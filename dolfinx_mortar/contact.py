@@ -128,9 +128,15 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #: soft pass) and failed at 1e3 × auto and beyond (6 cutbacks in the first step). With
 #: Uzawa the soft pass pays at any ratio (100 × auto: 27 iterations against 47).
 SOFT_START_RATIO = 100.0
-#: Unconstrained/constrained recovery: a slave facet whose paired area is below (1 − this)
-#: × its area enters the mortar mass matrix lumped.
-PARTIAL_FACET_TOL = 1e-9
+#: Unconstrained/constrained recovery: a slave facet whose paired fraction
+#: (:meth:`MortarContact.paired_fraction`, exact to round-off) is below 1 − this enters the
+#: mortar mass matrix lumped. The switch is a jump of the residual, so it must not sit
+#: where a solution does: at a symmetry plane the master's end node projects onto the
+#: slave's end facet a hair inside it (by the penetration times the facet's slope there),
+#: and with 1e-9 hertz2d's coarse P2 half model (segment integration) had that facet
+#: cross the threshold between iterates (1 − fraction = 0.98e-9 … 1.0e-9) until the step
+#: could not be halved further. A sliver of 1e-4 leaves the consistent block regular.
+PARTIAL_FACET_TOL = 1e-4
 #: Upper bound of the Aitken relaxation of the Uzawa update (``uzawa_acceleration = "aitken"``).
 OMEGA_MAX = 10.0
 #: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
@@ -631,15 +637,6 @@ class MortarContact:
         # quadrature: the element rule on every slave facet, or the rule per segment
         qdeg = quadrature_degree or DEFAULT_QUADRATURE_DEGREE[self.ftype]
         self.rule = quadrature(self.ftype, qdeg)
-        #: (nsf,) reference area (length in 2D) of each local slave facet
-        self.facet_area = np.zeros(nsf)
-        if nsf:
-            xi0, w0 = (
-                np.zeros((nsf, self.rule[1].size, self.rule[0].shape[1])),
-                np.zeros((nsf, self.rule[1].size)),
-            )
-            kmortar.reference_weights(self.ftype, self.slave.X, *self.rule, xi0, w0)
-            self.facet_area = w0.sum(axis=1)
         if integration == "node":
             try:
                 self.qp_xi, self.qp_w = nodal_rule(self.ftype, self.slave.X)
@@ -1526,18 +1523,17 @@ class MortarContact:
 
     def edge_facets_in_contact(self) -> int:
         """Local count of this rank's slave facets that segment integration pairs over part
-        of their area only (a facet across the master surface's edge: paired area below
-        (1 − PARTIAL_FACET_TOL) × its area) and that touch there (some paired point with
+        of their area only (a facet across the master surface's edge: a paired fraction
+        below 1 − PARTIAL_FACET_TOL, :meth:`paired_fraction`) and that touch there (some paired point with
         gap ≤ 0) at the last contact update; 0 for element and node integration. Across
         such an edge the paired area has a kink in the displacement (docs/method-notes.md,
         "Segment integration"), which Newton can cycle on; the stop message names it. Not
         collective."""
         if self.integration != "segment" or self.slave.num_facets == 0:
             return 0
-        paired = self.qp_m >= 0
-        area = np.where(paired, self.qp_w, 0.0).sum(axis=1)
-        partial = (area > 0.0) & (area < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
-        touching = np.any(paired & (self.qp_g <= 0.0), axis=1)
+        fraction = self.paired_fraction(self.qp_m)
+        partial = (fraction > 0.0) & (fraction < 1.0 - PARTIAL_FACET_TOL)
+        touching = np.any((self.qp_m >= 0) & (self.qp_g <= 0.0), axis=1)
         return int(np.count_nonzero(partial & touching))
 
     def _predictor_wanted(self) -> bool:
@@ -1564,8 +1560,7 @@ class MortarContact:
             # A facet paired over part of its area only (the edge of the paired region, a
             # slave facet beyond the master's edge) enters lumped: with few paired points
             # its consistent block is rank deficient. The row sums, M·1 = A, are kept.
-            paired = np.where(self.qp_m >= 0, self.qp_w, 0.0).sum(axis=1)
-            partial = np.flatnonzero(paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area)
+            partial = np.flatnonzero(self.paired_fraction(self.qp_m) < 1.0 - PARTIAL_FACET_TOL)
             sums = Mf[partial].sum(axis=2)
             Mf[partial] = 0.0
             Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
@@ -1687,8 +1682,18 @@ class MortarContact:
     def _tangential_partial(self) -> np.ndarray:
         """(nsf,) bool: the facets whose block of the tangential mortar matrix is lumped,
         paired now and at t_n over less than their whole area (local)."""
-        paired = np.where((self.qp_m >= 0) & (self.qp_mn >= 0), self.qp_w, 0.0).sum(axis=1)
-        return paired < (1.0 - PARTIAL_FACET_TOL) * self.facet_area
+        both = np.where((self.qp_m >= 0) & (self.qp_mn >= 0), 0, -1)
+        return self.paired_fraction(both) < 1.0 - PARTIAL_FACET_TOL
+
+    def paired_fraction(self, qp_m: np.ndarray) -> np.ndarray:
+        """(nsf,) the fraction of each local slave facet that the points with
+        ``qp_m`` ≥ 0 cover (qp_m (nsf, nq), as :attr:`qp_m`), exact to round-off for
+        segment points too (:func:`~dolfinx_mortar.kernels.mortar.paired_fraction`;
+        local)."""
+        out = np.zeros(self.slave.num_facets)
+        if out.size:
+            kmortar.paired_fraction(self.ftype, self.slave.X, self.qp_xi, self.qp_w, qp_m, out)
+        return out
 
     def _recover_tangential_mixed(self, sigma, hasT, imposed):
         """The unconstrained or constrained tangential recovery on the gathered slave

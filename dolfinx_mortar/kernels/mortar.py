@@ -41,7 +41,7 @@ import numba
 import numpy as np
 
 from .gap import gap_and_derivatives, gap_only_in, project_in, unit_normal, unit_normal_in, work
-from .shape import clamp_to_reference, shape, tdim
+from .shape import TRIANGLE1, TRIANGLE2, clamp_to_reference, shape, tdim
 
 #: Newton iterations of the closest-point projection of a slave point
 PROJECT_MAXIT = 30
@@ -61,6 +61,33 @@ def reference_weights(ftype_s, Xs, qpts, qw, qp_xi, qp_w):
             for a in range(k):
                 qp_xi[f, q, a] = qpts[q, a]
             qp_w[f, q] = qw[q] * unit_normal(Xs[f], ftype_s, 1.0, qpts[q], tmp)
+
+
+@numba.njit(cache=True)
+def paired_fraction(ftype_s, Xs, qp_xi, qp_w, qp_m, out):
+    """out[f] = (Σ_q w_q / J₀(ξ_q) over the points with qp_m[f, q] ≥ 0) / |reference facet|:
+    the fraction of slave facet f that its paired points cover (out (nsf,)).
+
+    Xs (nsf, ns, d) reference slave coordinates, qp_xi (nsf, nq, k), qp_w, qp_m (nsf, nq).
+    Every point's weight is ŵ J₀(ξ) times a piece of the reference facet (the element
+    rule, or a segment's length or a fan triangle's area), so the quotients sum to the
+    reference measure of the pieces, exactly up to round-off. Summing the weights
+    themselves against the facet's area from the element rule does not: on a curved
+    (P2) facet the two rules integrate J₀ with different quadrature errors (relative
+    1e-9 … 1e-6 on a coarse arc), which moved a fully paired facet across a 1e-9
+    threshold between Newton iterates.
+    """
+    nsf, nq = qp_w.shape
+    d = Xs.shape[2]
+    tri = ftype_s == TRIANGLE1 or ftype_s == TRIANGLE2
+    ref = 0.5 if tri else 1.0
+    tmp = np.empty(d)
+    for f in range(nsf):
+        s = 0.0
+        for q in range(nq):
+            if qp_m[f, q] >= 0 and qp_w[f, q] != 0.0:
+                s += qp_w[f, q] / unit_normal(Xs[f], ftype_s, 1.0, qp_xi[f, q], tmp)
+        out[f] = s / ref
 
 
 @numba.njit(cache=True)
