@@ -137,6 +137,10 @@ SOFT_START_RATIO = 100.0
 #: cross the threshold between iterates (1 − fraction = 0.98e-9 … 1.0e-9) until the step
 #: could not be halved further. A sliver of 1e-4 leaves the consistent block regular.
 PARTIAL_FACET_TOL = 1e-4
+#: A slave facet paired over less than 1 − this of itself lies across the master surface's
+#: edge (:meth:`MortarContact.edge_facets_in_contact`; the paired fraction is exact to
+#: round-off).
+EDGE_FRACTION_TOL = 1e-9
 #: Upper bound of the Aitken relaxation of the Uzawa update (``uzawa_acceleration = "aitken"``).
 OMEGA_MAX = 10.0
 #: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
@@ -1524,7 +1528,7 @@ class MortarContact:
     def edge_facets_in_contact(self) -> int:
         """Local count of this rank's slave facets that segment integration pairs over part
         of their area only (a facet across the master surface's edge: a paired fraction
-        below 1 − PARTIAL_FACET_TOL, :meth:`paired_fraction`) and that touch there (some paired point with
+        below 1 − EDGE_FRACTION_TOL, :meth:`paired_fraction`) and that touch there (some paired point with
         gap ≤ 0) at the last contact update; 0 for element and node integration. Across
         such an edge the paired area has a kink in the displacement (docs/method-notes.md,
         "Segment integration"), which Newton can cycle on; the stop message names it. Not
@@ -1532,7 +1536,7 @@ class MortarContact:
         if self.integration != "segment" or self.slave.num_facets == 0:
             return 0
         fraction = self.paired_fraction(self.qp_m)
-        partial = (fraction > 0.0) & (fraction < 1.0 - PARTIAL_FACET_TOL)
+        partial = (fraction > 0.0) & (fraction < 1.0 - EDGE_FRACTION_TOL)
         touching = np.any((self.qp_m >= 0) & (self.qp_g <= 0.0), axis=1)
         return int(np.count_nonzero(partial & touching))
 
