@@ -141,6 +141,9 @@ PARTIAL_FACET_TOL = 1e-4
 #: edge (:meth:`MortarContact.edge_facets_in_contact`; the paired fraction is exact to
 #: round-off).
 EDGE_FRACTION_TOL = 1e-9
+#: The softest contact-predictor springs, as a fraction of the penalty's
+#: (:meth:`MortarContact._predictor_scale`).
+PREDICTOR_MIN_SCALE = 1e-12
 #: Upper bound of the Aitken relaxation of the Uzawa update (``uzawa_acceleration = "aitken"``).
 OMEGA_MAX = 10.0
 #: Anderson acceleration of the Uzawa update: number of previous rounds in the history.
@@ -774,6 +777,9 @@ class MortarContact:
         self.p_hat = np.zeros(n)
         self.active = np.zeros(n, bool)
         self.kcoef = np.zeros(n)
+        self.predictor_nodes = self.predictor_nodes_global = 0
+        #: (γ_min, spring factor) at the last predictor Jacobian of the solve, or None
+        self._predictor_track = None
         self._recovered = None
         self._segment_rows = None  # 2D segments, mixed recoveries: (C_γ, D_p) rows
         self._partial_facets = None
@@ -1508,6 +1514,8 @@ class MortarContact:
                 self.kcoef = np.where(near, self.eps_soft / safe_A, 0.0)
             self.predictor_nodes = int(near.sum())
             self.active = np.zeros_like(active)
+        #: predictor nodes over all ranks (0 outside the predictor state)
+        self.predictor_nodes_global = self.comm.allreduce(self.predictor_nodes)
         if self.frictional:
             self._recover_tangential()
 
@@ -1824,6 +1832,44 @@ class MortarContact:
         self._watch_pairing()
         if self.recovery == "lumped":
             self._watch_contact_set()
+        scale = self._predictor_scale()  # collective: called at every Jacobian
+        kcoef = self.kcoef
+        if scale != 1.0:
+            self.kcoef = kcoef * scale
+        try:
+            self._add_jacobian(A)
+        finally:
+            self.kcoef = kcoef
+
+    def _predictor_scale(self) -> float:
+        """The factor s ≤ 1 of the contact predictor's springs at this Jacobian (a lumped
+        pair with nothing in contact; 1 otherwise). Collective.
+
+        The lumped γ^I = G^I/A^I averages the gap over the node's facets, so at a touching
+        tip it is still about h²/(12 R) > 0 (a curved slave on a flat master), and springs
+        of the penalty's stiffness ε A move a body held by contact alone by only
+        δ = F/(ε A) per Newton step: hertz2d with 128 load steps crept at 0.2–1 % of ‖R‖
+        per iteration until every cutback of its first step had failed. From the second
+        predictor Jacobian of a solve on, the springs are softened so that the next step
+        closes the smallest gap: the last step closed c = γ_prev − γ_min with springs s_prev
+        ε A, so they carried F = s_prev ε A c, and s = s_prev c / (γ_min + s_prev c) closes
+        γ_min and presses the node by δ = s_prev c, the penalty's penetration under F."""
+        if not (self.recovery == "lumped" and self._no_contact and self.predictor_nodes_global > 0):
+            self._predictor_track = None
+            return 1.0
+        has = self.has_area
+        gmin = self.comm.allreduce(float(self.gamma[has].min(initial=np.inf)), op=MPI.MIN)
+        scale = 1.0
+        if self._predictor_track is not None:
+            g_prev, scale = self._predictor_track
+            closed = g_prev - gmin
+            need = gmin + scale * closed
+            if closed > 0.0 and need > 0.0:
+                scale = min(1.0, max(PREDICTOR_MIN_SCALE, scale * closed / need))
+        self._predictor_track = (gmin, scale)
+        return scale
+
+    def _add_jacobian(self, A: PETSc.Mat) -> None:
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
         drop = self._drop_geometric_tangent()  # collective: called at every Jacobian
         geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
@@ -2988,8 +3034,9 @@ class MortarContact:
         """A Newton solve starts: the constrained recovery's active set and the pairing
         are free again (chattering control), the stick/slip states too unless the last
         Uzawa round carried them (``carry_states``, :meth:`uzawa_update`): then they are
-        frozen from the start."""
+        frozen from the start; the contact predictor's springs start at full stiffness."""
         self._jacobians = 0
+        self._predictor_track = None
         self.qp_frozen = None
         self.held, self._set_jacobians = None, 0
         self.qp_pinned, self._pair_hist, self._pair_jacobians = None, [], 0

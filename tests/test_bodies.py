@@ -150,3 +150,31 @@ def test_a_body_held_by_contact_keeps_the_predictor():
     assert term.free_body
     problem, _ = prepare(parse_scene(LIFT_OFF, Path(".")), MPI.COMM_WORLD)
     assert not problem.contacts[0].free_body
+
+
+@pytest.mark.mpi
+def test_a_light_first_load_brings_a_curved_body_into_contact(shared_tmp):
+    """hertz2d's coarse half model under 1/100 of its load: the cylinder, held by contact
+    alone, touches the block at one point. The lumped gap of that node averages the gap
+    over its facet, about h²/(12 R) > 0, and the contact predictor's springs of the
+    penalty's stiffness moved the body by only F/(ε A) per Newton step: ‖R‖ crept down
+    by 0.2–1 % per iteration and the run stopped after 6 cutbacks. The springs now soften
+    from the solve's second Jacobian on, so that a step closes the gap
+    (contact.MortarContact._predictor_scale): every step converges without a cutback, and
+    the contact force carries the load."""
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = {
+        **HERTZ2D,
+        "traction": [{"boundary": "cylinder_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.00625]]}],
+        "steps": {"n": 4},
+    }
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp / "light")
+    assert s["status"] == "ok", s["error"]
+    assert all(st["cutbacks"] == 0 for st in s["steps"]), [st["cutbacks"] for st in s["steps"]]
+    assert max(sum(st["newton_iterations"]) for st in s["steps"]) <= 8, s["steps"]
+    (fy,) = [st["contact_force"]["cylinder_surface:block_top"][1] for st in s["steps"][-1:]]
+    assert abs(fy - 0.05) <= 1e-6 * 0.05, fy
