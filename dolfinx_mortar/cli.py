@@ -173,7 +173,7 @@ def _progress(comm):
         if comm.rank == 0:
             its = "+".join(str(i) for i in rec["newton_iterations"])
             forces = " ".join(
-                f"{k}={[round(v, 6) for v in f]}" for k, f in rec["contact_force"].items()
+                f"{k}={[round(v, 6) + 0.0 for v in f]}" for k, f in rec["contact_force"].items()
             )
             print(
                 f"step {step:4d}  t = {rec['t']:.6g}  newton {its}  uzawa {rec['uzawa_rounds']}"

@@ -108,7 +108,7 @@ def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
     fmt = ["%.17g"] * (len(header) - 1) + ["%d"]
     np.savetxt(
         path,
-        table.reshape(-1, len(header)),
+        table.reshape(-1, len(header)) + 0.0,  # + 0.0: no "-0" (a −0.0 prints so)
         delimiter=",",
         header=",".join(header),
         comments="",
