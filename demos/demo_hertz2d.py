@@ -16,7 +16,7 @@ y-component of the contact force (BENCHMARKS.md: a = 0.9628, p0 = 6.612 at P = 1
 Run::
 
     mpirun -n 2 python3 demos/demo_hertz2d.py [--refine K] [--order 2] [--integration segment]
-                                              [--tri]
+                                              [--tri] [--load P]
 
 Known figures (h_contact = 0.1 ≈ a/10, Q1): L2 ≈ 1.9 %, p_max ≈ 0.3 %; 1.2 % L2 with Q2.
 P1 triangles (``--tri``) are stiffer at the same h: L2 ≈ 3.6 %, half-width −4.4 %.
@@ -47,9 +47,11 @@ def scene(
     steps: int = 4,
     quads: bool = True,
     recovery: str = "lumped",
+    load: float = P,
 ) -> dict:
     """The scene dict (SCENES.md) of the half model at refinement level ``refine``;
-    ``quads``: quadrilaterals (True) or triangles."""
+    ``quads``: quadrilaterals (True) or triangles; ``load``: the total load P per unit
+    length (the half model carries P/2)."""
     return {
         "title": f"hertz2d half model, refine {refine}, order {order}, {integration}, {recovery}",
         "kinematics": "small",
@@ -82,16 +84,16 @@ def scene(
             {"boundary": "symmetry", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
         ],
         "traction": [
-            {"boundary": "cylinder_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -P / (2.0 * R)]]}
+            {"boundary": "cylinder_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -load / (2.0 * R)]]}
         ],
         "steps": {"t_end": 1.0, "n": steps},
         "output": {"fields": ["contact_pressure", "gap", "contact_state"]},
     }
 
 
-def evaluate(summary: dict, out_dir, nu: float = NU) -> dict:
+def evaluate(summary: dict, out_dir, nu: float = NU, load: float = P) -> dict:
     """Metrics of a finished run (rank 0: reads the final CSV); ``nu``: Poisson's ratio of
-    both bodies (the reference's E*)."""
+    both bodies (the reference's E*); ``load``: the applied total load P."""
     from dolfinx_mortar.analytic import effective_modulus, hertz2d
 
     F = cm.contact_force(summary, f"{SLAVE}:{MASTER}")
@@ -104,7 +106,7 @@ def evaluate(summary: dict, out_dir, nu: float = NU) -> dict:
         P_measured=P_meas,
         a=ref["a"],
         p0=ref["p0"],
-        force_balance=abs(float(F[1]) - 0.5 * P) / (0.5 * P),
+        force_balance=abs(float(F[1]) - 0.5 * load) / (0.5 * load),
         oscillation=cm.oscillation_index(p, ref["p0"]),
         newton_iterations=cm.newton_iterations(summary),
         uzawa_rounds=[int(s["uzawa_rounds"]) for s in summary["steps"]],
@@ -129,12 +131,23 @@ def main(argv=None) -> dict:
     ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
     ap.add_argument("--steps", type=int, default=4, help="load steps [4]")
     ap.add_argument("--tri", action="store_true", help="triangles instead of quadrilaterals")
+    ap.add_argument("--load", type=float, default=P, help=f"total load P per length [{P:g}]")
     args = ap.parse_args(argv)
+    if not args.load > 0.0:
+        ap.error(f"--load must be > 0, got {args.load:g}")
     comm = MPI.COMM_WORLD
-    sc = scene(args.refine, args.order, args.integration, args.steps, not args.tri, args.recovery)
+    sc = scene(
+        args.refine,
+        args.order,
+        args.integration,
+        args.steps,
+        not args.tri,
+        args.recovery,
+        load=args.load,
+    )
     cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(sc, args.out, comm, round_off=True)
-    m = cm.on_root(evaluate, summary, args.out, comm=comm)
+    m = cm.on_root(evaluate, summary, args.out, load=args.load, comm=comm)
     m["wall_time"] = wall
     h = H_CONTACT / 2**args.refine
     cm.report(
@@ -143,7 +156,7 @@ def main(argv=None) -> dict:
         f"{args.recovery}, "
         f"{m['ranks']} rank(s), {m['dofs']} dofs, {m['slave_nodes']} slave nodes",
         [
-            ("measured load P = 2 Fy", f"{m['P_measured']:.6f} (applied {P:g})"),
+            ("measured load P = 2 Fy", f"{m['P_measured']:.6f} (applied {args.load:g})"),
             ("Hertz a, p0", f"{m['a']:.5f}, {m['p0']:.5f}"),
             ("L2 pressure error", f"{100 * m['l2']:.3f} %"),
             ("p_max error", f"{100 * m['p_max_err']:+.3f} % (p_max = {m['p_max']:.5f})"),

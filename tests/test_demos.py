@@ -82,6 +82,18 @@ def test_hertz2d_newton_superlinear(hertz2d):
     assert min(q[0], q[1], q[3]) >= 1.8 and q[2] >= 1.5, hertz2d["newton_order_text"]
 
 
+def test_hertz2d_load_option(shared_tmp):
+    """``--load P``: the scene carries P (the measured load P to 1e-6, the reference with
+    it); at P = 10.5 (a/h = 9.9) the lumped recovery's contact edge falls just past a node,
+    which stays open: L2 5.36 %, half-width −11.4 % (BENCHMARKS §39)."""
+    m = demo_hertz2d.main(["--load", "10.5", "--out", str(shared_tmp / "hertz2d_load")])
+    assert abs(m["P_measured"] - 10.5) <= 1e-6 * 10.5, m["P_measured"]
+    assert m["force_balance"] <= 1e-6, m["force_balance"]
+    assert 0.04 <= m["l2"] <= 0.07 and -0.15 <= m["a_err"] <= -0.08, (m["l2"], m["a_err"])
+    with pytest.raises(SystemExit):
+        demo_hertz2d.main(["--load", "0"])
+
+
 def test_solve_order_reads_the_round_off_floor():
     """demos/_common.solve_order on norm sequences of hertz2d's steps (2 ranks)."""
     # the last norm on the floor (<= 3 f): the clean triple is pre-asymptotic (0.91), the
