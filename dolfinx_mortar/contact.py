@@ -1536,11 +1536,11 @@ class MortarContact:
     def edge_facets_in_contact(self) -> int:
         """Local count of this rank's slave facets that segment integration pairs over part
         of their area only (a facet across the master surface's edge: a paired fraction
-        below 1 − EDGE_FRACTION_TOL, :meth:`paired_fraction`) and that touch there (some paired point with
-        gap ≤ 0) at the last contact update; 0 for element and node integration. Across
-        such an edge the paired area has a kink in the displacement (docs/method-notes.md,
-        "Segment integration"), which Newton can cycle on; the stop message names it. Not
-        collective."""
+        below 1 − EDGE_FRACTION_TOL, :meth:`paired_fraction`) and that touch there (some
+        paired point with gap ≤ 0) at the last contact update; 0 for element and node
+        integration. Across such an edge the paired area has a kink in the displacement
+        (docs/method-notes.md, "Segment integration"), which Newton can cycle on; the stop
+        message names it. Not collective."""
         if self.integration != "segment" or self.slave.num_facets == 0:
             return 0
         fraction = self.paired_fraction(self.qp_m)

@@ -71,11 +71,10 @@ def paired_fraction(ftype_s, Xs, qp_xi, qp_w, qp_m, out):
     Xs (nsf, ns, d) reference slave coordinates, qp_xi (nsf, nq, k), qp_w, qp_m (nsf, nq).
     Every point's weight is ŵ J₀(ξ) times a piece of the reference facet (the element
     rule, or a segment's length or a fan triangle's area), so the quotients sum to the
-    reference measure of the pieces, exactly up to round-off. Summing the weights
-    themselves against the facet's area from the element rule does not: on a curved
-    (P2) facet the two rules integrate J₀ with different quadrature errors (relative
-    1e-9 … 1e-6 on a coarse arc), which moved a fully paired facet across a 1e-9
-    threshold between Newton iterates.
+    reference measure of the pieces, exactly up to round-off, whatever the quadrature
+    error of J₀ on a curved facet. (Summing the weights against the facet's area from
+    the element rule compares two quadratures of J₀; they agreed to 1.4e-15 on hertz2d's
+    coarse P2 facets, but nothing bounds that in general.)
     """
     nsf, nq = qp_w.shape
     d = Xs.shape[2]
