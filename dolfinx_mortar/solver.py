@@ -255,6 +255,15 @@ ROUND_OFF_MAX_RELATIVE = 1e-3
 #: times its own size in one step, and where Newton gets there a body is free to move
 #: along a rigid motion that neither a Dirichlet boundary nor contact holds.
 MAX_DISPLACEMENT_EXTENTS = 1e3
+#: A solve that starts with a pair in contact and ends with none of its nodes in contact,
+#: where a body of the pair is free (held by contact alone: ``MortarContact.free_body``),
+#: fails when it moved a dof by more than this many of the pair's mean facet sizes: the
+#: free body has escaped, and the state, with no force on it, is an equilibrium only
+#: because nothing holds it (any rigid motion of it is one too). A 3D stack of three
+#: blocks, the middle one held by contact alone, accepted such a step: the middle block
+#: moved by 1.3 (6.5 facets) sideways out of the stack, with every reaction 1e-15 while
+#: the top was still pressed down; the step halved converges.
+ESCAPE_FACETS = 1.0
 #: ``atol = "auto"`` (the default): the absolute tolerance is min(AUTO_ATOL, rtol × F),
 #: with F the size of the forces, the largest first residual norm of the solves so far
 #: (``NewtonSolver.force_scale``). AUTO_ATOL is the fixed 1e-10 of earlier versions, a
@@ -656,6 +665,8 @@ class NewtonSolver:
             self._factored = False
         x = p.u.vector.copy()
         x.copy(self._start)
+        # the pairs in contact at the start (collective decision: _no_contact is global)
+        touching = [not getattr(t, "_no_contact", True) for t in getattr(p, "contacts", ())]
         t_ksp0 = _ksp_time()
         tried = 0, []  # the iterations and norms of a failed full-step attempt
         try:
@@ -735,6 +746,7 @@ class NewtonSolver:
             if tried[0]:  # the restart's first norm is the attempt's first
                 its, norms = tried[0] + its, tried[1] + norms[1:]
             self._check_drift(x, tried[0] + its)
+            self._check_escape(x, touching, tried[0] + its)
             out = self._accept(x, its, norms)
             measure = getattr(p, "residual_round_off", None)
             floor_bound = self._atol() > self._base_atol()
@@ -855,6 +867,38 @@ class NewtonSolver:
             f"the displacement reached {umax:.3g}, {umax / extent:.3g} times the mesh's "
             "extent: a body is free along a rigid motion that no [[dirichlet]] boundary "
             "and no contact holds (a singular Jacobian)"
+        )
+
+    def _check_escape(self, x: PETSc.Vec, touching: list[bool], its: int) -> None:
+        """Raise ConvergenceError (x destroyed, ``its`` counted) where a pair in contact at
+        the solve's start (``touching``, per contact term) has no node in contact at its
+        end x, a body of the pair is free (held by contact alone), and the solve moved a dof
+        by more than ESCAPE_FACETS of the pair's mean facet sizes (collective)."""
+        p = self.problem
+        if not any(touching):
+            return
+        p.ensure_contact_at(x)
+        lost = [
+            t
+            for t, was in zip(p.contacts, touching, strict=True)
+            if was and getattr(t, "_no_contact", False)
+        ]
+        if not lost or not any(t.free_body for t in lost):
+            return
+        step = x.copy()
+        step.axpy(-1.0, self._start)
+        moved = step.norm(PETSc.NormType.NORM_INFINITY)
+        step.destroy()
+        escaped = [t for t in lost if t.free_body and moved > ESCAPE_FACETS * t.h_mean]
+        if not escaped:
+            return
+        self.all_iterations += its
+        x.destroy()
+        names = ", ".join(t.name for t in escaped)
+        raise ConvergenceError(
+            f"the solve lost every contact of {names}, whose body is held by contact alone, "
+            f"and moved a node by {moved:.3g} ({moved / escaped[0].h_mean:.3g} facet sizes): "
+            "the body escaped; not an equilibrium of the load path"
         )
 
     def _history(self) -> tuple[int, list[float]]:

@@ -601,6 +601,50 @@ def test_full_steps_are_bounded(cubic_vectors, monkeypatch):
         assert newton.full_step_solves == 1
 
 
+class _Term:
+    """A contact term's stub for the escape check: in contact while |x| <= 1.5."""
+
+    name = "slave:master"
+    first_contact = False
+
+    def __init__(self, free_body, h_mean):
+        self.free_body, self.h_mean = free_body, h_mean
+        self._no_contact = False
+
+
+class _CubicInContact(_Cubic):
+    """The cubic from x = 1 to its root 2, with a contact term that loses its contact
+    beyond |x| = 1.5: a body held by contact alone (``free``) that escapes."""
+
+    def __init__(self, free, h_mean):
+        super().__init__(1.0)
+        self.contacts = (_Term(free, h_mean),)
+
+    def update_contact(self, x):
+        self.contacts[0]._no_contact = bool(np.abs(x.array).max() > 1.5)
+
+    ensure_contact_at = update_contact
+
+
+@pytest.mark.parametrize(
+    "free,h_mean,escapes", [(True, 0.1, True), (False, 0.1, False), (True, 10.0, False)]
+)
+def test_a_solve_whose_free_body_escapes_fails(cubic_vectors, free, h_mean, escapes):
+    """A solve that starts in contact and ends with none, moving by more than
+    ESCAPE_FACETS facet sizes, fails where the pair's body is held by contact alone: it
+    escaped (a 3D stack of three blocks accepted its middle block 1.3 sideways out of the
+    stack with every reaction 1e-15); a held body or a move within a facet is accepted."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_escape_")
+    problem = _CubicInContact(free, h_mean)
+    with NewtonSolver(problem, settings) as newton:
+        if escapes:
+            with pytest.raises(ConvergenceError, match="lost every contact of slave:master"):
+                newton.solve()
+        else:
+            newton.solve()
+            assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
 def test_a_failed_linear_solve_is_named(cubic_vectors):
     """A singular Jacobian (the cubic at x = 0: J = 0) fails the factorization; the error
     names the SNES reason and the KSP's, so that a user sees the linear solver failed."""
