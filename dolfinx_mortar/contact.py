@@ -3200,7 +3200,10 @@ class MortarContact:
         touching = self.p_hat > 0
         if not self.frictional:
             return np.where(touching, fr.SLIP, fr.OPEN)
-        return np.where(touching & (self.fstate == fr.OPEN), fr.SLIP, self.fstate)
+        # a node without pressure is open whatever its law's state (the initial state of a
+        # touching frictional pair had every node at gap 0 "stick" with p_N = 0)
+        state = np.where(self.fstate == fr.OPEN, fr.SLIP, self.fstate)
+        return np.where(touching, state, fr.OPEN)
 
     def _tangential_output(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """p_T (n, d−1) in the output frame (traction of the master on the slave), the

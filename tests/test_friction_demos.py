@@ -50,6 +50,11 @@ def test_friction_patch2d(shared_tmp, mode, integration, tol, frame):
         # elastic shear μ p(t)/G · H (G = 50) takes 0.005 in step 1 (p0/2) and no more after
         assert m["dissipation"] == pytest.approx([0.5 * 0.02, 1.0 * 0.02], rel=1e-8)
     assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
+    # the initial state (step 0): the blocks touch at gap 0 without pressure, so every
+    # node is open (state 0); the law's "stick" of a touching node was reported there
+    with open(Path(out) / "contact_upper_bottom_0.csv") as fh:
+        rows = np.loadtxt(fh, delimiter=",", skiprows=1, ndmin=2)
+    assert np.all(rows[:, 4] == 0.0) and np.all(rows[:, -1] == 0), rows[:, [4, -1]]
 
 
 @pytest.mark.parametrize("frame", ["slave", "master"])
