@@ -778,6 +778,7 @@ class MortarContact:
         self.active = np.zeros(n, bool)
         self.kcoef = np.zeros(n)
         self.predictor_nodes = self.predictor_nodes_global = 0
+        self._no_contact = True
         #: (γ_min, spring factor) at the last predictor Jacobian of the solve, or None
         self._predictor_track = None
         self._recovered = None
@@ -1532,6 +1533,12 @@ class MortarContact:
         if self._free_body is None:
             self._free_body = not self.problem.bodies_held(self._body_cells)
         return self._free_body
+
+    @property
+    def touching(self) -> bool:
+        """Whether some slave node of the pair, on any rank, carries pressure (p̂ > 0) at
+        the last contact update (the same on every rank)."""
+        return not self._no_contact
 
     def edge_facets_in_contact(self) -> int:
         """Local count of this rank's slave facets that segment integration pairs over part

@@ -665,8 +665,9 @@ class NewtonSolver:
             self._factored = False
         x = p.u.vector.copy()
         x.copy(self._start)
-        # the pairs in contact at the start (collective decision: _no_contact is global)
-        touching = [not getattr(t, "_no_contact", True) for t in getattr(p, "contacts", ())]
+        # the pairs in contact at the start (MortarContact.touching: the same on every rank;
+        # a term that does not say is taken as not touching, and is not checked)
+        touching = [getattr(t, "touching", False) for t in getattr(p, "contacts", ())]
         t_ksp0 = _ksp_time()
         tried = 0, []  # the iterations and norms of a failed full-step attempt
         try:
@@ -878,11 +879,7 @@ class NewtonSolver:
         if not any(touching):
             return
         p.ensure_contact_at(x)
-        lost = [
-            t
-            for t, was in zip(p.contacts, touching, strict=True)
-            if was and getattr(t, "_no_contact", False)
-        ]
+        lost = [t for t, was in zip(p.contacts, touching, strict=True) if was and not t.touching]
         if not lost or not any(t.free_body for t in lost):
             return
         step = x.copy()

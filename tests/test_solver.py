@@ -609,7 +609,7 @@ class _Term:
 
     def __init__(self, free_body, h_mean):
         self.free_body, self.h_mean = free_body, h_mean
-        self._no_contact = False
+        self.touching = True
 
 
 class _CubicInContact(_Cubic):
@@ -621,7 +621,7 @@ class _CubicInContact(_Cubic):
         self.contacts = (_Term(free, h_mean),)
 
     def update_contact(self, x):
-        self.contacts[0]._no_contact = bool(np.abs(x.array).max() > 1.5)
+        self.contacts[0].touching = bool(np.abs(x.array).max() <= 1.5)
 
     ensure_contact_at = update_contact
 
