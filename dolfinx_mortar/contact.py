@@ -777,7 +777,7 @@ class MortarContact:
         self.p_hat = np.zeros(n)
         self.active = np.zeros(n, bool)
         self.kcoef = np.zeros(n)
-        self.predictor_nodes = self.predictor_nodes_global = 0
+        self.predictor_nodes = 0
         self._no_contact = True
         #: (γ_min, spring factor) at the last predictor Jacobian of the solve, or None
         self._predictor_track = None
@@ -1515,8 +1515,6 @@ class MortarContact:
                 self.kcoef = np.where(near, self.eps_soft / safe_A, 0.0)
             self.predictor_nodes = int(near.sum())
             self.active = np.zeros_like(active)
-        #: predictor nodes over all ranks (0 outside the predictor state)
-        self.predictor_nodes_global = self.comm.allreduce(self.predictor_nodes)
         if self.frictional:
             self._recover_tangential()
 
@@ -1861,7 +1859,12 @@ class MortarContact:
         closes the smallest gap: the last step closed c = γ_prev − γ_min with springs s_prev
         ε A, so they carried F = s_prev ε A c, and s = s_prev c / (γ_min + s_prev c) closes
         γ_min and presses the node by δ = s_prev c, the penalty's penetration under F."""
-        if not (self.recovery == "lumped" and self._no_contact and self.predictor_nodes_global > 0):
+        # _no_contact is the same on every rank, so every rank takes part in the reduction
+        if not (
+            self.recovery == "lumped"
+            and self._no_contact
+            and self.comm.allreduce(self.predictor_nodes) > 0
+        ):
             self._predictor_track = None
             return 1.0
         has = self.has_area
