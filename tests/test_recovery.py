@@ -12,7 +12,7 @@ from scipy.optimize import nnls
 
 from dolfinx_mortar.kernels import mortar as kmortar
 from dolfinx_mortar.kernels import reference as kref
-from dolfinx_mortar.kernels.shape import INTERVAL1, INTERVAL2, QUAD1, TRIANGLE1
+from dolfinx_mortar.kernels.shape import INTERVAL1, INTERVAL2, QUAD1, TRIANGLE1, TRIANGLE2
 from dolfinx_mortar.recovery import RECOVERIES, nonnegative_qp, recover, recover_tangential
 
 
@@ -125,6 +125,43 @@ def test_facet_mass_kernel_matches_reference(ftype, degree):
     node_of = np.arange(nsf * nphi).reshape(nsf, nphi)
     kmortar.nodal_integrals(ftype, qp_xi, qp_w, qp_m, np.ones((nsf, nq)), node_of, A, G)
     np.testing.assert_allclose(Mf.sum(axis=2).ravel(), A, atol=1e-14)
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL2, TRIANGLE2])
+def test_paired_fraction_is_the_paired_reference_measure(ftype):
+    """kernels.mortar.paired_fraction on curved P2 facets (random mid-edge offsets): the
+    fraction of a facet that its paired points cover equals the sum of their rule weights
+    ŵ over the reference measure (1 for an interval, 1/2 for a triangle), whatever J₀;
+    every point paired gives 1 to round-off (contact.PARTIAL_FACET_TOL compares with it)."""
+    from dolfinx_mortar.surface import quadrature
+
+    rng = np.random.default_rng(1)
+    qpts, qw = quadrature(ftype, 4)
+    nsf, nq = 5, qw.size
+    if ftype == INTERVAL2:  # vertices, then the mid node, in 2D
+        base = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.0]])
+        bump = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+        ref = 1.0
+    else:  # vertices, then the edge mid nodes, in 3D
+        v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        mids = np.array([(v[1] + v[2]) / 2, (v[0] + v[2]) / 2, (v[0] + v[1]) / 2])
+        base = np.vstack([v, mids])
+        bump = np.zeros_like(base)
+        bump[3:, 2] = 1.0
+        ref = 0.5
+    Xs = base[None] + 0.2 * rng.uniform(-1.0, 1.0, (nsf, 1, 1)) * bump[None]
+    qp_xi = np.zeros((nsf, nq, qpts.shape[1]))
+    qp_w = np.zeros((nsf, nq))
+    kmortar.reference_weights(ftype, Xs, qpts, qw, qp_xi, qp_w)
+    qp_m = np.where(rng.random((nsf, nq)) < 0.6, 0, -1)
+    out = np.zeros(nsf)
+    kmortar.paired_fraction(ftype, Xs, qp_xi, qp_w, qp_m, out)
+    expected = np.where(qp_m >= 0, qw[None, :], 0.0).sum(axis=1) / ref
+    np.testing.assert_allclose(out, expected, atol=1e-14)
+    kmortar.paired_fraction(ftype, Xs, qp_xi, qp_w, np.zeros((nsf, nq), np.int64), out)
+    np.testing.assert_allclose(out, 1.0, atol=1e-13)
+    # the weights' sum does depend on J₀ there: the fraction is not Σ w / Σ w_all
+    assert not np.allclose(qp_w.sum(axis=1), ref)
 
 
 def test_constrained_with_imposed_free_set():
