@@ -549,8 +549,8 @@ class MortarContact:
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
-    penalty_tangential: ε_T (stress per length), "auto" (the rule of ``penalty``) or None
-        (= ``penalty``).
+    penalty_tangential: ε_T (stress per length), "auto" (AUTO_PENALTY_T_FACTOR E*/h_I,
+        10 E*/h_I: a tenth of the normal rule) or None (= ``penalty``).
     tangential_weights: "standard" or "dual" weight functions of the tangential field, or
         "auto" (the default, :func:`resolve_tangential_weights`: "dual" where every
         body of ``problem`` is linear-elastic and the tangential recovery is lumped).
