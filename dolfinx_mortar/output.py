@@ -116,6 +116,83 @@ def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
     )
 
 
+class XDMFSeries:
+    """An XDMF time series whose index file is replaced atomically after each step
+    (collective construction and calls).
+
+    dolfinx 0.5.2's XDMFFile rewrites its whole XML index in place when it closes
+    (truncate, then write): a run killed at that moment left ``<name>.xdmf`` empty, and
+    with it the index of every finished step (their HDF5 data were still there). Here
+    dolfinx writes the series as ``.<name>.xdmf`` + ``.<name>.h5`` (hidden), ``<name>.h5``
+    is a hard link to the same data, and after each close rank 0 copies the index to
+    ``<name>.xdmf`` through a temporary file and :func:`os.replace`, its data references
+    renamed: ``<name>.xdmf`` always holds a whole index of the steps written so far.
+    :meth:`finish` removes the hidden names. Where the file system has no hard links,
+    the series is written under the public names directly, as before.
+
+    ``path``: the public ``<name>.xdmf``; ``mesh``: written once, at construction.
+    """
+
+    def __init__(self, comm, path: Path, mesh):
+        self.comm, self.path = comm, Path(path)
+        self.h5 = self.path.with_suffix(".h5")
+        self.live = self.path.with_name("." + self.path.name)
+        live_h5 = self.live.with_suffix(".h5")
+        if comm.rank == 0:  # "w" below then creates a new file, not one a stale link shares
+            live_h5.unlink(missing_ok=True)
+        comm.barrier()
+        with io.XDMFFile(comm, str(self.live), "w") as file:
+            file.write_mesh(mesh)
+        linked = True
+        if comm.rank == 0:
+            try:
+                self.h5.unlink(missing_ok=True)
+                os.link(live_h5, self.h5)
+            except OSError as exc:
+                log.info("%s written in place (no hard link: %s)", self.path.name, exc)
+                linked = False
+        if not comm.bcast(linked, root=0):
+            if comm.rank == 0:
+                self.live.unlink(missing_ok=True)
+                live_h5.unlink(missing_ok=True)
+            self.live = self.path
+            with io.XDMFFile(comm, str(self.live), "w") as file:
+                file.write_mesh(mesh)
+        self._publish()
+        #: the file, open in append mode between :meth:`open` and :meth:`close`
+        self.file = None
+
+    def open(self):
+        """Open the series for the writes of one step; returns the XDMFFile (collective)."""
+        self.file = io.XDMFFile(self.comm, str(self.live), "a")
+        return self.file
+
+    def close(self) -> None:
+        """Close the file (its data are on disk) and publish the index (collective)."""
+        if self.file is not None:
+            self.file.close()
+            self.file = None
+            self._publish()
+
+    def _publish(self) -> None:
+        """Rank 0: ``<name>.xdmf`` := the live index, referencing ``<name>.h5``."""
+        if self.comm.rank != 0 or self.live == self.path:
+            return
+        hidden = ">" + self.live.with_suffix(".h5").name + ":"
+        text = self.live.read_text().replace(hidden, ">" + self.h5.name + ":")
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        tmp.write_text(text)
+        os.replace(tmp, self.path)
+
+    def finish(self) -> None:
+        """Close, and remove the hidden names (the data stay under ``<name>.h5``)."""
+        self.close()
+        if self.comm.rank == 0 and self.live != self.path:
+            self.live.unlink(missing_ok=True)
+            self.live.with_suffix(".h5").unlink(missing_ok=True)
+        self.live = self.path  # nothing more is written
+
+
 class SurfaceFields:
     """The nodal fields of a volume mesh restricted to one of its facet groups, written as
     ``contact_<name>.xdmf`` on that surface's own mesh (collective construction and
@@ -149,21 +226,16 @@ class SurfaceFields:
             raise RuntimeError(f"{path.name}: {lost} surface dof(s) without a volume dof")
         self.parent = np.asarray(candidates, dtype=np.int64)[nearest]
         self.path = path
-        with io.XDMFFile(comm, str(path), "w") as file:
-            file.write_mesh(self.surface)
-        #: the file, open in append mode between :meth:`begin_step` and :meth:`end_step`
-        self.file = None
+        self.series = XDMFSeries(comm, path, self.surface)
         self._functions: dict[str, fem.Function] = {}
 
     def begin_step(self) -> None:
         """Open the file for the writes of one step (collective)."""
-        self.file = io.XDMFFile(self.surface.comm, str(self.path), "a")
+        self.series.open()
 
     def end_step(self) -> None:
-        """Close the file: the step's data are on disk (collective)."""
-        if self.file is not None:
-            self.file.close()
-            self.file = None
+        """Close the file: the step's data are on disk, the index published (collective)."""
+        self.series.close()
 
     def write(self, f: fem.Function, t: float) -> None:
         """Write the volume function ``f`` (scalar on Q, or vector on the displacement
@@ -177,10 +249,10 @@ class SurfaceFields:
         bs = g.function_space.dofmap.index_map_bs
         g.x.array.reshape(-1, bs)[: self.parent.size] = f.x.array.reshape(-1, bs)[self.parent]
         g.x.scatter_forward()
-        self.file.write_function(g, t)
+        self.series.file.write_function(g, t)
 
     def close(self) -> None:
-        self.end_step()
+        self.series.finish()
 
 
 class OutputWriter:
@@ -204,7 +276,7 @@ class OutputWriter:
         self.summary["status"] = "running"
         self.summary["error"] = None
         self.fields = tuple(fields)
-        self._xdmf = None  # fields.xdmf, open in append mode while a step is written
+        self._xdmf = None  # the XDMFSeries of fields.xdmf
         self._contact_functions = {}
         self._surfaces: list[SurfaceFields] = []
 
@@ -222,8 +294,7 @@ class OutputWriter:
                         f.unlink()
         self.comm.barrier()
         p = self.problem
-        with io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "w") as file:
-            file.write_mesh(p.mesh)
+        self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
         if p.contacts:
             Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
             names = {
@@ -257,8 +328,9 @@ class OutputWriter:
         The XDMF files are opened in append mode for the step and closed after it, so
         that the HDF5 data of every finished step is on disk: dolfinx 0.5.2's XDMFFile has
         no flush, and a file left open had an empty superblock until it was closed (a run
-        killed by a batch job's time limit lost all its fields)."""
-        self._xdmf = io.XDMFFile(self.comm, str(self.out_dir / "fields.xdmf"), "a")
+        killed by a batch job's time limit lost all its fields). Their indices are then
+        replaced atomically (:class:`XDMFSeries`)."""
+        self._xdmf.open()
         for surface in self._surfaces:
             surface.begin_step()
         try:
@@ -273,7 +345,6 @@ class OutputWriter:
         """Close the XDMF files opened for a step (collective)."""
         if self._xdmf is not None:
             self._xdmf.close()
-            self._xdmf = None
         for surface in self._surfaces:
             surface.end_step()
 
@@ -281,7 +352,7 @@ class OutputWriter:
         """The step's fields and contact CSVs (the files open; collective)."""
         p = self.problem
         if "displacement" in self.fields:
-            self._xdmf.write_function(p.u, t)
+            self._xdmf.file.write_function(p.u, t)
             if self._surfaces:
                 p.u.x.scatter_forward()
                 for surface in self._surfaces:
@@ -299,7 +370,7 @@ class OutputWriter:
                 term.fill_fields(self._contact_functions)
             for f in self._contact_functions.values():
                 f.x.scatter_forward()
-                self._xdmf.write_function(f, t)
+                self._xdmf.file.write_function(f, t)
                 for surface in self._surfaces:
                     surface.write(f, t)
 
@@ -310,6 +381,10 @@ class OutputWriter:
         if timings is not None:
             self.summary["timings"] = timings
         self._close_files()
+        if self._xdmf is not None:
+            self._xdmf.finish()
+        for surface in self._surfaces:
+            surface.close()
         self._surfaces = []
         self._flush()
 

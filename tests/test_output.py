@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 from dolfinx_mortar import compat
 from dolfinx_mortar.mesh import load_mesh
-from dolfinx_mortar.output import SurfaceFields, contact_stem
+from dolfinx_mortar.output import SurfaceFields, XDMFSeries, contact_stem
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
@@ -144,6 +144,43 @@ def test_a_run_writes_the_slave_surface(shared_tmp):
         assert stamps == 3 * 5
         assert not (out2 / "contact_cylinder_surface.xdmf").exists()
         assert (out2 / "fields.xdmf").is_file()
+        # the hidden series that dolfinx wrote are gone; the data stay under <name>.h5
+        assert sorted(f.name for f in out.iterdir() if f.name.startswith(".")) == []
+        assert (out / "fields.h5").stat().st_nlink == 1
+
+
+@pytest.mark.mpi
+def test_an_xdmf_index_survives_a_kill_while_it_is_rewritten(shared_tmp):
+    """dolfinx rewrites an XDMF index in place when it closes (truncate, then write); a
+    run killed then lost the index of every finished step. The published index is a
+    copy, replaced atomically after each close: emptying dolfinx's own (as such a kill
+    does) leaves it whole, with every step written, and its data readable. 1–3 ranks."""
+    from dolfinx import fem, io, mesh
+
+    comm = MPI.COMM_WORLD
+    msh = mesh.create_unit_square(comm, 4, 3)
+    f = fem.Function(fem.FunctionSpace(msh, ("CG", 1)), name="f")
+    series = XDMFSeries(comm, shared_tmp / "series.xdmf", msh)
+    for t in (1.0, 2.0, 3.0):
+        f.x.array[:] = t
+        series.open().write_function(f, t)
+        series.close()
+    if comm.rank == 0:
+        assert series.live.name == ".series.xdmf"
+        series.live.write_text("")  # killed inside dolfinx's rewrite
+    comm.barrier()
+    text = (shared_tmp / "series.xdmf").read_text()
+    assert re.findall(r'<Time Value="([^"]+)"', text) == ["1", "2", "3"], text
+    assert ".series.h5" not in text
+    with io.XDMFFile(comm, str(shared_tmp / "series.xdmf"), "r") as xf:
+        back = xf.read_mesh(name="mesh")
+    assert back.topology.index_map(2).size_global == 24
+    comm.barrier()
+    live = series.live
+    series.finish()
+    if comm.rank == 0:
+        assert not live.exists() and not live.with_suffix(".h5").exists()
+        assert (shared_tmp / "series.h5").is_file()
 
 
 def test_contact_file_names_stay_in_the_output_directory():
