@@ -942,6 +942,8 @@ class MortarContact:
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
         self._slip_prev, self._reversed = None, None  # slip reversal (chattering control)
+        # the Newton solves since begin_step; whether this one starts from the predictor
+        self._solves, self._from_predictor = 0, False
         self.carry_states = False  # see the docstring of uzawa_update
         # the states the last Uzawa round hands to the next solve (used with carry_states)
         self._carried = None
@@ -2190,11 +2192,16 @@ class MortarContact:
             # (with the constrained one the rule stopped the parallel-test Cattaneo press
             # after 6 cutbacks). docs/method-notes.md, "Chattering control": the hard-case
             # sweep's stick–slip reversal, and why no condition on λ_T since session 25.
+            # The first Jacobian of a step's first solve sits at the predictor's state,
+            # which carries the last step's slip on: it is not compared (session 41: a
+            # press followed by a slide turned half the slave nodes there, which froze
+            # them in stick far outside the cone and the solve 2-cycled until max_it).
             reversal = False
             if lumped:
                 if self._slip_prev is None:
                     self._reversed = np.zeros(slip.shape, bool)
-                else:  # the slip states and directions of the last Jacobian of this solve
+                elif self._jacobians > 2 or not self._from_predictor:
+                    # the slip states and directions of the last Jacobian of this solve
                     was, prev = self._slip_prev
                     self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
                 self._slip_prev = (slip, dirs)
@@ -3058,6 +3065,8 @@ class MortarContact:
         if self.frictional:
             self.frozen = self._carried if self.carry_states else None
             self._slip_prev = None  # slip reversal (chattering control)
+            self._from_predictor = self._solves == 0
+            self._solves += 1
 
     def _max_penetration(self) -> float:
         active = self.p_hat > 0
@@ -3106,6 +3115,7 @@ class MortarContact:
         self._reset_acceleration()
         self._carried = None
         self._carried_pins = None
+        self._solves = 0
         if self.frictional:
             if self._pending is not None:
                 u_n, tau, t_n = self._pending
