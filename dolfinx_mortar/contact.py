@@ -1540,6 +1540,12 @@ class MortarContact:
         the last contact update (the same on every rank)."""
         return not self._no_contact
 
+    def paired_points(self) -> int:
+        """Local count of this rank's slave integration points that project onto a master
+        facet at the last pairing (0 before the first)."""
+        qp_m = getattr(self, "qp_m", None)
+        return 0 if qp_m is None else int(np.count_nonzero(qp_m >= 0))
+
     def edge_facets_in_contact(self) -> int:
         """Local count of this rank's slave facets that segment integration pairs over part
         of their area only (a facet across the master surface's edge: a paired fraction

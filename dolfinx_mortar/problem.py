@@ -835,6 +835,15 @@ class ContactProblem:
         )
         return [t.name for t, c in zip(self.contacts, np.atleast_1d(counts), strict=True) if c == 0]
 
+    def unpaired_pairs(self) -> list[str]:
+        """Names ("SLAVE:MASTER") of the contact pairs where no slave integration point
+        projects onto a master facet at the last pairing (the surfaces are apart, beyond
+        the search distance, or do not face each other; collective)."""
+        counts = self.comm.allreduce(
+            np.array([t.paired_points() for t in self.contacts], dtype=np.int64)
+        )
+        return [t.name for t, c in zip(self.contacts, np.atleast_1d(counts), strict=True) if c == 0]
+
     def edge_facet_pairs(self) -> dict[str, int]:
         """Per contact pair with segment integration ("SLAVE:MASTER"), the number of slave
         facets in contact across the master surface's edge at the last contact update

@@ -1251,10 +1251,13 @@ def _open_contact_hint(problem) -> str:
     node in contact at the failed attempt's last contact update ("" where some pair
     touched or the problem has no contact), naming the open pairs with a body that the
     Dirichlet conditions leave free (``free_body``; "" where there is none: the failure
-    is not a free body's). Collective; called only when the run stops, so one allreduce
-    per run, not one per failed attempt. A body that only contact holds is then free, and
+    is not a free body's). Collective; called only when the run stops, so two allreduces
+    per run, not per failed attempt. A body that only contact holds is then free, and
     Newton cannot reduce its load: the usual cause is a load pointing away from the
-    contact (a pulled cylinder: every cutback failed with ‖R‖ = the load)."""
+    contact (a pulled cylinder: every cutback failed with ‖R‖ = the load), or, where no
+    slave point of the pair projects onto its master surface at all
+    (``problem.unpaired_pairs``), surfaces that are apart or do not face each other (a
+    body placed beside the other: the hint had blamed the loads)."""
     if not getattr(problem, "contacts", None):
         return ""
     pairs = problem.open_pairs()
@@ -1263,10 +1266,21 @@ def _open_contact_hint(problem) -> str:
     free = [t.name for t in problem.contacts if t.free_body and t.name in pairs]
     if not free:
         return ""
-    return (
-        f"; no slave node of {', '.join(free)} was in contact: a body held only by "
-        "contact is free there (check the direction of the loads)"
-    )
+    apart = [name for name in problem.unpaired_pairs() if name in free]
+    near = [name for name in free if name not in apart]
+    clauses = []
+    if apart:
+        clauses.append(
+            f"no slave point of {', '.join(apart)} faces its master surface (none projects "
+            "onto it within the search distance): a body held only by contact is free "
+            "there (check the pair's surfaces and the bodies' positions)"
+        )
+    if near:
+        clauses.append(
+            f"no slave node of {', '.join(near)} was in contact: a body held only by "
+            "contact is free there (check the direction of the loads)"
+        )
+    return "; " + "; ".join(clauses)
 
 
 def _edge_hint(problem) -> str:

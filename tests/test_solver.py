@@ -122,6 +122,29 @@ def test_a_run_that_stops_with_every_contact_open_says_so(shared_tmp):
     assert "failed after 1 cutbacks" in s["error"], s["error"]
     assert "no slave node of cylinder_surface:block_top was in contact" in s["error"]
     assert "check the direction of the loads" in s["error"]
+    assert "faces its master surface" not in s["error"]
+
+
+@pytest.mark.mpi
+def test_a_run_whose_surfaces_never_face_says_so(shared_tmp):
+    """The coarse hertz2d scene with the cylinder 5 (20 facets) above the block: no
+    slave point projects onto the master within the search distance, the cylinder falls
+    freely, and every cutback fails. The error says the surfaces do not face each other
+    (it blamed the direction of the loads, which are right). 1–3 ranks."""
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    mesh = {"generator": "hertz2d", "params": {**HERTZ2D["mesh"]["params"], "gap0": 5.0}}
+    data = {**HERTZ2D, "mesh": mesh, "steps": {"n": 2, "max_cutbacks": 1}}
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp)
+    assert s["status"] == "failed" and s["steps"] == []
+    assert "no slave point of cylinder_surface:block_top faces its master surface" in s["error"], s[
+        "error"
+    ]
+    assert "the bodies' positions" in s["error"]
+    assert "direction of the loads" not in s["error"]
 
 
 def _coarse_press_slide(integration: str = "segment", margin: float = 0.0, slide: bool = True):
