@@ -702,6 +702,13 @@ class MortarContact:
         #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I (n,): the "auto" penalty, and the reference
         #: of the stiff-penalty rules (SOFT_START_RATIO)
         self.eps_auto = AUTO_PENALTY_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+        if not comm.allreduce(bool(np.all(np.isfinite(self.eps_auto))), op=MPI.LAND):
+            # the predictor and the stiff-penalty rules use ε_auto with any penalty
+            raise SceneError(
+                key,
+                f"the contact stiffness {AUTO_PENALTY_FACTOR:g} E*/h overflows (E* = "
+                f"{self.E_star:.3g}): state the moduli and lengths in other units",
+            )
         if penalty == "auto":
             self.eps = self.eps_auto
             self.penalty_description = f"auto: {AUTO_PENALTY_FACTOR:g} E*/h_I"

@@ -273,6 +273,12 @@ CASES = [
         "mesh",
         "the physical groups 'top' and 'load' share facets",
     ),
+    (  # the contact stiffness was inf, and the hint of the NaN residual blamed the loads
+        "E-overflows-contact-stiffness",
+        lambda s: (_set("material", 0, E=1e308)(s), _add_contact()(s)),
+        "contact[0]",
+        "the contact stiffness 100 E*/h overflows",
+    ),
 ]
 CASE_IDS = [c[0] for c in CASES]
 CASE_BY_ID = {c[0]: c for c in CASES}
