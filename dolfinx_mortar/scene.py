@@ -1066,7 +1066,8 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         The decoded TOML document.
     base_dir:
         Directory against which relative ``mesh.file`` and ``output.dir`` are resolved
-        (the scene file's directory).
+        (the scene file's directory); a relative one is taken from the current
+        directory now, so the scene does not depend on later changes of directory.
     source:
         Where the data came from, for ``Scene.source`` and the default title and
         output directory (the file stem).
@@ -1076,7 +1077,7 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
     SceneError
         On the first problem found, naming the dotted key and the reason.
     """
-    base_dir = Path(base_dir)
+    base_dir = Path(base_dir).absolute()
     table = _table(data, "scene")
     _check_keys(table, _TOP_KEYS, "")
     stem = _stem(source)

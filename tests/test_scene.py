@@ -281,6 +281,20 @@ def test_relative_paths_resolved_against_scene_dir():
     assert parse_scene(data, Path("/some/dir")).mesh.file == Path("/abs/b.msh")
 
 
+def test_a_relative_base_dir_is_taken_from_the_current_directory(tmp_path, monkeypatch):
+    """``parse_scene(data, Path("proj"))`` resolves against the current directory at parse
+    time, as :func:`load_scene` does: a later os.chdir (a host program's) does not move
+    the output or the mesh (the output once went to the directory of the run)."""
+    data = example()
+    data["mesh"]["file"] = "a.msh"
+    data["output"]["dir"] = "results/p"
+    monkeypatch.chdir(tmp_path)
+    s = parse_scene(data, Path("proj"))
+    monkeypatch.chdir("/")
+    assert s.output.dir == tmp_path / "proj" / "results" / "p"
+    assert s.mesh.file == tmp_path / "proj" / "a.msh"
+
+
 def test_load_scene_from_file(tmp_path):
     sub = tmp_path / "cases"
     sub.mkdir()
