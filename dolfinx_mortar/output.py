@@ -388,6 +388,16 @@ class OutputWriter:
         self._surfaces = []
         self._flush()
 
+    def abandon(self, error: str) -> None:
+        """The run ends by an exception that is not a stop (a caller's ``progress``
+        callback raised, Ctrl-C): summary.json says "failed" and ``error``, with every
+        step written so far. Rank 0 writes it, and nothing here is collective: the
+        exception may have come on some ranks only. The XDMF files keep their published
+        steps and their hidden series stay, as after a kill."""
+        self.summary["status"] = "failed"
+        self.summary["error"] = error
+        self._flush()
+
     def _flush(self) -> None:
         if self.comm.rank == 0:
             _atomic_write_json(self.out_dir / "summary.json", self.summary)

@@ -173,7 +173,9 @@ def run(
     :class:`~dolfinx_mortar.scene.Scene`. A run that stops (a step that fails after its
     cutbacks, an option PETSc refuses in the solve) raises nothing: the summary's
     ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
-    reports it, as the command line does in one line).
+    reports it, as the command line does in one line). Any other exception in the steps
+    (one that ``progress`` raises, KeyboardInterrupt) goes on to the caller after
+    summary.json has said "failed" and "interrupted by …" (:meth:`OutputWriter.abandon`).
     """
     from .output import OutputWriter, check_out_dir
     from .solver import LoadStepper, NewtonSolver, SolverSettings
@@ -262,6 +264,9 @@ def run(
             "options of [solver.petsc] and the command line"
         )
         log.info("run stopped: %s", error)
+    except BaseException as exc:  # a progress callback's exception, KeyboardInterrupt
+        writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
+        raise
     finally:
         newton.destroy()
     writer.finish(status, error, totals)

@@ -222,3 +222,39 @@ def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(SceneError, match="out_dir: cannot use .* it exists and is not a directory"):
         run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "afile")
+
+
+def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
+    """An exception from ``progress`` (or Ctrl-C) in the steps goes on to the caller, and
+    summary.json says "failed" with its type and message and keeps the finished step (it
+    stayed at "running"). The published field index keeps the step too."""
+    import json
+
+    from dolfinx_mortar import parse_scene, run
+
+    data = {
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
+        ],
+        "steps": {"n": 3},
+    }
+
+    def progress(step, record):
+        raise RuntimeError(f"the host stops after step {step}")
+
+    with pytest.raises(RuntimeError, match="the host stops after step 1"):
+        run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path, progress=progress)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert summary["error"] == "interrupted by RuntimeError: the host stops after step 1"
+    assert len(summary["steps"]) == 1
+    times = re.findall(r'<Time Value="([^"]+)"', (tmp_path / "fields.xdmf").read_text())
+    assert len(set(times)) == 2, times  # step 0 and step 1
