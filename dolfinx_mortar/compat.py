@@ -10,12 +10,37 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import signal
+import threading
 
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.io import gmshio
 from petsc4py import PETSc
+
+
+def keep_sigint_handler(action):
+    """Call ``action()`` and put back the SIGINT handler it found (returns its result).
+    gmsh 4.8 sets SIGINT to SIG_DFL when it is imported and, in ``gmsh.finalize``, to the
+    handler it saw then: Ctrl-C killed the process outright (no KeyboardInterrupt, no
+    ``finally``, summary.json left "running"), and a host program's own handler was
+    replaced. Outside the main thread, where Python cannot set handlers, ``action()``
+    alone."""
+    handler = signal.getsignal(signal.SIGINT)
+    try:
+        return action()
+    finally:
+        if handler is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, handler)
+
+
+def _import_gmshio():
+    from dolfinx.io import gmshio
+
+    return gmshio
+
+
+gmshio = keep_sigint_handler(_import_gmshio)
 
 __all__ = [
     "vector_space",

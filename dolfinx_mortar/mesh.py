@@ -7,6 +7,7 @@ before any further collective call.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -182,6 +183,76 @@ class _HideGroups:
         return getattr(self._model, name)
 
 
+#: the gmsh options that :func:`load_mesh` and the generators set
+#: (``generators._baseline_options``), put back after a host program's gmsh session
+GMSH_OPTIONS = (
+    "General.Terminal",
+    "General.Verbosity",
+    "Mesh.MeshSizeFromPoints",
+    "Mesh.MeshSizeExtendFromBoundary",
+    "Mesh.MeshSizeFromCurvature",
+    "Mesh.MeshSizeMin",
+    "Mesh.MeshSizeMax",
+    "Mesh.MeshSizeFactor",
+    "Mesh.Algorithm",
+    "Mesh.Algorithm3D",
+    "Mesh.RecombineAll",
+    "Mesh.Recombine3DAll",
+    "Mesh.RecombinationAlgorithm",
+    "Mesh.SubdivisionAlgorithm",
+    "Mesh.ElementOrder",
+    "Mesh.SecondOrderLinear",
+    "Mesh.SecondOrderIncomplete",
+)
+
+
+def _gmsh_running(gmsh) -> bool:
+    """Whether gmsh is initialized (a host program's session): gmsh 4.8 has no such
+    call; its model list is empty before ``initialize`` and raises after ``finalize``."""
+    try:
+        return bool(gmsh.model.list())
+    except Exception:  # gmsh raises bare Exceptions
+        return False
+
+
+@contextlib.contextmanager
+def gmsh_model(gmsh):
+    """Rank 0: a gmsh model of this package's own, current for the ``with`` block.
+
+    Without a gmsh session, gmsh is initialized here and finalized after (with the
+    SIGINT handler put back: :func:`~dolfinx_mortar.compat.keep_sigint_handler`). In a
+    host program's session (a Python caller that uses gmsh itself) the session stays:
+    the model is removed after, the host's current model is current again, and the
+    options in :data:`GMSH_OPTIONS` get their values back. It finalized the host's
+    session before (a helper's probe: its next gmsh call raised)."""
+    hosted = _gmsh_running(gmsh)
+    if hosted:
+        current = gmsh.model.getCurrent()
+        saved = {key: gmsh.option.getNumber(key) for key in GMSH_OPTIONS}
+        name, k = "dolfinx_mortar", 0
+        while name in gmsh.model.list():
+            k += 1
+            name = f"dolfinx_mortar_{k}"
+    else:
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+        name = "dolfinx_mortar"
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.Verbosity", 0)
+    gmsh.model.add(name)
+    try:
+        yield
+    finally:
+        if hosted:
+            gmsh.model.setCurrent(name)
+            gmsh.model.remove()
+            if current in gmsh.model.list():
+                gmsh.model.setCurrent(current)
+            for key, value in saved.items():
+                gmsh.option.setNumber(key, value)
+        else:
+            compat.keep_sigint_handler(gmsh.finalize)
+
+
 def load_mesh(
     comm, file: Path | None = None, generator: str | None = None, params=None
 ) -> MeshData:
@@ -192,15 +263,12 @@ def load_mesh(
     """
     info = None
     error = None
-    gmsh = None
+    session = contextlib.ExitStack()  # rank 0: the gmsh model (gmsh_model), closed after
     if comm.rank == 0:
         import gmsh
 
         try:
-            gmsh.initialize(["-noenv"], readConfigFiles=False)
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.option.setNumber("General.Verbosity", 0)
-            gmsh.model.add("dolfinx_mortar")
+            session.enter_context(gmsh_model(gmsh))
             if file is not None:
                 if not Path(file).is_file():
                     raise SceneError("mesh.file", f"file not found: {file}")
@@ -221,8 +289,7 @@ def load_mesh(
             error = ("mesh", f"{type(exc).__name__}: {exc}")
     error, info = comm.bcast((error, info), root=0)
     if error is not None:
-        if comm.rank == 0:
-            gmsh.finalize()
+        session.close()
         raise SceneError(*error)
     model = None
     if comm.rank == 0:
@@ -234,8 +301,7 @@ def load_mesh(
     try:
         mesh, cell_tags, facet_tags = compat.model_to_mesh(model, comm, info["gdim"])
     finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+        session.close()
     log.info(
         "mesh: %s, %d nodes, cell groups %s, facet groups %s",
         info["cell_type"],

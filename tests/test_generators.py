@@ -640,3 +640,22 @@ def test_cli_lists_generators(capsys):
         assert f"\n{name}: " in "\n" + out, name
     for name in NEW:
         assert name in G.describe()
+
+
+def test_load_mesh_keeps_a_host_gmsh_session(model):
+    """A Python caller that uses gmsh itself keeps its session across ``load_mesh``: its
+    model (current again, entities intact) and its options (those the generators set).
+    load_mesh finalized gmsh before, and the host's next gmsh call raised."""
+    from dolfinx_mortar.mesh import load_mesh
+
+    gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    gmsh.model.occ.synchronize()
+    gmsh.option.setNumber("Mesh.Algorithm", 5)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
+    md = load_mesh(MPI.COMM_SELF, generator="patch2d", params={"n_lower": 2, "n_upper": 3})
+    assert md.mesh.topology.index_map(2).size_local > 0
+    assert gmsh.model.getCurrent() == "test"
+    assert gmsh.model.getEntities(3) == [(3, 1)]
+    assert gmsh.option.getNumber("Mesh.Algorithm") == 5
+    assert gmsh.option.getNumber("Mesh.MeshSizeMax") == 0.3
+    assert not any(name.startswith("dolfinx_mortar") for name in gmsh.model.list())
