@@ -378,6 +378,10 @@ def main(argv=None) -> int:
     except SceneError as exc:
         _error_line(f"dolfinx-mortar: error: {exc}")
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback
+        if comm.rank == 0:
+            _error_line("dolfinx-mortar: interrupted: summary.json keeps the finished steps")
+        return 130
     except Exception:
         traceback.print_exc()
         sys.stderr.flush()

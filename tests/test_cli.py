@@ -678,6 +678,42 @@ def test_the_sigint_handler_survives_import_and_mesh_loading(tmp_path):
     assert res.returncode == 0 and res.stdout.strip() == "kept", res.stderr
 
 
+def test_ctrl_c_stops_a_run_in_one_line(workdir):
+    """SIGINT (Ctrl-C) in a run: exit status 130, one line and no traceback, and
+    summary.json says "failed", "interrupted by KeyboardInterrupt", with the finished
+    steps, whose fields stay readable. (gmsh had set SIG_DFL: the process died at once,
+    summary.json left "running".)"""
+    import signal
+
+    scene = base_scene()
+    scene["steps"]["n"] = 400
+    (workdir / "long.toml").write_text(to_toml(scene))
+    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
+    proc = subprocess.Popen(
+        cmd, cwd=workdir, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        seen = 0
+        for line in proc.stdout:
+            seen += line.startswith("step")
+            if seen == 3:
+                proc.send_signal(signal.SIGINT)
+                break
+        _, err = proc.communicate(timeout=TIMEOUT)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert err.splitlines() == [
+        "dolfinx-mortar: interrupted: summary.json keeps the finished steps"
+    ], err
+    summary = json.loads((workdir / "out" / "summary.json").read_text())
+    assert summary["status"] == "failed", summary["status"]
+    assert summary["error"].startswith("interrupted by KeyboardInterrupt")
+    assert len(summary["steps"]) >= 3
+    times = re.findall(r'<Time Value="([^"]+)"', (workdir / "out" / "fields.xdmf").read_text())
+    assert len(times) >= len(summary["steps"]) + 1, times
+
+
 # --------------------------------------------------------------------------- good input
 
 
