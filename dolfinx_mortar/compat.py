@@ -52,6 +52,7 @@ __all__ = [
     "create_form",
     "sparsity_pattern",
     "cell_geometry_nodes",
+    "destroy_vector_wrapper",
     "set_lag_preconditioner",
     "lag_preconditioner_available",
     "option_used",
@@ -283,3 +284,12 @@ def option_used(name: str) -> bool | None:
     if options_used(None, name.encode(), ctypes.byref(used)) != 0:
         raise RuntimeError(f"PetscOptionsUsed({name!r}) failed")
     return bool(used.value)
+
+
+def destroy_vector_wrapper(f: fem.Function) -> None:
+    """Free the PETSc vector that ``f.vector`` created and caches (dolfinx 0.5.2 keeps it
+    in ``f._petsc_x`` and never frees it; the values stay in ``f.x``). Collective where
+    ``f`` is distributed; a later ``f.vector`` makes a new one."""
+    if f._petsc_x is not None:
+        f._petsc_x.destroy()
+        f._petsc_x = None

@@ -163,7 +163,10 @@ def run(
     """Run ``scene`` (collective). Returns the summary dictionary (also written to summary.json).
 
     ``progress(step, record)`` is called on every rank after each converged step (the
-    problem holds the converged state); ``setup(problem)`` see :func:`prepare`.
+    problem holds the converged state); ``setup(problem)`` see :func:`prepare`. The
+    problem's PETSc objects are freed at the end (:meth:`ContactProblem.destroy`),
+    except where ``setup`` was given: the caller then holds the problem (to read it
+    after the run) and frees it with ``problem.destroy()``.
     ``round_off``: each step's record also holds ``residual_round_off``, the round-off
     level of the residual at the converged state
     (:meth:`~dolfinx_mortar.problem.ContactProblem.residual_round_off`: three more
@@ -269,6 +272,8 @@ def run(
         raise
     finally:
         newton.destroy()
+        if setup is None:  # otherwise the caller holds the problem (and frees it)
+            problem.destroy()
     writer.finish(status, error, totals)
     return writer.summary
 
