@@ -150,6 +150,7 @@ def main(argv=None) -> dict:
             setup=meter.setup,
             progress=meter.progress,
         )
+        meter.problem.destroy()  # setup received it: its holder frees it
         m = cm.on_root(interface_errors, out, comm=comm)
         m.update(
             level=level,

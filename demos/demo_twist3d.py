@@ -180,6 +180,7 @@ def main(argv=None) -> dict:
         setup=meter.setup,
         progress=meter.progress,
     )
+    meter.problem.destroy()  # setup received it: its holder frees it
     m = cm.on_root(evaluate, summary, meter.history, comm=comm)
     m["wall_time"] = wall
     hist = ", ".join(f"{t:.3g}:{M:.4g}" for t, M in m["torque_history"])
