@@ -43,7 +43,9 @@ def register_law(name: str, psi: Callable, replace: bool = False) -> None:
     differ, :func:`dolfinx_mortar.bulk.check_law`). A law is used with
     ``kinematics = "finite"``.
 
-    Call it on every rank before the scene is parsed. Raises ValueError for a name that
+    Call it on every rank before the scene is parsed; a scene keeps the ψ it was parsed
+    with, and a run refuses a scene whose law was registered again since
+    (``Scene.laws``). Raises ValueError for a name that
     is empty or built in, a ``psi`` that is not callable, or a name already registered
     with another function (unless ``replace``)."""
     if not isinstance(name, str) or not name.strip():

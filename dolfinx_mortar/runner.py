@@ -68,6 +68,14 @@ def prepare(scene: Scene, comm, setup=None):
     TypeError when ``scene`` is not a :class:`~dolfinx_mortar.scene.Scene`.
     """
     _check_scene(scene, "prepare")
+    parsed = dict(scene.laws)
+    for i, mat in enumerate(scene.materials):
+        if mat.model in parsed and registered_law(mat.model) is not parsed[mat.model]:
+            raise SceneError(
+                f"material[{i}].model",
+                f"the law {mat.model!r} was registered again after the scene was parsed: "
+                "parse the scene again to run the new one",
+            )
     m = scene.mesh
     mesh_data = load_mesh(comm, file=m.file, generator=m.generator, params=m.params)
     check_groups(scene, mesh_data.cell_groups, mesh_data.facet_groups)

@@ -111,7 +111,7 @@ from pathlib import Path
 from typing import Any
 
 from dolfinx_mortar.errors import SceneError
-from dolfinx_mortar.laws import BUILTIN_MODELS, model_names
+from dolfinx_mortar.laws import BUILTIN_MODELS, model_names, registered_law
 
 __all__ = [
     "KNOWN_GENERATORS",
@@ -467,6 +467,10 @@ class Scene:
         Where the scene came from (file path, or ``"<dict>"``).
     base_dir:
         Directory against which relative paths were resolved.
+    laws:
+        ``(name, psi)`` of each registered law the materials name, as registered when
+        the scene was parsed: a run refuses the scene where one was registered again
+        since (:func:`dolfinx_mortar.runner.prepare`).
     """
 
     title: str
@@ -481,6 +485,7 @@ class Scene:
     output: OutputOptions
     source: str
     base_dir: Path
+    laws: tuple = ()
 
     @property
     def frictional(self) -> bool:
@@ -1155,6 +1160,11 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         output=output,
         source=source,
         base_dir=base_dir,
+        laws=tuple(
+            (name, registered_law(name))
+            for name in dict.fromkeys(m.model for m in materials)
+            if registered_law(name) is not None
+        ),
     )
 
 

@@ -329,6 +329,27 @@ def test_scene_names_a_registered_law_only(block_msh, no_laws):
         parse_scene(_table(msh, 2, "hand-neo-hooke", "small", 0.1), msh.parent)
 
 
+def test_a_law_registered_again_after_parsing_is_refused(block_msh, no_laws):
+    """A scene keeps the law it was parsed with: a run looks laws up by name, and after
+    ``register_law(name, other, replace=True)`` a scene parsed before ran the new law
+    while summary.json named the same (a helper's probe). ``prepare`` (``run``,
+    ``check``) now refuses it, naming the material; parsed again, it runs."""
+    from dolfinx_mortar import SceneError, register_law
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(2, n=2)
+    data = _table(msh, 2, "hand-neo-hooke", "finite", 0.1)
+    register_law("hand-neo-hooke", _hand_neo_hooke)
+    scene = parse_scene(data, msh.parent)
+    assert scene.laws == (("hand-neo-hooke", _hand_neo_hooke),)
+    register_law("hand-neo-hooke", lambda F, E, nu: 1.01 * _hand_neo_hooke(F, E, nu), replace=True)
+    with pytest.raises(SceneError, match="registered again after the scene was parsed") as err:
+        prepare(scene, MPI.COMM_SELF)
+    assert err.value.key == "material[0].model"
+    problem, _ = prepare(parse_scene(data, msh.parent), MPI.COMM_SELF)
+    problem.destroy()
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize(
     "psi, match",
