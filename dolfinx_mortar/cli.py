@@ -367,10 +367,11 @@ def main(argv=None) -> int:
                     f"{problem.num_dofs} dofs, {len(problem.contacts)} contact pair(s))"
                 )
             return 0
+        slaves = [pair.slave for pair in scene.contacts]
         if args.out is not None:
-            check_out_dir(args.out, "--out", comm)
+            check_out_dir(args.out, "--out", comm, slaves)
         else:
-            check_out_dir(scene.output.dir, "output.dir", comm)
+            check_out_dir(scene.output.dir, "output.dir", comm, slaves)
         from .runner import run
 
         out = None if args.out is None else Path(args.out)

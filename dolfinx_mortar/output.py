@@ -24,6 +24,7 @@ import logging
 import os
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -54,21 +55,36 @@ def _json_default(obj):
     raise TypeError(f"not JSON serialisable: {type(obj)}")
 
 
-def check_out_dir(out: Path | str, key: str, comm) -> None:
+def output_names(slaves=()) -> list[str]:
+    """The names of the files a run writes into its output directory, for the slave
+    surfaces ``slaves`` (their physical names): ``fields.xdmf``/``.h5``, ``summary.json``
+    (and the ``.tmp`` it is written through), ``contact_<SLAVE>.xdmf``/``.h5`` (the
+    CSV files, one per step, are matched by :func:`check_out_dir`)."""
+    names = ["fields.xdmf", "fields.h5", "summary.json", "summary.json.tmp"]
+    for slave in slaves:
+        stem = contact_stem(slave)
+        names += [f"{stem}.xdmf", f"{stem}.h5"]
+    return names
+
+
+def check_out_dir(out: Path | str, key: str, comm, slaves=()) -> None:
     """Raise SceneError on every rank if the output directory cannot be used (collective;
     rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
     link, or one that cannot be created. A missing directory is created to find out, and
     removed again with the parents created for it: nothing is left (a clean error instead
-    of an OSError from the writer, after the set-up)."""
+    of an OSError from the writer, after the set-up). An existing directory must let a
+    file be created in it, and hold no directory (nor a read-only file) where a file of
+    the run goes (:func:`output_names` of the slave surfaces ``slaves``, and their
+    ``contact_<SLAVE>_<k>.csv``)."""
     reason = None
     if comm.rank == 0:
-        reason = _out_dir_problem(str(out))
+        reason = _out_dir_problem(str(out), tuple(slaves))
     reason = comm.bcast(reason, root=0)
     if reason is not None:
         raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
 
 
-def _out_dir_problem(out: str) -> str | None:
+def _out_dir_problem(out: str, slaves=()) -> str | None:
     """Why ``out`` cannot be the output directory, or None (local)."""
     if not out.strip():
         return "empty name"
@@ -78,7 +94,11 @@ def _out_dir_problem(out: str) -> str | None:
     if p.is_symlink() and not p.exists():
         return "a link to nothing (dangling or looping)"
     if p.exists():
-        return None if p.is_dir() else "it exists and is not a directory"
+        return (
+            _existing_dir_problem(p, out, slaves)
+            if p.is_dir()
+            else ("it exists and is not a directory")
+        )
     top = p  # the outermost directory to create
     while not top.parent.exists() and top.parent != top:
         top = top.parent
@@ -89,6 +109,29 @@ def _out_dir_problem(out: str) -> str | None:
     except OSError as exc:
         return (exc.strerror or type(exc).__name__).lower()
     shutil.rmtree(top, ignore_errors=True)
+    return None
+
+
+def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
+    """Why the existing directory ``p`` (named ``out``) cannot take the run's files, or
+    None (local): a file cannot be created in it (tried: ``os.access`` says yes to root
+    on a read-only file system or in /proc), or a directory or a read-only file is where
+    one of the run's files goes."""
+    try:
+        with tempfile.TemporaryFile(dir=p):
+            pass
+    except OSError:
+        return "not writable (a file cannot be created in it)"
+    csv = [re.compile(rf"{re.escape(contact_stem(s))}_\d+\.csv$") for s in slaves]
+    names = output_names(slaves)
+    names += sorted(f.name for f in p.iterdir() if any(c.match(f.name) for c in csv))
+    for name in names:
+        f = p / name
+        shown = os.path.join(out, name)
+        if f.is_dir():
+            return f"{shown!r} is a directory (the run writes a file there)"
+        if f.exists() and not os.access(f, os.W_OK):
+            return f"{shown!r} is not writable"
     return None
 
 

@@ -195,7 +195,7 @@ def run(
     t_setup = perf_counter()
     key = "out_dir" if out_dir is not None else "output.dir"
     out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
-    check_out_dir(out_dir, key, comm)
+    check_out_dir(out_dir, key, comm, [pair.slave for pair in scene.contacts])
     problem, _ = prepare(scene, comm, setup)
     so = scene.solver
     settings = SolverSettings(

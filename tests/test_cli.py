@@ -530,6 +530,45 @@ def test_output_dir_with_a_nul_character(workdir):
     assert snapshot(workdir) == before
 
 
+@pytest.mark.parametrize(
+    "where, reason",
+    [
+        ("summary.json", "'out/summary.json' is a directory"),
+        ("fields.h5", "'out/fields.h5' is a directory"),
+        ("contact_top.xdmf", "'out/contact_top.xdmf' is a directory"),
+        ("contact_top_1.csv", "'out/contact_top_1.csv' is a directory"),
+        (None, "not writable"),
+    ],
+    ids=["summary", "fields-h5", "surface-xdmf", "csv", "read-only"],
+)
+@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
+def test_output_dir_that_cannot_take_the_files(workdir, where, reason, ranks):
+    """An existing output directory that is not writable, or that holds a directory
+    where a file of the run goes, is one error line per rank naming ``--out``, exit 2,
+    before the mesh is read (a traceback after the set-up: an HDF5 dump, a
+    RuntimeError or an IsADirectoryError, exit 1). Read-only: /proc/1 as root (root
+    writes in a chmod 555 directory), a chmod 555 directory otherwise."""
+    scene = base_scene()
+    scene["contact"] = [_contact()]
+    scene["mesh"]["file"] = "absent.msh"  # the mesh is never read
+    (workdir / "good.toml").write_text(to_toml(scene))
+    out = workdir / "out"
+    out.mkdir(exist_ok=True)
+    arg = "out"
+    if where is not None:
+        (out / where).unlink(missing_ok=True)  # the earlier run's file
+        (out / where).mkdir()
+    elif os.geteuid() == 0:
+        arg = "/proc/1"
+    else:
+        out.chmod(0o555)
+    try:
+        res = cli(workdir, "run", "good.toml", "--out", arg, ranks=ranks)
+    finally:
+        out.chmod(0o755)
+    _one_error_line(res, max(ranks, 1), "--out", reason)
+
+
 def test_usage_errors_are_one_line(workdir):
     """argparse's usage errors are one ``dolfinx-mortar: error: command line: ...`` line
     per rank, exit 2 (they printed the usage and a second line)."""
