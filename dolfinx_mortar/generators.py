@@ -159,6 +159,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from dolfinx_mortar.errors import SceneError
+from dolfinx_mortar.scene import finite_float, number_text
 
 __all__ = ["GENERATORS", "Generator", "build", "describe", "validate_params"]
 
@@ -253,9 +254,10 @@ def _coerce(key: str, value: object, typ: type) -> object:
     if typ is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise SceneError(key, f"must be a number, not {type(value).__name__}")
-        if not math.isfinite(value):
-            raise SceneError(key, "must be finite")
-        return float(value)
+        x = finite_float(value)
+        if x is None:
+            raise SceneError(key, f"must be a finite number, got {number_text(value)}")
+        return x
     raise TypeError(f"unsupported parameter type {typ!r}")  # pragma: no cover
 
 

@@ -601,13 +601,36 @@ def _choice(value: Any, key: str, choices: Sequence[str], hint: str = "") -> str
     return text
 
 
+def finite_float(value: int | float) -> float | None:
+    """``value`` (an int or a float) as a float, or None where that is not finite: a
+    nan, an inf, or an integer too big for a float (TOML's integers are unbounded:
+    ``E = 1`` followed by 400 zeros; float() raises OverflowError)."""
+    try:
+        x = float(value)
+    except OverflowError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def number_text(value: int | float) -> str:
+    """``value`` for a message: an integer too big for a float as ``1e+400`` (its
+    400-digit repr would fill the line), a float as Python prints it."""
+    try:
+        return str(float(value))
+    except OverflowError:
+        digits = str(abs(int(value)))
+        fraction = digits[1:4].rstrip("0")
+        mantissa = digits[0] + (f".{fraction}" if fraction else "")
+        return f"{'-' if value < 0 else ''}{mantissa}e+{len(digits) - 1}"
+
+
 def _number(value: Any, key: str) -> float:
     """Check that ``value`` is a finite number (int or float, not bool)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise SceneError(key, f"expected a number, got {_type_name(value)} {_show(value)}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise SceneError(key, f"must be a finite number, got {x}")
+    x = finite_float(value)
+    if x is None:
+        raise SceneError(key, f"must be a finite number, got {number_text(value)}")
     return x
 
 
@@ -699,9 +722,11 @@ def _path(value: Any, key: str) -> LoadPath:
                 raise SceneError(
                     key, f"row {i} entry {j} is not a number: {_type_name(item)} {_show(item)}"
                 )
-            x = float(item)
-            if not math.isfinite(x):
-                raise SceneError(key, f"row {i} entry {j} is not a finite number: {x}")
+            x = finite_float(item)
+            if x is None:
+                raise SceneError(
+                    key, f"row {i} entry {j} is not a finite number: {number_text(item)}"
+                )
             numbers.append(x)
         if rows and len(numbers) != len(rows[0]):
             raise SceneError(

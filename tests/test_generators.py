@@ -456,6 +456,14 @@ def test_validation_errors(name, params, key):
     assert str(err.value).startswith(key + ": ")
 
 
+def test_a_float_param_too_big_for_a_float():
+    """An integer too big for a float (TOML's are unbounded) is the finite-number error
+    of its key (it was ``mesh: OverflowError: int too large to convert to float``)."""
+    with pytest.raises(SceneError) as err:
+        G.validate_params("patch2d", {"L": 10**400})
+    assert str(err.value) == "mesh.params.L: must be a finite number, got 1e+400"
+
+
 def test_params_must_be_table():
     with pytest.raises(SceneError) as err:
         G.validate_params("hertz2d", [("R", 1.0)])

@@ -516,6 +516,28 @@ def test_validation_errors(where, value, key, phrase):
     raises(mutate(example(), where, value), key, phrase)
 
 
+@pytest.mark.parametrize(
+    ("where", "value", "key", "reason"),
+    [
+        (("material", 0, "E"), 10**400, "material[0].E", "must be a finite number, got 1e+400"),
+        (("contact", 0, "penalty"), -(10**400), "contact[0].penalty", "got -1e+400"),
+        (
+            ("traction", 0, "path"),
+            [[0.0, 0.0, 0.0], [1.0, 0.0, -(12345 * 10**396)]],
+            "traction[0].path",
+            "row 1 entry 2 is not a finite number: -1.234e+400",
+        ),
+    ],
+    ids=["E", "penalty", "path"],
+)
+def test_integers_too_big_for_a_float(where, value, key, reason):
+    """TOML's integers are unbounded: one too big for a float (``E = 1`` and 400 zeros)
+    is a finite-number error naming the key (it was an OverflowError traceback)."""
+    with pytest.raises(SceneError) as info:
+        parse_scene(mutate(example(), where, value), BASE)
+    assert info.value.key == key and reason in info.value.reason, str(info.value)
+
+
 def test_nu_accepts_int_and_negative():
     s = parse_scene(mutate(example(), ("material", 0, "nu"), 0), BASE)
     assert s.materials[0].nu == 0.0
