@@ -122,12 +122,11 @@ def create_form(form: ufl.Form, jit_params: dict | None = None):
 
 
 def cell_geometry_nodes(mesh) -> np.ndarray:
-    """Geometry dofmap as an array (num_cells, nodes_per_cell) of indices into ``mesh.geometry.x``."""
-    return np.asarray(mesh.geometry.dofmap.array, dtype=np.int32).reshape(
-        mesh.topology.index_map(mesh.topology.dim).size_local
-        + mesh.topology.index_map(mesh.topology.dim).num_ghosts,
-        -1,
-    )
+    """Geometry dofmap as an array (num_cells, nodes_per_cell) of indices into
+    ``mesh.geometry.x`` ((0, nodes_per_cell) on a rank that holds no cell: the node count
+    comes from the coordinate element, as reshape(0, -1) cannot infer it)."""
+    nodes = mesh.geometry.cmap.create_dof_layout().num_dofs
+    return np.asarray(mesh.geometry.dofmap.array, dtype=np.int32).reshape(-1, nodes)
 
 
 def set_lag_preconditioner(snes: PETSc.SNES, lag: int) -> None:

@@ -368,3 +368,54 @@ def test_p2_half_model_with_segments_passes_the_symmetry_sliver(shared_tmp, reco
     sliver = (paired > 1.0 - contact_module.PARTIAL_FACET_TOL) & (paired < 1.0 - 1e-13)
     assert np.all(paired <= 1.0 + 1e-12), paired.max()
     assert MPI.COMM_WORLD.allreduce(int(np.count_nonzero(sliver))) >= 1  # the end facet
+
+
+# Two cells (one per body) with friction: on 3 ranks one rank holds no cell. It crashed
+# in surface.extract_facets (compat.cell_geometry_nodes reshaped an empty dofmap with
+# reshape(0, -1): "cannot reshape array of size 0").
+TINY2D = {
+    "kinematics": "small",
+    "mesh": {"generator": "patch2d", "params": {"n_lower": 1, "n_upper": 1, "n_y": 1}},
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ],
+    "contact": [
+        {"slave": "upper_bottom", "master": "lower_top", "friction": 0.3, "uzawa_tol": 1e-9}
+    ],
+    "dirichlet": [
+        {"boundary": "lower_bottom", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        {"boundary": "lower_left", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+        {"boundary": "upper_left", "components": [0], "path": [[0.0, 0.0], [1.0, 0.0]]},
+    ],
+    "traction": [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.2, -2.0]]}],
+    "steps": {"n": 2},
+}
+
+
+@pytest.mark.mpi
+def test_a_rank_without_cells(shared_tmp):
+    """A mesh with fewer cells than ranks (dolfinx leaves a rank empty) runs, and its
+    contact table, contact force and reactions are the serial ones."""
+    comm = MPI.COMM_WORLD
+    box = {}
+    par = _run(TINY2D, shared_tmp / "tiny_par", comm, box)
+    assert par["status"] == "ok"
+    tdim = box["problem"].mesh.topology.dim
+    cells = box["problem"].mesh.topology.index_map(tdim).size_local
+    assert comm.allreduce(cells) == 2
+    if comm.size >= 3:
+        assert comm.allreduce(int(cells == 0)) >= 1
+    if comm.rank == 0:
+        ser = _run(TINY2D, shared_tmp / "tiny_ser", MPI.COMM_SELF) if comm.size > 1 else par
+        ser_dir = "tiny_ser" if comm.size > 1 else "tiny_par"
+        assert ser["status"] == "ok" and len(ser["steps"]) == len(par["steps"]) == 2
+        tp, ts = (
+            np.loadtxt(shared_tmp / d / "contact_upper_bottom_2.csv", delimiter=",", skiprows=1)
+            for d in ("tiny_par", ser_dir)
+        )
+        assert tp.shape == ts.shape == (2, 9) and np.all(ts[:, 4] > 1.0)
+        np.testing.assert_allclose(tp, ts, rtol=0, atol=1e-9)
+        fp, fs = (s["steps"][-1]["contact_force"]["upper_bottom:lower_top"] for s in (par, ser))
+        np.testing.assert_allclose(fp, fs, rtol=0, atol=1e-9)
+        for b, r in ser["steps"][-1]["reactions"].items():
+            np.testing.assert_allclose(par["steps"][-1]["reactions"][b], r, rtol=0, atol=1e-9)
