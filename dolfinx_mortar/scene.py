@@ -988,6 +988,29 @@ def _parse_dirichlet(table: Mapping[str, Any], prefix: str) -> DirichletBC:
     return DirichletBC(boundary=boundary, components=components, path=path)
 
 
+def _check_dirichlet_overlap(dirichlet: Sequence[DirichletBC]) -> None:
+    """Reject a ``[[dirichlet]]`` that prescribes a component of a boundary that an
+    earlier one prescribes already (the second was silently ignored). Different
+    boundaries that share nodes stay legal (their first prescription wins, as the
+    reactions document)."""
+    earlier: dict[str, list[tuple[int, tuple[int, ...] | None]]] = {}
+    for i, d in enumerate(dirichlet):
+        for j, comps in earlier.get(d.boundary, []):
+            if comps is None and d.components is None:
+                raise SceneError(
+                    f"dirichlet[{i}]",
+                    f"all components of {d.boundary!r} are already prescribed by dirichlet[{j}]",
+                )
+            common = set(d.components or comps) & set(comps or d.components)
+            if common:
+                raise SceneError(
+                    f"dirichlet[{i}]",
+                    f"component {min(common)} of {d.boundary!r} is already prescribed by "
+                    f"dirichlet[{j}]",
+                )
+        earlier.setdefault(d.boundary, []).append((i, d.components))
+
+
 def _parse_traction(table: Mapping[str, Any], prefix: str) -> TractionBC:
     """Parse one ``[[traction]]``."""
     _check_keys(table, _TRACTION_KEYS, prefix)
@@ -1165,6 +1188,7 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         _parse_dirichlet(t, f"dirichlet[{i}]")
         for i, t in enumerate(_tables(table.get("dirichlet", []), "dirichlet"))
     )
+    _check_dirichlet_overlap(dirichlet)
     tractions = tuple(
         _parse_traction(t, f"traction[{i}]")
         for i, t in enumerate(_tables(table.get("traction", []), "traction"))

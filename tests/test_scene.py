@@ -538,6 +538,43 @@ def test_integers_too_big_for_a_float(where, value, key, reason):
     assert info.value.key == key and reason in info.value.reason, str(info.value)
 
 
+def _bc(boundary, components=None):
+    n = 2 if components is None else len(components)
+    d = {"boundary": boundary, "path": [[0.0] + [0.0] * n, [1.0] + [0.0] * n]}
+    if components is not None:
+        d["components"] = components
+    return d
+
+
+@pytest.mark.parametrize(
+    ("second", "reason"),
+    [
+        (_bc("block_bottom", [1]), "component 1 of 'block_bottom' is already prescribed by"),
+        (_bc("block_bottom"), "component 0 of 'block_bottom' is already prescribed by"),
+    ],
+    ids=["same-component", "all-components"],
+)
+def test_dirichlet_prescribing_a_component_twice(second, reason):
+    """Two ``[[dirichlet]]`` prescribing the same component of the same boundary are a
+    scene error naming the second and the first (the second was silently ignored)."""
+    data = example()
+    data["dirichlet"] = [_bc("block_bottom", [0, 1]), _bc("symmetry", [0]), second]
+    with pytest.raises(SceneError) as info:
+        parse_scene(data, BASE)
+    assert str(info.value) == f"dirichlet[2]: {reason} dirichlet[0]"
+
+
+def test_dirichlet_on_one_boundary_in_distinct_components_or_shared_nodes():
+    """The same boundary in distinct components, and different boundaries (which may share
+    nodes), stay legal; so do all components of one boundary after another's."""
+    data = example()
+    data["dirichlet"] = [_bc("b", [0]), _bc("b", [1]), _bc("c"), _bc("d", [1]), _bc("e")]
+    assert len(parse_scene(data, BASE).dirichlet) == 5
+    data["dirichlet"] = [_bc("b"), _bc("b")]
+    with pytest.raises(SceneError, match=r"dirichlet\[1\]: all components of 'b'"):
+        parse_scene(data, BASE)
+
+
 def test_nu_accepts_int_and_negative():
     s = parse_scene(mutate(example(), ("material", 0, "nu"), 0), BASE)
     assert s.materials[0].nu == 0.0
