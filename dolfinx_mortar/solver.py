@@ -359,6 +359,9 @@ class NewtonSolver:
             **_linear_options(settings.linear, problem),
             **settings.petsc,
         }
+        # a boolean false of [solver.petsc] leaves the option out (PETSc's default, off
+        # for its flags): PETSc reads "false" as the name of a viewer (-snes_monitor)
+        defaults = {k: v for k, v in defaults.items() if not (v is False and k in settings.petsc)}
         # Written to the global database for setFromOptions, removed again by destroy(): a
         # later solver with the same prefix must not inherit this one's settings.
         self._option_keys = [settings.prefix + k for k in defaults]
@@ -996,7 +999,11 @@ class NewtonSolver:
         ``[solver.petsc]`` and the command line's ``-dm_...``) that PETSc never read in
         this solver's solves: a typo, or an option of a solver or type not in use."""
         prefix = self.settings.prefix
-        unused = [k for k in self.settings.petsc if compat.option_used(prefix + k) is False]
+        unused = [
+            k
+            for k, v in self.settings.petsc.items()
+            if v is not False and compat.option_used(prefix + k) is False
+        ]
         if unused:
             log.warning(
                 "PETSc never read the option(s) %s of [solver.petsc] / the command line: "

@@ -918,7 +918,8 @@ def test_run_not_converging(workdir):
 
 
 def test_petsc_options_flag_and_rejected_value(workdir):
-    """[solver.petsc]: a boolean true is a bare flag (-dm_snes_monitor works); a value
+    """[solver.petsc]: a boolean true is a bare flag (-dm_snes_monitor works), a boolean
+    false leaves the option out (no warning that PETSc never read it); a value
     PETSc rejects (a viewer named "true") is one clear error naming solver.petsc, and
     the earlier output is left as it was."""
     scene = base_scene()
@@ -927,6 +928,12 @@ def test_petsc_options_flag_and_rejected_value(workdir):
     res = cli(workdir, "run", "flag.toml", "--out", "flag_out")
     assert res.returncode == 0, res.stderr
     assert "SNES Function norm" in res.stdout
+    # a boolean false leaves the option out (it was passed as the viewer name "false")
+    scene["solver"] = {"petsc": {"snes_monitor": False, "ksp_converged_reason": False}}
+    (workdir / "off.toml").write_text(to_toml(scene))
+    res = cli(workdir, "run", "off.toml", "--out", "off_out")
+    assert res.returncode == 0 and not res.stderr, res.stderr
+    assert "SNES Function norm" not in res.stdout
     scene["solver"] = {"petsc": {"snes_monitor": "true"}}
     (workdir / "bad.toml").write_text(to_toml(scene))
     before = snapshot(workdir)
