@@ -358,9 +358,10 @@ def main(argv=None) -> int:
             solver = dataclasses.replace(scene.solver, petsc={**scene.solver.petsc, **petsc})
             scene = dataclasses.replace(scene, solver=solver)
         if args.command == "check":
-            from .runner import prepare
+            from .runner import check_solver, prepare
 
             problem, mesh_data = prepare(scene, comm)
+            check_solver(scene, problem)  # the PETSc options, as `run` checks them
             if comm.rank == 0:
                 print(
                     f"{args.scene}: ok ({mesh_data.gdim}D, {mesh_data.info['cell_type']}, "

@@ -122,6 +122,33 @@ def prepare(scene: Scene, comm, setup=None):
     return problem, mesh_data
 
 
+def solver_settings(scene: Scene):
+    """The :class:`~dolfinx_mortar.solver.SolverSettings` of the scene's ``[solver]``
+    (its ``[solver.petsc]`` with the command line's options merged in by the caller)."""
+    from .solver import SolverSettings
+
+    so = scene.solver
+    return SolverSettings(
+        so.rtol,
+        so.atol,
+        so.max_it,
+        so.linear,
+        so.line_search,
+        dict(so.petsc),
+        step_depth_limit=so.step_depth_limit,
+    )
+
+
+def check_solver(scene: Scene, problem) -> None:
+    """Set up the Newton solver that :func:`run` would use on ``problem`` and free it
+    again, without solving (collective): raises SceneError on every rank where PETSc
+    rejects the scene's PETSc options or the solver refuses one (the same checks as
+    :func:`run`'s, :class:`~dolfinx_mortar.solver.NewtonSolver`; for ``check``)."""
+    from .solver import NewtonSolver
+
+    NewtonSolver(problem, solver_settings(scene)).destroy()
+
+
 def _law_origin(name: str) -> str:
     """``module.qualname (file)`` of the psi registered under ``name``."""
     import inspect
@@ -189,7 +216,7 @@ def run(
     summary.json has said "failed" and "interrupted by …" (:meth:`OutputWriter.abandon`).
     """
     from .output import OutputWriter, check_out_dir
-    from .solver import LoadStepper, NewtonSolver, SolverSettings
+    from .solver import LoadStepper, NewtonSolver
 
     _check_scene(scene, "run")
     t_setup = perf_counter()
@@ -197,16 +224,7 @@ def run(
     out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
     check_out_dir(out_dir, key, comm, [pair.slave for pair in scene.contacts])
     problem, _ = prepare(scene, comm, setup)
-    so = scene.solver
-    settings = SolverSettings(
-        so.rtol,
-        so.atol,
-        so.max_it,
-        so.linear,
-        so.line_search,
-        dict(so.petsc),
-        step_depth_limit=so.step_depth_limit,
-    )
+    settings = solver_settings(scene)
     summary = {
         "scene": scene.title,
         "source": str(scene.source),

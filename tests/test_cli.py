@@ -967,8 +967,9 @@ REFUSED_PETSC_OPTIONS = [
     ids=[o[0] for o in REFUSED_PETSC_OPTIONS],
 )
 def test_refused_solver_petsc_options(workdir, option, value, reason, cli_value, cli_reason):
-    """Options of [solver.petsc] that the solver refuses, in the scene (2 ranks) or on the
-    command line: one error line per rank naming the key, exit 2, nothing written."""
+    """Options of [solver.petsc] that the solver refuses, in the scene (2 ranks; `check`
+    too) or on the command line: one error line per rank naming the key, exit 2,
+    nothing written."""
     scene = base_scene()
     scene["solver"] = {"petsc": {option: value}}
     (workdir / "bad.toml").write_text(to_toml(scene))
@@ -977,9 +978,23 @@ def test_refused_solver_petsc_options(workdir, option, value, reason, cli_value,
     before = snapshot(workdir)
     key = f"solver.petsc.{option}"
     _one_error_line(cli(workdir, "run", "bad.toml", ranks=2), 2, key, reason)
+    _one_error_line(cli(workdir, "check", "bad.toml"), 1, key, reason)  # said "ok"
     res = cli(workdir, "run", "good.toml", f"-dm_{option}", cli_value)
     _one_error_line(res, 1, key, cli_reason)
     assert snapshot(workdir) == before
+
+
+@pytest.mark.parametrize("value", ["nonexistent_ksp", "pre only"])
+def test_check_validates_the_petsc_options(workdir, value):
+    """`check` sets the solver up as `run` does (without solving): a KSP type PETSc does
+    not know is the same error line as `run`'s, exit 2 (check said "ok")."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"ksp_type": value}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    reason = f"Unable to find requested KSP type {value}"
+    res = cli(workdir, "check", "bad.toml")
+    _one_error_line(res, 1, "solver.petsc", reason)
+    assert cli(workdir, "run", "bad.toml").stderr == res.stderr
 
 
 def test_a_scene_file_name_that_is_not_utf8(workdir):
