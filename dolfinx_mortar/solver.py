@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -389,10 +390,16 @@ class NewtonSolver:
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
             self.destroy()
+            reason = compat.petsc_error_lines(exc)[-1]
+            faulty = _options_named_in(reason, settings.petsc, settings.prefix)
+            if len(faulty) == 1:
+                (name,) = faulty
+                raise SceneError(
+                    f"solver.petsc.{name}",
+                    f"PETSc rejected {settings.petsc[name]!r}: {reason}",
+                ) from None
             raise SceneError(
-                "solver.petsc",
-                f"PETSc rejected the options {sorted(settings.petsc)}: "
-                f"{compat.petsc_error_lines(exc)[-1]}",
+                "solver.petsc", f"PETSc rejected the options {sorted(settings.petsc)}: {reason}"
             ) from None
         refused = self._refused_option()
         if refused is not None:
@@ -1016,6 +1023,19 @@ class NewtonSolver:
 
     def __exit__(self, *exc):
         self.destroy()
+
+
+def _options_named_in(reason: str, petsc: dict, prefix: str) -> list[str]:
+    """The options of ``petsc`` that PETSc's error message ``reason`` names, by their
+    value as a word of it ("Unable to find requested KSP type nonexistent") or by their
+    prefixed name; booleans (bare flags) are never matched by value (local)."""
+    named = []
+    for name, value in petsc.items():
+        text = "" if isinstance(value, bool) else str(value)
+        by_value = text and re.search(rf"(?<![\w.-]){re.escape(text)}(?![\w.-])", reason)
+        if by_value or f"-{prefix}{name}" in reason:
+            named.append(name)
+    return named
 
 
 def _create_vector(problem):
