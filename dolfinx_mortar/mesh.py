@@ -57,6 +57,18 @@ class MeshData:
         return self.mesh.geometry.dim
 
 
+def _element_name(gmsh, etype: int) -> str:
+    """A gmsh element type for messages: ``triangle P1`` where supported, else gmsh's
+    family with its node count and order (``10-node triangle (order 3)``)."""
+    if etype in _SUPPORTED_CELLS:
+        return _SUPPORTED_CELLS[etype][1]
+    try:
+        name, _dim, order, nodes = gmsh.model.mesh.getElementProperties(etype)[:4]
+    except Exception:  # gmsh raises bare Exceptions for a type it does not know
+        return f"gmsh element type {etype}"
+    return f"{nodes}-node {name.split()[0].lower()} (order {order})"
+
+
 def _inspect_model(gmsh) -> dict:
     """Rank 0: physical names and cell type of the current gmsh model; raise SceneError if unusable."""
     groups = gmsh.model.getPhysicalGroups()
@@ -78,10 +90,18 @@ def _inspect_model(gmsh) -> dict:
             "mesh", "the physical groups of cells contain no elements (mesh not generated?)"
         )
     if len(cell_types) > 1:
-        raise SceneError("mesh", f"mixed cell types {sorted(cell_types)} are not supported")
+        names = ", ".join(_element_name(gmsh, t) for t in sorted(cell_types))
+        raise SceneError(
+            "mesh", f"mixed cell types ({names}) are not supported: one cell type per mesh"
+        )
     ctype = cell_types.pop()
     if ctype not in _SUPPORTED_CELLS:
-        raise SceneError("mesh", f"unsupported gmsh element type {ctype}")
+        supported = ", ".join(name for _, name in _SUPPORTED_CELLS.values())
+        raise SceneError(
+            "mesh",
+            f"unsupported cells: {_element_name(gmsh, ctype)} (gmsh element type {ctype}); "
+            f"supported: {supported}",
+        )
     # a physical group without elements (e.g. a discrete entity that was never meshed)
     # breaks dolfinx's model_to_mesh; load_mesh drops it from the model but keeps its
     # name, so that using it gives a clear error later (e.g. "contact surface is empty")
@@ -270,6 +290,8 @@ def load_mesh(
         try:
             session.enter_context(gmsh_model(gmsh))
             if file is not None:
+                if Path(file).is_dir():
+                    raise SceneError("mesh.file", f"{file} is a directory, not a mesh file")
                 if not Path(file).is_file():
                     raise SceneError("mesh.file", f"file not found: {file}")
                 if Path(file).stat().st_size == 0:
@@ -277,6 +299,11 @@ def load_mesh(
                 try:
                     gmsh.open(str(file))
                 except Exception as exc:  # gmsh raises bare Exceptions
+                    if Path(file).suffix.lower() != ".msh":
+                        raise SceneError(
+                            "mesh.file",
+                            f"cannot read {file}: only gmsh .msh files are read",
+                        ) from None
                     raise SceneError("mesh.file", f"cannot read {file}: {exc}") from None
             else:
                 from . import generators
