@@ -363,6 +363,16 @@ class NewtonSolver:
         # a boolean false of [solver.petsc] leaves the option out (PETSc's default, off
         # for its flags): PETSc reads "false" as the name of a viewer (-snes_monitor)
         defaults = {k: v for k, v in defaults.items() if not (v is False and k in settings.petsc)}
+        # Options of the prefix that a host program put in the global database (the
+        # scene's and the command line's are settings.petsc) are set aside for this
+        # solver's life and put back by destroy(): the solver reads its own options only.
+        # They were read where the solver sets no value and overwritten elsewhere, then
+        # deleted with the solver's.
+        self._set_aside = {
+            k: v for k, v in opts.getAll().items() if k.startswith(settings.prefix)
+        }
+        for key in self._set_aside:
+            opts.delValue(key)
         # Written to the global database for setFromOptions, removed again by destroy(): a
         # later solver with the same prefix must not inherit this one's settings.
         self._option_keys = [settings.prefix + k for k in defaults]
@@ -994,6 +1004,9 @@ class NewtonSolver:
         for key in self._option_keys:
             opts.delValue(key)
         self._option_keys = []
+        for key, value in self._set_aside.items():
+            opts[key] = "" if value is None else value
+        self._set_aside = {}
         self.snes.destroy()
         self._A.destroy()
         self._b.destroy()

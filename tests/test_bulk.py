@@ -207,6 +207,42 @@ def test_solver_leaves_no_petsc_options(block_msh, shared_tmp):
     assert after == before
 
 
+def test_host_options_of_the_prefix_are_set_aside_and_put_back(block_msh, shared_tmp):
+    """Options of the solver's prefix that a host program put in PETSc's database: the
+    solver overwrote those it sets (a host's snes_linesearch_type bt was ignored), read
+    the others, and deleted both at the end (a helper's probe). They are now set aside for
+    the run, which gives the same result as without them, and put back with their
+    values."""
+    from petsc4py import PETSc
+
+    from dolfinx_mortar.solver import SolverSettings
+
+    prefix = SolverSettings().prefix
+    opts = PETSc.Options()
+    msh = block_msh(2, n=2)
+    plain = run(_scene(msh, 2, "linear-elastic", "small", 1e-3, shared_tmp / "o1"), MPI.COMM_WORLD)
+    host = {
+        prefix + "snes_linesearch_type": "bt",
+        prefix + "snes_max_it": "1",
+        prefix + "ksp_type": "cg",
+    }
+    for key, value in host.items():
+        opts[key] = value
+    try:
+        hosted = run(
+            _scene(msh, 2, "linear-elastic", "small", 1e-3, shared_tmp / "o2"), MPI.COMM_WORLD
+        )
+        kept = {k: opts.getString(k) for k in host}
+    finally:
+        for key in host:
+            opts.delValue(key)
+    assert hosted["status"] == "ok", hosted["error"]
+    assert [st["residual_norms"] for st in hosted["steps"]] == [
+        st["residual_norms"] for st in plain["steps"]
+    ]
+    assert kept == host
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("dim, quads", [(2, True), (2, False), (3, True)])
 def test_linear_bulk_equals_assembly(block_msh, dim, quads):
