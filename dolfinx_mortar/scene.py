@@ -503,6 +503,19 @@ def _key(prefix: str, name: str) -> str:
     return f"{prefix}.{name}" if prefix else name
 
 
+def _plain(value: Any) -> Any:
+    """``value`` with NumPy scalars and arrays (a Python caller's, e.g. ``np.int64(4)``
+    for ``steps.n`` or an array for a ``path``) made the Python numbers and lists that TOML
+    gives, in nested tables and arrays (local)."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
+        return _plain(value.tolist())  # a scalar gives a number, an array nested lists
+    return value
+
+
 def _type_name(value: Any) -> str:
     """TOML-flavoured name of the type of ``value`` for messages."""
     if isinstance(value, bool):
@@ -1131,7 +1144,7 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         On the first problem found, naming the dotted key and the reason.
     """
     base_dir = Path(base_dir).absolute()
-    table = _table(data, "scene")
+    table = _table(_plain(data), "scene")
     _check_keys(table, _TOP_KEYS, "")
     stem = _stem(source)
 

@@ -752,3 +752,21 @@ def test_mortar_contact_names_a_bad_option(name, value):
         MortarContact(None, "slave", "master", key="contact[0]", **{name: value})
     assert err.value.key == f"contact[0].{name}"
     assert repr(value) in str(err.value) and "is not one of" in str(err.value)
+
+
+def test_numpy_values_are_taken_as_toml_numbers_and_arrays():
+    """A Python caller's NumPy values (np.int64 for ``steps.n`` and generator parameters,
+    np.float32, an array for a ``path``) parse as TOML's integers, floats and arrays (the
+    integers were refused: "expected an integer, got int64 2")."""
+    np = pytest.importorskip("numpy")
+    data = example()
+    data["steps"]["n"] = np.int64(3)
+    data["material"][0]["E"] = np.float32(200.0)
+    data["dirichlet"][0]["path"] = np.array(data["dirichlet"][0]["path"], dtype=float)
+    s = parse_scene(data, Path("/some/dir"))
+    assert s.steps.n == 3 and type(s.steps.n) is int
+    assert s.materials[0].E == 200.0
+    assert s.dirichlet[0].path == parse_scene(example(), Path("/some/dir")).dirichlet[0].path
+    gen = {"generator": "patch2d", "params": {"n_lower": np.int64(2), "L": np.float64(1.5)}}
+    s = parse_scene({**example(), "mesh": gen}, Path("/some/dir"))
+    assert s.mesh.params["n_lower"] == 2 and type(s.mesh.params["n_lower"]) is int
