@@ -304,6 +304,12 @@ def main(argv=None) -> int:
             bad = str(exc)
             if bad in _subcommand_options(parser, args.command):
                 hint = f"an option of `{args.command}`: put it after `{args.command}`"
+            elif args.command != "run":  # the PETSc hint is run's
+                hint = (
+                    f"an option of `run`, not of `{args.command}`"
+                    if bad in _subcommand_options(parser, "run")
+                    else f"`{args.command}` takes no such argument"
+                )
             else:
                 hint = "PETSc options of `run` take the prefix -dm_"
             _error_line(

@@ -368,9 +368,7 @@ class NewtonSolver:
         # solver's life and put back by destroy(): the solver reads its own options only.
         # They were read where the solver sets no value and overwritten elsewhere, then
         # deleted with the solver's.
-        self._set_aside = {
-            k: v for k, v in opts.getAll().items() if k.startswith(settings.prefix)
-        }
+        self._set_aside = {k: v for k, v in opts.getAll().items() if k.startswith(settings.prefix)}
         for key in self._set_aside:
             opts.delValue(key)
         # Written to the global database for setFromOptions, removed again by destroy(): a

@@ -580,6 +580,9 @@ def test_usage_errors_are_one_line(workdir):
         # an option of the subcommand before it: where it goes, not the PETSc prefix
         (("-v", "run", "s.toml"), "unrecognized argument -v (an option of `run`: put it after"),
         (("-x", "run", "s.toml"), "unrecognized argument -x (PETSc options of `run` take"),
+        # the PETSc hint belongs to run only
+        (("check", "s.toml", "--out", "x"), "argument --out (an option of `run`, not of `check`)"),
+        (("generators", "extra"), "argument extra (`generators` takes no such argument)"),
     ):
         _one_error_line(cli(workdir, *args), 1, "command line", reason)
     _one_error_line(cli(workdir, "run", ranks=2), 2, "command line", "required: scene")
