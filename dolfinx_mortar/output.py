@@ -59,11 +59,13 @@ def output_names(slaves=()) -> list[str]:
     """The names of the files a run writes into its output directory, for the slave
     surfaces ``slaves`` (their physical names): ``fields.xdmf``/``.h5``, ``summary.json``
     (and the ``.tmp`` it is written through), ``contact_<SLAVE>.xdmf``/``.h5`` (the
-    CSV files, one per step, are matched by :func:`check_out_dir`)."""
-    names = ["fields.xdmf", "fields.h5", "summary.json", "summary.json.tmp"]
-    for slave in slaves:
-        stem = contact_stem(slave)
-        names += [f"{stem}.xdmf", f"{stem}.h5"]
+    CSV files, one per step, are matched by :func:`check_out_dir`), and the hidden
+    series and temporary index of each XDMF file (:class:`XDMFSeries`)."""
+    names = ["summary.json", "summary.json.tmp"]
+    for stem in ["fields", *(contact_stem(slave) for slave in slaves)]:
+        for name in (f"{stem}.xdmf", f"{stem}.h5"):
+            names += [name, "." + name]
+        names.append(f"{stem}.xdmf.tmp")
     return names
 
 
@@ -94,11 +96,9 @@ def _out_dir_problem(out: str, slaves=()) -> str | None:
     if p.is_symlink() and not p.exists():
         return "a link to nothing (dangling or looping)"
     if p.exists():
-        return (
-            _existing_dir_problem(p, out, slaves)
-            if p.is_dir()
-            else ("it exists and is not a directory")
-        )
+        if not p.is_dir():
+            return "it exists and is not a directory"
+        return _existing_dir_problem(p, out, slaves)
     top = p  # the outermost directory to create
     while not top.parent.exists() and top.parent != top:
         top = top.parent

@@ -537,9 +537,10 @@ def test_output_dir_with_a_nul_character(workdir):
         ("fields.h5", "'out/fields.h5' is a directory"),
         ("contact_top.xdmf", "'out/contact_top.xdmf' is a directory"),
         ("contact_top_1.csv", "'out/contact_top_1.csv' is a directory"),
+        (".fields.h5", "'out/.fields.h5' is a directory"),  # the hidden live series
         (None, "not writable"),
     ],
-    ids=["summary", "fields-h5", "surface-xdmf", "csv", "read-only"],
+    ids=["summary", "fields-h5", "surface-xdmf", "csv", "hidden-h5", "read-only"],
 )
 @pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
 def test_output_dir_that_cannot_take_the_files(workdir, where, reason, ranks):
