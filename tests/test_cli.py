@@ -733,7 +733,14 @@ def test_ctrl_c_stops_a_run_in_one_line(workdir):
     (workdir / "long.toml").write_text(to_toml(scene))
     cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
     proc = subprocess.Popen(
-        cmd, cwd=workdir, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        cmd,
+        cwd=workdir,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        # a pytest-xdist worker ignores SIGINT, and a child that starts so keeps ignoring it
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         seen = 0

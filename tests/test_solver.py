@@ -261,10 +261,13 @@ def test_a_body_that_nothing_holds_stops_the_run(shared_tmp):
         (1, ["a:b"], False, False),
     ],
 )
-def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, free, hint):
+@pytest.mark.parametrize("apart", [False, True])
+def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, free, hint, apart):
     """The hint is given only where every contact pair is open (a closed pair may hold
     the body) and an open pair has a body that the Dirichlet conditions leave free
-    (``free_body``), and never without contact."""
+    (``free_body``), and never without contact. It blames the loads where the pair's
+    surfaces face each other, and their positions where no slave point projects onto
+    the master (``apart``)."""
 
     class Term:
         name = "a:b"
@@ -276,10 +279,17 @@ def test_the_open_contact_hint_needs_every_pair_open(pairs, open_pairs, free, hi
         def open_pairs(self):
             return open_pairs
 
+        def unpaired_pairs(self):
+            return ["a:b"] if apart else []
+
     text = solver_module._open_contact_hint(P())
     assert bool(text) == hint
-    if hint:
+    if hint and apart:
+        assert "no slave point of a:b faces its master surface" in text
+        assert "direction of the loads" not in text
+    elif hint:
         assert "no slave node of a:b was in contact" in text
+        assert "faces its master surface" not in text
 
 
 class _NoPredictor(_Newton):
