@@ -659,6 +659,39 @@ def test_verbosity_reaches_the_log(workdir, flag, levels):
         assert res.stderr == "", res.stderr
 
 
+def _signal_a_long_run(workdir: Path, signum: int) -> tuple[int, str]:
+    """Run the base scene in 400 steps, with displacement fields, from the command line
+    in ``workdir`` (out/), send it ``signum`` once it has printed 3 step lines, and return
+    its exit status and stderr. The child starts with SIGINT at its default: a
+    pytest-xdist worker ignores SIGINT, and a child that starts so keeps ignoring it."""
+    import signal
+
+    scene = base_scene()
+    scene["steps"]["n"] = 400
+    scene["output"]["fields"] = ["displacement"]
+    (workdir / "long.toml").write_text(to_toml(scene))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"],
+        cwd=workdir,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        seen = 0
+        for line in proc.stdout:
+            seen += line.startswith("step")
+            if seen == 3:
+                proc.send_signal(signum)
+                break
+        _, err = proc.communicate(timeout=TIMEOUT)
+    finally:
+        proc.kill()
+    return proc.returncode, err
+
+
 def test_a_killed_run_keeps_the_fields_of_its_finished_steps(workdir):
     """A run killed between steps (a batch job's time limit: SIGKILL) keeps every step it
     finished in fields.xdmf / fields.h5, as SCENES.md promises: the HDF5 file is closed
@@ -669,24 +702,7 @@ def test_a_killed_run_keeps_the_fields_of_its_finished_steps(workdir):
     from dolfinx import io
     from mpi4py import MPI
 
-    scene = base_scene()
-    scene["steps"]["n"] = 400
-    scene["output"]["fields"] = ["displacement"]
-    (workdir / "long.toml").write_text(to_toml(scene))
-    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
-    proc = subprocess.Popen(
-        cmd, cwd=workdir, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
-    )
-    try:
-        seen = 0
-        for line in proc.stdout:
-            seen += line.startswith("step")
-            if seen == 3:
-                proc.send_signal(signal.SIGKILL)
-                break
-    finally:
-        proc.kill()
-        proc.wait(timeout=TIMEOUT)
+    _signal_a_long_run(workdir, signal.SIGKILL)
     out = workdir / "out"
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "running" and len(summary["steps"]) >= 3, summary["status"]
@@ -728,31 +744,8 @@ def test_ctrl_c_stops_a_run_in_one_line(workdir):
     summary.json left "running".)"""
     import signal
 
-    scene = base_scene()
-    scene["steps"]["n"] = 400
-    (workdir / "long.toml").write_text(to_toml(scene))
-    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
-    proc = subprocess.Popen(
-        cmd,
-        cwd=workdir,
-        env=_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        # a pytest-xdist worker ignores SIGINT, and a child that starts so keeps ignoring it
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
-    try:
-        seen = 0
-        for line in proc.stdout:
-            seen += line.startswith("step")
-            if seen == 3:
-                proc.send_signal(signal.SIGINT)
-                break
-        _, err = proc.communicate(timeout=TIMEOUT)
-    finally:
-        proc.kill()
-    assert proc.returncode == 130, err
+    returncode, err = _signal_a_long_run(workdir, signal.SIGINT)
+    assert returncode == 130, err
     assert err.splitlines() == [
         "dolfinx-mortar: interrupted: summary.json keeps the finished steps"
     ], err

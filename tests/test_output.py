@@ -224,15 +224,9 @@ def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
         run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "afile")
 
 
-def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
-    """An exception from ``progress`` (or Ctrl-C) in the steps goes on to the caller, and
-    summary.json says "failed" with its type and message and keeps the finished step (it
-    stayed at "running"). The published field index keeps the step too."""
-    import json
-
-    from dolfinx_mortar import parse_scene, run
-
-    data = {
+def _small_press(steps: int) -> dict:
+    """A coarse patch2d press (small strain, linear elastic, frictionless) in ``steps``."""
+    return {
         "kinematics": "small",
         "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
         "material": [
@@ -244,8 +238,19 @@ def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
             {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
             {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
         ],
-        "steps": {"n": 3},
+        "steps": {"n": steps},
     }
+
+
+def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
+    """An exception from ``progress`` (or Ctrl-C) in the steps goes on to the caller, and
+    summary.json says "failed" with its type and message and keeps the finished step (it
+    stayed at "running"). The published field index keeps the step too."""
+    import json
+
+    from dolfinx_mortar import parse_scene, run
+
+    data = _small_press(steps=3)
 
     def progress(step, record):
         raise RuntimeError(f"the host stops after step {step}")
@@ -281,20 +286,7 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
         assert self.linear_bulk._K0 is None
 
     monkeypatch.setattr(ContactProblem, "destroy", watched)
-    data = {
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
-        ],
-        "steps": {"n": 1},
-    }
+    data = _small_press(steps=1)
     box = {}
     s = run(
         parse_scene(data, shared_tmp),
