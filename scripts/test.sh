@@ -3,7 +3,7 @@
 # then lint, then the whole test suite serially and the MPI tests on 2 and 3 ranks.
 # pytest's exit status 5 ("no tests collected") is a failure here.
 set -eu
-REPO=$(cd "$(dirname "$0")/.." && pwd)
+REPO=$(cd "$(dirname "$0")/.." && pwd -P)  # -P: the path pip records
 sh "$REPO/scripts/install.sh"
 . "$REPO/scripts/env.sh"
 cd "$REPO"
@@ -36,8 +36,19 @@ sh "$REPO/scripts/warm_cache.sh"
 # The serial tests run in one process per core (pytest-xdist), a test file per process at
 # a time (--dist loadfile: the module fixtures that run demos are made once); the 10
 # slowest are listed.
-run_pytest "pytest -m 'not mpi2' (serial, -n auto)" $PY -m pytest -q -p no:cacheprovider \
-    -n auto --dist loadfile --durations=10 -m "not mpi2" tests
+# Workers: the CPUs this process may use, capped by a cgroup v2 CPU quota (a container
+# limited to 2 CPUs on a large host would otherwise start one worker per host CPU);
+# DM_TEST_WORKERS overrides.
+workers=$(nproc)
+if [ -r /sys/fs/cgroup/cpu.max ]; then
+    read -r quota period < /sys/fs/cgroup/cpu.max
+    if [ "$quota" != max ] && [ "$(( (quota + period - 1) / period ))" -lt "$workers" ]; then
+        workers=$(( (quota + period - 1) / period ))
+    fi
+fi
+workers=${DM_TEST_WORKERS:-$workers}
+run_pytest "pytest -m 'not mpi2' (serial, -n $workers)" timeout 2400 $PY -m pytest -q \
+    -p no:cacheprovider -n "$workers" --dist loadfile --durations=10 -m "not mpi2" tests
 for n in 2 3; do
     marks="mpi"
     if [ "$n" -eq 2 ]; then marks="mpi or mpi2"; fi

@@ -9,7 +9,7 @@
 # Hertz demo on 2 ranks). A failed run prints the tail of its log and the script goes on
 # (exit status 0): what it did not compile is compiled on first use.
 set -eu
-REPO=$(cd "$(dirname "$0")/.." && pwd)
+REPO=$(cd "$(dirname "$0")/.." && pwd -P)  # -P: the path pip records
 . "$REPO/scripts/env.sh"
 cd "$REPO"
 warm=$(mktemp -d)

@@ -39,6 +39,10 @@ def _env(**extra: str) -> dict[str, str]:
     MPI singleton extends), without MPI job variables, plus root-friendly Open MPI
     settings (as scripts/env.sh) and one thread per process."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_JOB_PREFIXES)}
+    # the container setting of scripts/env.sh is not a job variable: it is kept
+    vader = "OMPI_MCA_btl_vader_single_copy_mechanism"
+    if vader in os.environ:
+        env[vader] = os.environ[vader]
     env.update(
         OMPI_ALLOW_RUN_AS_ROOT="1",
         OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
