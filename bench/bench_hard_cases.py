@@ -18,7 +18,12 @@ cases, which take seconds each):
   h_master/h_slave = 4 (5 master, 20 slave elements) and 1/4 (20 master, 5 slave), element and
   segment integration;
 - ``slide_cattaneo2d``: large frictionless sliding (press 0.05, slide 1.0 in 20 steps,
-  over 20 master facets).
+  over 20 master facets);
+- ``friction3d_reversal`` (session 41): a hexahedral block (patch3d, 4 × 4 × 2 on 3 × 3
+  × 2, margin 0.3) pressed by 0.02 onto a larger one, then slid by +0.1, −0.05, +0.05 in
+  x (12 steps; finite strain, segment integration, μ = 2: stick in the press, gross slip
+  and two reversals after). With Aitken every press step took 19 Uzawa rounds and the
+  second reversal cut back once (BENCHMARKS §42).
 
 Generated cases (scene dicts built from the demos, written to ``OUT/scenes/CASE.toml``
 with :func:`dolfinx_mortar.scene.dump_scene`, then run the same way):
@@ -84,6 +89,11 @@ CASES = {
     "patch2d_ratio1_4_element": ("patch2d_ratio1_4_element", "patch2d", "h_m/h_s = 1/4, element"),
     "patch2d_ratio1_4_segment": ("patch2d_ratio1_4_segment", "patch2d", "h_m/h_s = 1/4, segment"),
     "slide_cattaneo2d": ("slide_cattaneo2d", None, "frictionless sliding 1.0 in 20 steps"),
+    "friction3d_reversal": (
+        "friction3d_reversal",
+        None,
+        "3D block, μ = 2: press, slide +0.1, −0.05, +0.05",
+    ),
 }
 #: ε h/E* of hertz2d's "auto" penalty is 100: ε = κ · E*/h with E*/h = 109.89/0.1
 HERTZ2D_E_STAR_OVER_H = 200.0 / (2.0 * (1.0 - 0.3**2)) / 0.1

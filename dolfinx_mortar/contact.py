@@ -374,50 +374,27 @@ def resolve_acceleration(
     """The Uzawa update of a pair: ``method`` itself, except that "auto" (the default)
     becomes "newton" (the exact update: :meth:`MortarContact._exact_multipliers` without
     friction, :meth:`MortarContact._exact_multipliers_fd` with it) on a pair with the
-    lumped recovery, without friction or, in 2D (``gdim``), with the lumped tangential
-    recovery; "aitken" on any other (local). :func:`~dolfinx_mortar.scene.exact_update_applies`
-    says where "newton" is allowed (in 3D with friction too, on request).
+    lumped recovery and, with friction, the lumped tangential recovery
+    (:func:`~dolfinx_mortar.scene.exact_update_applies`); "aitken" on any other (local).
+    ``gdim`` is not used since session 41 (2D and 3D alike).
 
     Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
     / 13, the hard-case sweep's Hertz cases 24–49 instead of 49–534 with no cutback,
     peers problem B 7 + 4 / 8 + 6 / 9 + 10 (normal + tangential step) instead of 11 + 17
-    / 12 + 25 / 13 + 24. Why not with friction in 3D: there the finite-difference
-    products cost a 3D contact search each, and the coarse twist3d path took 97 s
-    instead of 71 s for 98 Newton iterations instead of 107. Since session 22's cheaper
-    search the margin is small (BENCHMARKS §15): that path 48 s against 45 s on 2 ranks,
-    ironing3d 88 s against 80 s (279 Newton iterations against 345, at most 21 per step
-    against 19)."""
+    / 12 + 25 / 13 + 24. With friction in 3D "auto" was Aitken until session 41 (the
+    finite-difference products cost a 3D contact search each: the coarse twist3d path
+    took 97 s against 71 s in session 17, 48 s against 45 s after session 22's cheaper
+    search), switching to the exact update in a step whose rounds contracted slowly.
+    Session 41 measured the exact update ahead there (BENCHMARKS §42): ironing3d 262
+    Newton iterations and 29.5–31.3 s against 346 and 32.3–33.0 s, a 3D block slid back
+    and forth with μ = 2 28 s against 54 s and no cutback against one (every Aitken step
+    took 15–19 rounds), the 3D frictional stick patch 5 + 5 iterations against 13 + 13."""
     if method != "auto":
         return method
     if not exact_update_applies(friction, recovery, tangential_recovery):
         return "aitken"
-    return "newton" if friction == 0.0 or gdim == 2 else "aitken"
-
-
-#: "auto" on a 3D frictional pair with lumped recoveries is Aitken (cheaper there than the
-#: exact update's finite-difference products, each a 3D contact search), but a step
-#: whose Aitken rounds contract slowly switches to the exact update for the rest of the
-#: step: after at least AUTO_EXACT_ROUNDS rounds, when the change of the last round is
-#: above AUTO_EXACT_CONTRACTION^(AUTO_EXACT_ROUNDS − 1) times that of AUTO_EXACT_ROUNDS − 1
-#: rounds before. A coarse 3D frictional press of stick-dominated steps (patch3d,
-#: tetrahedra, μ = 0.3) contracted slowly (plain Uzawa: 0.8 per round, then up to 0.96),
-#: one slow tangential pattern alternating from node to node; Aitken hit its cap
-#: OMEGA_MAX again and again and every step ended at the same change 4.6e-5 after 20
-#: rounds whatever its size (6 cutbacks, then the run stopped); 45–46 rounds to 1e-6
-#: with uzawa_max = 100, 5 with the exact update.
-AUTO_EXACT_ROUNDS = 4
-AUTO_EXACT_CONTRACTION = 0.8
-
-
-def _slow_rounds(changes: list[float]) -> bool:
-    """Whether the Uzawa rounds of a step contract slowly (AUTO_EXACT_ROUNDS,
-    AUTO_EXACT_CONTRACTION; ``changes`` the largest relative multiplier change, normal or
-    tangential, of each round so far; local, the changes are global)."""
-    k = AUTO_EXACT_ROUNDS
-    if len(changes) < k:
-        return False
-    return changes[-1] > AUTO_EXACT_CONTRACTION ** (k - 1) * changes[-k]
+    return "newton"
 
 
 def _gmres(comm, size: tuple[int, int], product, rhs: np.ndarray, rtol: float, max_it: int):
@@ -755,19 +732,9 @@ class MortarContact:
             raise ValueError(
                 f"{key}: unknown uzawa_acceleration {uzawa_acceleration!r}: one of {ACCELERATIONS}"
             )
-        requested = uzawa_acceleration
         uzawa_acceleration = resolve_acceleration(
             uzawa_acceleration, self.mu, recovery, tangential_recovery, self.gdim
         )
-        #: "auto" resolved to "aitken" where the exact update applies (3D friction,
-        #: lumped recoveries): a step whose Aitken rounds contract slowly switches to the
-        #: exact update (AUTO_EXACT_ROUNDS, AUTO_EXACT_CONTRACTION)
-        self._auto_exact = (
-            requested == "auto"
-            and uzawa_acceleration == "aitken"
-            and exact_update_applies(self.mu, recovery, tangential_recovery)
-        )
-        self._round_changes: list[float] = []  # this step's max(rel, rel_t) per round
         if uzawa_acceleration == "newton" and not exact_update_applies(
             self.mu, recovery, tangential_recovery
         ):
@@ -2785,12 +2752,6 @@ class MortarContact:
         self._carried = carry if changed or not done else None
         if done:
             return changed == 0, info
-        if self._auto_exact:
-            self._round_changes.append(max(rel, rel_t))
-            if self.uzawa_acceleration.method == "aitken" and _slow_rounds(self._round_changes):
-                self.uzawa_acceleration.method = "newton"  # until the step ends
-                info["acceleration_switch"] = "aitken -> newton (slow rounds)"
-                log.info("%s: Aitken rounds contract slowly; the exact update", self.name)
         if self.uzawa_acceleration.method == "newton":  # lumped (exact_update_applies)
             if changed:
                 # the solve ended with frozen states, a frozen QP set or a held contact
@@ -3115,12 +3076,8 @@ class MortarContact:
         return max(1.0, self.penalty_ratio, self._penalty_t_ratio)
 
     def _reset_acceleration(self) -> None:
-        """A step starts (or starts again): the acceleration's history is forgotten, and a
-        pair switched to the exact update by slow Aitken rounds goes back to Aitken."""
+        """A step starts (or starts again): the acceleration's history is forgotten."""
         self.uzawa_acceleration.reset()
-        self._round_changes = []
-        if self._auto_exact:
-            self.uzawa_acceleration.method = "aitken"
 
     def begin_step(self) -> None:
         """Reset the Uzawa acceleration's history (multipliers carry over from the last step); with

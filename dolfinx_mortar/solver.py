@@ -1238,7 +1238,6 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
                 norms_all.append(norms)
             return its_all, norms_all, info_all
         change = max((i.get("multiplier_change", 0.0) for i in info.values()), default=0.0)
-        # (an exact update switched on in the step, AUTO_EXACT_ROUNDS: full solves from now)
         exact = getattr(problem, "exact_multiplier_update", False)
         rtol = min(1e-3, 1e-2 * change) if inexact and not exact else None
         changes.append(
