@@ -38,8 +38,8 @@ sh "$REPO/scripts/warm_cache.sh"
 # slowest are listed.
 # Workers: the CPUs this process may use, capped by a cgroup v2 CPU quota (a container
 # limited to 2 CPUs on a large host would otherwise start one worker per host CPU);
-# DM_TEST_WORKERS overrides.
-workers=$(nproc)
+# DM_TEST_WORKERS overrides. (nproc obeys OMP_NUM_THREADS, which env.sh sets to 1.)
+workers=$(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc)
 if [ -r /sys/fs/cgroup/cpu.max ]; then
     read -r quota period < /sys/fs/cgroup/cpu.max
     if [ "$quota" != max ] && [ "$(( (quota + period - 1) / period ))" -lt "$workers" ]; then
