@@ -18,8 +18,8 @@ Run::
         [--uzawa-acceleration newton|aitken|...]
 
 The multipliers are updated by the exact (Newton) update between Uzawa rounds
-(``--uzawa-acceleration newton``, the demo's default; the library's "auto" takes Aitken
-with friction in 3D).
+(``--uzawa-acceleration newton``, the demo's default; the library's "auto" has been the
+same here since session 41, Aitken with friction in 3D before).
 """
 
 from __future__ import annotations
