@@ -63,9 +63,7 @@ def output_names(slaves=()) -> list[str]:
     series and temporary index of each XDMF file (:class:`XDMFSeries`)."""
     names = ["summary.json", "summary.json.tmp"]
     for stem in ["fields", *(contact_stem(slave) for slave in slaves)]:
-        for name in (f"{stem}.xdmf", f"{stem}.h5"):
-            names += [name, "." + name]
-        names.append(f"{stem}.xdmf.tmp")
+        names += [p.name for p in XDMFSeries.paths(Path(f"{stem}.xdmf")).values()]
     return names
 
 
@@ -176,11 +174,25 @@ class XDMFSeries:
     ``path``: the public ``<name>.xdmf``; ``mesh``: written once, at construction.
     """
 
+    @staticmethod
+    def paths(path: Path) -> dict[str, Path]:
+        """The files of the series ``path`` (``<name>.xdmf``): "xdmf", "h5" (public),
+        "live", "live_h5" (hidden, dolfinx's) and "tmp" (the index on its way to
+        ``<name>.xdmf``). The one definition of these names (:func:`output_names`)."""
+        live = path.with_name("." + path.name)
+        return {
+            "xdmf": path,
+            "h5": path.with_suffix(".h5"),
+            "live": live,
+            "live_h5": live.with_suffix(".h5"),
+            "tmp": path.with_name(path.name + ".tmp"),
+        }
+
     def __init__(self, comm, path: Path, mesh):
         self.comm, self.path = comm, Path(path)
-        self.h5 = self.path.with_suffix(".h5")
-        self.live = self.path.with_name("." + self.path.name)
-        live_h5 = self.live.with_suffix(".h5")
+        names = self.paths(self.path)
+        self.h5, self.live, self._tmp = names["h5"], names["live"], names["tmp"]
+        self._live_h5 = live_h5 = names["live_h5"]
         if comm.rank == 0:  # "w" below then creates a new file, not one a stale link shares
             live_h5.unlink(missing_ok=True)
         comm.barrier()
@@ -221,18 +233,17 @@ class XDMFSeries:
         """Rank 0: ``<name>.xdmf`` := the live index, referencing ``<name>.h5``."""
         if self.comm.rank != 0 or self.live == self.path:
             return
-        hidden = ">" + self.live.with_suffix(".h5").name + ":"
+        hidden = ">" + self._live_h5.name + ":"
         text = self.live.read_text().replace(hidden, ">" + self.h5.name + ":")
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.write_text(text)
-        os.replace(tmp, self.path)
+        self._tmp.write_text(text)
+        os.replace(self._tmp, self.path)
 
     def finish(self) -> None:
         """Close, and remove the hidden names (the data stay under ``<name>.h5``)."""
         self.close()
         if self.comm.rank == 0 and self.live != self.path:
             self.live.unlink(missing_ok=True)
-            self.live.with_suffix(".h5").unlink(missing_ok=True)
+            self._live_h5.unlink(missing_ok=True)
         self.live = self.path  # nothing more is written
 
 
