@@ -19,6 +19,10 @@ cases, which take seconds each):
   segment integration;
 - ``slide_cattaneo2d``: large frictionless sliding (press 0.05, slide 1.0 in 20 steps,
   over 20 master facets);
+- ``friction3d_press_slide`` (session 41): a hexahedral block (patch3d, 4 × 4 × 2 on 3
+  × 3 × 2, margin 0.2) pressed by 0.02 in 2 steps, then slid by (0.1, 0.05) in 2
+  (finite strain, segment integration, μ = 0.3): its first slide step cut back until the
+  slip-reversal rule stopped comparing the predictor's state (BENCHMARKS §40);
 - ``friction3d_reversal`` (session 41): a hexahedral block (patch3d, 4 × 4 × 2 on 3 × 3
   × 2, margin 0.3) pressed by 0.02 onto a larger one, then slid by +0.1, −0.05, +0.05 in
   x (12 steps; finite strain, segment integration, μ = 2: stick in the press, gross slip
@@ -89,6 +93,11 @@ CASES = {
     "patch2d_ratio1_4_element": ("patch2d_ratio1_4_element", "patch2d", "h_m/h_s = 1/4, element"),
     "patch2d_ratio1_4_segment": ("patch2d_ratio1_4_segment", "patch2d", "h_m/h_s = 1/4, segment"),
     "slide_cattaneo2d": ("slide_cattaneo2d", None, "frictionless sliding 1.0 in 20 steps"),
+    "friction3d_press_slide": (
+        "friction3d_press_slide",
+        None,
+        "3D block, μ = 0.3: press 0.02, then slide (0.1, 0.05)",
+    ),
     "friction3d_reversal": (
         "friction3d_reversal",
         None,

@@ -369,14 +369,13 @@ def resolve_acceleration(
     friction: float,
     recovery: str,
     tangential_recovery: str = "lumped",
-    gdim: int = 2,
 ) -> str:
     """The Uzawa update of a pair: ``method`` itself, except that "auto" (the default)
     becomes "newton" (the exact update: :meth:`MortarContact._exact_multipliers` without
     friction, :meth:`MortarContact._exact_multipliers_fd` with it) on a pair with the
     lumped recovery and, with friction, the lumped tangential recovery
-    (:func:`~dolfinx_mortar.scene.exact_update_applies`); "aitken" on any other (local).
-    ``gdim`` is not used since session 41 (2D and 3D alike).
+    (:func:`~dolfinx_mortar.scene.exact_update_applies`); "aitken" on any other, in 2D
+    and 3D alike (local).
 
     Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
@@ -733,7 +732,7 @@ class MortarContact:
                 f"{key}: unknown uzawa_acceleration {uzawa_acceleration!r}: one of {ACCELERATIONS}"
             )
         uzawa_acceleration = resolve_acceleration(
-            uzawa_acceleration, self.mu, recovery, tangential_recovery, self.gdim
+            uzawa_acceleration, self.mu, recovery, tangential_recovery
         )
         if uzawa_acceleration == "newton" and not exact_update_applies(
             self.mu, recovery, tangential_recovery

@@ -974,49 +974,21 @@ def test_friction_with_other_recoveries_is_refused():
 
 def test_a_3d_slide_after_a_press_needs_no_cutback(tmp_path):
     """A hexahedral block pressed onto a larger one (finite strain, μ = 0.3) in 2 steps,
-    then slid by (0.1, 0.05) in 2: the press leaves the slave nodes slipping outwards
+    then slid by (0.1, 0.05) in 2 (``bench/scenes/friction3d_press_slide.toml``, a case
+    of the hard-case sweep): the press leaves the slave nodes slipping outwards
     (ν = 0.3), the slide turns them. The first slide step's predictor carries the press's
     outward slip on; its first Newton iterate slides. The slip-reversal rule of the
     chattering control compared those two Jacobians, froze the nodes on the slide's
-    trailing half in stick, 17 |τ| up to 80 μ p, and the solve 2-cycled until max_it
-    (a cutback, then 6 + 3 + … at t = 1.25). The comparison now starts after the
+    trailing half in stick far outside the Coulomb cone, and the solve 2-cycled until
+    max_it (a cutback, then 6 + 3 + … at t = 1.25; BENCHMARKS §40). The comparison now starts after the
     predictor's Jacobian. At the end the block slides: |F_T| = μ F_N within 3 % (0.979)."""
+    import tomllib
+
     from dolfinx_mortar.runner import run
 
-    data = {
-        "kinematics": "finite",
-        "mesh": {
-            "generator": "patch3d",
-            "params": {
-                "L": 1.0,
-                "H": 0.5,
-                "n_lower": 3,
-                "n_upper": 4,
-                "n_y": 2,
-                "margin": 0.2,
-                "quads": True,
-            },
-        },
-        "material": [
-            {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
-        ],
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": 0.3,
-                "integration": "segment",
-            }
-        ],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0, 0.0, 0.0, 0.0], [2, 0.0, 0.0, 0.0]]},
-            {
-                "boundary": "upper_top",
-                "path": [[0, 0, 0, 0], [1, 0, 0, -0.02], [2, 0.1, 0.05, -0.02]],
-            },
-        ],
-        "steps": {"t_end": 2.0, "n": 4, "max_cutbacks": 0},
-    }
+    scene = pathlib.Path(__file__).resolve().parents[1] / "bench" / "scenes"
+    data = tomllib.loads((scene / "friction3d_press_slide.toml").read_text())
+    data["steps"]["max_cutbacks"] = 0
     summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     assert summary["status"] == "ok", summary.get("error")
     assert [st["cutbacks"] for st in summary["steps"]] == [0, 0, 0, 0]

@@ -308,8 +308,6 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
     assert resolve_acceleration("auto", 0.2, "lumped", "constrained") == "aitken"
     assert resolve_acceleration("auto", 0.0, "constrained") == "aitken"
     assert resolve_acceleration("anderson", 0.0, "lumped") == "anderson"
-    assert resolve_acceleration("auto", 0.0, "lumped", gdim=3) == "newton"
-    assert resolve_acceleration("auto", 0.2, "lumped", gdim=3) == "newton"
     data = _hertz("aitken")
     data["contact"][0].pop("uzawa_acceleration")
     scene = parse_scene(data, tmp_path)
