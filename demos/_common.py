@@ -76,8 +76,8 @@ def parser(
             choices=("auto", "aitken", "anderson", "none", "newton"),
             default=default,
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
-            "pairs with lumped recoveries; auto: newton where it applies, except with "
-            f"friction in 3D, else aitken) [{default}]",
+            "pairs with lumped recoveries; auto: newton where it applies, else aitken) "
+            f"[{default}]",
         )
     if frame:
         ap.add_argument(

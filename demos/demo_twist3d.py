@@ -146,7 +146,7 @@ def evaluate(summary: dict, history) -> dict:
 
 
 def main(argv=None) -> dict:
-    # the exact multiplier update (on request with friction in 3D): the same wall time as
+    # the exact multiplier update (also what "auto" gives here): the same wall time as
     # Aitken on the default path, 2-4 Uzawa rounds per step instead of 4-14, at most 16
     # Newton iterations per step instead of 35 (BENCHMARKS §8, session 21)
     ap = cm.parser(

@@ -520,8 +520,8 @@ class MortarContact:
         "newton": the exact update of :meth:`_exact_multipliers` (frictionless) or
         :meth:`_exact_multipliers_fd` (friction), pairs with the lumped recovery (and
         lumped tangential recovery) only, otherwise ValueError; "auto", the default:
-        "newton" where it applies, except with friction in 3D, "aitken" elsewhere,
-        :func:`resolve_acceleration`).
+        "newton" where it applies (2D and 3D, with or without friction), "aitken"
+        elsewhere, :func:`resolve_acceleration`).
     quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.

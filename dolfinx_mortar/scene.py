@@ -48,7 +48,7 @@ Schema (``*`` = required; defaults in brackets)::
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
                  ("newton": recovery = "lumped" and, with friction,
                  tangential_recovery = "lumped" only; "auto": "newton" where it
-                 applies, except with friction in 3D, "aitken" elsewhere)
+                 applies, "aitken" elsewhere)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -297,8 +297,8 @@ class ContactPair:
         relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
         ``"newton"`` (the exact update of the multipliers; pairs with the lumped
         recovery, and with friction the lumped tangential recovery, only) or ``"auto"``
-        (default: ``"newton"`` where it applies, except with friction in 3D, ``"aitken"``
-        on the other pairs; :func:`dolfinx_mortar.contact.resolve_acceleration`).
+        (default: ``"newton"`` where it applies, ``"aitken"`` on the other pairs;
+        :func:`dolfinx_mortar.contact.resolve_acceleration`).
     """
 
     slave: str
