@@ -67,6 +67,18 @@ def output_names(slaves=()) -> list[str]:
     return names
 
 
+def previous_slaves(out_dir: Path) -> set[str]:
+    """The slave surfaces (physical names) of the run whose summary.json is in
+    ``out_dir`` (``modelled.contact_pairs.*.slave``); empty where there is none or it is
+    not a summary of this package (local)."""
+    try:
+        with open(Path(out_dir) / "summary.json", encoding="utf-8") as fh:
+            pairs = json.load(fh)["modelled"]["contact_pairs"]
+        return {str(pair["slave"]) for pair in pairs.values()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return set()
+
+
 def check_out_dir(out: Path | str, key: str, comm, slaves=()) -> None:
     """Raise SceneError on every rank if the output directory cannot be used (collective;
     rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
@@ -335,17 +347,26 @@ class OutputWriter:
         self._surfaces: list[SurfaceFields] = []
 
     def start(self) -> None:
-        """Create the directory, remove the contact CSV files a previous run of the same
-        pairs left there (a shorter run would otherwise leave stale later steps), and
-        write the initial state (step 0)."""
+        """Create the directory, remove the contact files an earlier run left there, and
+        write the initial state (step 0).
+
+        Removed: the contact CSV files of this run's slave surfaces (a shorter run would
+        otherwise leave stale later steps), and every contact file (CSV and XDMF) of the
+        slave surfaces that the directory's summary.json names and this run does not
+        have (another scene run into the same directory), so that the directory holds
+        one run's output only. Nothing else is touched."""
         if self.comm.rank == 0:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            for term in self.problem.contacts:
-                stem = contact_stem(term.slave_name)
-                pattern = re.compile(rf"{re.escape(stem)}_\d+\.csv$")
-                for f in self.out_dir.iterdir():
-                    if pattern.match(f.name):
-                        f.unlink()
+            current = {term.slave_name for term in self.problem.contacts}
+            earlier = previous_slaves(self.out_dir) - current
+            stems = [contact_stem(name) for name in sorted(current | earlier)]
+            csv = re.compile("|".join(rf"{re.escape(stem)}_\d+\.csv" for stem in stems) or "$^")
+            stale = {f.name for f in self.out_dir.iterdir() if csv.fullmatch(f.name)}
+            stale.update(set(output_names(earlier)) - set(output_names()))
+            for name in sorted(stale):
+                f = self.out_dir / name
+                if f.is_file() or f.is_symlink():
+                    f.unlink()
         self.comm.barrier()
         p = self.problem
         self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)

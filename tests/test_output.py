@@ -299,3 +299,40 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
         assert freed == []
         box["p"].destroy()
     assert freed == [[0, 0]]
+
+
+def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
+    """A scene run into a directory that holds another scene's output (its summary.json
+    names another slave surface) removes that scene's contact CSV and XDMF files, and a
+    shorter run of the same pair its later steps: the directory holds one run's output.
+    Files that no summary names stay (the other slave's files stayed before)."""
+    from dolfinx_mortar import parse_scene, run
+
+    first = _small_press(steps=3)
+    run(parse_scene(first, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert {f"contact_upper_bottom_{k}.csv" for k in range(4)} <= {
+        f.name for f in tmp_path.iterdir()
+    }
+    (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "contact_elsewhere_1.csv").write_text("mine too")
+    second = _small_press(steps=2)
+    second["contact"] = [{"slave": "lower_top", "master": "upper_bottom"}]
+    run(parse_scene(second, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    names = sorted(f.name for f in tmp_path.iterdir())
+    assert not [n for n in names if n.startswith("contact_upper_bottom")], names
+    assert [n for n in names if n.startswith("contact_lower_top")] == [
+        "contact_lower_top.h5",
+        "contact_lower_top.xdmf",
+        "contact_lower_top_0.csv",
+        "contact_lower_top_1.csv",
+        "contact_lower_top_2.csv",
+    ], names
+    assert "notes.txt" in names and "contact_elsewhere_1.csv" in names
+    shorter = _small_press(steps=1)
+    shorter["contact"] = second["contact"]
+    run(parse_scene(shorter, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    names = sorted(f.name for f in tmp_path.iterdir())
+    assert [n for n in names if n.endswith(".csv") and "lower_top" in n] == [
+        "contact_lower_top_0.csv",
+        "contact_lower_top_1.csv",
+    ], names
