@@ -464,9 +464,10 @@ def on_root(fn, *args, comm=MPI.COMM_WORLD, **kwargs):
 
 
 def script(main, name: str) -> None:
-    """Run ``main()`` as a script: exit 0 on success; on an exception print one line and
-    exit 1 (abort the whole MPI job when it runs on several ranks, so that no rank hangs).
-    Library warnings are shown on rank 0 only."""
+    """Run ``main()`` as a script: exit 0 on success; on a SceneError (raised on every
+    rank) print its one line on rank 0 and exit 2; on any other exception print one line
+    per rank and exit 1 (aborting the whole MPI job when it runs on several ranks, so that
+    no rank hangs). Library warnings are shown on rank 0 only."""
     import logging
     import sys
 

@@ -293,3 +293,13 @@ def test_twist3d_torque_plateau(shared_tmp):
     assert m["stick_nodes"] <= 1 and m["slip_nodes"] >= 40
     assert m["P_contact"] == pytest.approx(m["P_measured"], rel=1e-6)
     assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
+
+
+def test_tied_curved_refine_starts_the_levels(tmp_path):
+    """``--refine K`` starts the levels at K (it was ignored: the help of every demo says
+    it refines the mesh)."""
+    m = demo_tiedcurved2d.main(["--levels", "1", "--refine", "1", "--out", str(tmp_path)])
+    (row,) = m["levels"]
+    assert row["level"] == 1
+    assert row["h"] == pytest.approx(demo_tiedcurved2d.R1 * math.pi / 2 / 12)
+    assert (tmp_path / "L1" / "summary.json").is_file()
