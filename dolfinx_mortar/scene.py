@@ -174,8 +174,7 @@ TANGENTIAL_WEIGHTS = ("auto", "dual", "standard")
 #: "Friction"; :class:`dolfinx_mortar.friction.MasterFrames`).
 TANGENTIAL_FRAMES = ("slave", "master")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
-#: augmentation"; the first is the default: "newton" where it applies, except with friction
-#: in 3D, else "aitken").
+#: augmentation"; the first is the default: "newton" where it applies, else "aitken").
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
 
 
