@@ -226,15 +226,6 @@ GMSH_OPTIONS = (
 )
 
 
-def _gmsh_running(gmsh) -> bool:
-    """Whether gmsh is initialized (a host program's session): gmsh 4.8 has no such
-    call; its model list is empty before ``initialize`` and raises after ``finalize``."""
-    try:
-        return bool(gmsh.model.list())
-    except Exception:  # gmsh raises bare Exceptions
-        return False
-
-
 @contextlib.contextmanager
 def gmsh_model(gmsh):
     """Rank 0: a gmsh model of this package's own, current for the ``with`` block.
@@ -244,8 +235,10 @@ def gmsh_model(gmsh):
     host program's session (a Python caller that uses gmsh itself) the session stays:
     the model is removed after, the host's current model is current again, and the
     options in :data:`GMSH_OPTIONS` get their values back. It finalized the host's
-    session before (a helper's probe: its next gmsh call raised)."""
-    hosted = _gmsh_running(gmsh)
+    session before (a helper's probe: its next gmsh call raised). No gmsh call comes
+    before ``initialize`` (:func:`~dolfinx_mortar.compat.gmsh_initialize`): in gmsh 4.8
+    that exited the process now and then."""
+    hosted = compat.gmsh_initialize(gmsh)
     if hosted:
         current = gmsh.model.getCurrent()
         saved = {key: gmsh.option.getNumber(key) for key in GMSH_OPTIONS}
@@ -254,7 +247,6 @@ def gmsh_model(gmsh):
             k += 1
             name = f"dolfinx_mortar_{k}"
     else:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
         name = "dolfinx_mortar"
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.Verbosity", 0)

@@ -664,3 +664,61 @@ def test_load_mesh_keeps_a_host_gmsh_session(model):
     assert gmsh.option.getNumber("Mesh.Algorithm") == 5
     assert gmsh.option.getNumber("Mesh.MeshSizeMax") == 0.3
     assert not any(name.startswith("dolfinx_mortar") for name in gmsh.model.list())
+
+
+_FIRST_CALL_SCRIPT = r"""
+import sys
+import gmsh
+from mpi4py import MPI
+
+calls = []
+
+
+class Recorder:
+    # gmsh's functions and API classes (gmsh.model, gmsh.option, ...), each call logged
+    def __init__(self, target, path):
+        self._target, self._path = target, path
+
+    def __getattr__(self, name):
+        value = getattr(self._target, name)
+        path = f"{self._path}.{name}"
+        if isinstance(value, type):
+            return Recorder(value, path)
+        if callable(value) and not hasattr(value, "_handle"):  # not the ctypes library
+            def call(*args, **kwargs):
+                calls.append(path)
+                return value(*args, **kwargs)
+            return call
+        return value
+
+
+from dolfinx_mortar import compat
+from dolfinx_mortar.mesh import gmsh_model
+
+with gmsh_model(Recorder(gmsh, "gmsh")):
+    pass
+assert calls[0] == "gmsh.initialize", calls
+assert calls[-1] == "gmsh.finalize", calls
+assert compat.gmsh_initialize(gmsh) is False  # finalized: a fresh session
+assert compat.gmsh_initialize(gmsh) is True  # a running one (silently)
+gmsh.finalize()
+print("ok")
+"""
+
+
+def test_no_gmsh_call_before_initialize(tmp_path):
+    """The first gmsh call of ``load_mesh`` is ``initialize``, and ``gmsh_initialize``
+    tells a running session from none, without printing. gmsh 4.8's calls before
+    ``initialize`` are undefined behaviour: ``gmsh.model.list()``, asked whether a host
+    session ran, exited rank 0 of some demo runs with status 1 and no message."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "first_call.py"
+    script.write_text(_FIRST_CALL_SCRIPT)
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"
+    assert "initialized" not in done.stderr, done.stderr
