@@ -27,7 +27,13 @@ cases, which take seconds each):
   × 2, margin 0.3) pressed by 0.02 onto a larger one, then slid by +0.1, −0.05, +0.05 in
   x (12 steps; finite strain, segment integration, μ = 2: stick in the press, gross slip
   and two reversals after). With Aitken every press step took 19 Uzawa rounds and the
-  second reversal cut back once (BENCHMARKS §42).
+  second reversal cut back once (BENCHMARKS §42);
+- ``block3d_over_corner`` (session 42): a hexahedral block (patch3d, 3 × 3 × 2 on 8 × 8 ×
+  2, margin 1.5) pressed by 0.02, then dragged by (2.0, 2.1) in one step over the
+  master's corner (finite strain, segment integration, frictionless). Beyond t ≈ 1.86
+  the solver reaches no solution (the Uzawa rounds stall; element integration stalls
+  there too): the expected outcome is a clean stop, which the run crept towards in ever
+  shorter steps before they were bounded by the load step (BENCHMARKS §43).
 
 Generated cases (scene dicts built from the demos, written to ``OUT/scenes/CASE.toml``
 with :func:`dolfinx_mortar.scene.dump_scene`, then run the same way):
@@ -102,6 +108,11 @@ CASES = {
         "friction3d_reversal",
         None,
         "3D block, μ = 2: press, slide +0.1, −0.05, +0.05",
+    ),
+    "block3d_over_corner": (
+        "block3d_over_corner",
+        None,
+        "3D block dragged over the master's corner (segment): a clean stop",
     ),
 }
 #: ε h/E* of hertz2d's "auto" penalty is 100: ε = κ · E*/h with E*/h = 109.89/0.1

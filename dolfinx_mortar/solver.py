@@ -1406,9 +1406,10 @@ class LoadStepper:
     ConvergenceError from the extrapolated predictor is retried from the last converged
     state (and the next steps do without the predictor:
     :data:`PREDICTOR_MAX_BACKOFF`); then it is retried with half the time
-    increment, at most ``max_cutbacks`` times in a row; then the ConvergenceError
-    propagates (every finished step has been passed to
-    ``on_step`` already). A step's timings include its failed attempts.
+    increment, at most ``max_cutbacks`` times in a row and never below 2^-max_cutbacks of
+    the load step it divides (the step of the ``n`` equal ones or ``output_times`` that
+    the stepper works towards); then the ConvergenceError propagates (every finished
+    step has been passed to ``on_step`` already). A step's timings include its failed attempts.
     ``on_step(step_index, result)`` is called after each
     converged step, with the problem holding the converged state. Each step starts from
     the extrapolated predictor except at a corner of the load path (``problem.load_values``,
@@ -1454,6 +1455,8 @@ class LoadStepper:
         previous = None  # (u, t) of the step before the last converged one
         rates = []  # (t0, t1, ‖Δu‖/Δt) of the last two converged steps (_jumped)
         cutbacks = 0
+        grid = set(self.targets)
+        load_step = {}  # target of the grid -> the length of its load step (from t)
         use_predictor = True
         skip, backoff, predictor_failures = 0, 1, 0  # see PREDICTOR_MAX_BACKOFF
         carried_retries = 0  # see FROZEN_RETRY_ROUNDS
@@ -1462,6 +1465,8 @@ class LoadStepper:
         wall0 = None
         while pending:
             t_new = pending[0]
+            if t_new in grid:
+                load_step.setdefault(t_new, t_new - t)
             if wall0 is None:  # the first attempt of this step
                 wall0 = perf_counter()
                 tim0 = dict(p.timings)
@@ -1527,8 +1532,20 @@ class LoadStepper:
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks: "
                         f"{exc}{_stop_hints(p)}"
                     ) from exc
-                cutbacks += 1
                 mid = 0.5 * (t + t_new)
+                step_of = load_step[next(s for s in pending if s in grid)]
+                if mid - t < step_of / 2**self.max_cutbacks * (1 - 1e-9):
+                    # a shorter step than max_cutbacks halvings of the load step: where the
+                    # solver reaches no solution beyond some t before the target, every
+                    # cutback converged a shorter step towards it and the target failed
+                    # again, a run that crept towards it down to MIN_STEP_FRACTION
+                    raise ConvergenceError(
+                        f"step to t = {t_new:g} failed after {cutbacks} cutbacks from t = "
+                        f"{t:g}, and another would make the step shorter than "
+                        f"1/2^{self.max_cutbacks} of the load step ({step_of:.3g}; "
+                        f"max_cutbacks = {self.max_cutbacks}): {exc}{_stop_hints(p)}"
+                    ) from exc
+                cutbacks += 1
                 if mid - t <= MIN_STEP_FRACTION * self.t_end:
                     # repeated cutbacks over several steps can shrink the step without bound
                     raise ConvergenceError(
