@@ -33,7 +33,13 @@ cases, which take seconds each):
   master's corner (finite strain, segment integration, frictionless). Beyond t ≈ 1.86
   the solver reaches no solution (the Uzawa rounds stall; element integration stalls
   there too): the expected outcome is a clean stop, which the run crept towards in ever
-  shorter steps before they were bounded by the load step (BENCHMARKS §43).
+  shorter steps before they were bounded by the load step (BENCHMARKS §43);
+- ``block3d_slide`` / ``block3d_slide_si`` (session 42): a hexahedral block (patch3d,
+  5 × 5 × 2 on 16 × 16 × 2, margin 1.5) pressed by 0.02, then dragged by (1.3, 0.9) in
+  one step (finite strain, segment integration, frictionless), in the demos' units and
+  in SI units (lengths × 1e-3 in metres, E = 1e11 Pa): the same Newton iterations since
+  the rows of constrained dofs are forces (BENCHMARKS §44; 11 against 31 and a full-step
+  rescue before).
 
 Generated cases (scene dicts built from the demos, written to ``OUT/scenes/CASE.toml``
 with :func:`dolfinx_mortar.scene.dump_scene`, then run the same way):
@@ -113,6 +119,12 @@ CASES = {
         "block3d_over_corner",
         None,
         "3D block dragged over the master's corner (segment): a clean stop",
+    ),
+    "block3d_slide": ("block3d_slide", None, "3D block dragged by (1.3, 0.9) in one step"),
+    "block3d_slide_si": (
+        "block3d_slide_si",
+        None,
+        "the same in SI units (metres, E = 1e11 Pa)",
     ),
 }
 #: ε h/E* of hertz2d's "auto" penalty is 100: ε = κ · E*/h with E*/h = 109.89/0.1

@@ -68,8 +68,9 @@ class LinearBulk:
 
     The bulk residual is then linear in u: R_bulk(x) = K₀ x + f(t), with K₀ = ∂R_bulk/∂u
     constant and f(t) = R_bulk(0) the prescribed tractions' part (−∫ t̄·v dA). K₀, and the
-    Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero and a unit
-    diagonal there, as dolfinx assembles it), are assembled on first use; f(t) when the
+    Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero and the
+    problem's :meth:`~ContactProblem.dirichlet_scale` on the diagonal there, as dolfinx
+    assembles it), are assembled on first use; f(t) when the
     time has changed (:meth:`loads_changed`). A residual is then one product and a
     Jacobian's bulk one CSR insertion instead of a finite element assembly each: the
     same values to round-off. Owns K₀, f and a work vector (freed by :meth:`destroy`);
@@ -82,6 +83,7 @@ class LinearBulk:
         self._bcs = []
         self._K0 = None
         self._KD_csr = None  # (row offsets, global columns, values) of K_D's owned rows
+        self._KD_diagonal = 1.0  # K_D's value on the rows of constrained dofs
         self._f = None
         self._f_current = False
         self._x = None  # x with the prescribed values on constrained dofs
@@ -99,10 +101,7 @@ class LinearBulk:
         """b = K₀ x̃ + f(t) (collective; owned entries). With ``apply_bcs`` x̃ is x with the
         prescribed values ū on constrained dofs: this equals dolfinx's assembly of R(x)
         followed by the lifting b += K₀[:, D](ū − x)_D; without, x̃ = x."""
-        if self._K0 is None:
-            self._K0 = assemble_matrix(self._J_form)
-            self._K0.assemble()
-            self._x = self._K0.createVecRight()
+        self.stiffness()
         if apply_bcs:
             x.copy(self._x)
             set_bc(self._x, self._bcs)
@@ -119,6 +118,14 @@ class LinearBulk:
                 self._f_current = True
             b.axpy(1.0, self._f)
 
+    def stiffness(self) -> PETSc.Mat:
+        """K₀ (collective on first use, when it is assembled; this object owns it)."""
+        if self._K0 is None:
+            self._K0 = assemble_matrix(self._J_form)
+            self._K0.assemble()
+            self._x = self._K0.createVecRight()
+        return self._K0
+
     def destroy(self) -> None:
         """Free K₀, f and the work vector (collective; assembled again at next use)."""
         for obj in (self._K0, self._x, self._f):
@@ -127,12 +134,15 @@ class LinearBulk:
         self._K0 = self._x = self._f = None
         self._f_current = False
 
-    def add_jacobian(self, A: PETSc.Mat) -> None:
-        """A += K_D on the owned rows (collective on first use: K_D is assembled then); A
-        is left unassembled for the caller, so the slots of its pattern that K_D does not
-        fill are kept (:meth:`~dolfinx_mortar.assembly.MatrixPattern.create`)."""
-        if self._KD_csr is None:
-            KD = assemble_matrix(self._J_form, self._bcs)
+    def add_jacobian(self, A: PETSc.Mat, diagonal: float = 1.0) -> None:
+        """A += K_D on the owned rows, ``diagonal`` on those of constrained dofs
+        (collective on first use: K_D is assembled then, and again for another
+        ``diagonal``); A is left unassembled for the caller, so the slots of its pattern
+        that K_D does not fill are kept
+        (:meth:`~dolfinx_mortar.assembly.MatrixPattern.create`)."""
+        if self._KD_csr is None or self._KD_diagonal != diagonal:
+            self._KD_diagonal = diagonal
+            KD = assemble_matrix(self._J_form, self._bcs, diagonal=diagonal)
             KD.assemble()
             self._KD_csr = KD.getValuesCSR()
             KD.destroy()
@@ -241,6 +251,7 @@ class ContactProblem:
             self._tractions.append((name, np.asarray(path, float), c))
         self.F_form = compat.create_form(F + loads)
         self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
+        self._dirichlet_scale = None  # see dirichlet_scale()
         #: every region linear-elastic: the bulk residual is linear in u and is evaluated
         #: as K₀ x + f(t) with K₀ assembled once (:class:`LinearBulk`); None otherwise
         self.linear_bulk = None
@@ -497,9 +508,40 @@ class ContactProblem:
         if not self.comm.allreduce(int(same), op=MPI.MIN):
             self.update_contact(x)
 
+    def dirichlet_scale(self) -> float:
+        """s, the stiffness by which the rows of constrained dofs are scaled: they hold
+        s (x − ū) in the residual and s on the Jacobian's diagonal (collective on first
+        use, the same on every rank; then fixed for the problem's life).
+
+        s is the mean |diagonal| of the bulk stiffness ∂R_bulk/∂u over the free dofs at
+        the state of first use (the initial state of a run; K₀ itself with a linear
+        bulk), so that every row of R is a force and ‖R‖ does not depend on the units:
+        with unit rows, ‖R‖ mixed the displacement increment prescribed on a boundary
+        (length) with forces (stress × length^(d−1)), and the relative tolerance, the
+        line searches and ``atol = "auto"`` (the first residual's norm) saw a different
+        problem in other units (BENCHMARKS.md §44). 1 where the bulk has no free dof or
+        no stiffness."""
+        if self._dirichlet_scale is None:
+            if self.linear_bulk is not None:
+                K, owned = self.linear_bulk.stiffness(), None
+            else:
+                K = owned = assemble_matrix(self.J_form)
+                K.assemble()
+            diag = K.getDiagonal()
+            n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+            free = np.abs(diag.array_r[:n][self.global_dofs[:n] >= 0])
+            diag.destroy()
+            if owned is not None:
+                owned.destroy()
+            total = self.comm.allreduce(float(free.sum()))
+            count = self.comm.allreduce(int(free.size))
+            s = total / count if count else 1.0
+            self._dirichlet_scale = s if np.isfinite(s) and s > 0.0 else 1.0
+        return self._dirichlet_scale
+
     def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
         """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
-        dofs hold x − ū (scaled as in dolfinx) instead of the residual."""
+        dofs hold s (x − ū) instead of the residual, s = :meth:`dirichlet_scale`."""
         t0 = perf_counter()
         if self.linear_bulk is not None:
             self.linear_bulk.residual(x, b, apply_bcs)
@@ -517,7 +559,7 @@ class ContactProblem:
         b.assemble()
         self.timings["contact_assembly"] += perf_counter() - t0
         if apply_bcs:
-            set_bc(b, self.bcs, x, -1.0)
+            set_bc(b, self.bcs, x, -self.dirichlet_scale())
 
     def residual_round_off(self) -> float:
         """The round-off level f of the assembled residual at the current state u: the norm
@@ -628,9 +670,9 @@ class ContactProblem:
         t0 = perf_counter()
         A.zeroEntries()
         if self.linear_bulk is not None:
-            self.linear_bulk.add_jacobian(A)
+            self.linear_bulk.add_jacobian(A, self.dirichlet_scale())
         else:
-            assemble_matrix(A, self.J_form, self.bcs)
+            assemble_matrix(A, self.J_form, self.bcs, diagonal=self.dirichlet_scale())
         A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
         A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
         self.timings["bulk_assembly"] += perf_counter() - t0

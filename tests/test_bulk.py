@@ -442,3 +442,52 @@ def test_a_law_is_checked_at_the_reference_state(no_laws, caplog):
         check_law("pre", E, NU, 2, "k")
         (rec,) = caplog.records
         assert "'pre' is not stress-free at F = I (largest |P_ij| = 3)" in rec.message
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "model, kinematics", [("linear-elastic", "small"), ("neo-hookean", "finite")]
+)
+def test_constrained_rows_are_scaled_by_the_bulk_stiffness(block_msh, model, kinematics):
+    """The rows of constrained dofs hold s (x − ū) in the residual and s on the Jacobian's
+    diagonal, with s = ContactProblem.dirichlet_scale the mean |diagonal| of the bulk
+    stiffness at the initial state over the free dofs (K₀ assembled here by dolfinx), the
+    same on 1–3 ranks; they held x − ū and 1, a length among forces."""
+    from dolfinx.fem.petsc import assemble_matrix, set_bc
+
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(2, n=3, quads=True)
+    problem, _ = prepare(
+        parse_scene(_table(msh, 2, model, kinematics, 2e-3), msh.parent), MPI.COMM_WORLD
+    )
+    comm = problem.comm
+    K = assemble_matrix(problem.J_form)  # at u = 0
+    K.assemble()
+    diag = K.getDiagonal()
+    n = problem.V.dofmap.index_map.size_local * problem.V.dofmap.index_map_bs
+    free = problem.global_dofs[:n] >= 0
+    ref = comm.allreduce(float(np.abs(diag.array_r[:n][free]).sum())) / comm.allreduce(
+        int(free.sum())
+    )
+    s = problem.dirichlet_scale()
+    assert s == pytest.approx(ref, rel=1e-12)
+    assert s > 10.0  # E = 100 here, not the unit row of before
+    problem.set_time(1.0)  # ū = 2e-3 on the right end's x
+    x = problem.u.vector.copy()
+    x.array[:] = 1e-4 * np.arange(x.array.size) / max(x.array.size, 1)
+    problem.update_contact(x)
+    b = x.duplicate()
+    problem.residual(x, b)
+    ubar = x.duplicate()
+    ubar.set(0.0)
+    set_bc(ubar, problem.bcs)  # ū on the constrained dofs
+    constrained = ~free
+    expect = s * (x.array_r[:n] - ubar.array_r[:n])
+    assert np.allclose(b.array_r[:n][constrained], expect[constrained], rtol=1e-12, atol=1e-15)
+    A = problem.create_matrix()
+    problem.jacobian(x, A)
+    d = A.getDiagonal()
+    assert np.allclose(d.array_r[:n][constrained], s, rtol=1e-12)
+    for obj in (K, diag, x, b, ubar, A, d):
+        obj.destroy()

@@ -283,3 +283,54 @@ def test_si_units_with_lengths_in_millimetres(shared_tmp):
         # scale-free to the node
         assert abs(fb[2] / scale - fa[2]) <= 1e-9 * abs(fa[2]), (fa, fb / scale)
         assert np.linalg.norm(fb / scale - fa) <= 1e-5 * np.linalg.norm(fa), (fa, fb / scale)
+
+
+def _dragged_block(E: float) -> dict:
+    """A 2D block (finite strain) pressed by 0.02, then dragged by 3.5 in one step, half
+    off the end of the master (patch2d, 13 slave and 70 master facets): displacement
+    driven, so the residual's Dirichlet rows carry the prescribed increments."""
+    return {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"n_lower": 70, "n_upper": 13, "n_y": 3, "margin": 3.0},
+        },
+        "material": [
+            {"region": r, "model": "neo-hookean", "E": E, "nu": 0.3} for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {
+                "boundary": "upper_top",
+                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.02], [2.0, 3.5, -0.02]],
+            },
+        ],
+        "steps": {"t_end": 2.0, "n": 2},
+    }
+
+
+@pytest.mark.parametrize("scale", [1e-5, 1e6])
+def test_a_displacement_driven_run_is_the_same_in_other_units(tmp_path, scale):
+    """E times 1e-5 or 1e6 with the same prescribed displacements: the same problem in
+    other units of stress. The rows of constrained dofs are scaled by a bulk stiffness
+    (ContactProblem.dirichlet_scale), so every residual norm of a step's main solve is
+    the unit run's × scale, with its Newton iterations, and the Uzawa rounds are the
+    same (their later solves, which end at the absolute tolerance solver.AUTO_ATOL, a
+    force, take 0–2 iterations more or fewer); the contact force / scale to 1e-7, the
+    level of the Uzawa tolerance 1e-6 (measured 3e-8 at 1e-5).
+    With unit rows (x − ū, a length) ‖R‖ mixed lengths with forces: E × 1e-5 took 11
+    Newton iterations in a step that the unit run took in 7, and its force was 7e-9 off;
+    a 3D slide took 31 instead of 11 with E × 1e6 (BENCHMARKS §44)."""
+    pair = "upper_bottom:lower_top"
+    unit = _run(_dragged_block(100.0), tmp_path / "unit")
+    other = _run(_dragged_block(100.0 * scale), tmp_path / "other")
+    assert unit["status"] == other["status"] == "ok", (unit["error"], other["error"])
+    for a, b in zip(unit["steps"], other["steps"], strict=True):
+        assert b["newton_iterations"][0] == a["newton_iterations"][0]
+        assert b["uzawa_rounds"] == a["uzawa_rounds"]
+        ra, rb = np.asarray(a["residual_norms"][0]), np.asarray(b["residual_norms"][0])
+        big = ra > 1e-6 * ra[0]  # above the round-off of either run
+        assert np.allclose(rb[big] / scale, ra[big], rtol=1e-6, atol=0.0), (ra, rb / scale)
+        fa, fb = np.asarray(a["contact_force"][pair]), np.asarray(b["contact_force"][pair])
+        assert np.linalg.norm(fb / scale - fa) <= 1e-7 * np.linalg.norm(fa), (fa, fb / scale)
