@@ -75,7 +75,7 @@ def previous_slaves(out_dir: Path) -> set[str]:
         with open(Path(out_dir) / "summary.json", encoding="utf-8") as fh:
             pairs = json.load(fh)["modelled"]["contact_pairs"]
         return {str(pair["slave"]) for pair in pairs.values()}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):
         return set()
 
 
@@ -87,7 +87,8 @@ def check_out_dir(out: Path | str, key: str, comm, slaves=()) -> None:
     of an OSError from the writer, after the set-up). An existing directory must let a
     file be created in it, and hold no directory (nor a read-only file) where a file of
     the run goes (:func:`output_names` of the slave surfaces ``slaves``, and their
-    ``contact_<SLAVE>_<k>.csv``)."""
+    ``contact_<SLAVE>_<k>.csv``) or where it removes an earlier run's contact files
+    (those of the slaves its summary.json names: :meth:`OutputWriter.start`)."""
     reason = None
     if comm.rank == 0:
         reason = _out_dir_problem(str(out), tuple(slaves))
@@ -132,6 +133,7 @@ def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
             pass
     except OSError:
         return "not writable (a file cannot be created in it)"
+    slaves = tuple(slaves) + tuple(sorted(previous_slaves(p) - set(slaves)))
     csv = [re.compile(rf"{re.escape(contact_stem(s))}_\d+\.csv$") for s in slaves]
     names = output_names(slaves)
     names += sorted(f.name for f in p.iterdir() if any(c.match(f.name) for c in csv))
@@ -366,7 +368,10 @@ class OutputWriter:
             for name in sorted(stale):
                 f = self.out_dir / name
                 if f.is_file() or f.is_symlink():
-                    f.unlink()
+                    try:
+                        f.unlink()
+                    except OSError as exc:  # checked before (check_out_dir); rank 0 only
+                        log.warning("could not remove the earlier run's %s: %s", f, exc)
         self.comm.barrier()
         p = self.problem
         self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)

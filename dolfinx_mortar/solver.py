@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import re
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -1534,7 +1535,7 @@ class LoadStepper:
                     ) from exc
                 mid = 0.5 * (t + t_new)
                 step_of = load_step[next(s for s in pending if s in grid)]
-                if mid - t < step_of / 2**self.max_cutbacks * (1 - 1e-9):
+                if mid - t < math.ldexp(step_of, -self.max_cutbacks) * (1 - 1e-9):
                     # a shorter step than max_cutbacks halvings of the load step: where the
                     # solver reaches no solution beyond some t before the target, every
                     # cutback converged a shorter step towards it and the target failed

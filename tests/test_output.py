@@ -336,3 +336,26 @@ def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
         "contact_lower_top_0.csv",
         "contact_lower_top_1.csv",
     ], names
+
+
+def test_the_earlier_runs_files_are_checked_and_odd_summaries_ignored(tmp_path):
+    """A contact file of an earlier run that the run would remove but cannot (here a
+    directory where the earlier slave's CSV was) is the output directory's one-line
+    SceneError before the set-up; it was a traceback from rank 0's unlink after it. A
+    summary.json that is not one of this package's (invalid JSON, another program's,
+    nested deeper than the parser's recursion limit) names no slave."""
+    import json
+
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+    from dolfinx_mortar.output import previous_slaves
+
+    summary = {"modelled": {"contact_pairs": {"old:m": {"slave": "old"}}}}
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    assert previous_slaves(tmp_path) == {"old"}
+    (tmp_path / "contact_old_3.csv").mkdir()
+    with pytest.raises(SceneError, match=r"contact_old_3.csv' is a directory"):
+        run(parse_scene(_small_press(steps=1), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    for text in ("{", '{"steps": []}', "[" * 100000 + "]" * 100000, '{"modelled": 3}'):
+        (tmp_path / "summary.json").write_text(text)
+        assert previous_slaves(tmp_path) == set()

@@ -107,6 +107,15 @@ def test_steps_never_shorter_than_max_cutbacks_halvings_of_the_load_step():
     assert min(np.diff([0.0, *p.committed])) >= 1 / 64
 
 
+def test_a_large_max_cutbacks_halves_as_any_other():
+    """max_cutbacks = 2000 (any integer >= 0 is a valid scene value): the bound of the
+    shortest step, 2^-2000 of the load step, underflows to 0 instead of raising
+    OverflowError at the first cutback."""
+    p = _Problem()
+    LoadStepper(p, _Newton(p, lambda t0: 0.1), 1.0, 1, max_cutbacks=2000).run()
+    assert p.committed[-1] == pytest.approx(1.0)
+
+
 def test_shrinking_steps_stop_cleanly_at_the_minimum_step():
     """Cutbacks in a row that reach the minimum step end in ConvergenceError, not in a
     zero-length step (a ZeroDivisionError in the predictor before)."""
