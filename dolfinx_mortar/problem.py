@@ -69,8 +69,8 @@ class LinearBulk:
     The bulk residual is then linear in u: R_bulk(x) = K₀ x + f(t), with K₀ = ∂R_bulk/∂u
     constant and f(t) = R_bulk(0) the prescribed tractions' part (−∫ t̄·v dA). K₀, and the
     Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero and the
-    problem's :meth:`~ContactProblem.dirichlet_scale` on the diagonal there, as dolfinx
-    assembles it), are assembled on first use; f(t) when the
+    ``diagonal`` there, which the problem then sets to
+    :meth:`~ContactProblem.dirichlet_scale`), are assembled on first use; f(t) when the
     time has changed (:meth:`loads_changed`). A residual is then one product and a
     Jacobian's bulk one CSR insertion instead of a finite element assembly each: the
     same values to round-off. Owns K₀, f and a work vector (freed by :meth:`destroy`);
@@ -251,7 +251,7 @@ class ContactProblem:
             self._tractions.append((name, np.asarray(path, float), c))
         self.F_form = compat.create_form(F + loads)
         self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
-        self._dirichlet_scale = None  # see dirichlet_scale()
+        self._dirichlet_rows = None  # see dirichlet_scale()
         #: every region linear-elastic: the bulk residual is linear in u and is evaluated
         #: as K₀ x + f(t) with K₀ assembled once (:class:`LinearBulk`); None otherwise
         self.linear_bulk = None
@@ -337,6 +337,7 @@ class ContactProblem:
 
     def _collect_bcs(self) -> None:
         self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        self._dirichlet_rows = None  # dirichlet_scale(): the constrained rows changed
         self._bodies = None  # (cell_body, held) of bodies_held(): the conditions changed
         if self.linear_bulk is not None:
             self.linear_bulk.set_bcs(self.bcs)
@@ -508,20 +509,23 @@ class ContactProblem:
         if not self.comm.allreduce(int(same), op=MPI.MIN):
             self.update_contact(x)
 
-    def dirichlet_scale(self) -> float:
-        """s, the stiffness by which the rows of constrained dofs are scaled: they hold
-        s (x − ū) in the residual and s on the Jacobian's diagonal (collective on first
-        use, the same on every rank; then fixed for the problem's life).
+    def dirichlet_scale(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rows of the owned constrained dofs and their scales s_i: local indices
+        (k,) int32, global indices (k,) PETSc.IntType and s_i (k,) float (collective on
+        first use after the conditions change; local then). The rows hold s_i (x_i − ū_i) in the
+        residual and s_i on the Jacobian's diagonal.
 
-        s is the mean |diagonal| of the bulk stiffness ∂R_bulk/∂u over the free dofs at
-        the state of first use (the initial state of a run; K₀ itself with a linear
-        bulk), so that every row of R is a force and ‖R‖ does not depend on the units:
-        with unit rows, ‖R‖ mixed the displacement increment prescribed on a boundary
-        (length) with forces (stress × length^(d−1)), and the relative tolerance, the
-        line searches and ``atol = "auto"`` (the first residual's norm) saw a different
-        problem in other units (BENCHMARKS.md §44). 1 where the bulk has no free dof or
-        no stiffness."""
-        if self._dirichlet_scale is None:
+        s_i = |K_ii|, the dof's own diagonal of the bulk stiffness ∂R_bulk/∂u without the
+        conditions, at the state of first use (the initial state of a run; K₀ itself with
+        a linear bulk), and where that is not positive the mean |K_jj| over the free dofs
+        (1 where there is none). Every row of R is then a force of its own body, and
+        ‖R‖ does not depend on the units: with unit rows ‖R‖ mixed the displacement
+        increment prescribed on a boundary (a length) with forces, and the relative
+        tolerance, the line searches and ``atol = "auto"`` (the first residual's norm)
+        saw another problem in other units (BENCHMARKS.md §44). A single mean over every
+        body (tried first) gave a soft body's rows the stiff body's scale where the two
+        differ by 1e6: the first norm, and with it rtol, grew 1e3-fold."""
+        if self._dirichlet_rows is None:
             if self.linear_bulk is not None:
                 K, owned = self.linear_bulk.stiffness(), None
             else:
@@ -529,19 +533,25 @@ class ContactProblem:
                 K.assemble()
             diag = K.getDiagonal()
             n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
-            free = np.abs(diag.array_r[:n][self.global_dofs[:n] >= 0])
+            d = np.abs(diag.array_r[:n])
             diag.destroy()
             if owned is not None:
                 owned.destroy()
-            total = self.comm.allreduce(float(free.sum()))
-            count = self.comm.allreduce(int(free.size))
-            s = total / count if count else 1.0
-            self._dirichlet_scale = s if np.isfinite(s) and s > 0.0 else 1.0
-        return self._dirichlet_scale
+            free = self.global_dofs[:n] >= 0
+            count = self.comm.allreduce(int(free.sum()))
+            mean = self.comm.allreduce(float(d[free].sum())) / count if count else 1.0
+            if not (np.isfinite(mean) and mean > 0.0):
+                mean = 1.0
+            local = np.flatnonzero(~free).astype(np.int32)
+            s = d[local]
+            s[~(np.isfinite(s) & (s > 0.0))] = mean
+            rows = self.global_dofs_all[local].astype(PETSc.IntType)
+            self._dirichlet_rows = (local, rows, s)
+        return self._dirichlet_rows
 
     def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
         """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
-        dofs hold s (x − ū) instead of the residual, s = :meth:`dirichlet_scale`."""
+        dofs hold s_i (x_i − ū_i) instead of the residual (:meth:`dirichlet_scale`)."""
         t0 = perf_counter()
         if self.linear_bulk is not None:
             self.linear_bulk.residual(x, b, apply_bcs)
@@ -559,7 +569,9 @@ class ContactProblem:
         b.assemble()
         self.timings["contact_assembly"] += perf_counter() - t0
         if apply_bcs:
-            set_bc(b, self.bcs, x, -self.dirichlet_scale())
+            set_bc(b, self.bcs, x, -1.0)
+            local, _, s = self.dirichlet_scale()
+            b.array_w[local] *= s
 
     def residual_round_off(self) -> float:
         """The round-off level f of the assembled residual at the current state u: the norm
@@ -669,10 +681,17 @@ class ContactProblem:
         """A = the bulk Jacobian with the Dirichlet rows (collective; flush-assembled)."""
         t0 = perf_counter()
         A.zeroEntries()
+        _, rows, s = self.dirichlet_scale()
         if self.linear_bulk is not None:
-            self.linear_bulk.add_jacobian(A, self.dirichlet_scale())
+            self.linear_bulk.add_jacobian(A, 0.0)
         else:
-            assemble_matrix(A, self.J_form, self.bcs, diagonal=self.dirichlet_scale())
+            assemble_matrix(A, self.J_form, self.bcs, diagonal=0.0)
+        A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
+        A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
+        # the constrained rows' diagonal s_i (ADD, as the contact values after it); none on
+        # a rank without constrained dofs (petsc4py divides by the row count)
+        if rows.size:
+            A.setValuesRCV(rows.reshape(-1, 1), rows.reshape(-1, 1), s.reshape(-1, 1), addv=True)
         A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
         A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
         self.timings["bulk_assembly"] += perf_counter() - t0

@@ -449,10 +449,11 @@ def test_a_law_is_checked_at_the_reference_state(no_laws, caplog):
     "model, kinematics", [("linear-elastic", "small"), ("neo-hookean", "finite")]
 )
 def test_constrained_rows_are_scaled_by_the_bulk_stiffness(block_msh, model, kinematics):
-    """The rows of constrained dofs hold s (x − ū) in the residual and s on the Jacobian's
-    diagonal, with s = ContactProblem.dirichlet_scale the mean |diagonal| of the bulk
-    stiffness at the initial state over the free dofs (K₀ assembled here by dolfinx), the
-    same on 1–3 ranks; they held x − ū and 1, a length among forces."""
+    """The rows of constrained dofs hold s_i (x_i − ū_i) in the residual and s_i on the
+    Jacobian's diagonal, with s_i (ContactProblem.dirichlet_scale) the dof's own
+    |diagonal| of the bulk stiffness at the initial state (K₀ assembled here by dolfinx
+    without the conditions), on 1–3 ranks; they held x − ū and 1, a length among
+    forces."""
     from dolfinx.fem.petsc import assemble_matrix, set_bc
 
     from dolfinx_mortar.runner import prepare
@@ -467,12 +468,13 @@ def test_constrained_rows_are_scaled_by_the_bulk_stiffness(block_msh, model, kin
     diag = K.getDiagonal()
     n = problem.V.dofmap.index_map.size_local * problem.V.dofmap.index_map_bs
     free = problem.global_dofs[:n] >= 0
-    ref = comm.allreduce(float(np.abs(diag.array_r[:n][free]).sum())) / comm.allreduce(
-        int(free.sum())
-    )
-    s = problem.dirichlet_scale()
-    assert s == pytest.approx(ref, rel=1e-12)
-    assert s > 10.0  # E = 100 here, not the unit row of before
+    constrained = ~free
+    local, rows, s = problem.dirichlet_scale()
+    assert np.array_equal(local, np.flatnonzero(constrained))
+    assert np.array_equal(rows, problem.global_dofs_all[local])
+    assert np.allclose(s, np.abs(diag.array_r[:n][constrained]), rtol=1e-12, atol=0.0)
+    assert comm.allreduce(int(constrained.sum())) > 0
+    assert comm.allreduce(float(s.min(initial=np.inf)), op=MPI.MIN) > 10.0  # E = 100
     problem.set_time(1.0)  # ū = 2e-3 on the right end's x
     x = problem.u.vector.copy()
     x.array[:] = 1e-4 * np.arange(x.array.size) / max(x.array.size, 1)
@@ -482,9 +484,8 @@ def test_constrained_rows_are_scaled_by_the_bulk_stiffness(block_msh, model, kin
     ubar = x.duplicate()
     ubar.set(0.0)
     set_bc(ubar, problem.bcs)  # ū on the constrained dofs
-    constrained = ~free
-    expect = s * (x.array_r[:n] - ubar.array_r[:n])
-    assert np.allclose(b.array_r[:n][constrained], expect[constrained], rtol=1e-12, atol=1e-15)
+    expect = s * (x.array_r[:n] - ubar.array_r[:n])[constrained]
+    assert np.allclose(b.array_r[:n][constrained], expect, rtol=1e-12, atol=1e-15)
     A = problem.create_matrix()
     problem.jacobian(x, A)
     d = A.getDiagonal()
