@@ -321,7 +321,7 @@ def test_a_displacement_driven_run_is_the_same_in_other_units(tmp_path, scale):
     level of the Uzawa tolerance 1e-6 (measured 3e-8 at 1e-5).
     With unit rows (x − ū, a length) ‖R‖ mixed lengths with forces: E × 1e-5 took 11
     Newton iterations in a step that the unit run took in 7, and its force was 7e-9 off;
-    a 3D slide took 31 instead of 11 with E × 1e6 (BENCHMARKS §44)."""
+    a 3D slide in SI units took 31 where the unit run took 11 (BENCHMARKS §44)."""
     pair = "upper_bottom:lower_top"
     unit = _run(_dragged_block(100.0), tmp_path / "unit")
     other = _run(_dragged_block(100.0 * scale), tmp_path / "other")
