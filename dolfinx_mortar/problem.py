@@ -512,8 +512,8 @@ class ContactProblem:
     def dirichlet_scale(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows of the owned constrained dofs and their scales s_i: local indices
         (k,) int32, global indices (k,) PETSc.IntType and s_i (k,) float (collective on
-        first use after the conditions change; local then). The rows hold s_i (x_i − ū_i) in the
-        residual and s_i on the Jacobian's diagonal.
+        first use after the conditions change; local then). The rows hold s_i (x_i − ū_i)
+        in the residual and s_i on the Jacobian's diagonal.
 
         s_i = |K_ii|, the dof's own diagonal of the bulk stiffness ∂R_bulk/∂u without the
         conditions, at the state of first use (the initial state of a run; K₀ itself with
