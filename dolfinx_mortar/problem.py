@@ -68,8 +68,8 @@ class LinearBulk:
 
     The bulk residual is then linear in u: R_bulk(x) = K₀ x + f(t), with K₀ = ∂R_bulk/∂u
     constant and f(t) = R_bulk(0) the prescribed tractions' part (−∫ t̄·v dA). K₀, and the
-    Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero and the
-    ``diagonal`` there, which the problem then sets to
+    Jacobian's bulk K_D (K₀ with the rows and columns of constrained dofs zero, a zero
+    diagonal there included, which the problem then fills with
     :meth:`~ContactProblem.dirichlet_scale`), are assembled on first use; f(t) when the
     time has changed (:meth:`loads_changed`). A residual is then one product and a
     Jacobian's bulk one CSR insertion instead of a finite element assembly each: the
@@ -83,7 +83,6 @@ class LinearBulk:
         self._bcs = []
         self._K0 = None
         self._KD_csr = None  # (row offsets, global columns, values) of K_D's owned rows
-        self._KD_diagonal = 1.0  # K_D's value on the rows of constrained dofs
         self._f = None
         self._f_current = False
         self._x = None  # x with the prescribed values on constrained dofs
@@ -134,15 +133,13 @@ class LinearBulk:
         self._K0 = self._x = self._f = None
         self._f_current = False
 
-    def add_jacobian(self, A: PETSc.Mat, diagonal: float = 1.0) -> None:
-        """A += K_D on the owned rows, ``diagonal`` on those of constrained dofs
-        (collective on first use: K_D is assembled then, and again for another
-        ``diagonal``); A is left unassembled for the caller, so the slots of its pattern
-        that K_D does not fill are kept
+    def add_jacobian(self, A: PETSc.Mat) -> None:
+        """A += K_D on the owned rows, 0 on the diagonal of constrained dofs (collective
+        on first use: K_D is assembled then); A is left unassembled for the caller, so the
+        slots of its pattern that K_D does not fill are kept
         (:meth:`~dolfinx_mortar.assembly.MatrixPattern.create`)."""
-        if self._KD_csr is None or self._KD_diagonal != diagonal:
-            self._KD_diagonal = diagonal
-            KD = assemble_matrix(self._J_form, self._bcs, diagonal=diagonal)
+        if self._KD_csr is None:
+            KD = assemble_matrix(self._J_form, self._bcs, diagonal=0.0)
             KD.assemble()
             self._KD_csr = KD.getValuesCSR()
             KD.destroy()
@@ -678,22 +675,22 @@ class ContactProblem:
         self.timings["contact_assembly"] += perf_counter() - t0
 
     def _assemble_bulk_jacobian(self, A: PETSc.Mat) -> None:
-        """A = the bulk Jacobian with the Dirichlet rows (collective; flush-assembled)."""
+        """A = the bulk Jacobian with the Dirichlet rows (collective): flush-assembled,
+        then the constrained rows' diagonal added, left to the caller's final assembly."""
         t0 = perf_counter()
         A.zeroEntries()
         _, rows, s = self.dirichlet_scale()
         if self.linear_bulk is not None:
-            self.linear_bulk.add_jacobian(A, 0.0)
+            self.linear_bulk.add_jacobian(A)
         else:
             assemble_matrix(A, self.J_form, self.bcs, diagonal=0.0)
         A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
         A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
-        # the constrained rows' diagonal s_i (ADD, as the contact values after it); none on
-        # a rank without constrained dofs (petsc4py divides by the row count)
+        # the constrained rows' diagonal s_i, added like the contact values after it (no
+        # flush between); none on a rank without constrained dofs (petsc4py divides by
+        # the row count)
         if rows.size:
             A.setValuesRCV(rows.reshape(-1, 1), rows.reshape(-1, 1), s.reshape(-1, 1), addv=True)
-        A.assemblyBegin(PETSc.Mat.AssemblyType.FLUSH)
-        A.assemblyEnd(PETSc.Mat.AssemblyType.FLUSH)
         self.timings["bulk_assembly"] += perf_counter() - t0
 
     # ---------------------------------------------------------------- matrix
