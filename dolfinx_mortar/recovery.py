@@ -350,13 +350,18 @@ class TangentialRecovered(_LazyTangent):
         return self._tangent[2]
 
 
-def _project_discs(z: np.ndarray, c: np.ndarray):
+def _project_discs(z: np.ndarray, c: np.ndarray, tol=0.0):
     """Projection of z (n, m) onto the discs |τ_i| ≤ c_i, with its derivatives.
+
+    ``tol`` (scalar or (n,)): z_i counts as inside where |z_i| ≤ c_i + tol_i (the nodal
+    law's convention, :func:`~dolfinx_mortar.friction.return_mapping`: a node slips only
+    when Φ > tol), so that round-off on a closed cone (c_i = 0 at first contact) keeps
+    the stick derivative I instead of 0.
 
     Returns P (n, m), dPz (n, m, m) = ∂P/∂z and dPc (n, m) = ∂P/∂c."""
     n, m = z.shape
     nz = np.linalg.norm(z, axis=1)
-    out = nz > c
+    out = nz > c + tol
     s = z / np.maximum(nz, 1e-300)[:, None]
     P = np.where(out[:, None], c[:, None] * s, z)
     eye = np.eye(m)
@@ -392,7 +397,7 @@ def _column_blocks(vecs: np.ndarray) -> np.ndarray:
     return out
 
 
-def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray):
+def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray, tol=0.0):
     """min ½ Σ_α τ_αᵀ M τ_α − Σ_α τ_αᵀ F_α subject to |τ_i| ≤ c_i for every node i.
 
     M (n, n) symmetric positive definite (dense), F (n, m), c (n,) ≥ 0: the Coulomb cone
@@ -400,7 +405,11 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray):
     nodewise projection onto the discs (intervals when m = 1) and R = diag(1/M_ii) > 0
     (for a separable convex set the fixed point is the KKT system, whatever R). It is
     found by semismooth Newton on G(τ) = τ − P(z(τ)), started from the projection of
-    the unconstrained minimiser, to a relative 1e-13.
+    the unconstrained minimiser, to a relative 1e-13. ``tol`` (scalar or (n,), stress):
+    the slip tolerance of the nodal law; a node whose z is within it of its disc is
+    inside (:func:`_project_discs`): at first contact every cone is closed (p = 0) and
+    M⁻¹F is round-off, and without it that round-off lay outside, ∂τ/∂F was 0 and the
+    first Newton step had no tangential stiffness where the law sticks.
 
     Returns (τ (n, m), J (n·m, n·m) = ∂G/∂τ at the solution, dPz (n, m, m), dPc (n, m),
     iterations): the sensitivities ∂τ = J⁻¹[∂P/∂z R ∂F + ∂P/∂c ∂c] follow from
@@ -411,11 +420,11 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray):
         return F.copy(), np.zeros((0, 0)), np.zeros((0, m, m)), np.zeros((0, m)), 0
     r = 1.0 / np.diag(M)
     Mb = _block(M, m)
-    tau, _, _ = _project_discs(np.linalg.solve(M, F), c)
+    tau, _, _ = _project_discs(np.linalg.solve(M, F), c, tol)
     scale = max(float(np.abs(F).max()) * float(r.max()), float(c.max()), 1e-300)
     for it in range(1, CONE_QP_MAX_ITERATIONS + 1):
         z = tau - r[:, None] * (M @ tau - F)
-        P, dPz, dPc = _project_discs(z, c)
+        P, dPz, dPc = _project_discs(z, c, tol)
         G = tau - P
         J = np.eye(n * m) - _blockdiag(dPz) @ (np.eye(n * m) - np.repeat(r, m)[:, None] * Mb)
         if np.abs(G).max() <= 1e-13 * scale:
@@ -513,7 +522,7 @@ def recover_tangential(
 
         return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, unconstrained_tangent)
     c = mu * np.maximum(p[idx], 0.0)
-    t_k, J, dPz, dPc, its = cone_qp(Mh, F[idx], c)
+    t_k, J, dPz, dPc, its = cone_qp(Mh, F[idx], c, 0.0 if tol is None else tol[idx])
     tau[idx] = t_k
 
     def constrained_tangent():

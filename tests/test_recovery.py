@@ -304,3 +304,23 @@ def test_tangential_recovery_tangent_matches_finite_differences(method, m):
     np.testing.assert_allclose(r.Tsig, fd_s, atol=1e-7 * np.abs(fd_s).max())
     np.testing.assert_allclose(r.Tp[:, 2:], fd_p[:, 2:], atol=1e-7 * np.abs(fd_p).max())
     assert np.abs(fd_s).max() > 0.0 and np.abs(fd_p).max() > 0.0
+
+
+@pytest.mark.parametrize("m", [1, 2])
+def test_constrained_tangent_at_first_contact_sticks_like_the_nodal_law(m):
+    """At first contact every cone is closed (p = 0) and the mixed slip is round-off: the
+    nodal law sticks (its slip tolerance), and the constrained recovery must give the same
+    stick tangent as the unconstrained one, not ∂τ/∂σ = 0 from round-off lying outside a
+    closed cone (a 3D press then took its first Newton step with no tangential stiffness
+    and every node slipped)."""
+    n = 21
+    M, A, _, _, _, has, _, eps = _tangential_state(n, m, np.random.default_rng(4))
+    sigma = 1e-17 * np.random.default_rng(5).normal(size=(n, m))
+    lam, p, active = np.zeros((n, m)), np.zeros(n), has.copy()
+    tol = 1e-10 * eps * 0.1
+    ru = recover_tangential("unconstrained", M, A, sigma, lam, p, has, active, MU_T, eps, tol=tol)
+    rc = recover_tangential("constrained", M, A, sigma, lam, p, has, active, MU_T, eps, tol=tol)
+    assert np.all(rc.state[active] == 1)  # stick
+    assert np.abs(rc.Tsig).max() > 0.0
+    np.testing.assert_allclose(rc.Tsig, ru.Tsig, rtol=1e-12, atol=1e-12 * np.abs(ru.Tsig).max())
+    np.testing.assert_allclose(rc.tau, ru.tau, atol=1e-14)
