@@ -159,7 +159,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from dolfinx_mortar.errors import SceneError
-from dolfinx_mortar.scene import finite_float, number_text
+from dolfinx_mortar.scene import c_int, finite_float, number_text
 
 __all__ = ["GENERATORS", "Generator", "build", "describe", "validate_params"]
 
@@ -250,7 +250,7 @@ def _coerce(key: str, value: object, typ: type) -> object:
     if typ is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise SceneError(key, f"must be an integer, not {type(value).__name__}")
-        return value
+        return c_int(value, key)
     if typ is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise SceneError(key, f"must be a number, not {type(value).__name__}")

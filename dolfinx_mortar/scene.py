@@ -646,11 +646,25 @@ def _number(value: Any, key: str) -> float:
     return x
 
 
+#: The largest magnitude of a scene's integers: PETSc's and gmsh's integers are C ints
+#: (32 bits). Larger ones overflowed PETSc (``solver.max_it = 9999999999999``: a
+#: traceback) or wrapped around in gmsh (a generator's ``n_y = 4294967298`` meshed as 2).
+C_INT_MAX = 2**31 - 1
+
+
+def c_int(value: int, key: str) -> int:
+    """``value`` (an int) if |value| ≤ C_INT_MAX; else a SceneError keyed ``key``."""
+    if abs(value) > C_INT_MAX:
+        text = str(value) if abs(value) < 10**15 else number_text(value)
+        raise SceneError(key, f"must be at most {C_INT_MAX} in magnitude (a C int), got {text}")
+    return int(value)
+
+
 def _integer(value: Any, key: str) -> int:
-    """Check that ``value`` is an integer (not bool, not float)."""
+    """Check that ``value`` is an integer (not bool, not float) that fits a C int."""
     if isinstance(value, bool) or not isinstance(value, int):
         raise SceneError(key, f"expected an integer, got {_type_name(value)} {_show(value)}")
-    return int(value)
+    return c_int(value, key)
 
 
 def _positive(value: Any, key: str) -> float:
@@ -1043,9 +1057,10 @@ def _parse_steps(value: Any) -> Steps:
     table = _table(value, "steps")
     _check_keys(table, _STEPS_KEYS, "steps")
     t_end = _positive(table.get("t_end", 1.0), "steps.t_end")
-    n = _int_at_least(table.get("n", 10), "steps.n", 1)
-    if n > MAX_STEPS:
+    n = table.get("n", 10)
+    if isinstance(n, int) and not isinstance(n, bool) and n > MAX_STEPS:  # before c_int's
         raise SceneError("steps.n", f"at most {MAX_STEPS} load steps, got {n}")
+    n = _int_at_least(n, "steps.n", 1)
     max_cutbacks = _int_at_least(table.get("max_cutbacks", 6), "steps.max_cutbacks", 0)
     raw = table.get("output_times", [])
     if not isinstance(raw, list | tuple):

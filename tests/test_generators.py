@@ -461,6 +461,15 @@ def test_a_float_param_too_big_for_a_float():
     assert str(err.value) == "mesh.params.L: must be a finite number, got 1e+400"
 
 
+def test_an_int_param_beyond_a_c_int():
+    """gmsh's integers are C ints: n_y = 2**32 + 2 meshed as n_y = 2 (it wrapped around)."""
+    with pytest.raises(SceneError) as err:
+        G.validate_params("patch2d", {"n_y": 4294967298})
+    assert str(err.value) == (
+        "mesh.params.n_y: must be at most 2147483647 in magnitude (a C int), got 4294967298"
+    )
+
+
 def test_params_must_be_table():
     with pytest.raises(SceneError) as err:
         G.validate_params("hertz2d", [("R", 1.0)])

@@ -538,6 +538,23 @@ def test_integers_too_big_for_a_float(where, value, key, reason):
     assert info.value.key == key and reason in info.value.reason, str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("where", "value", "key"),
+    [
+        (("solver",), {"max_it": 9999999999999}, "solver.max_it"),
+        (("steps", "max_cutbacks"), 2**31, "steps.max_cutbacks"),
+        (("contact", 0, "uzawa_max"), -(2**63), "contact[0].uzawa_max"),
+    ],
+    ids=["max_it", "max_cutbacks", "uzawa_max"],
+)
+def test_integers_beyond_a_c_int(where, value, key):
+    """PETSc's and gmsh's integers are C ints: a larger scene integer is an error naming
+    the key (max_it was an OverflowError traceback)."""
+    with pytest.raises(SceneError) as info:
+        parse_scene(mutate(example(), where, value), BASE)
+    assert info.value.key == key and "at most 2147483647" in info.value.reason, str(info.value)
+
+
 def _bc(boundary, components=None):
     n = 2 if components is None else len(components)
     d = {"boundary": boundary, "path": [[0.0] + [0.0] * n, [1.0] + [0.0] * n]}
