@@ -33,6 +33,7 @@ from scipy.spatial import cKDTree
 
 from . import compat
 from .errors import SceneError
+from .scene import contact_stem
 
 log = logging.getLogger(__name__)
 
@@ -145,13 +146,6 @@ def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
         if f.exists() and not os.access(f, os.W_OK):
             return f"{shown!r} is not writable"
     return None
-
-
-def contact_stem(slave: str) -> str:
-    """The file-name stem of a slave surface's output: ``contact_<SLAVE>``, with every
-    character of the physical name other than a letter, a digit, "_", "." or "-" replaced
-    by "_" (no path separators: the files stay in the output directory)."""
-    return "contact_" + re.sub(r"[^\w.-]", "_", slave)
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:

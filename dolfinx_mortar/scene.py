@@ -646,6 +646,20 @@ def _number(value: Any, key: str) -> float:
     return x
 
 
+#: The longest file-name stem of a slave surface's output, in bytes (UTF-8): its files
+#: add "_<step>.csv" (a step number of up to 10 digits) and ".tmp" while written, within
+#: the 255 bytes of a file name (a 240-character slave name stopped the run with
+#: ENAMETOOLONG after the set-up).
+MAX_STEM_BYTES = 255 - len("_2147483647.csv.tmp")
+
+
+def contact_stem(slave: str) -> str:
+    """The file-name stem of a slave surface's output: ``contact_<SLAVE>``, with every
+    character of the physical name other than a letter, a digit, "_", "." or "-" replaced
+    by "_" (no path separators: the files stay in the output directory)."""
+    return "contact_" + re.sub(r"[^\w.-]", "_", slave)
+
+
 #: The largest magnitude of a scene's integers: PETSc's and gmsh's integers are C ints
 #: (32 bits). Larger ones overflowed PETSc (``solver.max_it = 9999999999999``: a
 #: traceback) or wrapped around in gmsh (a generator's ``n_y = 4294967298`` meshed as 2).
@@ -1188,6 +1202,7 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         for i, t in enumerate(_tables(table.get("contact", []), "contact"))
     )
     pairs: dict[tuple[str, str], int] = {}
+    stems: dict[str, int] = {}
     for i, c in enumerate(contacts):
         if (c.slave, c.master) in pairs:
             raise SceneError(
@@ -1210,6 +1225,22 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
                 "and the slave's fields, is per slave surface); split the physical group by "
                 "master",
             )
+        file_stem = contact_stem(c.slave)
+        if len(file_stem.encode()) > MAX_STEM_BYTES:
+            raise SceneError(
+                f"contact[{i}].slave",
+                f"the name is too long for its output files: {len(file_stem.encode())} bytes in "
+                f"contact_<SLAVE>, at most {MAX_STEM_BYTES}",
+            )
+        other = stems.get(file_stem)
+        if other is not None:
+            raise SceneError(
+                f"contact[{i}].slave",
+                f"{c.slave!r} and contact[{other}].slave {contacts[other].slave!r} would "
+                f"write the same files {file_stem}_<step>.csv (characters other than letters, "
+                "digits, '_', '.' and '-' become '_'): rename one of the physical groups",
+            )
+        stems[file_stem] = i
         pairs[c.slave, c.master] = i
     dirichlet = tuple(
         _parse_dirichlet(t, f"dirichlet[{i}]")

@@ -245,6 +245,12 @@ CASES = [
         "contact[1].slave",
         "'top' is already the slave of contact[0]",
     ),
+    (
+        "slave-file-names-collide",
+        _pairs(("a b", "bottom"), ("a_b", "left")),
+        "contact[1].slave",
+        "would write the same files",
+    ),
     ("too-many-steps", _set("steps", None, n=10**20), "steps.n", "at most 1000000 load steps"),
     ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
     (

@@ -555,6 +555,15 @@ def test_integers_beyond_a_c_int(where, value, key):
     assert info.value.key == key and "at most 2147483647" in info.value.reason, str(info.value)
 
 
+def test_a_slave_name_too_long_for_its_output_files():
+    """contact_<SLAVE>_<step>.csv must fit the 255 bytes of a file name (a 240-character
+    name stopped the run with ENAMETOOLONG after the set-up)."""
+    with pytest.raises(SceneError) as info:
+        parse_scene(mutate(example(), ("contact", 0, "slave"), "s" * 240), BASE)
+    assert info.value.key == "contact[0].slave" and "too long" in info.value.reason
+    parse_scene(mutate(example(), ("contact", 0, "slave"), "s" * 200), BASE)
+
+
 def _bc(boundary, components=None):
     n = 2 if components is None else len(components)
     d = {"boundary": boundary, "path": [[0.0] + [0.0] * n, [1.0] + [0.0] * n]}
