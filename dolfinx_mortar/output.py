@@ -41,11 +41,20 @@ CSV_FIELDS_2D = ["x", "y", "X", "Y", "p_N", "p_T0", "gap", "slip", "state"]
 CSV_FIELDS_3D = ["x", "y", "z", "X", "Y", "Z", "p_N", "p_T0", "p_T1", "gap", "slip", "state"]
 
 
-def _atomic_write_json(path: Path, data) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=1, default=_json_default)
+def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
+    """Write ``text`` to ``path`` atomically, through ``tmp`` (default ``<path>.tmp``),
+    then :func:`os.replace` (local). Whatever lies at ``tmp`` is removed first and the file
+    created exclusively: a symbolic link left there would otherwise have the text
+    written into its target, outside the output directory."""
+    tmp = path.with_name(path.name + ".tmp") if tmp is None else tmp
+    tmp.unlink(missing_ok=True)
+    with open(tmp, "x", encoding="utf-8") as f:
+        f.write(text)
     os.replace(tmp, path)
+
+
+def _atomic_write_json(path: Path, data) -> None:
+    replace_text(path, json.dumps(data, indent=1, default=_json_default))
 
 
 def _json_default(obj):
@@ -243,8 +252,7 @@ class XDMFSeries:
             return
         hidden = ">" + self._live_h5.name + ":"
         text = self.live.read_text().replace(hidden, ">" + self.h5.name + ":")
-        self._tmp.write_text(text)
-        os.replace(self._tmp, self.path)
+        replace_text(self.path, text, self._tmp)
 
     def finish(self) -> None:
         """Close, and remove the hidden names (the data stay under ``<name>.h5``)."""

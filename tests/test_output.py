@@ -4,6 +4,7 @@ volume field's value at its place."""
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 from pathlib import Path
@@ -359,3 +360,26 @@ def test_the_earlier_runs_files_are_checked_and_odd_summaries_ignored(tmp_path):
     for text in ("{", '{"steps": []}', "[" * 100000 + "]" * 100000, '{"modelled": 3}'):
         (tmp_path / "summary.json").write_text(text)
         assert previous_slaves(tmp_path) == set()
+
+
+def test_links_left_at_the_temporary_names_are_not_followed(tmp_path):
+    """summary.json and the XDMF indices are written through ``<name>.tmp``: a symbolic
+    link left at such a name had the run's text written into its target, outside the
+    output directory. The link is now replaced by a file of the run's own."""
+    from dolfinx_mortar import parse_scene, run
+
+    out = tmp_path / "out"
+    out.mkdir()
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me")
+    for name in (
+        "summary.json.tmp",
+        "fields.xdmf.tmp",
+        "contact_upper_bottom.xdmf.tmp",
+        "contact_upper_bottom_1.csv",
+    ):
+        (out / name).symlink_to(precious)
+    run(parse_scene(_small_press(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
+    assert precious.read_text() == "keep me"
+    assert json.loads((out / "summary.json").read_text())["status"] == "ok"
+    assert not [f for f in out.iterdir() if f.is_symlink()]
