@@ -80,9 +80,13 @@ def output_names(slaves=()) -> list[str]:
 def previous_slaves(out_dir: Path) -> set[str]:
     """The slave surfaces (physical names) of the run whose summary.json is in
     ``out_dir`` (``modelled.contact_pairs.*.slave``); empty where there is none or it is
-    not a summary of this package (local)."""
+    not a summary of this package, or not a regular file (local: a FIFO of that name
+    blocked the run in its open)."""
+    path = Path(out_dir) / "summary.json"
     try:
-        with open(Path(out_dir) / "summary.json", encoding="utf-8") as fh:
+        if not path.is_file():
+            return set()
+        with open(path, encoding="utf-8") as fh:
             pairs = json.load(fh)["modelled"]["contact_pairs"]
         return {str(pair["slave"]) for pair in pairs.values()}
     except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):

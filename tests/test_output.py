@@ -383,3 +383,14 @@ def test_links_left_at_the_temporary_names_are_not_followed(tmp_path):
     assert precious.read_text() == "keep me"
     assert json.loads((out / "summary.json").read_text())["status"] == "ok"
     assert not [f for f in out.iterdir() if f.is_symlink()]
+
+
+def test_a_fifo_named_summary_json_is_not_read(tmp_path):
+    """The output directory's check reads an earlier summary.json for its slave names: a
+    FIFO of that name blocked the run there for ever. Only a regular file is read."""
+    import os
+
+    from dolfinx_mortar.output import previous_slaves
+
+    os.mkfifo(tmp_path / "summary.json")
+    assert previous_slaves(tmp_path) == set()
