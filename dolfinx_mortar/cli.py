@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import traceback
 from pathlib import Path
@@ -50,7 +51,7 @@ class _OneLineParser(argparse.ArgumentParser):
     prints that line once; the subcommands' parsers are of this class too)."""
 
     def error(self, message: str):
-        self.exit(2, f"dolfinx-mortar: error: command line: {' '.join(message.split())}\n")
+        _usage_exit(f"dolfinx-mortar: error: command line: {' '.join(message.split())}")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -134,6 +135,26 @@ def _error_line(text: str) -> None:
     several ranks interleave under mpirun."""
     sys.stderr.write(" ".join(text.splitlines()) + "\n")
     sys.stderr.flush()
+
+
+def _every_rank_has_printed() -> None:
+    """Under mpirun (Open MPI's or MPICH's environment says more than one rank), wait
+    until every rank gets here (collective there; nothing otherwise). Each rank parses its
+    own command line and finds the same error; the first to exit made mpirun kill the
+    others before they had printed theirs (3 ranks: 6 of 24 runs lost a line)."""
+    size = os.environ.get("OMPI_COMM_WORLD_SIZE") or os.environ.get("PMI_SIZE") or "1"
+    if size.isdigit() and int(size) > 1:
+        from mpi4py import MPI
+
+        MPI.COMM_WORLD.Barrier()
+
+
+def _usage_exit(text: str):
+    """Exit with status 2 after the one line ``text`` (a command-line error), once every
+    rank has printed its own (:func:`_every_rank_has_printed`)."""
+    _error_line(text)
+    _every_rank_has_printed()
+    sys.exit(2)
 
 
 def load_laws(path: Path) -> None:
@@ -258,7 +279,7 @@ def _bench_error(name: str):
     ``dolfinx-mortar: error: bench NAME: MESSAGE``, status 2."""
 
     def error(parser: argparse.ArgumentParser, message: str):
-        parser.exit(2, f"dolfinx-mortar: error: bench {name}: {' '.join(message.split())}\n")
+        _usage_exit(f"dolfinx-mortar: error: bench {name}: {' '.join(message.split())}")
 
     return error
 
@@ -312,10 +333,9 @@ def main(argv=None) -> int:
                 )
             else:
                 hint = "PETSc options of `run` take the prefix -dm_"
-            _error_line(
+            _usage_exit(
                 f"dolfinx-mortar: error: command line: unrecognized argument {bad} ({hint})"
             )
-            return 2
     if args.command == "generators":
         from mpi4py import MPI
 
