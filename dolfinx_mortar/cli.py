@@ -406,9 +406,14 @@ def main(argv=None) -> int:
     except SceneError as exc:
         _error_line(f"dolfinx-mortar: error: {exc}")
         return 2
-    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback
+    except KeyboardInterrupt as exc:  # Ctrl-C: one line, no traceback
         if comm.rank == 0:
-            _error_line("dolfinx-mortar: interrupted: summary.json keeps the finished steps")
+            kept = getattr(exc, "summary_kept", False)  # set once the steps had begun
+            _error_line(
+                "dolfinx-mortar: interrupted: summary.json keeps the finished steps"
+                if kept
+                else "dolfinx-mortar: interrupted before the first load step"
+            )
         return 130
     except Exception:
         traceback.print_exc()

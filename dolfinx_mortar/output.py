@@ -19,12 +19,15 @@ into a subdirectory, and "../x" outside the output directory.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
 import re
 import shutil
+import signal
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +58,29 @@ def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
 
 def _atomic_write_json(path: Path, data) -> None:
     replace_text(path, json.dumps(data, indent=1, default=_json_default))
+
+
+@contextlib.contextmanager
+def interrupts_after():
+    """Ctrl-C (SIGINT) within the block takes effect when the block ends (local; in the
+    main thread only, elsewhere nothing changes). A step's files and its summary.json
+    record are written within one: an interrupt between them left fields.xdmf and the
+    CSVs one step ahead of summary.json."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and previous is signal.default_int_handler:
+            raise KeyboardInterrupt
+        if caught and callable(previous):
+            previous(signal.SIGINT, None)
+        elif caught and previous == signal.SIG_DFL:
+            os.kill(os.getpid(), signal.SIGINT)
 
 
 def _json_default(obj):
@@ -415,17 +441,19 @@ class OutputWriter:
         that the HDF5 data of every finished step is on disk: dolfinx 0.5.2's XDMFFile has
         no flush, and a file left open had an empty superblock until it was closed (a run
         killed by a batch job's time limit lost all its fields). Their indices are then
-        replaced atomically (:class:`XDMFSeries`)."""
-        self._xdmf.open()
-        for surface in self._surfaces:
-            surface.begin_step()
-        try:
-            self._write_fields(step, t)
-        finally:
-            self._close_files()
-        if record is not None:
-            self.summary["steps"].append(record)
-        self._flush()
+        replaced atomically (:class:`XDMFSeries`). A Ctrl-C meanwhile waits until the
+        step's record is in summary.json (:func:`interrupts_after`)."""
+        with interrupts_after():
+            self._xdmf.open()
+            for surface in self._surfaces:
+                surface.begin_step()
+            try:
+                self._write_fields(step, t)
+            finally:
+                self._close_files()
+            if record is not None:
+                self.summary["steps"].append(record)
+            self._flush()
 
     def _close_files(self) -> None:
         """Close the XDMF files opened for a step (collective)."""

@@ -295,6 +295,7 @@ def run(
         log.info("run stopped: %s", error)
     except BaseException as exc:  # a progress callback's exception, KeyboardInterrupt
         writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
+        exc.summary_kept = True  # for the command line's message
         raise
     finally:
         newton.destroy()

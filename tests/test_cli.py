@@ -772,6 +772,17 @@ def test_ctrl_c_stops_a_run_in_one_line(workdir):
     assert len(times) >= len(summary["steps"]) + 1, times
 
 
+def test_ctrl_c_before_the_first_step_says_so(workdir):
+    """A Ctrl-C before the steps began (here: raised by a --laws file) said that
+    summary.json keeps the finished steps, where there was no summary.json of this run."""
+    (workdir / "good.toml").write_text(to_toml(base_scene()))
+    (workdir / "interrupt.py").write_text("raise KeyboardInterrupt\n")
+    res = cli(workdir, "run", "good.toml", "--laws", "interrupt.py", "--out", "never")
+    assert res.returncode == 130, res.stderr
+    assert res.stderr.splitlines() == ["dolfinx-mortar: interrupted before the first load step"]
+    assert not (workdir / "never").exists()
+
+
 # --------------------------------------------------------------------------- good input
 
 

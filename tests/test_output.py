@@ -394,3 +394,33 @@ def test_a_fifo_named_summary_json_is_not_read(tmp_path):
 
     os.mkfifo(tmp_path / "summary.json")
     assert previous_slaves(tmp_path) == set()
+
+
+def test_ctrl_c_while_a_step_is_written_waits_for_its_summary_record(tmp_path, monkeypatch):
+    """A Ctrl-C (SIGINT) while a step's files were written stopped the run between its
+    CSV and XDMF files and its summary.json record: fields.xdmf and the CSVs held one step
+    more than summary.json. The interrupt now takes effect once the record is written."""
+    import os
+    import signal
+
+    from dolfinx_mortar import output, parse_scene, run
+
+    original = output.write_contact_csv
+
+    def csv_then_interrupt(path, table, gdim):
+        original(path, table, gdim)
+        if path.name.endswith("_2.csv"):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(output, "write_contact_csv", csv_then_interrupt)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # xdist ignores it
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run(parse_scene(_small_press(steps=4), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "failed" and len(summary["steps"]) == 2, summary["steps"]
+    times = re.findall(r'<Time Value="([^"]+)"', (tmp_path / "fields.xdmf").read_text())
+    assert sorted(set(times)) == ["0", "0.25", "0.5"], times  # step 0, the summary's two
+    assert len(list(tmp_path.glob("contact_upper_bottom_*.csv"))) == 3
