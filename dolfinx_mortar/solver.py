@@ -349,6 +349,10 @@ class NewtonSolver:
         #: whether a solve has run (the options were read: _warn_unused_options)
         self._solved = False
         comm = problem.comm
+        # a viewer file that cannot be opened fails on rank 0 only, in setFromOptions or
+        # at the end of a solve (-snes_view), and the other ranks went on into a
+        # collective: it is checked here, the same decision on every rank
+        _raise_on_every_rank(comm, _viewer_file_errors(settings.petsc))
         self.snes = PETSc.SNES().create(comm)
         self.snes.setOptionsPrefix(settings.prefix)
         opts = PETSc.Options()
@@ -394,22 +398,28 @@ class NewtonSolver:
         self.snes.setConvergenceHistory(
             length=2 * settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
         )
+        error = None
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
-            self.destroy()
             reason = compat.petsc_error_lines(exc)[-1]
             faulty = _options_named_in(reason, settings.petsc, settings.prefix)
             if len(faulty) == 1:
                 (name,) = faulty
-                raise SceneError(
-                    f"solver.petsc.{name}",
-                    f"PETSc rejected {settings.petsc[name]!r}: {reason}",
-                ) from None
-            raise SceneError(
-                "solver.petsc", f"PETSc rejected the options {sorted(settings.petsc)}: {reason}"
-            ) from None
+                error = f"solver.petsc.{name}", f"PETSc rejected {settings.petsc[name]!r}: {reason}"
+            else:
+                error = (
+                    "solver.petsc",
+                    f"PETSc rejected the options {sorted(settings.petsc)}: {reason}",
+                )
+        # PETSc may fail on some ranks only (rank 0 opens a viewer's file): every rank
+        # raises the first failing rank's error
+        try:
+            _raise_on_every_rank(comm, [error] if error else [])
+        except SceneError:
+            self.destroy()
+            raise
         refused = self._refused_option()
         if refused is not None:
             self.destroy()
@@ -1035,6 +1045,61 @@ class NewtonSolver:
 
     def __exit__(self, *exc):
         self.destroy()
+
+
+#: PETSc viewer types that open a file named in the viewer's option value
+#: ("TYPE:FILE[:FORMAT[:MODE]]", e.g. ``snes_monitor = "ascii:monitor.txt"``)
+_FILE_VIEWERS = ("ascii", "binary", "hdf5", "vtk", "matlab")
+
+
+def _viewer_file_errors(petsc: dict) -> list[tuple[str, str]]:
+    """(key, reason) of each option of ``petsc`` whose value is a file viewer
+    (:data:`_FILE_VIEWERS`) whose file cannot be opened: a missing or unwritable
+    directory, a directory in the file's place, a missing file to read (local: a check
+    of the file system, which creates nothing)."""
+    import os
+    from pathlib import Path
+
+    errors = []
+    for name, value in petsc.items():
+        if not isinstance(value, str) or ":" not in value:
+            continue
+        vtype, fname, *rest = value.split(":", 3)
+        mode = rest[1].lower() if len(rest) > 1 else ""
+        if (vtype.strip().lower() or "ascii") not in _FILE_VIEWERS:
+            continue
+        # no file (stdout), ascii's standard streams, a name PETSc expands ($HOSTNAME)
+        if not fname or fname in ("stdout", "stderr") or "$" in fname:
+            continue
+        path = Path(fname)
+        if mode in ("read", "update"):
+            if not (path.is_file() and os.access(path, os.R_OK)):
+                errors.append((f"solver.petsc.{name}", f"cannot read the viewer file {fname}"))
+            continue
+        parent = path.parent
+        if path.is_dir():
+            why = "it is a directory"
+        elif path.exists():
+            why = None if os.access(path, os.W_OK) else "not writable"
+        elif not parent.is_dir():
+            why = f"no directory {parent}"
+        else:
+            why = None if os.access(parent, os.W_OK | os.X_OK) else f"{parent} is not writable"
+        if why:
+            errors.append((f"solver.petsc.{name}", f"cannot open the viewer file {fname}: {why}"))
+    return errors
+
+
+def _raise_on_every_rank(comm, errors: list[tuple[str, str]]) -> None:
+    """Raise SceneError on every rank (collective) where some rank has ``errors``
+    ((key, reason) pairs): the first such rank's first error, naming that rank where the
+    others had none."""
+    gathered = comm.allgather(errors[0] if errors else None)
+    failed = [r for r, e in enumerate(gathered) if e is not None]
+    if failed:
+        key, reason = gathered[failed[0]]
+        where = "" if len(failed) == comm.size else f" (on rank {failed[0]})"
+        raise SceneError(key, reason + where)
 
 
 def _options_named_in(reason: str, petsc: dict, prefix: str) -> list[str]:

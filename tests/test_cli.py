@@ -1047,6 +1047,55 @@ def test_a_rejected_petsc_option_is_named_alone(workdir):
     assert _options_named_in("Bad -dm_ksp_rtol", petsc, "dm_") == ["ksp_rtol"]
 
 
+def test_a_viewer_file_that_cannot_be_opened(workdir):
+    """A PETSc viewer option whose file cannot be opened (a missing directory), in the
+    scene or on the command line: one error line on every rank naming the option, exit 2,
+    nothing written. Under mpirun `check` printed rank 0's line and hung (rank 0 alone
+    opens the file, the other ranks went on into a collective), and `run` with
+    -dm_snes_view (opened at the end of the first solve) hung without a word."""
+    scene = base_scene()
+    scene["solver"] = {"petsc": {"snes_monitor": "ascii:nodir/monitor.txt"}}
+    (workdir / "bad.toml").write_text(to_toml(scene))
+    scene["solver"] = {}
+    (workdir / "good.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    reason = "cannot open the viewer file nodir/monitor.txt: no directory nodir"
+    for ranks in (0, 2):
+        _one_error_line(
+            cli(workdir, "check", "bad.toml", ranks=ranks),
+            ranks or 1,
+            "solver.petsc.snes_monitor",
+            reason,
+        )
+    viewer = ["-dm_snes_view", "ascii:nodir/view.txt"]
+    res = cli(workdir, "run", "good.toml", "--out", "o", *viewer, ranks=2)
+    _one_error_line(res, 2, "solver.petsc.snes_view", "cannot open the viewer file nodir/view")
+    assert snapshot(workdir) == before
+    from dolfinx_mortar.solver import _viewer_file_errors
+
+    (workdir / "adir").mkdir()
+    bad = {
+        "a": "binary:adir",  # a directory in the file's place
+        "b": "hdf5:nodir/x.h5",
+        "c": "ascii:absent.txt::read",  # a file to read that is missing
+    }
+    good = {
+        "d": "ascii:ok.txt",
+        "e": "ascii:stderr",
+        "f": "::ascii_info",  # stdout, a format
+        "g": "draw:nodir",  # no file
+        "h": True,
+        "i": "ascii:adir/ok.txt:ascii_info_detail:append",
+    }
+    cwd = os.getcwd()
+    os.chdir(workdir)
+    try:
+        errors = _viewer_file_errors({**bad, **good})
+    finally:
+        os.chdir(cwd)
+    assert [k for k, _ in errors] == [f"solver.petsc.{k}" for k in bad], errors
+
+
 def test_a_scene_file_name_that_is_not_utf8(workdir):
     """A scene file named in latin-1 bytes: dolfinx's import handed sys.argv to its C++
     logging, which refused it (a TypeError traceback, exit 1, before any check). The
