@@ -189,6 +189,55 @@ def _inspect_model(gmsh) -> dict:
     }
 
 
+#: A cell is degenerate where its measure (area, volume) is at most this fraction of
+#: d-th power of its size (its nodes' bounding box diagonal): collinear or coincident
+#: nodes, up to round-off. A well-shaped triangle has 0.2 to 0.4 (0.43 equilateral).
+DEGENERATE_CELL_RATIO = 1e-10
+
+
+def _check_geometry(gmsh, info: dict, key: str) -> None:
+    """Rank 0: raise SceneError (``key``) where a node of the current gmsh model has a
+    non-finite coordinate, or a cell of a physical group of cells has zero measure
+    (:data:`DEGENERATE_CELL_RATIO`): both passed ``check`` and failed in the run, with a
+    traceback (LinAlgError) or a misleading hint. The measure is gmsh's |det J| summed over
+    a Gauss rule, O(cells) (whatever the orientation of the cells' nodes)."""
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    coords = np.asarray(coords).reshape(-1, 3)
+    bad = ~np.isfinite(coords).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        x = ", ".join(f"{v:g}" for v in coords[i])
+        raise SceneError(
+            key,
+            f"{int(bad.sum())} node(s) with a non-finite coordinate, e.g. node {int(tags[i])} ({x})",
+        )
+    index = np.zeros(int(np.max(tags)) + 1, np.int64)
+    index[np.asarray(tags, np.int64)] = np.arange(len(tags))
+    tdim = info["tdim"]
+    measure = "area" if tdim == 2 else "volume"
+    for name, tag in info["cell_groups"].items():
+        for ent in gmsh.model.getEntitiesForPhysicalGroup(tdim, tag):
+            types, elems, nodes = gmsh.model.mesh.getElements(tdim, ent)
+            for etype, etags, enodes in zip(types, elems, nodes, strict=True):
+                if len(etags) == 0:
+                    continue
+                points, weights = gmsh.model.mesh.getIntegrationPoints(etype, "Gauss2")
+                _, det, _ = gmsh.model.mesh.getJacobians(etype, points, tag=ent)
+                det = np.abs(np.asarray(det).reshape(len(etags), len(weights)))
+                vol = det @ np.asarray(weights)
+                x = coords[index[np.asarray(enodes, np.int64)]].reshape(len(etags), -1, 3)
+                size = np.linalg.norm(x.max(axis=1) - x.min(axis=1), axis=1)
+                degenerate = ~(vol > DEGENERATE_CELL_RATIO * size**tdim)
+                if degenerate.any():
+                    e = int(etags[int(np.flatnonzero(degenerate)[0])])
+                    raise SceneError(
+                        key,
+                        f"{int(degenerate.sum())} cell(s) of group {name!r} with zero "
+                        f"{measure} (nodes collinear{'' if tdim == 2 else ' or coplanar'} "
+                        f"or coincident), e.g. element {e}",
+                    )
+
+
 class _HideGroups:
     """A gmsh model whose ``getPhysicalGroups`` leaves out the given (dim, tag) pairs."""
 
@@ -302,6 +351,7 @@ def load_mesh(
 
                 generators.build(generator, dict(params or {}))
             info = _inspect_model(gmsh)
+            _check_geometry(gmsh, info, "mesh.file" if file is not None else "mesh")
         except SceneError as exc:
             error = (exc.key, exc.reason)
         except Exception as exc:  # a generator or gmsh failing: still one clean message

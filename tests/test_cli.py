@@ -253,6 +253,19 @@ CASES = [
     ),
     ("too-many-steps", _set("steps", None, n=10**20), "steps.n", "at most 1000000 load steps"),
     ("mesh-empty", _set("mesh", None, file="empty.msh"), "mesh.file", "empty.msh is empty"),
+    (  # passed `check`; the run failed with a LinAlgError traceback (a NaN node) or a
+        # hint that blamed the loads (cells of zero area)
+        "mesh-nan-node",
+        _set("mesh", None, file="nan.msh"),
+        "mesh.file",
+        "1 node(s) with a non-finite coordinate, e.g. node 1 (nan, 0, 0)",
+    ),
+    (
+        "mesh-zero-area-cells",
+        _set("mesh", None, file="flat.msh"),
+        "mesh.file",
+        "2 cell(s) of group 'body' with zero area",
+    ),
     (
         "mesh-twin-names",
         _set("mesh", None, file="twins.msh"),
@@ -408,6 +421,15 @@ def write_case(cwd: Path, case_id: str) -> Path:
         text = to_toml(scene)
     if case_id == "mesh-corrupt":
         (cwd / "garbage.msh").write_bytes(bytes(range(256)) * 4 + b"$MeshFormat\n\x00\xff")
+    if case_id in ("mesh-nan-node", "mesh-zero-area-cells"):
+        # two triangles in the physical group "body": a node at x = NaN, or every y = 0
+        y = 0 if case_id == "mesh-zero-area-cells" else 1
+        x0 = "nan" if case_id == "mesh-nan-node" else 0
+        (cwd / ("nan.msh" if y else "flat.msh")).write_text(
+            '$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n2 1 "body"\n'
+            f"$EndPhysicalNames\n$Nodes\n4\n1 {x0} 0 0\n2 1 0 0\n3 1 {y} 0\n4 0 {y} 0\n"
+            "$EndNodes\n$Elements\n2\n1 2 2 1 1 1 2 3\n2 2 2 1 1 1 3 4\n$EndElements\n"
+        )
     path.write_text(text)
     return path
 
@@ -449,6 +471,8 @@ def test_bad_input_serial(workdir, case_id, command):
         ("unknown-key", "run"),
         ("missing-group-material", "check"),
         ("mesh-corrupt", "run"),
+        ("mesh-nan-node", "check"),
+        ("mesh-zero-area-cells", "run"),
         ("unsorted-path", "run"),
         ("empty-contact-surface", "run"),
         ("surfaces-share-nodes", "run"),

@@ -65,3 +65,49 @@ def test_meshes_that_cannot_be_read(tmp_path, name, text, key, reason):
     with pytest.raises(SceneError) as info:
         load_mesh(MPI.COMM_SELF, file=path)
     assert info.value.key == key and reason in info.value.reason, str(info.value)
+
+
+# two triangles of the unit square, the second's nodes in clockwise order
+SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]
+TRIS = [(2, [1, 2, 3]), (2, [1, 4, 3])]
+
+
+@pytest.mark.parametrize(
+    ("nodes", "elements", "reason"),
+    [
+        (
+            [(0, 0), (1, "nan"), (1, 1), (0, 1)],
+            TRIS,
+            "1 node(s) with a non-finite coordinate, e.g. node 2 (1, nan, 0)",
+        ),
+        ([(0, 0), (1, 0), (1, "inf"), (0, 1)], TRIS, "non-finite coordinate, e.g. node 3"),
+        (
+            [(0, 0), (1, 0), (2, 0), (3, 0)],  # every y = 0
+            TRIS,
+            "2 cell(s) of group 'body' with zero area (nodes collinear or coincident), "
+            "e.g. element 1",
+        ),
+        (SQUARE + [(0.5, 0.5)], TRIS + [(2, [1, 3, 5])], "1 cell(s) of group 'body'"),
+        (SQUARE + [(1, 1)], [(2, [1, 2, 3]), (2, [1, 3, 4]), (2, [3, 5, 2])], "e.g. element 3"),
+        ([(0, 0), (1, 0), (1, 1e-20), (0, 1e-20)], [(3, [1, 2, 3, 4])], "zero area"),  # a quad
+    ],
+    ids=["nan", "inf", "flat", "collinear", "coincident", "quad"],
+)
+def test_non_finite_or_degenerate_geometry(tmp_path, nodes, elements, reason):
+    """A node with a non-finite coordinate, or a cell of zero area, is one error naming
+    mesh.file at load: both passed `check`, and the run failed with a traceback
+    (LinAlgError) or a hint that blamed the loads."""
+    path = tmp_path / "bad.msh"
+    path.write_text(_msh(nodes, elements))
+    with pytest.raises(SceneError) as info:
+        load_mesh(MPI.COMM_SELF, file=path)
+    assert info.value.key == "mesh.file" and reason in info.value.reason, str(info.value)
+
+
+def test_thin_or_clockwise_cells_are_not_degenerate(tmp_path):
+    """Cells in either orientation, and a thin one (aspect ratio 1e-6), load."""
+    path = tmp_path / "ok.msh"
+    nodes = SQUARE + [(2, 0), (2, 1e-6)]
+    path.write_text(_msh(nodes, TRIS + [(2, [2, 5, 6])]))
+    data = load_mesh(MPI.COMM_SELF, file=path)
+    assert data.mesh.topology.index_map(2).size_local == 3
