@@ -576,6 +576,7 @@ class MortarContact:
         self.comm = comm = problem.comm
         self.slave_name, self.master_name = slave, master
         self.name = f"{slave}:{master}"
+        self.degenerate = False  # see update()
         self.recovery, self.integration = recovery, integration
         self.uzawa_tol, self.uzawa_max = float(uzawa_tol), int(uzawa_max)
         self.bs = problem.V.dofmap.index_map_bs
@@ -1042,6 +1043,28 @@ class MortarContact:
             self._u_exchange = (us.copy(), um.copy())
             self._exchanges += 1
         self.xm = self.master.X + self._fetch_cand(vec).reshape(self.master.X.shape)
+        #: whether this rank's last update met a facet of zero size in the deformed state
+        #: (the kernels divide by its Jacobian): the problem's residual is then NaN
+        self.degenerate = False
+        try:
+            self._pair_and_integrate()
+        except ZeroDivisionError:
+            # a wild Newton iterate (a law without volumetric stiffness: displacements of
+            # 1e13, a facet collapsed to round-off) escaped as a ZeroDivisionError from
+            # the numba kernels, on this rank only: the pairing is made on the reference
+            # geometry instead, so that every rank reaches the collectives below, and the
+            # NaN residual fails the solve (its line search, a cutback)
+            log.info("%s: a facet has zero size in the deformed state (a NaN residual)", self.name)
+            self.degenerate = True
+            self.xs, self.xm = self.slave.X.copy(), self.master.X.copy()
+            self._pair_and_integrate()
+        if self.frictional:
+            self._friction_integrals()
+        self._recover()
+
+    def _pair_and_integrate(self) -> None:
+        """Candidates, pairing and the nodal integrals A^I, G^I at the current ``xs`` and
+        ``xm`` (local)."""
         off, idx = candidates(self.xs, self.xm, 0.5 * self.h_facet)
         self.cand_off, self.cand = off, idx
         self._pair()
@@ -1058,9 +1081,6 @@ class MortarContact:
                 self.A,
                 self.G,
             )
-        if self.frictional:
-            self._friction_integrals()
-        self._recover()
 
     def forget_search(self) -> None:
         """Forget what the search and the Jacobians have learned so far (local;
@@ -1093,17 +1113,22 @@ class MortarContact:
         if not self.slave.num_facets:
             return 1.0
         zeta, g = np.zeros_like(self.qp_zeta), np.zeros_like(self.qp_g)
-        kmortar.forced_points(
-            self.ftype,
-            self.master.ftype,
-            xs,
-            self.qp_xi,
-            self.qp_m,
-            xm,
-            self.master.sign,
-            zeta,
-            g,
-        )
+        try:
+            kmortar.forced_points(
+                self.ftype,
+                self.master.ftype,
+                xs,
+                self.qp_xi,
+                self.qp_m,
+                xm,
+                self.master.sign,
+                zeta,
+                g,
+            )
+        except ZeroDivisionError:
+            # a facet of zero size at the trial: no limit here, its NaN residual (update)
+            # shortens the step
+            return 1.0
         n = self.node_blocks.size
         A, G1 = np.zeros(n), np.zeros(n)
         kmortar.nodal_integrals(

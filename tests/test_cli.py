@@ -1120,6 +1120,53 @@ def test_a_viewer_file_that_cannot_be_opened(workdir):
     assert [k for k, _ in errors] == [f"solver.petsc.{k}" for k in bad], errors
 
 
+#: a law without volumetric stiffness, ψ = μ/2 (tr FᵀF − 2): its Newton iterates run wild
+#: (displacements of 1e13), and a slave facet collapses to round-off
+NO_VOLUME_LAW = """
+import ufl
+from dolfinx_mortar import register_law
+
+
+def psi(F, E, nu):
+    return E / (2 * (1 + nu)) / 2 * (ufl.tr(F.T * F) - 2)
+
+
+register_law("no-volume", psi)
+"""
+
+
+def test_a_facet_collapsed_by_a_wild_iterate_stops_the_run_cleanly(workdir):
+    """A Newton iterate that collapses a contact facet to zero size (the kernels divide by
+    its Jacobian) gives a NaN residual, so the step is cut back and the run stops (exit 1,
+    summary.json "failed", no traceback), serially and on 2 ranks; it stopped with a
+    ZeroDivisionError traceback from the pairing kernel."""
+    (workdir / "law.py").write_text(NO_VOLUME_LAW)
+    materials = "".join(
+        f'[[material]]\nregion = "{r}"\nmodel = "no-volume"\nE = 100.0\nnu = 0.3\n'
+        for r in ("lower", "upper")
+    )
+    bcs = "".join(
+        f'[[dirichlet]]\nboundary = "{b}"\ncomponents = [{c}]\npath = [[0.0, 0.0], [1.0, 0.0]]\n'
+        for b, c in (("lower_bottom", 1), ("lower_left", 0), ("upper_left", 0))
+    )
+    (workdir / "s.toml").write_text(
+        'title = "collapse"\nkinematics = "finite"\n[mesh]\ngenerator = "patch2d"\n'
+        "[mesh.params]\nn_lower = 2\nn_upper = 3\nn_y = 1\n"
+        + materials
+        + '[[contact]]\nslave = "upper_bottom"\nmaster = "lower_top"\npenalty = "auto"\n'
+        + bcs
+        + '[[traction]]\nboundary = "upper_top"\npath = [[0.0, 0.0, 0.0], [1.0, 0.0, -2.0]]\n'
+        + "[steps]\nn = 2\n"
+    )
+    for ranks in (0, 2):
+        res = cli(workdir, "run", "s.toml", "--laws", "law.py", "--out", f"o{ranks}", ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 1 and "Traceback" not in res.stderr, where
+        assert "dolfinx-mortar: run failed: " in res.stderr, where
+        summary = json.loads((workdir / f"o{ranks}" / "summary.json").read_text())
+        assert summary["status"] == "failed", summary
+
+
 def test_a_scene_file_name_that_is_not_utf8(workdir):
     """A scene file named in latin-1 bytes: dolfinx's import handed sys.argv to its C++
     logging, which refused it (a TypeError traceback, exit 1, before any check). The
