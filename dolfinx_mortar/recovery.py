@@ -350,18 +350,13 @@ class TangentialRecovered(_LazyTangent):
         return self._tangent[2]
 
 
-def _project_discs(z: np.ndarray, c: np.ndarray, tol=0.0):
+def _project_discs(z: np.ndarray, c: np.ndarray):
     """Projection of z (n, m) onto the discs |τ_i| ≤ c_i, with its derivatives.
-
-    ``tol`` (scalar or (n,)): z_i counts as inside where |z_i| ≤ c_i + tol_i (the nodal
-    law's convention, :func:`~dolfinx_mortar.friction.return_mapping`: a node slips only
-    when Φ > tol), so that round-off on a closed cone (c_i = 0 at first contact) keeps
-    the stick derivative I instead of 0.
 
     Returns P (n, m), dPz (n, m, m) = ∂P/∂z and dPc (n, m) = ∂P/∂c."""
     n, m = z.shape
     nz = np.linalg.norm(z, axis=1)
-    out = nz > c + tol
+    out = nz > c
     s = z / np.maximum(nz, 1e-300)[:, None]
     P = np.where(out[:, None], c[:, None] * s, z)
     eye = np.eye(m)
@@ -406,10 +401,13 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray, tol=0.0):
     (for a separable convex set the fixed point is the KKT system, whatever R). It is
     found by semismooth Newton on G(τ) = τ − P(z(τ)), started from the projection of
     the unconstrained minimiser, to a relative 1e-13. ``tol`` (scalar or (n,), stress):
-    the slip tolerance of the nodal law; a node whose z is within it of its disc is
-    inside (:func:`_project_discs`): at first contact every cone is closed (p = 0) and
-    M⁻¹F is round-off, and without it that round-off lay outside, ∂τ/∂F was 0 and the
-    first Newton step had no tangential stiffness where the law sticks.
+    the slip tolerance of the nodal law (:func:`~dolfinx_mortar.friction.return_mapping`
+    slips only where |τ^tr| − μp > tol); a disc is never smaller than it, radius
+    max(c_i, tol_i): at first contact every cone is closed (p = 0) and M⁻¹F is
+    round-off, which lay outside a disc of radius 0, so ∂τ/∂F was 0 and the first
+    Newton step had no tangential stiffness where the nodal law sticks. (Counting
+    |z| ≤ c + tol as inside instead made the projection jump at c + tol, and the
+    iteration then found no fixed point for some z in that band.)
 
     Returns (τ (n, m), J (n·m, n·m) = ∂G/∂τ at the solution, dPz (n, m, m), dPc (n, m),
     iterations): the sensitivities ∂τ = J⁻¹[∂P/∂z R ∂F + ∂P/∂c ∂c] follow from
@@ -420,15 +418,17 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray, tol=0.0):
         return F.copy(), np.zeros((0, 0)), np.zeros((0, m, m)), np.zeros((0, m)), 0
     r = 1.0 / np.diag(M)
     Mb = _block(M, m)
-    tau, _, _ = _project_discs(np.linalg.solve(M, F), c, tol)
+    open_ = c >= tol  # where the radius is c (∂radius/∂c = 1), not tol
+    c = np.maximum(c, tol)
+    tau, _, _ = _project_discs(np.linalg.solve(M, F), c)
     scale = max(float(np.abs(F).max()) * float(r.max()), float(c.max()), 1e-300)
     for it in range(1, CONE_QP_MAX_ITERATIONS + 1):
         z = tau - r[:, None] * (M @ tau - F)
-        P, dPz, dPc = _project_discs(z, c, tol)
+        P, dPz, dPc = _project_discs(z, c)
         G = tau - P
         J = np.eye(n * m) - _blockdiag(dPz) @ (np.eye(n * m) - np.repeat(r, m)[:, None] * Mb)
         if np.abs(G).max() <= 1e-13 * scale:
-            return P, J, dPz, dPc, it
+            return P, J, dPz, np.where(open_[:, None], dPc, 0.0), it
         tau = tau - np.linalg.solve(J, G.ravel()).reshape(n, m)
     raise ConvergenceError(
         f"constrained tangential recovery: no convergence in {CONE_QP_MAX_ITERATIONS} "

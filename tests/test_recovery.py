@@ -13,7 +13,13 @@ from scipy.optimize import nnls
 from dolfinx_mortar.kernels import mortar as kmortar
 from dolfinx_mortar.kernels import reference as kref
 from dolfinx_mortar.kernels.shape import INTERVAL1, INTERVAL2, QUAD1, TRIANGLE1, TRIANGLE2
-from dolfinx_mortar.recovery import RECOVERIES, nonnegative_qp, recover, recover_tangential
+from dolfinx_mortar.recovery import (
+    RECOVERIES,
+    cone_qp,
+    nonnegative_qp,
+    recover,
+    recover_tangential,
+)
 
 
 def _mass_1d(n, rng, degree=1):
@@ -324,3 +330,17 @@ def test_constrained_tangent_at_first_contact_sticks_like_the_nodal_law(m):
     assert np.abs(rc.Tsig).max() > 0.0
     np.testing.assert_allclose(rc.Tsig, ru.Tsig, rtol=1e-12, atol=1e-12 * np.abs(ru.Tsig).max())
     np.testing.assert_allclose(rc.tau, ru.tau, atol=1e-14)
+
+
+def test_cone_qp_converges_with_z_just_outside_a_cone():
+    """The slip tolerance enlarges a disc only below it (radius max(c, tol)): a first
+    version counted |z| ≤ c + tol as inside, the projection then jumped at c + tol and
+    the semismooth Newton found no fixed point for z in that band (this case: 50
+    iterations, ConvergenceError). The Coulomb bound holds to round-off."""
+    M = np.array([[2.0, 1.0, 0.0], [1.0, 4.0, 1.0], [0.0, 1.0, 2.0]]) / 6.0
+    c = np.array([0.74, 1.15, 0.56])
+    F = np.array([[0.1508337], [-0.21333315], [-0.0025]])
+    tau0 = cone_qp(M, F, c)[0]
+    tau, *_ = cone_qp(M, F, c, np.full(3, 1e-6))
+    np.testing.assert_allclose(tau, tau0, atol=1e-14)
+    assert np.all(np.abs(tau[:, 0]) <= c * (1 + 1e-14))
