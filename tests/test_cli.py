@@ -628,6 +628,20 @@ def test_usage_errors_are_one_line(workdir):
         _one_error_line(res, 3, "command line", "unrecognized argument --bogus")
 
 
+def test_a_usage_error_waits_a_bounded_time_for_the_other_ranks(workdir):
+    """A rank with a command-line error waits for the others so that every rank prints
+    its line, but not for ever: in an MPMD launch the other rank runs another command
+    and never joins (a blocking barrier hung there)."""
+    mpirun = shutil.which("mpirun")
+    py = [sys.executable, "-m", "dolfinx_mortar"]
+    cmd = [mpirun, "-q", "-n", "1", *py, "run", "--bogus", ":", "-n", "1", *py, "generators"]
+    res = subprocess.run(
+        cmd, cwd=workdir, env=_env(), capture_output=True, text=True, timeout=TIMEOUT
+    )
+    assert res.returncode == 2, res.stderr
+    assert "dolfinx-mortar: error: command line:" in res.stderr, res.stderr
+
+
 def test_petsc_errors_in_the_solve_stop_the_run(workdir):
     """PETSc options that PETSc accepts at set-up but refuses in the solve stop the run
     cleanly (exit 1, summary.json "failed" with PETSc's reason, no traceback; they gave a
