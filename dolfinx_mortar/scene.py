@@ -69,7 +69,7 @@ Schema (``*`` = required; defaults in brackets)::
       rtol         float in (0, 1)             [1e-9]
       atol         float >= 0 | "auto"         ["auto": 1e-10, never looser than
                                                rtol × the forces]
-      max_it       int >= 1                    [25]
+      max_it       int in [1, 100000]          [25]
       linear       "mumps" | "lu" | "superlu_dist" | "petsc"  ["mumps"]
                    ("petsc": use the [solver.petsc] options as given)
       line_search  "basic" | "bt" | "l2" | "cp"               ["l2"]
@@ -852,6 +852,10 @@ _TRACTION_KEYS = ("boundary", "path")
 _STEPS_KEYS = ("t_end", "n", "max_cutbacks", "output_times")
 #: The most load steps ``steps.n`` may ask for (each writes its own output)
 MAX_STEPS = 1_000_000
+#: The most Newton iterations ``solver.max_it`` may allow per solve: the SNES keeps a
+#: residual history of 2 max_it + 11 entries (max_it = 2147483647 overflowed PETSc's
+#: integer, 1e9 asked for 15 GiB)
+MAX_IT = 100_000
 _SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "step_depth_limit")
 _OUTPUT_KEYS = ("dir", "fields")
 
@@ -1106,6 +1110,8 @@ def _parse_solver(value: Any) -> SolverOptions:
         )
     atol = _auto_or(_nonnegative, table.get("atol", "auto"), "solver.atol", ">= 0")
     max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
+    if max_it > MAX_IT:
+        raise SceneError("solver.max_it", f"at most {MAX_IT} Newton iterations, got {max_it}")
     linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)
     line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
     petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")

@@ -555,6 +555,15 @@ def test_integers_beyond_a_c_int(where, value, key):
     assert info.value.key == key and "at most 2147483647" in info.value.reason, str(info.value)
 
 
+@pytest.mark.parametrize("max_it", [2147483647, 10**9])
+def test_max_it_is_bounded(max_it):
+    """solver.max_it sizes the SNES's residual history: 2147483647 overflowed PETSc's
+    integer there and 1e9 asked for 15 GiB, both with a traceback."""
+    with pytest.raises(SceneError) as info:
+        parse_scene(mutate(example(), ("solver",), {"max_it": max_it}), BASE)
+    assert info.value.key == "solver.max_it" and "at most 100000" in info.value.reason
+
+
 def test_a_slave_name_too_long_for_its_output_files():
     """contact_<SLAVE>_<step>.csv must fit the 255 bytes of a file name (a 240-character
     name stopped the run with ENAMETOOLONG after the set-up)."""
