@@ -63,9 +63,11 @@ def _atomic_write_json(path: Path, data) -> None:
 @contextlib.contextmanager
 def interrupts_after():
     """Ctrl-C (SIGINT) within the block takes effect when the block ends (local; in the
-    main thread only, elsewhere nothing changes). A step's files and its summary.json
-    record are written within one: an interrupt between them left fields.xdmf and the
-    CSVs one step ahead of summary.json."""
+    main thread only, elsewhere nothing changes; where the block raises, its exception
+    goes on and the Ctrl-C is dropped). A step's files and its summary.json record are
+    written within one: an interrupt between them left fields.xdmf and the CSVs one step
+    ahead of summary.json. (Under mpirun, Open MPI passes Ctrl-C on as SIGTERM, then
+    SIGKILL: the ranks end as after a kill.)"""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -73,14 +75,14 @@ def interrupts_after():
     previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
     try:
         yield
-    finally:
+    finally:  # an exception of the block goes on as it is (a Ctrl-C meanwhile is dropped)
         signal.signal(signal.SIGINT, previous)
-        if caught and previous is signal.default_int_handler:
-            raise KeyboardInterrupt
-        if caught and callable(previous):
-            previous(signal.SIGINT, None)
-        elif caught and previous == signal.SIG_DFL:
-            os.kill(os.getpid(), signal.SIGINT)
+    if caught and previous is signal.default_int_handler:
+        raise KeyboardInterrupt
+    if caught and callable(previous):
+        previous(signal.SIGINT, None)
+    elif caught and previous == signal.SIG_DFL:
+        os.kill(os.getpid(), signal.SIGINT)
 
 
 def _json_default(obj):

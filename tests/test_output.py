@@ -424,3 +424,22 @@ def test_ctrl_c_while_a_step_is_written_waits_for_its_summary_record(tmp_path, m
     times = re.findall(r'<Time Value="([^"]+)"', (tmp_path / "fields.xdmf").read_text())
     assert sorted(set(times)) == ["0", "0.25", "0.5"], times  # step 0, the summary's two
     assert len(list(tmp_path.glob("contact_upper_bottom_*.csv"))) == 3
+
+
+def test_an_error_in_a_step_write_is_not_hidden_by_a_ctrl_c():
+    """Where the write of a step fails while a Ctrl-C waits (interrupts_after), the
+    error goes on, not a KeyboardInterrupt in its place."""
+    import os
+    import signal
+
+    from dolfinx_mortar.output import interrupts_after
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(OSError, match="disk full"), interrupts_after():
+            os.kill(os.getpid(), signal.SIGINT)
+            raise OSError("disk full")
+        with pytest.raises(KeyboardInterrupt), interrupts_after():
+            os.kill(os.getpid(), signal.SIGINT)
+    finally:
+        signal.signal(signal.SIGINT, previous)
