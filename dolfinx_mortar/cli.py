@@ -24,7 +24,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from .errors import SceneError
+from .errors import OutputError, SceneError
 
 
 class _Versions(argparse.Action):
@@ -419,6 +419,10 @@ def main(argv=None) -> int:
     except SceneError as exc:
         _error_line(f"dolfinx-mortar: error: {exc}")
         return 2
+    except OutputError as exc:  # raised on every rank (before the first step: step 0)
+        if comm.rank == 0:
+            _error_line(f"dolfinx-mortar: run failed: {exc}")
+        return 1
     except KeyboardInterrupt as exc:  # Ctrl-C: one line, no traceback
         if comm.rank == 0:
             kept = getattr(exc, "summary_kept", False)  # set once the steps had begun

@@ -4,6 +4,8 @@
 turned into a one-line message and exit status 2 by the command-line driver.
 ``ConvergenceError`` is raised when a nonlinear or linear solve, or the Uzawa
 augmentation loop, fails; the load-stepping driver catches it and cuts the step.
+``OutputError`` is raised on every rank when a run's files cannot be written (a full
+disk, a quota); the run stops with the steps written so far.
 """
 
 
@@ -46,3 +48,8 @@ class FrozenStatesError(ConvergenceError):
     def __init__(self, message: str, resume=None):
         super().__init__(message)
         self.resume = resume
+
+
+class OutputError(DolfinxMortarError):
+    """A file of the run's output could not be written (an OSError on the rank that
+    writes it: a full disk, a quota, the directory gone), raised on every rank."""

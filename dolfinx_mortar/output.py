@@ -28,6 +28,7 @@ import shutil
 import signal
 import tempfile
 import threading
+from io import StringIO
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ from dolfinx import fem, io
 from scipy.spatial import cKDTree
 
 from . import compat
-from .errors import SceneError
+from .errors import OutputError, SceneError
 from .scene import contact_stem
 
 log = logging.getLogger(__name__)
@@ -48,11 +49,16 @@ def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
     """Write ``text`` to ``path`` atomically, through ``tmp`` (default ``<path>.tmp``),
     then :func:`os.replace` (local). Whatever lies at ``tmp`` is removed first and the file
     created exclusively: a symbolic link left there would otherwise have the text
-    written into its target, outside the output directory."""
+    written into its target, outside the output directory. A failed write (OSError)
+    removes ``tmp`` and raises."""
     tmp = path.with_name(path.name + ".tmp") if tmp is None else tmp
     tmp.unlink(missing_ok=True)
-    with open(tmp, "x", encoding="utf-8") as f:
-        f.write(text)
+    try:
+        with open(tmp, "x", encoding="utf-8") as f:
+            f.write(text)
+    except OSError:  # a full disk: no truncated .tmp is left behind
+        tmp.unlink(missing_ok=True)
+        raise
     os.replace(tmp, path)
 
 
@@ -190,20 +196,24 @@ def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
-    """Write the slave-node table (rows = nodes, columns = CSV_FIELDS_{2D,3D}) sorted by reference coordinates."""
+    """Write the slave-node table (rows = nodes, columns = CSV_FIELDS_{2D,3D}) sorted by
+    reference coordinates, atomically (:func:`replace_text`: a full disk leaves no
+    truncated file)."""
     header = CSV_FIELDS_2D if gdim == 2 else CSV_FIELDS_3D
     if table.size:
         order = np.lexsort(tuple(np.round(table[:, k], 12) for k in reversed(range(gdim))))
         table = table[order]
     fmt = ["%.17g"] * (len(header) - 1) + ["%d"]
+    text = StringIO()
     np.savetxt(
-        path,
+        text,
         table.reshape(-1, len(header)) + 0.0,  # + 0.0: no "-0" (a −0.0 prints so)
         delimiter=",",
         header=",".join(header),
         comments="",
         fmt=fmt,
     )
+    replace_text(Path(path), text.getvalue())
 
 
 class XDMFSeries:
@@ -379,6 +389,9 @@ class OutputWriter:
         self.summary["error"] = None
         self.fields = tuple(fields)
         self._xdmf = None  # the XDMFSeries of fields.xdmf
+        #: this rank's first failed write of a file (an OSError), until write_step
+        #: raises it as an OutputError on every rank
+        self._write_error: OSError | None = None
         self._contact_functions = {}
         self._surfaces: list[SurfaceFields] = []
 
@@ -453,16 +466,34 @@ class OutputWriter:
                 self._write_fields(step, t)
             finally:
                 self._close_files()
-            if record is not None:
+            # the step joins summary.json where every rank wrote its files (collective)
+            if record is not None and self._first_write_error() is None:
                 self.summary["steps"].append(record)
             self._flush()
+        self._raise_write_error()
+
+    def _first_write_error(self) -> str | None:
+        """The first failed write of any rank (rank order), or None (collective)."""
+        error = self._write_error
+        reasons = self.comm.allgather(None if error is None else str(error))
+        return next((r for r in reasons if r is not None), None)
+
+    def _raise_write_error(self) -> None:
+        """Raise OutputError on every rank where some rank failed to write a file of its
+        own (collective). Rank 0 writes the CSVs and summary.json alone: an OSError
+        there went up on rank 0 only, while the other ranks went on into the next
+        collective write, and the run ended in a traceback and MPI_ABORT."""
+        reason = self._first_write_error()
+        if reason is not None:
+            raise OutputError(f"the output could not be written to {self.out_dir}: {reason}")
 
     def _close_files(self) -> None:
-        """Close the XDMF files opened for a step (collective)."""
+        """Close the XDMF files opened for a step (collective; rank 0 then publishes each
+        index, a write of its own: :meth:`_guarded`)."""
         if self._xdmf is not None:
-            self._xdmf.close()
+            self._guarded(self._xdmf.close)
         for surface in self._surfaces:
-            surface.end_step()
+            self._guarded(surface.end_step)
 
     def _write_fields(self, step: int, t: float) -> None:
         """The step's fields and contact CSVs (the files open; collective)."""
@@ -476,8 +507,11 @@ class OutputWriter:
         for term in p.contacts:
             table = term.node_table()  # gathered on rank 0
             if self.comm.rank == 0:
-                write_contact_csv(
-                    self.out_dir / f"{contact_stem(term.slave_name)}_{step}.csv", table, p.gdim
+                self._guarded(
+                    write_contact_csv,
+                    self.out_dir / f"{contact_stem(term.slave_name)}_{step}.csv",
+                    table,
+                    p.gdim,
                 )
         if self._contact_functions:
             for f in self._contact_functions.values():
@@ -498,11 +532,12 @@ class OutputWriter:
             self.summary["timings"] = timings
         self._close_files()
         if self._xdmf is not None:
-            self._xdmf.finish()
+            self._guarded(self._xdmf.finish)
         for surface in self._surfaces:
-            surface.close()
+            self._guarded(surface.close)
         self._surfaces = []
         self._flush()
+        self._raise_write_error()
 
     def abandon(self, error: str) -> None:
         """The run ends by an exception that is not a stop (a caller's ``progress``
@@ -512,8 +547,18 @@ class OutputWriter:
         steps and their hidden series stay, as after a kill."""
         self.summary["status"] = "failed"
         self.summary["error"] = error
-        self._flush()
+        self._flush()  # an OSError is logged (not collective here: nothing raised)
 
     def _flush(self) -> None:
         if self.comm.rank == 0:
-            _atomic_write_json(self.out_dir / "summary.json", self.summary)
+            self._guarded(_atomic_write_json, self.out_dir / "summary.json", self.summary)
+
+    def _guarded(self, write, *args) -> None:
+        """``write(*args)``, a write of this rank's own; an OSError is kept (the first)
+        for :meth:`_raise_write_error` and logged, so that the collectives go on."""
+        try:
+            write(*args)
+        except OSError as exc:
+            log.error("writing the output failed: %s", exc)
+            if self._write_error is None:
+                self._write_error = exc

@@ -17,7 +17,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, SceneError
+from .errors import ConvergenceError, OutputError, SceneError
 from .laws import registered_law
 from .mesh import load_mesh
 from .scene import Scene, check_components, check_groups
@@ -293,6 +293,10 @@ def run(
             "options of [solver.petsc] and the command line"
         )
         log.info("run stopped: %s", error)
+    except OutputError as exc:  # on every rank: a full disk, a quota
+        status, error = "failed", str(exc)
+        totals["unfinished"] = perf_counter() - mark[0]
+        log.info("run stopped: %s", exc)
     except BaseException as exc:  # a progress callback's exception, KeyboardInterrupt
         writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
         exc.summary_kept = True  # for the command line's message
@@ -301,7 +305,11 @@ def run(
         newton.destroy()
         if setup is None:  # otherwise the caller holds the problem (and frees it)
             problem.destroy()
-    writer.finish(status, error, totals)
+    try:
+        writer.finish(status, error, totals)
+    except OutputError as exc:  # summary.json could not say so: the caller is told
+        if status == "ok":
+            writer.summary["status"], writer.summary["error"] = "failed", str(exc)
     return writer.summary
 
 

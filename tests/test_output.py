@@ -443,3 +443,33 @@ def test_an_error_in_a_step_write_is_not_hidden_by_a_ctrl_c():
             os.kill(os.getpid(), signal.SIGINT)
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.mpi
+def test_a_full_disk_stops_the_run_with_the_steps_written(shared_tmp, monkeypatch):
+    """A write that fails (ENOSPC on rank 0's CSV of step 2) stops the run on every rank
+    with status "failed" and the reason, the steps written before it kept. Rank 0 alone
+    raised the OSError, the other ranks went on into the next collective write, and the
+    run ended in a chain of tracebacks and MPI_ABORT with summary.json at "running"."""
+    import errno
+
+    from dolfinx_mortar import output, parse_scene, run
+
+    original = output.write_contact_csv
+
+    def full_at_step_2(path, table, gdim):
+        if path.name.endswith("_2.csv"):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        original(path, table, gdim)
+
+    monkeypatch.setattr(output, "write_contact_csv", full_at_step_2)
+    out = shared_tmp / "full_disk"
+    comm = MPI.COMM_WORLD
+    summary = run(parse_scene(_small_press(steps=4), out), comm, out_dir=out)
+    assert summary["status"] == "failed", summary["status"]
+    assert "No space left on device" in summary["error"], summary["error"]
+    assert len(summary["steps"]) == 1
+    if comm.rank == 0:
+        kept = json.loads((out / "summary.json").read_text())
+        assert kept["status"] == "failed" and len(kept["steps"]) == 1
+        assert "No space left on device" in kept["error"]
