@@ -189,6 +189,17 @@ def _inspect_model(gmsh) -> dict:
     }
 
 
+def _contiguous_node_tags(gmsh) -> None:
+    """Renumber the nodes of the current gmsh model 1 … N where their tags are not so
+    (rank 0). A .msh file may number its nodes with gaps (another mesher, a file edited
+    by hand), which gmsh reads; dolfinx 0.5.2's model_to_mesh asserts tags 1 … N and
+    such a mesh stopped the run with an AssertionError traceback."""
+    tags = np.asarray(gmsh.model.mesh.getNodes()[0], np.int64)
+    if tags.size and not np.array_equal(np.sort(tags), np.arange(1, tags.size + 1)):
+        log.info("mesh: node tags renumbered 1 … %d (the file's had gaps)", tags.size)
+        gmsh.model.mesh.renumberNodes()
+
+
 #: A cell is degenerate where its measure (area, volume) is at most this fraction of
 #: d-th power of its size (its nodes' bounding box diagonal): collinear or coincident
 #: nodes, up to round-off. A well-shaped triangle has 0.2 to 0.4 (0.43 equilateral).
@@ -211,8 +222,11 @@ def _check_geometry(gmsh, info: dict, key: str) -> None:
             key,
             f"{int(bad.sum())} node(s) with a non-finite coordinate, e.g. node {int(tags[i])} ({x})",
         )
-    index = np.zeros(int(np.max(tags)) + 1, np.int64)
-    index[np.asarray(tags, np.int64)] = np.arange(len(tags))
+    # node tag -> row of coords by a sorted search (tags may be sparse: a dense index
+    # sized by the largest tag asked for 80 GB at tags of 1e10)
+    tags = np.asarray(tags, np.int64)
+    order = np.argsort(tags, kind="stable")
+    sorted_tags = tags[order]
     tdim = info["tdim"]
     measure = "area" if tdim == 2 else "volume"
     for name, tag in info["cell_groups"].items():
@@ -225,7 +239,8 @@ def _check_geometry(gmsh, info: dict, key: str) -> None:
                 _, det, _ = gmsh.model.mesh.getJacobians(etype, points, tag=ent)
                 det = np.abs(np.asarray(det).reshape(len(etags), len(weights)))
                 vol = det @ np.asarray(weights)
-                x = coords[index[np.asarray(enodes, np.int64)]].reshape(len(etags), -1, 3)
+                rows = order[np.searchsorted(sorted_tags, np.asarray(enodes, np.int64))]
+                x = coords[rows].reshape(len(etags), -1, 3)
                 size = np.linalg.norm(x.max(axis=1) - x.min(axis=1), axis=1)
                 degenerate = ~(vol > DEGENERATE_CELL_RATIO * size**tdim)
                 if degenerate.any():
@@ -346,6 +361,7 @@ def load_mesh(
                             f"cannot read {file}: only gmsh .msh files are read",
                         ) from None
                     raise SceneError("mesh.file", f"cannot read {file}: {exc}") from None
+                _contiguous_node_tags(gmsh)
             else:
                 from . import generators
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
 
 from dolfinx_mortar.errors import SceneError
@@ -111,3 +113,25 @@ def test_thin_or_clockwise_cells_are_not_degenerate(tmp_path):
     path.write_text(_msh(nodes, TRIS + [(2, [2, 5, 6])]))
     data = load_mesh(MPI.COMM_SELF, file=path)
     assert data.mesh.topology.index_map(2).size_local == 3
+
+
+@pytest.mark.parametrize("last_tag", [7, 10**10])
+def test_node_tags_with_gaps_are_renumbered(tmp_path, last_tag):
+    """A .msh file whose node tags have gaps (another mesher, a file edited by hand)
+    loads: dolfinx's model_to_mesh asserts tags 1 … N, and such a mesh stopped the run
+    with an AssertionError traceback."""
+    from dolfinx import fem
+
+    tags = [1, 2, 3, last_tag]
+    lines = ["$MeshFormat", "2.2 0 8", "$EndMeshFormat"]
+    lines += ["$PhysicalNames", "1", '2 1 "body"', "$EndPhysicalNames", "$Nodes", "4"]
+    lines += [f"{t} {x} {y} 0" for t, (x, y) in zip(tags, SQUARE, strict=True)]
+    lines += ["$EndNodes", "$Elements", "2", "1 2 2 1 1 1 2 3", f"2 2 2 1 1 1 {last_tag} 3"]
+    lines += ["$EndElements"]
+    path = tmp_path / "gaps.msh"
+    path.write_text("\n".join(lines) + "\n")
+    data = load_mesh(MPI.COMM_SELF, file=path)
+    x = data.mesh.geometry.x[:, :2]
+    np.testing.assert_allclose(sorted(map(tuple, x)), sorted(SQUARE))
+    area = fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=data.mesh)))
+    assert abs(area - 1.0) < 1e-14
