@@ -24,7 +24,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from .errors import OutputError, SceneError
+from .errors import OutputError, SceneError, raise_on_every_rank
 
 
 class _Versions(argparse.Action):
@@ -194,12 +194,7 @@ def _on_every_rank(comm, action, *args) -> None:
         action(*args)
     except SceneError as exc:
         error = (exc.key, exc.reason)
-    errors = comm.allgather(error)
-    failed = [r for r, e in enumerate(errors) if e is not None]
-    if failed:
-        key, reason = errors[failed[0]]
-        where = "" if len(failed) == comm.size else f" (on rank {failed[0]})"
-        raise SceneError(key, reason + where)
+    raise_on_every_rank(comm, error)
 
 
 def _progress(comm):

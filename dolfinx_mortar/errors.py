@@ -53,3 +53,26 @@ class FrozenStatesError(ConvergenceError):
 class OutputError(DolfinxMortarError):
     """A file of the run's output could not be written (an OSError on the rank that
     writes it: a full disk, a quota, the directory gone), raised on every rank."""
+
+
+def first_on_any_rank(comm, value):
+    """The first rank's ``value`` that is not None, in rank order (collective).
+
+    Returns (value, rank, everywhere): ``everywhere`` says whether every rank had one;
+    (None, -1, False) where no rank had. For the errors that some ranks only meet (a file
+    that rank 0 alone writes or opens), so that every rank takes the same way out instead
+    of some waiting alone in a later collective."""
+    gathered = comm.allgather(value)
+    found = [r for r, v in enumerate(gathered) if v is not None]
+    if not found:
+        return None, -1, False
+    return gathered[found[0]], found[0], len(found) == comm.size
+
+
+def raise_on_every_rank(comm, error: tuple[str, str] | None) -> None:
+    """Raise SceneError(key, reason) on every rank where some rank has ``error`` = (key,
+    reason): the first such rank's, naming that rank where others had none (collective)."""
+    found, rank, everywhere = first_on_any_rank(comm, error)
+    if found is not None:
+        key, reason = found
+        raise SceneError(key, reason if everywhere else f"{reason} (on rank {rank})")

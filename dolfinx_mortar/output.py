@@ -36,7 +36,7 @@ from dolfinx import fem, io
 from scipy.spatial import cKDTree
 
 from . import compat
-from .errors import OutputError, SceneError
+from .errors import OutputError, SceneError, first_on_any_rank
 from .scene import contact_stem
 
 log = logging.getLogger(__name__)
@@ -475,8 +475,7 @@ class OutputWriter:
     def _first_write_error(self) -> str | None:
         """The first failed write of any rank (rank order), or None (collective)."""
         error = self._write_error
-        reasons = self.comm.allgather(None if error is None else str(error))
-        return next((r for r in reasons if r is not None), None)
+        return first_on_any_rank(self.comm, None if error is None else str(error))[0]
 
     def _raise_write_error(self) -> None:
         """Raise OutputError on every rank where some rank failed to write a file of its

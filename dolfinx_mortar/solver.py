@@ -27,7 +27,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, FrozenStatesError, SceneError
+from .errors import ConvergenceError, FrozenStatesError, SceneError, raise_on_every_rank
 
 log = logging.getLogger(__name__)
 
@@ -352,7 +352,7 @@ class NewtonSolver:
         # a viewer file that cannot be opened fails on rank 0 only, in setFromOptions or
         # at the end of a solve (-snes_view), and the other ranks went on into a
         # collective: it is checked here, the same decision on every rank
-        _raise_on_every_rank(comm, _viewer_file_errors(settings.petsc))
+        raise_on_every_rank(comm, next(iter(_viewer_file_errors(settings.petsc)), None))
         self.snes = PETSc.SNES().create(comm)
         self.snes.setOptionsPrefix(settings.prefix)
         opts = PETSc.Options()
@@ -416,7 +416,7 @@ class NewtonSolver:
         # PETSc may fail on some ranks only (rank 0 opens a viewer's file): every rank
         # raises the first failing rank's error
         try:
-            _raise_on_every_rank(comm, [error] if error else [])
+            raise_on_every_rank(comm, error)
         except SceneError:
             self.destroy()
             raise
@@ -1088,18 +1088,6 @@ def _viewer_file_errors(petsc: dict) -> list[tuple[str, str]]:
         if why:
             errors.append((f"solver.petsc.{name}", f"cannot open the viewer file {fname}: {why}"))
     return errors
-
-
-def _raise_on_every_rank(comm, errors: list[tuple[str, str]]) -> None:
-    """Raise SceneError on every rank (collective) where some rank has ``errors``
-    ((key, reason) pairs): the first such rank's first error, naming that rank where the
-    others had none."""
-    gathered = comm.allgather(errors[0] if errors else None)
-    failed = [r for r, e in enumerate(gathered) if e is not None]
-    if failed:
-        key, reason = gathered[failed[0]]
-        where = "" if len(failed) == comm.size else f" (on rank {failed[0]})"
-        raise SceneError(key, reason + where)
 
 
 def _options_named_in(reason: str, petsc: dict, prefix: str) -> list[str]:
