@@ -24,7 +24,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from .errors import OutputError, SceneError, raise_on_every_rank
+from .errors import OutputError, SceneError, every_rank_arrives, raise_on_every_rank
 
 
 class _Versions(argparse.Action):
@@ -147,19 +147,13 @@ def _every_rank_has_printed() -> None:
     until every rank gets here, or USAGE_ERROR_WAIT seconds (a non-blocking barrier;
     nothing otherwise). Each rank parses its own command line and finds the same error;
     the first to exit made mpirun kill the others before they had printed theirs (3
-    ranks: 7 of 30 runs lost a line). The wait is bounded: ranks of an MPMD launch (or
+    ranks: 5 of 30 runs lost a line, BENCHMARKS §46). The wait is bounded: ranks of an MPMD launch (or
     ranks that run another command) never get here, and a blocking barrier hung them."""
     size = os.environ.get("OMPI_COMM_WORLD_SIZE") or os.environ.get("PMI_SIZE") or "1"
-    if not (size.isdigit() and int(size) > 1):
-        return
-    import time
+    if size.isdigit() and int(size) > 1:
+        from mpi4py import MPI
 
-    from mpi4py import MPI
-
-    request = MPI.COMM_WORLD.Ibarrier()
-    deadline = time.monotonic() + USAGE_ERROR_WAIT
-    while not request.Test() and time.monotonic() < deadline:
-        time.sleep(0.01)
+        every_rank_arrives(MPI.COMM_WORLD, USAGE_ERROR_WAIT)
 
 
 def _usage_exit(text: str):
@@ -417,7 +411,7 @@ def main(argv=None) -> int:
     except OutputError as exc:  # raised on every rank (before the first step: step 0)
         if comm.rank == 0:
             _error_line(f"dolfinx-mortar: run failed: {exc}")
-        return 1
+        return _failed(comm)
     except KeyboardInterrupt as exc:  # Ctrl-C: one line, no traceback
         if comm.rank == 0:
             kept = getattr(exc, "summary_kept", False)  # set once the steps had begun
@@ -436,8 +430,24 @@ def main(argv=None) -> int:
     if summary["status"] != "ok":
         if comm.rank == 0:
             _error_line(f"dolfinx-mortar: run failed: {summary['error']}")
-        return 1
+        return _failed(comm)
     return 0
+
+
+#: Seconds the ranks of a failed run wait for each other before it is aborted
+#: (:func:`_failed`).
+FAILED_RUN_WAIT = 30.0
+
+
+def _failed(comm) -> int:
+    """Exit status 1 of a failed run, once every rank has got here; where some rank has
+    not within FAILED_RUN_WAIT seconds (left in a collective: a parallel HDF5 write that
+    failed differently on each rank, on a full disk), abort the job, which otherwise
+    hung with its error line printed."""
+    if comm.size > 1 and not every_rank_arrives(comm, FAILED_RUN_WAIT):
+        sys.stderr.flush()
+        comm.Abort(1)
+    return 1
 
 
 if __name__ == "__main__":

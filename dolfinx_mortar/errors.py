@@ -1,4 +1,4 @@
-"""Exceptions raised by dolfinx_mortar.
+"""Exceptions raised by dolfinx_mortar, and how the ranks of a run agree on a failure.
 
 ``SceneError`` is raised for bad user input (scene file, mesh, options) and is
 turned into a one-line message and exit status 2 by the command-line driver.
@@ -76,3 +76,18 @@ def raise_on_every_rank(comm, error: tuple[str, str] | None) -> None:
     if found is not None:
         key, reason = found
         raise SceneError(key, reason if everywhere else f"{reason} (on rank {rank})")
+
+
+def every_rank_arrives(comm, seconds: float) -> bool:
+    """Whether every rank of ``comm`` enters this call within ``seconds`` (a non-blocking
+    barrier, polled; collective where it returns True). A rank that failed alone can
+    then stop the others (``comm.Abort``) instead of leaving them in a collective."""
+    from time import monotonic, sleep
+
+    request = comm.Ibarrier()
+    deadline = monotonic() + seconds
+    while not request.Test():
+        if monotonic() > deadline:
+            return False
+        sleep(0.005)
+    return True

@@ -421,21 +421,38 @@ class OutputWriter:
                         log.warning("could not remove the earlier run's %s: %s", f, exc)
         self.comm.barrier()
         p = self.problem
-        self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
-        if p.contacts:
-            Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
-            names = {
-                "contact_pressure": "contact_pressure",
-                "gap": "gap",
-                "contact_state": "contact_state",
-            }
-            if any(getattr(c, "frictional", False) for c in p.contacts):
-                names.update({"tangential_traction": "tangential_traction_norm", "slip": "slip"})
-            for key, name in names.items():
-                if key in self.fields or key == "slip":
-                    self._contact_functions[key] = fem.Function(Q, name=name)
-            self._start_surfaces(Q)
+        with self._collective_io():
+            self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
+            if p.contacts:
+                Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
+                names = {
+                    "contact_pressure": "contact_pressure",
+                    "gap": "gap",
+                    "contact_state": "contact_state",
+                }
+                if any(getattr(c, "frictional", False) for c in p.contacts):
+                    names.update(
+                        {"tangential_traction": "tangential_traction_norm", "slip": "slip"}
+                    )
+                for key, name in names.items():
+                    if key in self.fields or key == "slip":
+                        self._contact_functions[key] = fem.Function(Q, name=name)
+                self._start_surfaces(Q)
         self.write_step(0, 0.0, None)
+
+    @contextlib.contextmanager
+    def _collective_io(self):
+        """The XDMF/HDF5 writes (collective): dolfinx raises RuntimeError where HDF5
+        fails (a full disk: "Failed to write HDF5 local dataset into hyperslab"), on every
+        rank of the collective write; it becomes OutputError, which stops the run with
+        one line (it was a traceback per rank)."""
+        try:
+            yield
+        except RuntimeError as exc:
+            reason = " ".join(str(exc).split())
+            raise OutputError(
+                f"the output could not be written to {self.out_dir}: {reason}"
+            ) from None
 
     def _start_surfaces(self, Q) -> None:
         """One :class:`SurfaceFields` per slave surface, on meshes with affine facets."""
@@ -459,13 +476,14 @@ class OutputWriter:
         replaced atomically (:class:`XDMFSeries`). A Ctrl-C meanwhile waits until the
         step's record is in summary.json (:func:`interrupts_after`)."""
         with interrupts_after():
-            self._xdmf.open()
-            for surface in self._surfaces:
-                surface.begin_step()
-            try:
-                self._write_fields(step, t)
-            finally:
-                self._close_files()
+            with self._collective_io():
+                self._xdmf.open()
+                for surface in self._surfaces:
+                    surface.begin_step()
+                try:
+                    self._write_fields(step, t)
+                finally:
+                    self._close_files()
             # the step joins summary.json where every rank wrote its files (collective)
             if record is not None and self._first_write_error() is None:
                 self.summary["steps"].append(record)
@@ -529,13 +547,20 @@ class OutputWriter:
         self.summary["error"] = error
         if timings is not None:
             self.summary["timings"] = timings
-        self._close_files()
-        if self._xdmf is not None:
-            self._guarded(self._xdmf.finish)
-        for surface in self._surfaces:
-            self._guarded(surface.close)
+        closing = None
+        try:
+            with self._collective_io():
+                self._close_files()
+                if self._xdmf is not None:
+                    self._guarded(self._xdmf.finish)
+                for surface in self._surfaces:
+                    self._guarded(surface.close)
+        except OutputError as exc:  # summary.json is still written
+            closing = exc
         self._surfaces = []
         self._flush()
+        if closing is not None:
+            raise closing
         self._raise_write_error()
 
     def abandon(self, error: str) -> None:

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from time import perf_counter, sleep
+from time import perf_counter
 
 import numpy as np
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, OutputError, SceneError
+from .errors import ConvergenceError, OutputError, SceneError, every_rank_arrives
 from .laws import registered_law
 from .mesh import load_mesh
 from .scene import Scene, check_components, check_groups
@@ -208,8 +208,10 @@ def run(
     residual evaluations per step), against which the demos read ``residual_norms``.
     Raises SceneError before writing anything when the input is bad (the output
     directory too: checked before the set-up), TypeError when ``scene`` is not a
-    :class:`~dolfinx_mortar.scene.Scene`. A run that stops (a step that fails after its
-    cutbacks, an option PETSc refuses in the solve) raises nothing: the summary's
+    :class:`~dolfinx_mortar.scene.Scene`, and OutputError on every rank where the
+    initial state cannot be written (a full disk). A run that stops (a step that fails
+    after its cutbacks, an option PETSc refuses in the solve, output that cannot be
+    written after a step: OutputError on every rank) raises nothing: the summary's
     ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
     reports it, as the command line does in one line). Any other exception in the steps
     (one that ``progress`` raises, KeyboardInterrupt) goes on to the caller after
@@ -245,7 +247,13 @@ def run(
     }
     problem.set_time(0.0)
     problem.warm_up()
-    writer.start()
+    try:
+        writer.start()
+    except OutputError:  # on every rank: the caller gets it (the CLI: one line, exit 1)
+        newton.destroy()
+        if setup is None:
+            problem.destroy()
+        raise
     totals["setup"] = perf_counter() - t_setup
 
     mark = [0.0]  # when the set-up or the last converged step ended
@@ -283,7 +291,7 @@ def run(
         # an option PETSc accepted when the solver was set up but refuses in the solve
         # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
         # failed alike, otherwise the exception (the command line then aborts every rank)
-        if not _every_rank_arrives(comm, PETSC_ERROR_WAIT):
+        if not every_rank_arrives(comm, PETSC_ERROR_WAIT):
             raise
         lines = compat.petsc_error_lines(exc)
         status = "failed"
@@ -316,18 +324,6 @@ def run(
 #: Seconds the ranks wait for each other after a PETSc error in the solve before the
 #: exception goes on (a rank-local error would otherwise leave the others waiting).
 PETSC_ERROR_WAIT = 30.0
-
-
-def _every_rank_arrives(comm, seconds: float) -> bool:
-    """Whether every rank of ``comm`` enters this call within ``seconds`` (a non-blocking
-    barrier, polled; collective where it returns True)."""
-    request = comm.Ibarrier()
-    t0 = perf_counter()
-    while not request.Test():
-        if perf_counter() - t0 > seconds:
-            return False
-        sleep(0.005)
-    return True
 
 
 def step_record(problem, res) -> dict:

@@ -854,7 +854,7 @@ _STEPS_KEYS = ("t_end", "n", "max_cutbacks", "output_times")
 MAX_STEPS = 1_000_000
 #: The most Newton iterations ``solver.max_it`` may allow per solve: the SNES keeps a
 #: residual history of 2 max_it + 11 entries (max_it = 2147483647 overflowed PETSc's
-#: integer, 1e9 asked for 15 GiB)
+#: integer, 1e9 failed to allocate it)
 MAX_IT = 100_000
 _SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "step_depth_limit")
 _OUTPUT_KEYS = ("dir", "fields")

@@ -622,7 +622,8 @@ def test_usage_errors_are_one_line(workdir):
         _one_error_line(cli(workdir, *args), 1, "command line", reason)
     _one_error_line(cli(workdir, "run", ranks=2), 2, "command line", "required: scene")
     # every rank prints before any exits (the first to exit made mpirun kill the others:
-    # on 3 ranks 7 of 30 such runs lost a line, so four runs catch it two times in three)
+    # on 3 ranks 5 of 30 such runs lost a line (BENCHMARKS §46), so four runs catch it
+    # about one time in two)
     for _ in range(4):
         res = cli(workdir, "run", "s.toml", "--bogus", ranks=3)
         _one_error_line(res, 3, "command line", "unrecognized argument --bogus")

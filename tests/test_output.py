@@ -473,3 +473,23 @@ def test_a_full_disk_stops_the_run_with_the_steps_written(shared_tmp, monkeypatc
         kept = json.loads((out / "summary.json").read_text())
         assert kept["status"] == "failed" and len(kept["steps"]) == 1
         assert "No space left on device" in kept["error"]
+
+
+@pytest.mark.mpi
+def test_a_rank_that_waits_alone_is_told_so():
+    """every_rank_arrives: False on a rank whose peers do not come within the time (the
+    command line then aborts a failed run instead of hanging), True once they do."""
+    from dolfinx_mortar.errors import every_rank_arrives
+
+    comm = MPI.COMM_WORLD
+    dup = comm.Dup()
+    if comm.size > 1:
+        if comm.rank == 0:
+            assert not every_rank_arrives(dup, 0.2)
+        comm.Barrier()
+        if comm.rank > 0:
+            assert every_rank_arrives(dup, 30.0)  # completes rank 0's barrier too
+    else:
+        assert every_rank_arrives(dup, 0.2)
+    comm.Barrier()
+    dup.Free()
