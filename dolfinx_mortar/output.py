@@ -111,6 +111,15 @@ def output_names(slaves=()) -> list[str]:
     return names
 
 
+def contact_csv_names(slaves) -> re.Pattern:
+    """The names of the per-step contact CSV files of the slave surfaces ``slaves``
+    (physical names): ``contact_<SLAVE>_<k>.csv``, and the ``.tmp`` each is written
+    through (:func:`replace_text`; left behind by a run that was killed during a write).
+    Match whole names with ``fullmatch``; no slaves match nothing."""
+    stems = [re.escape(contact_stem(s)) for s in slaves]
+    return re.compile(rf"(?:{'|'.join(stems)})_\d+\.csv(?:\.tmp)?" if stems else "(?!)")
+
+
 def previous_slaves(out_dir: Path) -> set[str]:
     """The slave surfaces (physical names) of the run whose summary.json is in
     ``out_dir`` (``modelled.contact_pairs.*.slave``); empty where there is none or it is
@@ -182,9 +191,9 @@ def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
     except OSError:
         return "not writable (a file cannot be created in it)"
     slaves = tuple(slaves) + tuple(sorted(previous_slaves(p) - set(slaves)))
-    csv = [re.compile(rf"{re.escape(contact_stem(s))}_\d+\.csv$") for s in slaves]
+    csv = contact_csv_names(slaves)
     names = output_names(slaves)
-    names += sorted(f.name for f in p.iterdir() if any(c.match(f.name) for c in csv))
+    names += sorted(f.name for f in p.iterdir() if csv.fullmatch(f.name))
     for name in names:
         f = p / name
         shown = os.path.join(out, name)
@@ -400,16 +409,16 @@ class OutputWriter:
         write the initial state (step 0).
 
         Removed: the contact CSV files of this run's slave surfaces (a shorter run would
-        otherwise leave stale later steps), and every contact file (CSV and XDMF) of the
-        slave surfaces that the directory's summary.json names and this run does not
-        have (another scene run into the same directory), so that the directory holds
-        one run's output only. Nothing else is touched."""
+        otherwise leave stale later steps) and their ``.tmp`` (:func:`contact_csv_names`),
+        and every contact file (CSV and XDMF) of the slave surfaces that the directory's
+        summary.json names and this run does not have (another scene run into the same
+        directory), so that the directory holds one run's output only. Nothing else is
+        touched."""
         if self.comm.rank == 0:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             current = {term.slave_name for term in self.problem.contacts}
             earlier = previous_slaves(self.out_dir) - current
-            stems = [contact_stem(name) for name in sorted(current | earlier)]
-            csv = re.compile("|".join(rf"{re.escape(stem)}_\d+\.csv" for stem in stems) or "$^")
+            csv = contact_csv_names(sorted(current | earlier))
             stale = {f.name for f in self.out_dir.iterdir() if csv.fullmatch(f.name)}
             stale.update(set(output_names(earlier)) - set(output_names()))
             for name in sorted(stale):

@@ -305,8 +305,9 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
 def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
     """A scene run into a directory that holds another scene's output (its summary.json
     names another slave surface) removes that scene's contact CSV and XDMF files, and a
-    shorter run of the same pair its later steps: the directory holds one run's output.
-    Files that no summary names stay (the other slave's files stayed before)."""
+    shorter run of the same pair its later steps (and a CSV's .tmp that a killed run left):
+    the directory holds one run's output. Files that no summary names stay (the other
+    slave's files stayed before)."""
     from dolfinx_mortar import parse_scene, run
 
     first = _small_press(steps=3)
@@ -329,11 +330,13 @@ def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
         "contact_lower_top_2.csv",
     ], names
     assert "notes.txt" in names and "contact_elsewhere_1.csv" in names
+    # the temporary file of a CSV write that a kill interrupted goes too
+    (tmp_path / "contact_lower_top_2.csv.tmp").write_text("x,y\n0.1")
     shorter = _small_press(steps=1)
     shorter["contact"] = second["contact"]
     run(parse_scene(shorter, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     names = sorted(f.name for f in tmp_path.iterdir())
-    assert [n for n in names if n.endswith(".csv") and "lower_top" in n] == [
+    assert [n for n in names if ".csv" in n and "lower_top" in n] == [
         "contact_lower_top_0.csv",
         "contact_lower_top_1.csv",
     ], names
