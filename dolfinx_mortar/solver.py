@@ -4,8 +4,9 @@
   residual evaluation first calls the problem's per-iteration hook
   (``update_contact``: search and pairing), so pairs may change within a load
   step. Options go to PETSc under the solver's prefix (default ``dm_``), so
-  ``-dm_snes_monitor`` or ``[solver.petsc] ksp_type = "gmres"`` work. The
-  matrix is rebuilt between solves when the contact couplings outgrow its
+  ``-dm_snes_monitor`` or ``[solver.petsc] ksp_type = "gmres"`` work; they are in
+  PETSc's global database only while the solver works, so that solvers alive at the
+  same time keep their own settings. The matrix is rebuilt between solves when the contact couplings outgrow its
   pattern. Failure raises :class:`~dolfinx_mortar.errors.ConvergenceError`.
 - :func:`solve_step` runs the Uzawa rounds around Newton for one load step.
 - :class:`LoadStepper` walks the time grid, cuts a failed step in half (up to
@@ -14,6 +15,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import re
@@ -336,11 +338,32 @@ REUSE_RTOL_FACTOR = 0.1
 REUSE_MAX_IT = 8
 
 
+def _owning_options(method):
+    """Run ``method`` of a :class:`NewtonSolver` with the solver's options in PETSc's
+    global database (:meth:`NewtonSolver._own_options`)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        with self._own_options():
+            return method(self, *args, **kwargs)
+
+    return wrapper
+
+
 class NewtonSolver:
     """PETSc SNES (newtonls) on a :class:`~dolfinx_mortar.problem.ContactProblem` (collective).
 
     Owns its SNES, KSP, residual vector and Jacobian matrix; call :meth:`destroy`
     (or use as a context manager) to free them.
+
+    PETSc reads options from one global database, by prefix, when it sets up an object
+    and lazily during a solve (the factorization's, the viewers'). This solver's options
+    (:attr:`options`: the defaults, ``settings.linear``'s and ``settings.petsc``) are
+    written there under ``settings.prefix`` only while the solver works (its creation,
+    :meth:`solve`, :meth:`solve_with_last_jacobian`), with whatever the database held
+    under that prefix set aside meanwhile and put back after. Two solvers alive at the
+    same time with the same prefix each solve with their own settings (the first one
+    solved with the second one's, a probe's frictional patch with Cholesky).
     """
 
     def __init__(self, problem, settings: SolverSettings | None = None):
@@ -355,7 +378,6 @@ class NewtonSolver:
         raise_on_every_rank(comm, next(iter(_viewer_file_errors(settings.petsc)), None))
         self.snes = PETSc.SNES().create(comm)
         self.snes.setOptionsPrefix(settings.prefix)
-        opts = PETSc.Options()
         defaults = {
             "snes_type": "newtonls",
             "snes_linesearch_type": settings.line_search,
@@ -369,21 +391,18 @@ class NewtonSolver:
         # for its flags): PETSc reads "false" as the name of a viewer (-snes_monitor)
         defaults = {k: v for k, v in defaults.items() if not (v is False and k in settings.petsc)}
         # Options of the prefix that a host program put in the global database (the
-        # scene's and the command line's are settings.petsc) are set aside for this
-        # solver's life and put back by destroy(): the solver reads its own options only.
-        # They were read where the solver sets no value and overwritten elsewhere, then
-        # deleted with the solver's.
-        self._set_aside = {k: v for k, v in opts.getAll().items() if k.startswith(settings.prefix)}
-        for key in self._set_aside:
-            opts.delValue(key)
-        # Written to the global database for setFromOptions, removed again by destroy(): a
-        # later solver with the same prefix must not inherit this one's settings.
-        self._option_keys = [settings.prefix + k for k in defaults]
-        for key, v in zip(self._option_keys, defaults.values(), strict=True):
-            # a bare flag (-snes_monitor) is "true" as a scene boolean; PETSc wants no value
-            # (a viewer option reads "true" as a viewer name), which also means true for
-            # its boolean options
-            opts[key] = "" if v is True else v
+        # scene's and the command line's are settings.petsc) are set aside while the
+        # solver works (_own_options): the solver reads its own options only. They were
+        # read where the solver sets no value and overwritten elsewhere, then deleted.
+        # A bare flag (-snes_monitor) is "true" as a scene boolean; PETSc wants no value
+        # (a viewer option reads "true" as a viewer name), which also means true for its
+        # boolean options.
+        self._options = {k: "" if v is True else v for k, v in defaults.items()}
+        self._working = 0  # the depth of _own_options
+        #: the options (without prefix) that PETSc has read in this solver's work, and
+        #: whether PETSc could tell (compat.option_used)
+        self._used: set[str] = set()
+        self._usage_known = True
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
         #: the last iterate with a finite residual norm of the current solve (the
@@ -398,10 +417,12 @@ class NewtonSolver:
         self.snes.setConvergenceHistory(
             length=2 * settings.max_it + FULL_STEP_ITERATIONS + 1, reset=True
         )
-        error = None
+        error = refused = None
         try:
-            self.snes.setFromOptions()
-            self.snes.getKSP().setFromOptions()
+            with self._own_options():
+                self.snes.setFromOptions()
+                self.snes.getKSP().setFromOptions()
+                refused = self._refused_option()
         except PETSc.Error as exc:
             reason = compat.petsc_error_lines(exc)[-1]
             faulty = _options_named_in(reason, settings.petsc, settings.prefix)
@@ -420,7 +441,6 @@ class NewtonSolver:
         except SceneError:
             self.destroy()
             raise
-        refused = self._refused_option()
         if refused is not None:
             self.destroy()
             raise SceneError(*refused)
@@ -626,8 +646,7 @@ class NewtonSolver:
         """The line search configured now: the options database's, where the configured
         one and :meth:`_line_search_as` put it; "l2" also while a solve uses
         ENERGY_LINE_SEARCH (local)."""
-        key = self.settings.prefix + "snes_linesearch_type"
-        return PETSc.Options().getString(key, self._line_search)
+        return str(self._options.get("snes_linesearch_type", self._line_search))
 
     def _reuse_mode(self, on: bool, rtol: float = 0.0) -> None:
         """Switch the KSP between GMRES on the last factorization (``on``, to relative
@@ -643,6 +662,7 @@ class NewtonSolver:
         compat.set_lag_preconditioner(self.snes, -1 if on else 1)
         self._reusing = on
 
+    @_owning_options
     def solve(
         self,
         rtol: float | None = None,
@@ -674,9 +694,8 @@ class NewtonSolver:
         s = self.settings
         self._solved = True
         if dtol != self._dtol:
-            key = s.prefix + "snes_divergence_tolerance"
-            opts = PETSc.Options()
-            opts[key] = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
+            value = s.petsc.get("snes_divergence_tolerance", 1e4) if dtol is None else dtol
+            self._set_option("snes_divergence_tolerance", value)
             self.snes.setFromOptions()
             self._dtol = dtol
         # the residual's round-off floor grows with stiff penalties (the note before
@@ -835,9 +854,9 @@ class NewtonSolver:
         a run that had passed with LU in every earlier suite run)."""
         log.warning("LDLᵀ factorization failed; factorizing LU from now on")
         self.ldlt_fallbacks += 1
-        # the options database is where the PC type, solver package and ordering live
-        # (a later setFromOptions of this solver reads them again)
-        PETSc.Options()[self.settings.prefix + "pc_type"] = "lu"
+        # the options are where the PC type, solver package and ordering live (a later
+        # setFromOptions of this solver reads them again)
+        self._set_option("pc_type", "lu")
         self.snes.getKSP().setFromOptions()
         self._factored = False
 
@@ -946,25 +965,20 @@ class NewtonSolver:
         """SNES solves within use ``line_search``, at most ``max_it`` iterations and, if
         given, the divergence tolerance ``dtol``; the configured values are restored
         afterwards (collective)."""
-        s = self.settings
-        opts = PETSc.Options()
-        keys = [s.prefix + "snes_linesearch_type", s.prefix + "snes_divergence_tolerance"]
-        saved = [opts.getString(k, None) for k in keys]
-        opts[keys[0]] = line_search
+        keys = ["snes_linesearch_type", "snes_divergence_tolerance"]
+        saved = [self._options.get(k) for k in keys]
+        self._set_option(keys[0], line_search)
         if dtol is not None:
-            opts[keys[1]] = dtol
+            self._set_option(keys[1], dtol)
         self.snes.setFromOptions()
         self.snes.setTolerances(max_it=max_it)
         try:
             yield
         finally:
             for k, v in zip(keys, saved, strict=True):
-                if v is None:
-                    opts.delValue(k)
-                else:
-                    opts[k] = v
+                self._set_option(k, v)
             self.snes.setFromOptions()
-            self.snes.setTolerances(max_it=s.max_it)
+            self.snes.setTolerances(max_it=self.settings.max_it)
 
     def _continue(
         self, x: PETSc.Vec, line_search: str, rtol: float, max_it: int
@@ -987,6 +1001,7 @@ class NewtonSolver:
         )
         return reason, [float(r) for r in self.snes.getConvergenceHistory()[0][1 : its + 1]]
 
+    @_owning_options
     def solve_with_last_jacobian(self, b: PETSc.Vec, x: PETSc.Vec) -> bool:
         """x = J⁻¹ b with the last Jacobian this solver factorized (collective; the
         KSP as the last Newton iteration left it, nothing assembled or factorized again).
@@ -1004,18 +1019,66 @@ class NewtonSolver:
             self.timings["linear_solve"] += _ksp_time() - t0
         return ksp.getConvergedReason() > 0
 
+    @property
+    def options(self) -> dict[str, str | int | float]:
+        """The PETSc options this solver works with, without its prefix (a copy; a
+        flag's value is ""): the defaults, ``settings.linear``'s, ``settings.petsc`` and
+        what the solver changes while it works (the line search of a continued solve,
+        ``pc_type`` after an LDLᵀ failure). Local."""
+        return dict(self._options)
+
+    def _set_option(self, key: str, value) -> None:
+        """Set the option ``key`` (without prefix) to ``value``, or remove it (None), for
+        this solver, and in PETSc's database if the solver is working (local)."""
+        if value is None:
+            self._options.pop(key, None)
+        else:
+            self._options[key] = value
+        if self._working:
+            opts, name = PETSc.Options(), self.settings.prefix + key
+            if value is None:
+                opts.delValue(name)
+            else:
+                opts[name] = value
+
+    @contextmanager
+    def _own_options(self):
+        """This solver's options in PETSc's global database under its prefix for the
+        block, and what the database held there set aside meanwhile; afterwards the
+        options PETSc read are noted (:meth:`_warn_unused_options`), the solver's removed
+        and the set-aside ones put back (local; re-entrant)."""
+        self._working += 1
+        if self._working > 1:
+            try:
+                yield
+            finally:
+                self._working -= 1
+            return
+        opts, prefix = PETSc.Options(), self.settings.prefix
+        aside = {k: v for k, v in opts.getAll().items() if k.startswith(prefix)}
+        for key in aside:
+            opts.delValue(key)
+        for key, value in self._options.items():
+            opts[prefix + key] = value
+        try:
+            yield
+        finally:
+            self._working = 0
+            for key in self._options:
+                used = compat.option_used(prefix + key)
+                self._usage_known = self._usage_known and used is not None
+                if used:
+                    self._used.add(key)
+            for key in [k for k in opts.getAll() if k.startswith(prefix)]:
+                opts.delValue(key)
+            for key, value in aside.items():
+                opts[key] = "" if value is None else value
+
     def destroy(self) -> None:
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
         if self._solved:
             self._warn_unused_options()
-        opts = PETSc.Options()
-        for key in self._option_keys:
-            opts.delValue(key)
-        self._option_keys = []
-        for key, value in self._set_aside.items():
-            opts[key] = "" if value is None else value
-        self._set_aside = {}
         self.snes.destroy()
         self._A.destroy()
         self._b.destroy()
@@ -1027,11 +1090,11 @@ class NewtonSolver:
         """Log a warning naming the options of ``settings.petsc`` (the scene's
         ``[solver.petsc]`` and the command line's ``-dm_...``) that PETSc never read in
         this solver's solves: a typo, or an option of a solver or type not in use."""
+        if not self._usage_known:
+            return
         prefix = self.settings.prefix
         unused = [
-            k
-            for k, v in self.settings.petsc.items()
-            if v is not False and compat.option_used(prefix + k) is False
+            k for k, v in self.settings.petsc.items() if v is not False and k not in self._used
         ]
         if unused:
             log.warning(

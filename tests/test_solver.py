@@ -640,7 +640,7 @@ def test_a_stalled_solve_continues_with_full_steps(cubic_vectors):
     with NewtonSolver(problem, settings) as newton:
         its, norms = newton.solve()
         assert newton.full_step_solves == 1
-        assert PETSc.Options()["test_stall_snes_linesearch_type"] == "l2"
+        assert newton.options["snes_linesearch_type"] == "l2"
         assert newton.snes.getTolerances()[3] == 4
     assert 4 < its <= 4 + 4
     assert len(norms) == its + 1
@@ -877,12 +877,11 @@ def test_full_steps_that_contract_finish_the_solve(cubic_vectors):
     the iterations of plain full-step Newton, with no restart, and the options (line
     search, divergence tolerance, max_it) are the configured ones afterwards."""
     settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_full_ok_")
-    opts = PETSc.Options()
     with NewtonSolver(_Cubic(10.0), settings) as newton:
         its, norms = newton.solve(full_steps=True)
         assert newton.full_step_restarts == 0
-        assert opts["test_full_ok_snes_linesearch_type"] == "l2"
-        assert opts.getReal("test_full_ok_snes_divergence_tolerance") == 1e4
+        assert newton.options["snes_linesearch_type"] == "l2"
+        assert float(newton.options["snes_divergence_tolerance"]) == 1e4
         assert newton.snes.getTolerances()[3] == settings.max_it
         assert its == _newton_iterations(10.0, 1e-10) and len(norms) == its + 1
         assert np.allclose(newton.problem.u.vector.array, 2.0, rtol=1e-9)
@@ -899,7 +898,7 @@ def test_full_steps_that_raise_the_residual_restart_with_the_line_search(cubic_v
     with NewtonSolver(_Cubic(0.5), settings) as newton:
         its, norms = newton.solve(full_steps=True)
         assert newton.full_step_restarts == 1
-        assert PETSc.Options()["test_full_restart_snes_linesearch_type"] == "l2"
+        assert newton.options["snes_linesearch_type"] == "l2"
         assert newton.all_iterations == its
         x = newton.problem.u.vector.array
     assert its == 1 + l2_its and len(norms) == its + 1
@@ -940,7 +939,7 @@ def test_a_nan_residual_restarts_with_backtracking(cubic_vectors):
     with NewtonSolver(problem, settings) as newton:
         its, norms = newton.solve()
         assert newton.backtracked_solves == 1 and newton.full_step_solves == 0
-        assert PETSc.Options()["test_nan_snes_linesearch_type"] == "basic"
+        assert newton.options["snes_linesearch_type"] == "basic"
     assert len(norms) == its + 1 and np.all(np.isfinite(norms))
     assert norms[0] == pytest.approx(np.sqrt(3.0) * 7.875)
     assert norms[-1] <= 1e-10 * norms[0]
@@ -974,8 +973,38 @@ def test_mumps_ordering_by_dimension(cubic_vectors):
     problem = _Cubic(1.0)
     problem.gdim = 2
     for petsc, want in (({}, "0"), ({"mat_mumps_icntl_7": 5}, "5")):
-        with NewtonSolver(problem, SolverSettings(prefix="test_ord_", petsc=petsc)):
-            assert PETSc.Options()["test_ord_mat_mumps_icntl_7"] == want
+        with NewtonSolver(problem, SolverSettings(prefix="test_ord_", petsc=petsc)) as newton:
+            assert str(newton.options["mat_mumps_icntl_7"]) == want
+
+
+def test_solvers_alive_at_the_same_time_keep_their_own_options(cubic_vectors):
+    """Two solvers with the same prefix: each solves with its own settings. The second
+    one's options were written over the first one's in PETSc's global database, so the
+    first solved with them (a probe's frictional patch factorized with the second
+    solver's Cholesky and failed). Between the solvers' calls the database holds what a
+    host program put there under the prefix, and nothing of theirs."""
+    opts = PETSc.Options()
+    opts["test_two_ksp_rtol"] = "0.5"  # a host's option of the prefix
+    try:
+        first = NewtonSolver(_Cubic(1.0), SolverSettings(prefix="test_two_"))
+        second = NewtonSolver(
+            _Cubic(1.0),
+            SolverSettings(prefix="test_two_", petsc={"ksp_type": "cg", "pc_type": "jacobi"}),
+        )
+        with first, second:
+            assert {k for k in opts.getAll() if k.startswith("test_two_")} == {"test_two_ksp_rtol"}
+            its, norms = first.solve()
+            assert norms[-1] <= 1e-9 * norms[0]
+            ksp = first.snes.getKSP()
+            assert (ksp.getType(), ksp.getPC().getType()) == ("preonly", "lu")
+            second.solve()
+            ksp = second.snes.getKSP()
+            assert (ksp.getType(), ksp.getPC().getType()) == ("cg", "jacobi")
+            assert first.options["ksp_type"] == "preonly" and second.options["ksp_type"] == "cg"
+            assert {k for k in opts.getAll() if k.startswith("test_two_")} == {"test_two_ksp_rtol"}
+        assert opts["test_two_ksp_rtol"] == "0.5"
+    finally:
+        opts.delValue("test_two_ksp_rtol")
 
 
 def test_symmetric_jacobians_factorize_ldlt(cubic_vectors, monkeypatch):
@@ -1039,8 +1068,8 @@ class _Swap(_Cubic):
 def test_a_failed_ldlt_factorization_falls_back_to_lu(cubic_vectors):
     """An LDLᵀ factorization that fails (here a zero pivot that the SPD flag forbids
     MUMPS to pivot around) makes the solver factorize LU from then on and solve again
-    from the start: the solve converges, ldlt_fallbacks counts it, the option database
-    says lu."""
+    from the start: the solve converges, ldlt_fallbacks counts it, the solver's options
+    say lu."""
     problem = _Swap(0.0)
     settings = SolverSettings(prefix="test_fallback_")
     with NewtonSolver(problem, settings) as newton:
@@ -1048,7 +1077,7 @@ def test_a_failed_ldlt_factorization_falls_back_to_lu(cubic_vectors):
         its, norms = newton.solve()
         assert newton.ldlt_fallbacks == 1
         assert newton.snes.getKSP().getPC().getType() == "lu"
-        assert PETSc.Options()["test_fallback_pc_type"] == "lu"
+        assert newton.options["pc_type"] == "lu"
         newton.solve()  # later solves keep LU
         assert newton.ldlt_fallbacks == 1
     assert np.allclose(problem.u.vector.array, [2.0, 1.0])
