@@ -17,7 +17,13 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, OutputError, SceneError, every_rank_arrives
+from .errors import (
+    ConvergenceError,
+    OutputError,
+    SceneError,
+    every_rank_arrives,
+    first_on_any_rank,
+)
 from .laws import registered_law
 from .mesh import load_mesh
 from .scene import Scene, check_components, check_groups
@@ -215,7 +221,9 @@ def run(
     ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
     reports it, as the command line does in one line). Any other exception in the steps
     (one that ``progress`` raises, KeyboardInterrupt) goes on to the caller after
-    summary.json has said "failed" and "interrupted by …" (:meth:`OutputWriter.abandon`).
+    summary.json has said "failed" and "interrupted by …" (:meth:`OutputWriter.abandon`);
+    where ``progress`` raises on some ranks only, the others raise a RuntimeError that
+    names the rank and the exception (:func:`_progress_on_every_rank`).
     """
     from .output import OutputWriter, check_out_dir
     from .solver import LoadStepper, NewtonSolver
@@ -266,7 +274,7 @@ def run(
             totals[k] += res.timings.get(k, 0.0)
         writer.write_step(step, res.t, record)
         if progress is not None:
-            progress(step, record)
+            _progress_on_every_rank(comm, progress, step, record)
         mark[0] = perf_counter()
 
     stepper = LoadStepper(
@@ -319,6 +327,21 @@ def run(
         if status == "ok":
             writer.summary["status"], writer.summary["error"] = "failed", str(exc)
     return writer.summary
+
+
+def _progress_on_every_rank(comm, callback, *args) -> None:
+    """``callback(*args)`` on every rank; where it raises an Exception on some ranks, it
+    goes on there and every other rank raises RuntimeError naming the first such rank and
+    its exception (collective: one gather). A callback that raised on one rank left the
+    others in the next step's collectives and the job hung, with no traceback."""
+    try:
+        callback(*args)
+    except Exception as exc:
+        first_on_any_rank(comm, f"{type(exc).__name__}: {exc}")
+        raise
+    found, rank, _ = first_on_any_rank(comm, None)
+    if found is not None:
+        raise RuntimeError(f"the progress callback raised on rank {rank}: {found}")
 
 
 #: Seconds the ranks wait for each other after a PETSc error in the solve before the

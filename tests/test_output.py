@@ -267,6 +267,37 @@ def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
 
 
 @pytest.mark.mpi
+def test_a_callback_that_raises_on_one_rank_stops_every_rank(shared_tmp):
+    """``progress`` raising on the last rank only: that rank gets its exception, every
+    other rank a RuntimeError that names it, and summary.json says "failed" with the
+    steps before. The other ranks went on into the next step's collectives and the job
+    hung, with no traceback (a probe: 2 ranks, killed after 120 s)."""
+    import json
+
+    from dolfinx_mortar import parse_scene, run
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / "one_rank_raises"
+    last = comm.size - 1
+
+    def progress(step, record):
+        if step == 2 and comm.rank == last:
+            raise ValueError("only this rank stops")
+
+    scene = parse_scene(_small_press(steps=3), shared_tmp)
+    if comm.rank == last:
+        with pytest.raises(ValueError, match="only this rank stops"):
+            run(scene, comm, out_dir=out, progress=progress)
+    else:
+        with pytest.raises(RuntimeError, match=rf"raised on rank {last}: ValueError: only"):
+            run(scene, comm, out_dir=out, progress=progress)
+    comm.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed", summary["error"]
+    assert len(summary["steps"]) == 2
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("hand_over", [False, True])
 def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
     """dolfinx 0.5.2 frees the PETSc objects of its C++ layer only on an explicit
