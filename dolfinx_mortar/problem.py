@@ -249,6 +249,7 @@ class ContactProblem:
         self.F_form = compat.create_form(F + loads)
         self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
         self._dirichlet_rows = None  # see dirichlet_scale()
+        self._destroyed = False  # destroy() was called (_check_alive)
         #: every region linear-elastic: the bulk residual is linear in u and is evaluated
         #: as K₀ x + f(t) with K₀ assembled once (:class:`LinearBulk`); None otherwise
         self.linear_bulk = None
@@ -443,8 +444,14 @@ class ContactProblem:
         of its functions' vectors. dolfinx 0.5.2 frees the PETSc objects its C++ layer
         creates only on an explicit destroy: a run left K₀ and about five vectors behind
         (0.87 MB a run of hertz2d's 3.3k dofs; a helper's parameter-sweep probe). The
-        problem cannot solve afterwards. :func:`~dolfinx_mortar.runner.run` calls it on
-        the problem it built, unless ``setup`` handed the problem to the caller."""
+        problem cannot solve afterwards, nor give what needs a residual (:meth:`reactions`,
+        :meth:`nodal_reactions`): those raise RuntimeError (they crashed the process,
+        SIGSEGV in the freed scatters); the contact terms' tables and statistics of the
+        last state can still be read. :func:`~dolfinx_mortar.runner.run` calls it on the
+        problem it built, unless ``setup`` handed the problem to the caller."""
+        if self._destroyed:
+            return
+        self._destroyed = True
         if self.linear_bulk is not None:
             self.linear_bulk.destroy()
         for term in self.contacts:
@@ -483,7 +490,17 @@ class ContactProblem:
         return float(np.sqrt(self.comm.allreduce(float(d @ d))))
 
     # ---------------------------------------------------------------- assembly
+    def _check_alive(self) -> None:
+        """Raise RuntimeError after :meth:`destroy` (local; destroy is collective, so every
+        rank raises alike)."""
+        if self._destroyed:
+            raise RuntimeError(
+                "ContactProblem.destroy() has freed this problem's PETSc objects: it cannot "
+                "evaluate a residual or Jacobian any more (read reactions before destroying it)"
+            )
+
     def _set_state(self, x: PETSc.Vec) -> None:
+        self._check_alive()
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if x.handle != self.u.vector.handle:
             x.copy(self.u.vector)
@@ -549,6 +566,7 @@ class ContactProblem:
     def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
         """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
         dofs hold s_i (x_i − ū_i) instead of the residual (:meth:`dirichlet_scale`)."""
+        self._check_alive()
         t0 = perf_counter()
         if self.linear_bulk is not None:
             self.linear_bulk.residual(x, b, apply_bcs)
@@ -622,6 +640,7 @@ class ContactProblem:
         """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective). The contact terms'
         part is computed first and the pattern of A grown to hold it, so that a growth
         (which drops A's values) comes before the bulk is assembled, not after."""
+        self._check_alive()
         values, keys = self._contact_values(A)
         self._assemble_bulk_jacobian(A)
         self._add_contact_values(A, values, keys, bulk=True)

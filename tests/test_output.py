@@ -333,6 +333,32 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
     assert freed == [[0, 0]]
 
 
+def test_a_destroyed_problem_refuses_to_evaluate(tmp_path):
+    """After ``problem.destroy()`` (the documented end of a ``setup`` hand-over) a solve or
+    ``reactions()`` crashed the process (SIGSEGV in the freed contact scatters). They now
+    raise RuntimeError; a second destroy does nothing, and the contact terms' statistics
+    of the last state can still be read."""
+    from dolfinx_mortar import parse_scene, run
+
+    held = []
+    summary = run(
+        parse_scene(_small_press(steps=1), tmp_path),
+        MPI.COMM_SELF,
+        out_dir=tmp_path,
+        setup=held.append,
+    )
+    (problem,) = held
+    force = problem.contacts[0].statistics()["force"]
+    assert summary["status"] == "ok" and force[1] > 0.0
+    assert problem.reactions()["upper_top"][1] == pytest.approx(-force[1], rel=1e-8)
+    problem.destroy()
+    problem.destroy()
+    for call in (problem.reactions, lambda: problem.update_contact(problem.u.vector)):
+        with pytest.raises(RuntimeError, match=r"destroy\(\) has freed"):
+            call()
+    assert problem.contacts[0].statistics()["force"] == force
+
+
 def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
     """A scene run into a directory that holds another scene's output (its summary.json
     names another slave surface) removes that scene's contact CSV and XDMF files, and a
