@@ -334,7 +334,12 @@ class ContactProblem:
         return np.unique(np.concatenate(held))
 
     def _collect_bcs(self) -> None:
-        self.bcs = [bc for d in self._dirichlet for bc in d.bcs]
+        # dolfinx applies a list of conditions in order (set_bc, the lifting's values), so
+        # that the last one written holds a dof that several prescribe: the list runs from
+        # the last declared entry to the first, and the first prescription wins, as the
+        # reactions count it (it was the last: a probe's corner node took the later
+        # boundary's value, its reaction the earlier one's)
+        self.bcs = [bc for d in reversed(self._dirichlet) for bc in d.bcs]
         self._dirichlet_rows = None  # dirichlet_scale(): the constrained rows changed
         self._bodies = None  # (cell_body, held) of bodies_held(): the conditions changed
         if self.linear_bulk is not None:
@@ -368,7 +373,9 @@ class ContactProblem:
         constrained components. Use it for what a uniform ``[[dirichlet]]`` path cannot
         express (a rigid rotation of a face, say). Call it before adding contact terms
         (they record which dofs are constrained). The boundary's reaction appears in
-        :meth:`reactions` under ``name``.
+        :meth:`reactions` under ``name``. Where earlier conditions (the scene's, earlier
+        fields) prescribe nodes of this group on other boundaries, theirs hold (the first
+        prescription wins); ValueError where one prescribes a component of ``name`` itself.
         """
         if self.contacts:
             raise RuntimeError("add_dirichlet_field must be called before add_contact")
@@ -376,6 +383,12 @@ class ContactProblem:
         fdim = mesh.topology.dim - 1
         facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
         comps = tuple(range(gdim)) if components is None else tuple(components)
+        taken = sorted({c for d in self._dirichlet if d.name == name for c in d.components})
+        if set(taken) & set(comps):
+            raise ValueError(
+                f"add_dirichlet_field: components {taken} of {name!r} are already prescribed "
+                "(a [[dirichlet]] entry or an earlier field)"
+            )
         bcs = []
         for c in comps:
             Vc, _ = self.V.sub(c).collapse()

@@ -101,6 +101,42 @@ def test_reactions_only_where_prescribed_and_once(block_msh, shared_tmp, dim):
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("first", ["left", "bottom"])
+def test_the_first_prescription_of_a_shared_node_wins(block_msh, first):
+    """The corner (0, 0) lies on the left face (clamped) and on the bottom (u_y = −1e-3):
+    it takes the value of the entry declared first, as docs/scenes.md says and as its
+    reaction is booked. It took the last one's (dolfinx applies a list of conditions in
+    order, the last write holding), while its reaction went to the first."""
+    msh = block_msh(2, n=3)
+    data = _table(msh, 2, "linear-elastic", "small", 0.0)
+    entries = {d["boundary"]: d for d in data["dirichlet"]}
+    entries["left"].update(components=[0, 1], path=[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    entries["bottom"]["path"] = [[0.0, 0.0], [1.0, -1e-3]]
+    order = [first, "bottom" if first == "left" else "left", "right"]
+    data["dirichlet"] = [entries[name] for name in order]
+    box = {}
+    s = run(parse_scene(data, msh.parent), MPI.COMM_WORLD, setup=lambda p: box.update(p=p))
+    assert s["status"] == "ok", s["error"]
+    problem = box["p"]
+    X = problem.V.tabulate_dof_coordinates()
+    u = problem.u.x.array.reshape(-1, 2)
+    corner = np.flatnonzero(np.linalg.norm(X[:, :2], axis=1) < 1e-12)
+    want = 0.0 if first == "left" else -1e-3
+    assert np.all(u[corner, 1] == want), u[corner]
+    assert MPI.COMM_WORLD.allreduce(corner.size) > 0
+    X_left, F_left = problem.nodal_reactions("left")
+    at_corner = np.linalg.norm(X_left[:, :2], axis=1) < 1e-12
+    # the corner's y reaction is the first entry's: the clamp's only where it came first
+    booked = MPI.COMM_WORLD.allreduce(float(np.abs(F_left[at_corner, 1]).sum()))
+    assert (booked > 0.0) == (first == "left")
+    # a field on a component an entry of the same boundary prescribes: refused (the
+    # field overrode the scene's entry, silently)
+    with pytest.raises(ValueError, match=r"components \[1\] of 'bottom' are already"):
+        problem.add_dirichlet_field("bottom", lambda t, x: np.zeros((2, x.shape[1])))
+    problem.destroy()
+
+
+@pytest.mark.mpi
 def test_nodal_reactions_and_a_boundary_in_two_entries(block_msh):
     """ContactProblem.nodal_reactions: per owned node, the forces that sum to
     reactions(); a boundary named by two [[dirichlet]] entries (the pulled end's x, then
