@@ -95,7 +95,9 @@ def first_piola(model: str, E: float, nu: float, u):
 def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
     """Raise SceneError(``key``) unless the registered law ``model`` with the material's
     ``E`` and ``nu`` gives a UFL scalar for a d × d deformation gradient (d = ``gdim``)
-    that UFL can differentiate (local and deterministic: every rank raises the same
+    that UFL can differentiate twice, and whose stiffness ∂²ψ/∂F² is not identically
+    zero (a ψ at most linear in F left the Jacobian form empty: an IndexError traceback
+    from dolfinx's sparsity pattern) (local and deterministic: every rank raises the same
     error); then warns where the law is not stress-free at F = I or its small-strain
     moduli there are not ``E`` and ``nu`` (:func:`_check_reference_state`). Built-in laws
     pass unchecked."""
@@ -114,24 +116,30 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
                 key, f"law {model!r}: psi(F, E, nu) must return a UFL scalar, got {what}"
             )
         P = expand_derivatives(ufl.diff(value, F))
+        A = expand_derivatives(ufl.diff(P, F))
     except SceneError:
         raise
     except Exception as exc:  # whatever the user's function raises
         raise SceneError(
             key, f"law {model!r}: psi(F, E, nu) failed: {type(exc).__name__}: {exc}"
         ) from None
-    _check_reference_state(model, P, F, u, E, nu, gdim)
+    if isinstance(A, ufl.constantvalue.Zero):
+        raise SceneError(
+            key,
+            f"law {model!r}: psi(F, E, nu) is at most linear in F (its stiffness "
+            "d2psi/dF2 is zero for every F): the bodies of this material resist nothing",
+        )
+    _check_reference_state(model, P, A, F, u, E, nu, gdim)
 
 
-def _check_reference_state(model: str, P, F, u, E: float, nu: float, gdim: int) -> None:
-    """Warn where a law with first Piola stress ``P`` = ∂ψ/∂F (UFL, of the variable
-    F = I + ∇u) is not stress-free at F = I, or where its small-strain Lamé constants
+def _check_reference_state(model: str, P, A, F, u, E: float, nu: float, gdim: int) -> None:
+    """Warn where a law with first Piola stress ``P`` = ∂ψ/∂F and stiffness ``A`` =
+    ∂P/∂F (UFL, of the variable F = I + ∇u) is not stress-free at F = I, or where its small-strain Lamé constants
     λ = ∂²ψ/∂F₁₁∂F₂₂ and μ = ∂²ψ/∂F₁₂∂F₁₂ at F = I give another E or ν than the
     material's (by MODULI_TOL). A law whose derivatives UFL cannot evaluate there is not
     checked."""
     zero = ufl.as_vector([0.0] * gdim)
     try:
-        A = expand_derivatives(ufl.diff(P, F))
         P0 = ufl.replace(P, {u: zero})
         A0 = ufl.replace(A, {u: zero})
         stress = max(abs(float(P0[i, j])) for i in range(gdim) for j in range(gdim))

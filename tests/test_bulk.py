@@ -6,6 +6,7 @@ the reactions must match the analytic values to round-off (1e-8 relative).
 
 import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
 from scipy.optimize import brentq
 
@@ -327,7 +328,6 @@ def test_linear_bulk_equals_assembly(block_msh, dim, quads):
 # ---------------------------------------------------------------- laws of one's own
 def _hand_neo_hooke(F, E_, nu_):
     """The compressible neo-Hookean ψ of bulk.py, written as a user would (plane strain)."""
-    import ufl
 
     lm, mu = lame(E_, nu_)
     d = F.ufl_shape[0]
@@ -429,12 +429,16 @@ def test_a_law_registered_again_after_parsing_is_refused(block_msh, no_laws):
         (lambda F, E, nu: F, r"must return a UFL scalar, got shape \(2, 2\)"),
         (lambda F, E, nu: 1.0, "must return a UFL scalar, got float"),
         (lambda F, E, nu: 1 / 0, "failed: ZeroDivisionError"),
+        (lambda F, E, nu: 0 * ufl.det(F), "at most linear in F"),
+        (lambda F, E, nu: E * ufl.tr(F), "at most linear in F"),
     ],
-    ids=["matrix", "float", "raises"],
+    ids=["matrix", "float", "raises", "zero", "linear"],
 )
 def test_a_bad_law_is_one_scene_error_on_every_rank(block_msh, shared_tmp, no_laws, psi, match):
-    """A registered ψ that does not give a UFL scalar stops the run before the problem is
-    built, with the same SceneError (key material[0].model) on every rank."""
+    """A registered ψ that does not give a UFL scalar, or one at most linear in F (no
+    stiffness: an IndexError traceback from dolfinx's sparsity pattern), stops the run
+    before the problem is built, with the same SceneError (key material[0].model) on every
+    rank."""
     from dolfinx_mortar import SceneError, register_law
 
     register_law("bad", psi)
@@ -452,8 +456,6 @@ def test_a_law_is_checked_at_the_reference_state(no_laws, caplog):
     or one that is not stress-free, gets a warning; neo-Hooke written by hand none, in 2D
     and 3D."""
     import logging
-
-    import ufl
 
     from dolfinx_mortar import register_law
     from dolfinx_mortar.bulk import check_law
