@@ -443,8 +443,13 @@ class OutputWriter:
                     names.update(
                         {"tangential_traction": "tangential_traction_norm", "slip": "slip"}
                     )
+                # slip goes with the tangential traction (it was written whatever the
+                # scene's fields, and output.fields cannot name it)
+                wanted = set(self.fields) | (
+                    {"slip"} if "tangential_traction" in self.fields else set()
+                )
                 for key, name in names.items():
-                    if key in self.fields or key == "slip":
+                    if key in wanted:
                         self._contact_functions[key] = fem.Function(Q, name=name)
                 self._start_surfaces(Q)
         self.write_step(0, 0.0, None)

@@ -333,6 +333,30 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
     assert freed == [[0, 0]]
 
 
+@pytest.mark.parametrize(
+    "fields, written",
+    [
+        (None, {"contact_pressure", "gap", "contact_state", "tangential_traction_norm", "slip"}),
+        (["gap"], {"gap"}),
+        (["tangential_traction"], {"tangential_traction_norm", "slip"}),
+    ],
+)
+def test_the_frictional_fields_follow_output_fields(tmp_path, fields, written):
+    """With friction, ``slip`` goes with ``tangential_traction`` in the XDMF files (it was
+    written whatever ``output.fields`` said, which cannot name it)."""
+    from dolfinx_mortar import parse_scene, run
+
+    data = _small_press(steps=1)
+    data["contact"][0]["friction"] = 0.3
+    if fields is not None:
+        data["output"] = {"fields": ["displacement", *fields]}
+    assert run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)["status"] == "ok"
+    for name in ("fields.xdmf", "contact_upper_bottom.xdmf"):
+        text = (tmp_path / name).read_text()
+        found = set(re.findall(r'Attribute Name="([^"]+)"', text)) - {"displacement"}
+        assert found == written, (name, found)
+
+
 def test_a_destroyed_problem_refuses_to_evaluate(tmp_path):
     """After ``problem.destroy()`` (the documented end of a ``setup`` hand-over) a solve or
     ``reactions()`` crashed the process (SIGSEGV in the freed contact scatters). They now
