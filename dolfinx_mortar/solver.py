@@ -4,10 +4,10 @@
   residual evaluation first calls the problem's per-iteration hook
   (``update_contact``: search and pairing), so pairs may change within a load
   step. Options go to PETSc under the solver's prefix (default ``dm_``), so
-  ``-dm_snes_monitor`` or ``[solver.petsc] ksp_type = "gmres"`` work; they are in
-  PETSc's global database only while the solver works, so that solvers alive at the
-  same time keep their own settings. The matrix is rebuilt between solves when the contact couplings outgrow its
-  pattern. Failure raises :class:`~dolfinx_mortar.errors.ConvergenceError`.
+  ``-dm_snes_monitor`` or ``[solver.petsc] ksp_type = "gmres"`` work; a solver loads
+  them into PETSc's global database when it works, so that solvers alive at the same
+  time keep their own settings. The matrix is rebuilt between solves when the contact
+  couplings outgrow its pattern. Failure raises :class:`~dolfinx_mortar.errors.ConvergenceError`.
 - :func:`solve_step` runs the Uzawa rounds around Newton for one load step.
 - :class:`LoadStepper` walks the time grid, cuts a failed step in half (up to
   ``max_cutbacks`` times in a row) and calls back after every converged step.
@@ -19,6 +19,7 @@ import functools
 import logging
 import math
 import re
+import weakref
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -338,14 +339,22 @@ REUSE_RTOL_FACTOR = 0.1
 REUSE_MAX_IT = 8
 
 
+#: Per options prefix, the :class:`NewtonSolver` whose options are in PETSc's global
+#: database now (:meth:`NewtonSolver._load_options`), and what the database held under
+#: that prefix before the first of them loaded its own: a host program's options, put
+#: back when no solver's options are loaded under the prefix any more.
+_LOADED: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+_HOST_OPTIONS: dict[str, dict] = {}
+
+
 def _owning_options(method):
     """Run ``method`` of a :class:`NewtonSolver` with the solver's options in PETSc's
-    global database (:meth:`NewtonSolver._own_options`)."""
+    global database (:meth:`NewtonSolver._load_options`)."""
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
-        with self._own_options():
-            return method(self, *args, **kwargs)
+        self._load_options()
+        return method(self, *args, **kwargs)
 
     return wrapper
 
@@ -359,11 +368,13 @@ class NewtonSolver:
     PETSc reads options from one global database, by prefix, when it sets up an object
     and lazily during a solve (the factorization's, the viewers'). This solver's options
     (:attr:`options`: the defaults, ``settings.linear``'s and ``settings.petsc``) are
-    written there under ``settings.prefix`` only while the solver works (its creation,
-    :meth:`solve`, :meth:`solve_with_last_jacobian`), with whatever the database held
-    under that prefix set aside meanwhile and put back after. Two solvers alive at the
-    same time with the same prefix each solve with their own settings (the first one
-    solved with the second one's, a probe's frictional patch with Cholesky).
+    written there under ``settings.prefix`` when the solver works (its creation,
+    :meth:`solve`, :meth:`solve_with_last_jacobian`) and another solver's options are
+    there: those are taken out then. What a host program had put there under the prefix
+    is set aside while any solver's options are loaded, and put back by the
+    :meth:`destroy` of the solver loaded last. Two solvers alive at the same time with
+    the same prefix each solve with their own settings (the first one solved with the
+    second one's, a probe's frictional patch with Cholesky).
     """
 
     def __init__(self, problem, settings: SolverSettings | None = None):
@@ -391,16 +402,17 @@ class NewtonSolver:
         # for its flags): PETSc reads "false" as the name of a viewer (-snes_monitor)
         defaults = {k: v for k, v in defaults.items() if not (v is False and k in settings.petsc)}
         # Options of the prefix that a host program put in the global database (the
-        # scene's and the command line's are settings.petsc) are set aside while the
-        # solver works (_own_options): the solver reads its own options only. They were
-        # read where the solver sets no value and overwritten elsewhere, then deleted.
+        # scene's and the command line's are settings.petsc) are set aside while a
+        # solver's are loaded (_load_options): the solver reads its own options only.
+        # They were read where the solver sets no value and overwritten elsewhere, then
+        # deleted.
         # A bare flag (-snes_monitor) is "true" as a scene boolean; PETSc wants no value
         # (a viewer option reads "true" as a viewer name), which also means true for its
         # boolean options.
         self._options = {k: "" if v is True else v for k, v in defaults.items()}
-        self._working = 0  # the depth of _own_options
-        #: the options (without prefix) that PETSc has read in this solver's work, and
-        #: whether PETSc could tell (compat.option_used)
+        #: the options (without prefix) that PETSc has read in this solver's work, up to
+        #: its last unloading (_unload_options), and whether PETSc could tell
+        #: (compat.option_used)
         self._used: set[str] = set()
         self._usage_known = True
         self._b = _create_vector(problem)
@@ -419,10 +431,10 @@ class NewtonSolver:
         )
         error = refused = None
         try:
-            with self._own_options():
-                self.snes.setFromOptions()
-                self.snes.getKSP().setFromOptions()
-                refused = self._refused_option()
+            self._load_options()
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
+            refused = self._refused_option()
         except PETSc.Error as exc:
             reason = compat.petsc_error_lines(exc)[-1]
             faulty = _options_named_in(reason, settings.petsc, settings.prefix)
@@ -1029,54 +1041,60 @@ class NewtonSolver:
 
     def _set_option(self, key: str, value) -> None:
         """Set the option ``key`` (without prefix) to ``value``, or remove it (None), for
-        this solver, and in PETSc's database if the solver is working (local)."""
+        this solver, and in PETSc's database if its options are loaded (local)."""
         if value is None:
             self._options.pop(key, None)
         else:
             self._options[key] = value
-        if self._working:
+        if _LOADED.get(self.settings.prefix) is self:
             opts, name = PETSc.Options(), self.settings.prefix + key
             if value is None:
                 opts.delValue(name)
             else:
                 opts[name] = value
 
-    @contextmanager
-    def _own_options(self):
-        """This solver's options in PETSc's global database under its prefix for the
-        block, and what the database held there set aside meanwhile; afterwards the
-        options PETSc read are noted (:meth:`_warn_unused_options`), the solver's removed
-        and the set-aside ones put back (local; re-entrant)."""
-        self._working += 1
-        if self._working > 1:
-            try:
-                yield
-            finally:
-                self._working -= 1
+    def _load_options(self) -> None:
+        """Put this solver's options into PETSc's global database under its prefix, unless
+        they are there (local; cheap then). Another solver's options there are unloaded
+        first; where none were, what the database held under the prefix (a host
+        program's options) is set aside until :meth:`destroy`."""
+        prefix = self.settings.prefix
+        loaded = _LOADED.get(prefix)
+        if loaded is self:
             return
-        opts, prefix = PETSc.Options(), self.settings.prefix
-        aside = {k: v for k, v in opts.getAll().items() if k.startswith(prefix)}
-        for key in aside:
-            opts.delValue(key)
+        opts = PETSc.Options()
+        if loaded is not None:
+            loaded._unload_options()
+        else:
+            aside = {k: v for k, v in opts.getAll().items() if k.startswith(prefix)}
+            for key in aside:
+                opts.delValue(key)
+            _HOST_OPTIONS[prefix] = aside
         for key, value in self._options.items():
             opts[prefix + key] = value
-        try:
-            yield
-        finally:
-            self._working = 0
-            for key in self._options:
-                used = compat.option_used(prefix + key)
-                self._usage_known = self._usage_known and used is not None
-                if used:
-                    self._used.add(key)
-            for key in [k for k in opts.getAll() if k.startswith(prefix)]:
-                opts.delValue(key)
-            for key, value in aside.items():
-                opts[key] = "" if value is None else value
+        _LOADED[prefix] = self
+
+    def _unload_options(self) -> None:
+        """Note which of this solver's options PETSc has read (:meth:`_warn_unused_options`)
+        and take them out of the global database (local; they must be loaded)."""
+        opts, prefix = PETSc.Options(), self.settings.prefix
+        for key in self._options:
+            used = compat.option_used(prefix + key)
+            self._usage_known = self._usage_known and used is not None
+            if used:
+                self._used.add(key)
+            opts.delValue(prefix + key)
+        del _LOADED[prefix]
 
     def destroy(self) -> None:
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
+        prefix = self.settings.prefix
+        if _LOADED.get(prefix) is self:
+            self._unload_options()
+            opts = PETSc.Options()
+            for key, value in _HOST_OPTIONS.pop(prefix, {}).items():
+                opts[key] = "" if value is None else value
         if self._solved:
             self._warn_unused_options()
         self.snes.destroy()
