@@ -1,7 +1,10 @@
 """Exceptions raised by dolfinx_mortar, and how the ranks of a run agree on a failure.
 
 ``SceneError`` is raised for bad user input (scene file, mesh, options) and is
-turned into a one-line message and exit status 2 by the command-line driver.
+turned into a one-line message and exit status 2 by the command-line driver. It is a
+ValueError (``SceneTypeError``, a value of the wrong type, a TypeError), so that the
+Python API (``ContactProblem``, ``MortarContact``, ``SolverSettings``), which checks its
+arguments with the scene's rules, raises the exceptions Python callers expect.
 ``ConvergenceError`` is raised when a nonlinear or linear solve, or the Uzawa
 augmentation loop, fails; the load-stepping driver catches it and cuts the step.
 ``OutputError`` is raised on every rank when a run's files cannot be written (a full
@@ -13,8 +16,10 @@ class DolfinxMortarError(Exception):
     """Base class of the package's exceptions."""
 
 
-class SceneError(DolfinxMortarError):
+class SceneError(DolfinxMortarError, ValueError):
     """Invalid input: the message names the offending key or object and the reason.
+    A ValueError: the Python API's arguments are checked by the same rules, and their
+    key is then the argument's name (``contact.penalty``, ``SolverSettings.rtol``).
 
     Parameters
     ----------
@@ -29,6 +34,11 @@ class SceneError(DolfinxMortarError):
         self.key = key
         self.reason = reason
         super().__init__(f"{key}: {reason}" if key else reason)
+
+
+class SceneTypeError(SceneError, TypeError):
+    """Invalid input of the wrong type (a string where a number is expected, ...): a
+    SceneError, and a TypeError for the Python API's callers."""
 
 
 class ConvergenceError(DolfinxMortarError):

@@ -26,7 +26,7 @@ from .errors import (
 )
 from .laws import registered_law
 from .mesh import load_mesh
-from .scene import Scene, check_components, check_groups
+from .scene import Scene, check_components, check_groups, check_regions_covered
 
 log = logging.getLogger(__name__)
 
@@ -103,15 +103,11 @@ def prepare(scene: Scene, comm, setup=None):
 
     for i, mat in enumerate(scene.materials):
         check_law(mat.model, mat.E, mat.nu, mesh_data.gdim, f"material[{i}].model")
-    used = {mat.region for mat in scene.materials}
-    unused = sorted(set(mesh_data.cell_groups) - used)
-    if unused:
-        unnamed = set(mesh_data.info.get("unnamed_groups", ()))
-        names = [
-            f"{n!r} (a physical group without a name: its tag)" if n in unnamed else f"{n!r}"
-            for n in unused
-        ]
-        raise SceneError("material", f"cell group(s) {', '.join(names)} have no [[material]]")
+    check_regions_covered(
+        [mat.region for mat in scene.materials],
+        mesh_data.cell_groups,
+        tuple(mesh_data.info.get("unnamed_groups", ())),
+    )
     problem = ContactProblem(
         mesh_data,
         [(mat.region, mat.model, mat.E, mat.nu) for mat in scene.materials],

@@ -93,6 +93,8 @@ increasing t.
 
 Public API: :func:`load_scene`, :func:`parse_scene`, :func:`dump_scene`,
 :func:`check_groups`, :func:`check_components`, :func:`interpolate_path`, the
+checks the Python API shares with the scene (:func:`contact_numbers`,
+:func:`solver_options`, :func:`problem_inputs`, :func:`check_regions_covered`), the
 dataclasses, and the
 module-level :data:`KNOWN_GENERATORS` (which the mesh module may replace).
 """
@@ -110,7 +112,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dolfinx_mortar.errors import SceneError
+from dolfinx_mortar.errors import SceneError, SceneTypeError
 from dolfinx_mortar.laws import BUILTIN_MODELS, model_names, registered_law
 
 __all__ = [
@@ -137,6 +139,10 @@ __all__ = [
     "dump_scene",
     "check_groups",
     "check_components",
+    "check_regions_covered",
+    "contact_numbers",
+    "solver_options",
+    "problem_inputs",
     "interpolate_path",
 ]
 
@@ -572,7 +578,7 @@ def _get(table: Mapping[str, Any], name: str, prefix: str, default: Any = _MISSI
 def _table(value: Any, key: str) -> Mapping[str, Any]:
     """Check that ``value`` is a table."""
     if not isinstance(value, Mapping):
-        raise SceneError(key, f"expected a table, got {_type_name(value)} {_show(value)}")
+        raise SceneTypeError(key, f"expected a table, got {_type_name(value)} {_show(value)}")
     return value
 
 
@@ -581,7 +587,9 @@ def _tables(value: Any, key: str) -> list[Mapping[str, Any]]:
     if isinstance(value, Mapping):
         raise SceneError(key, f"expected an array of tables ([[{key}]]), got a single table")
     if not isinstance(value, list | tuple):
-        raise SceneError(key, f"expected an array of tables ([[{key}]]), got {_type_name(value)}")
+        raise SceneTypeError(
+            key, f"expected an array of tables ([[{key}]]), got {_type_name(value)}"
+        )
     for i, item in enumerate(value):
         _table(item, f"{key}[{i}]")
     return list(value)
@@ -590,7 +598,7 @@ def _tables(value: Any, key: str) -> list[Mapping[str, Any]]:
 def _string(value: Any, key: str) -> str:
     """Check that ``value`` is a string."""
     if not isinstance(value, str):
-        raise SceneError(key, f"expected a string, got {_type_name(value)} {_show(value)}")
+        raise SceneTypeError(key, f"expected a string, got {_type_name(value)} {_show(value)}")
     return value
 
 
@@ -639,7 +647,7 @@ def number_text(value: int | float) -> str:
 def _number(value: Any, key: str) -> float:
     """Check that ``value`` is a finite number (int or float, not bool)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SceneError(key, f"expected a number, got {_type_name(value)} {_show(value)}")
+        raise SceneTypeError(key, f"expected a number, got {_type_name(value)} {_show(value)}")
     x = finite_float(value)
     if x is None:
         raise SceneError(key, f"must be a finite number, got {number_text(value)}")
@@ -677,7 +685,7 @@ def c_int(value: int, key: str) -> int:
 def _integer(value: Any, key: str) -> int:
     """Check that ``value`` is an integer (not bool, not float) that fits a C int."""
     if isinstance(value, bool) or not isinstance(value, int):
-        raise SceneError(key, f"expected an integer, got {_type_name(value)} {_show(value)}")
+        raise SceneTypeError(key, f"expected an integer, got {_type_name(value)} {_show(value)}")
     return c_int(value, key)
 
 
@@ -713,7 +721,7 @@ def _auto_or(number, value: Any, key: str, bound: str) -> float | str:
             raise SceneError(key, f'expected a number {bound} or "auto", got {value!r}')
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SceneError(
+        raise SceneTypeError(
             key, f'expected a number {bound} or "auto", got {_type_name(value)} {_show(value)}'
         )
     return number(value, key)
@@ -730,7 +738,7 @@ def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
     out: dict[str, int | float | str | bool] = {}
     for name, item in table.items():
         if not isinstance(item, bool | int | float | str):
-            raise SceneError(
+            raise SceneTypeError(
                 _key(key, name),
                 f"expected an integer, float, string or boolean, got {_type_name(item)}",
             )
@@ -743,7 +751,7 @@ def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
 def _path(value: Any, key: str) -> LoadPath:
     """Validate a load path: non-empty rows of equal length >= 2, finite, t increasing."""
     if not isinstance(value, list | tuple):
-        raise SceneError(
+        raise SceneTypeError(
             key, f"expected an array of rows [t, v, ...], got {_type_name(value)} {_show(value)}"
         )
     if len(value) == 0:
@@ -751,7 +759,7 @@ def _path(value: Any, key: str) -> LoadPath:
     rows: list[tuple[float, ...]] = []
     for i, row in enumerate(value):
         if not isinstance(row, list | tuple):
-            raise SceneError(
+            raise SceneTypeError(
                 key, f"row {i} is not an array [t, v, ...]: got {_type_name(row)} {_show(row)}"
             )
         if len(row) < 2:
@@ -759,7 +767,7 @@ def _path(value: Any, key: str) -> LoadPath:
         numbers = []
         for j, item in enumerate(row):
             if isinstance(item, bool) or not isinstance(item, int | float):
-                raise SceneError(
+                raise SceneTypeError(
                     key, f"row {i} entry {j} is not a number: {_type_name(item)} {_show(item)}"
                 )
             x = finite_float(item)
@@ -892,8 +900,9 @@ def _parse_mesh(value: Any, base_dir: Path) -> MeshSpec:
     return MeshSpec(file=None, generator=name, params=params)
 
 
-def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str) -> Material:
-    """Parse one ``[[material]]``."""
+def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str | None) -> Material:
+    """Parse one ``[[material]]`` (``kinematics`` None: the models are not checked
+    against a kinematics)."""
     _check_keys(table, _MATERIAL_KEYS, prefix)
     region = _nonempty_string(_get(table, "region", prefix), _key(prefix, "region"))
     model = _choice(
@@ -923,6 +932,38 @@ def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str) -> M
     return Material(region=region, model=model, E=E, nu=nu)
 
 
+def contact_numbers(
+    prefix: str,
+    friction: Any,
+    penalty: Any,
+    penalty_tangential: Any,
+    uzawa_tol: Any,
+    uzawa_max: Any,
+) -> tuple[float, float | str, float | str | None, float, int]:
+    """The numbers of a contact pair, checked: ``(friction, penalty, penalty_tangential,
+    uzawa_tol, uzawa_max)`` as float, float or "auto", the same or None, float and int.
+    The one definition of their rules, for ``[[contact]]`` and for
+    :class:`~dolfinx_mortar.contact.MortarContact`'s arguments (``prefix``: the key of the
+    pair, ``contact[0]`` or the term's ``key``; local).
+
+    Raises SceneError (a ValueError) keyed ``PREFIX.NAME`` for a friction < 0, a penalty
+    <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a uzawa_max < 1, and
+    SceneTypeError (a TypeError) for a value of the wrong type."""
+    friction = _number(_plain(friction), _key(prefix, "friction"))
+    if friction < 0.0:
+        raise SceneError(
+            _key(prefix, "friction"), f"friction coefficient must be >= 0, got {friction:g}"
+        )
+    penalty = _penalty(_plain(penalty), _key(prefix, "penalty"))
+    if penalty_tangential is not None:
+        penalty_tangential = _penalty(
+            _plain(penalty_tangential), _key(prefix, "penalty_tangential")
+        )
+    uzawa_tol = _nonnegative(_plain(uzawa_tol), _key(prefix, "uzawa_tol"))
+    uzawa_max = _int_at_least(_plain(uzawa_max), _key(prefix, "uzawa_max"), 1)
+    return friction, penalty, penalty_tangential, uzawa_tol, uzawa_max
+
+
 def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     """Parse one ``[[contact]]``."""
     _check_keys(table, _CONTACT_KEYS, prefix)
@@ -930,19 +971,18 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     master = _nonempty_string(_get(table, "master", prefix), _key(prefix, "master"))
     if slave == master:
         raise SceneError(_key(prefix, "master"), f"slave and master are the same group {slave!r}")
-    friction = _number(table.get("friction", 0.0), _key(prefix, "friction"))
-    if friction < 0.0:
-        raise SceneError(
-            _key(prefix, "friction"), f"friction coefficient must be >= 0, got {friction:g}"
-        )
+    friction, penalty, penalty_t, uzawa_tol, uzawa_max = contact_numbers(
+        prefix,
+        table.get("friction", 0.0),
+        table.get("penalty", "auto"),
+        table.get("penalty_tangential"),
+        table.get("uzawa_tol", 1e-6),
+        table.get("uzawa_max", 20),
+    )
     recovery = _choice(table.get("recovery", "lumped"), _key(prefix, "recovery"), RECOVERIES)
     integration = _choice(
         table.get("integration", "element"), _key(prefix, "integration"), INTEGRATIONS
     )
-    penalty = _penalty(table.get("penalty", "auto"), _key(prefix, "penalty"))
-    penalty_t = table.get("penalty_tangential")
-    if penalty_t is not None:
-        penalty_t = _penalty(penalty_t, _key(prefix, "penalty_tangential"))
     weights = _choice(
         table.get("tangential_weights", TANGENTIAL_WEIGHTS[0]),
         _key(prefix, "tangential_weights"),
@@ -958,8 +998,6 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "tangential_frame"),
         TANGENTIAL_FRAMES,
     )
-    uzawa_tol = _nonnegative(table.get("uzawa_tol", 1e-6), _key(prefix, "uzawa_tol"))
-    uzawa_max = _int_at_least(table.get("uzawa_max", 20), _key(prefix, "uzawa_max"), 1)
     acceleration = _choice(
         table.get("uzawa_acceleration", UZAWA_ACCELERATIONS[0]),
         _key(prefix, "uzawa_acceleration"),
@@ -998,7 +1036,7 @@ def _parse_dirichlet(table: Mapping[str, Any], prefix: str) -> DirichletBC:
         key = _key(prefix, "components")
         raw = table["components"]
         if not isinstance(raw, list | tuple):
-            raise SceneError(
+            raise SceneTypeError(
                 key, f"expected an array of integers, got {_type_name(raw)} {_show(raw)}"
             )
         if len(raw) == 0:
@@ -1006,7 +1044,7 @@ def _parse_dirichlet(table: Mapping[str, Any], prefix: str) -> DirichletBC:
         comps = []
         for item in raw:
             if isinstance(item, bool) or not isinstance(item, int):
-                raise SceneError(
+                raise SceneTypeError(
                     key, f"components must be integers, got {_type_name(item)} {_show(item)}"
                 )
             if item < 0:
@@ -1032,7 +1070,7 @@ def _parse_dirichlet(table: Mapping[str, Any], prefix: str) -> DirichletBC:
     return DirichletBC(boundary=boundary, components=components, path=path)
 
 
-def _check_dirichlet_overlap(dirichlet: Sequence[DirichletBC]) -> None:
+def _check_dirichlet_overlap(dirichlet: Sequence[DirichletBC], name: str = "dirichlet") -> None:
     """Reject a ``[[dirichlet]]`` that prescribes a component of a boundary that an
     earlier one prescribes already (the second was silently ignored). Different
     boundaries that share nodes stay legal (their first prescription wins, as the
@@ -1042,15 +1080,15 @@ def _check_dirichlet_overlap(dirichlet: Sequence[DirichletBC]) -> None:
         for j, comps in earlier.get(d.boundary, []):
             if comps is None and d.components is None:
                 raise SceneError(
-                    f"dirichlet[{i}]",
-                    f"all components of {d.boundary!r} are already prescribed by dirichlet[{j}]",
+                    f"{name}[{i}]",
+                    f"all components of {d.boundary!r} are already prescribed by {name}[{j}]",
                 )
             common = set(d.components or comps) & set(comps or d.components)
             if common:
                 raise SceneError(
-                    f"dirichlet[{i}]",
+                    f"{name}[{i}]",
                     f"component {min(common)} of {d.boundary!r} is already prescribed by "
-                    f"dirichlet[{j}]",
+                    f"{name}[{j}]",
                 )
         earlier.setdefault(d.boundary, []).append((i, d.components))
 
@@ -1082,7 +1120,7 @@ def _parse_steps(value: Any) -> Steps:
     max_cutbacks = _int_at_least(table.get("max_cutbacks", 6), "steps.max_cutbacks", 0)
     raw = table.get("output_times", [])
     if not isinstance(raw, list | tuple):
-        raise SceneError(
+        raise SceneTypeError(
             "steps.output_times",
             f"expected an array of numbers, got {_type_name(raw)} {_show(raw)}",
         )
@@ -1099,24 +1137,39 @@ def _parse_steps(value: Any) -> Steps:
     )
 
 
-def _parse_solver(value: Any) -> SolverOptions:
-    """Parse ``[solver]``."""
-    table = _table(value, "solver")
-    _check_keys(table, _SOLVER_KEYS, "solver")
-    rtol = _positive(table.get("rtol", 1e-9), "solver.rtol")
+def solver_options(
+    prefix: str,
+    rtol: Any = 1e-9,
+    atol: Any = "auto",
+    max_it: Any = 25,
+    linear: Any = "mumps",
+    line_search: Any = "l2",
+    petsc: Any = None,
+    step_depth_limit: Any = 0.0,
+) -> SolverOptions:
+    """The solver options, checked: the one definition of their rules, for ``[solver]``
+    and for :class:`~dolfinx_mortar.solver.SolverSettings` (``prefix``: ``solver`` or
+    ``SolverSettings``; local). PETSc option names lose a leading ``-``.
+
+    Raises SceneError (a ValueError) keyed ``PREFIX.NAME`` for a value out of range (rtol
+    outside (0, 1), atol < 0 or a string other than "auto", max_it outside [1, MAX_IT],
+    an unknown linear solver or line search, step_depth_limit < 0, a non-finite PETSc
+    value), SceneTypeError (a TypeError) for a value of the wrong type."""
+    key = prefix
+    rtol = _positive(_plain(rtol), _key(key, "rtol"))
     if rtol >= 1.0:  # PETSc's SNESSetTolerances refuses it, in the middle of the run
         raise SceneError(
-            "solver.rtol", f"must be < 1 (a relative residual reduction), got {rtol:g}"
+            _key(key, "rtol"), f"must be < 1 (a relative residual reduction), got {rtol:g}"
         )
-    atol = _auto_or(_nonnegative, table.get("atol", "auto"), "solver.atol", ">= 0")
-    max_it = _int_at_least(table.get("max_it", 25), "solver.max_it", 1)
+    atol = _auto_or(_nonnegative, _plain(atol), _key(key, "atol"), ">= 0")
+    max_it = _int_at_least(_plain(max_it), _key(key, "max_it"), 1)
     if max_it > MAX_IT:
-        raise SceneError("solver.max_it", f"at most {MAX_IT} Newton iterations, got {max_it}")
-    linear = _choice(table.get("linear", "mumps"), "solver.linear", LINEAR_SOLVERS)
-    line_search = _choice(table.get("line_search", "l2"), "solver.line_search", LINE_SEARCHES)
-    petsc = _scalar_table(table.get("petsc", {}), "solver.petsc")
+        raise SceneError(_key(key, "max_it"), f"at most {MAX_IT} Newton iterations, got {max_it}")
+    linear = _choice(linear, _key(key, "linear"), LINEAR_SOLVERS)
+    line_search = _choice(line_search, _key(key, "line_search"), LINE_SEARCHES)
+    petsc = _scalar_table(_plain({} if petsc is None else petsc), _key(key, "petsc"))
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
-    depth = _nonnegative(table.get("step_depth_limit", 0.0), "solver.step_depth_limit")
+    depth = _nonnegative(_plain(step_depth_limit), _key(key, "step_depth_limit"))
     return SolverOptions(
         rtol=rtol,
         atol=atol,
@@ -1128,6 +1181,13 @@ def _parse_solver(value: Any) -> SolverOptions:
     )
 
 
+def _parse_solver(value: Any) -> SolverOptions:
+    """Parse ``[solver]``."""
+    table = _table(value, "solver")
+    _check_keys(table, _SOLVER_KEYS, "solver")
+    return solver_options("solver", **table)
+
+
 def _parse_output(value: Any, base_dir: Path, stem: str) -> OutputOptions:
     """Parse ``[output]``."""
     table = _table(value, "output")
@@ -1135,7 +1195,7 @@ def _parse_output(value: Any, base_dir: Path, stem: str) -> OutputOptions:
     out_dir = _nonempty_string(table.get("dir", f"results/{stem}"), "output.dir")
     raw = table.get("fields", list(OUTPUT_FIELDS))
     if not isinstance(raw, list | tuple):
-        raise SceneError(
+        raise SceneTypeError(
             "output.fields", f"expected an array of strings, got {_type_name(raw)} {_show(raw)}"
         )
     fields: list[str] = []
@@ -1342,17 +1402,27 @@ def _group_error(
     )
 
 
+_SCENE_NAMES = ("material", "contact", "dirichlet", "traction")
+
+
 def check_groups(
-    scene: Scene, cell_groups: Mapping[str, int], facet_groups: Mapping[str, int]
+    scene: Scene,
+    cell_groups: Mapping[str, int],
+    facet_groups: Mapping[str, int],
+    names: Sequence[str] = _SCENE_NAMES,
 ) -> None:
     """Check that every physical group the scene names exists with the right dimension.
 
     Parameters
     ----------
     scene:
-        A parsed scene.
+        A parsed scene (or any object with its ``materials``, ``contacts``,
+        ``dirichlet`` and ``tractions``).
     cell_groups, facet_groups:
         Physical group name -> tag, for cells (dimension tdim) and facets (tdim - 1).
+    names:
+        The key names of the four lists (the scene's by default; the Python API's
+        :class:`~dolfinx_mortar.problem.ContactProblem` names its arguments).
 
     Raises
     ------
@@ -1361,13 +1431,14 @@ def check_groups(
         material region is not a cell group or a contact / boundary name is not a
         facet group, or when two materials share a region.
     """
+    mat, con, dir_, tra = names
     seen: dict[str, int] = {}
     for i, m in enumerate(scene.materials):
-        key = f"material[{i}].region"
+        key = f"{mat}[{i}].region"
         if m.region not in cell_groups:
             raise _group_error(key, m.region, "cell", cell_groups, facet_groups, "facet")
         if m.region in seen:
-            raise SceneError(key, f"region {m.region!r} already used by material[{seen[m.region]}]")
+            raise SceneError(key, f"region {m.region!r} already used by {mat}[{seen[m.region]}]")
         seen[m.region] = i
 
     def facet(key: str, name: str) -> None:
@@ -1375,20 +1446,41 @@ def check_groups(
             raise _group_error(key, name, "facet", facet_groups, cell_groups, "cell")
 
     for i, c in enumerate(scene.contacts):
-        facet(f"contact[{i}].slave", c.slave)
-        facet(f"contact[{i}].master", c.master)
+        facet(f"{con}[{i}].slave", c.slave)
+        facet(f"{con}[{i}].master", c.master)
     for i, d in enumerate(scene.dirichlet):
-        facet(f"dirichlet[{i}].boundary", d.boundary)
+        facet(f"{dir_}[{i}].boundary", d.boundary)
     for i, tr in enumerate(scene.tractions):
-        facet(f"traction[{i}].boundary", tr.boundary)
+        facet(f"{tra}[{i}].boundary", tr.boundary)
 
 
-def check_components(scene: Scene, gdim: int) -> None:
+def check_regions_covered(
+    regions: Sequence[str],
+    cell_groups: Mapping[str, int],
+    unnamed: Sequence[str] = (),
+    key: str = "material",
+    entry: str = "[[material]]",
+) -> None:
+    """Raise SceneError(``key``) unless every cell group is one of the material
+    ``regions`` (a region without a material has no bulk stiffness: its contact
+    stiffness divided by zero). ``unnamed``: the groups that had no name in the mesh file
+    (named by their tag); ``entry``: what a region lacks, for the message (local)."""
+    unused = sorted(set(cell_groups) - set(regions))
+    if unused:
+        names = [
+            f"{n!r} (a physical group without a name: its tag)" if n in unnamed else f"{n!r}"
+            for n in unused
+        ]
+        raise SceneError(key, f"cell group(s) {', '.join(names)} have no {entry}")
+
+
+def check_components(scene: Scene, gdim: int, names: Sequence[str] = _SCENE_NAMES) -> None:
     """Check component indices and path row lengths against the mesh dimension.
 
     Dirichlet components must lie in ``[0, gdim)``; Dirichlet path rows have
     ``1 + len(components)`` entries (``1 + gdim`` when all components are
-    constrained); traction path rows have ``1 + gdim`` entries.
+    constrained); traction path rows have ``1 + gdim`` entries. ``names``: as
+    :func:`check_groups`'s.
 
     Raises
     ------
@@ -1396,29 +1488,116 @@ def check_components(scene: Scene, gdim: int) -> None:
         Naming ``dirichlet[i].components``, ``dirichlet[i].path`` or
         ``traction[i].path``.
     """
+    _, _, dir_, tra = names
     for i, d in enumerate(scene.dirichlet):
         if d.components is not None:
             bad = [c for c in d.components if not 0 <= c < gdim]
             if bad:
                 raise SceneError(
-                    f"dirichlet[{i}].components",
+                    f"{dir_}[{i}].components",
                     f"component {bad[0]} out of range [0, {gdim}) for a {gdim}D mesh",
                 )
         n = gdim if d.components is None else len(d.components)
         if len(d.path[0]) != 1 + n:
             what = "all components" if d.components is None else f"components {list(d.components)}"
             raise SceneError(
-                f"dirichlet[{i}].path",
+                f"{dir_}[{i}].path",
                 f"rows must have 1 + {n} entries for {what} of a {gdim}D mesh, "
                 f"got {len(d.path[0])}",
             )
     for i, tr in enumerate(scene.tractions):
         if len(tr.path[0]) != 1 + gdim:
             raise SceneError(
-                f"traction[{i}].path",
+                f"{tra}[{i}].path",
                 f"rows must have 1 + {gdim} entries [t, traction vector] for a {gdim}D mesh, "
                 f"got {len(tr.path[0])}",
             )
+
+
+@dataclass(frozen=True)
+class ProblemInputs:
+    """The checked arguments of :class:`~dolfinx_mortar.problem.ContactProblem`, in the
+    scene's dataclasses (see :func:`problem_inputs`)."""
+
+    materials: tuple[Material, ...]
+    dirichlet: tuple[DirichletBC, ...]
+    tractions: tuple[TractionBC, ...]
+    degree: int | None = None
+    contacts: tuple[ContactPair, ...] = ()
+
+
+#: The key names of :class:`~dolfinx_mortar.problem.ContactProblem`'s arguments
+PROBLEM_NAMES = ("materials", "contacts", "dirichlet", "tractions")
+
+
+def _entry(value: Any, key: str, fields: Sequence[str]) -> dict[str, Any]:
+    """``value``, a sequence of len(fields) items, as a table ``{field: item}``."""
+    value = _plain(value)
+    if not isinstance(value, list | tuple) or len(value) != len(fields):
+        raise SceneTypeError(
+            key, f"expected a tuple ({', '.join(fields)}), got {_type_name(value)} {_show(value)}"
+        )
+    return dict(zip(fields, value, strict=True))
+
+
+def problem_inputs(
+    materials: Any,
+    dirichlet: Any,
+    tractions: Any,
+    cell_groups: Mapping[str, int],
+    facet_groups: Mapping[str, int],
+    gdim: int,
+    unnamed: Sequence[str] = (),
+    degree: Any = None,
+) -> ProblemInputs:
+    """:class:`~dolfinx_mortar.problem.ContactProblem`'s ``materials`` (``(region, model,
+    E, nu)`` each), ``dirichlet`` (``(boundary, components or None, path)``) and
+    ``tractions`` (``(boundary, path)``) checked by the scene's rules for
+    ``[[material]]``, ``[[dirichlet]]`` and ``[[traction]]`` (the same definitions:
+    regions and boundaries that exist, every cell group a material, E > 0, ν in
+    (−1, 0.5), known models, paths with rows of one length that fits the components and
+    the mesh's dimension, finite numbers and strictly increasing t, components in
+    [0, gdim), no component prescribed twice), and ``degree`` None or an integer >= 1.
+    Keys name the argument: ``materials[1].nu``, ``dirichlet[0].path``,
+    ``tractions[0].boundary``, ``degree``. ``unnamed``: the cell groups without a name in
+    the mesh file (local).
+
+    Raises SceneError (a ValueError) or SceneTypeError (a TypeError)."""
+    mat, _, dir_, tra = PROBLEM_NAMES
+    lists = {}
+    for name, value in ((mat, materials), (dir_, dirichlet), (tra, tractions)):
+        value = _plain(value) if type(value).__module__ == "numpy" else value
+        if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence):
+            raise SceneTypeError(
+                name, f"expected a sequence of tuples, got {_type_name(value)} {_show(value)}"
+            )
+        lists[name] = list(value)
+    if not lists[mat]:
+        raise SceneError(mat, "required: at least one (region, model, E, nu)")
+    mats = tuple(
+        _parse_material(_entry(m, f"{mat}[{i}]", _MATERIAL_KEYS), f"{mat}[{i}]", None)
+        for i, m in enumerate(lists[mat])
+    )
+    bcs = []
+    for i, d in enumerate(lists[dir_]):
+        table = _entry(d, f"{dir_}[{i}]", _DIRICHLET_KEYS)
+        if table["components"] is None:
+            del table["components"]
+        bcs.append(_parse_dirichlet(_plain(table), f"{dir_}[{i}]"))
+    _check_dirichlet_overlap(bcs, dir_)
+    loads = tuple(
+        _parse_traction(_plain(_entry(t, f"{tra}[{i}]", _TRACTION_KEYS)), f"{tra}[{i}]")
+        for i, t in enumerate(lists[tra])
+    )
+    if degree is not None:
+        degree = _int_at_least(_plain(degree), "degree", 1)
+    inputs = ProblemInputs(mats, tuple(bcs), loads, degree)
+    check_groups(inputs, cell_groups, facet_groups, PROBLEM_NAMES)
+    check_regions_covered(
+        [m.region for m in mats], cell_groups, unnamed, mat, "material (region, model, E, nu)"
+    )
+    check_components(inputs, gdim, PROBLEM_NAMES)
+    return inputs
 
 
 def _toml_value(value: Any, key: str) -> str:
