@@ -67,6 +67,7 @@ from .scene import (
     TANGENTIAL_FRAMES,
     TANGENTIAL_WEIGHTS,
     UZAWA_ACCELERATIONS,
+    contact_numbers,
     exact_update_applies,
 )
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
@@ -535,6 +536,13 @@ class MortarContact:
     tangential_frame: "slave" (:class:`~dolfinx_mortar.friction.NodalFrames`, the
         default) or "master" (:class:`~dolfinx_mortar.friction.MasterFrames`: the
         master's convected covariant basis at each node's t_n master point).
+
+    The options are checked first, on every rank alike, by the scene's rules for
+    ``[[contact]]``: an unknown choice raises SceneError, a friction < 0, a penalty or
+    penalty_tangential <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a
+    uzawa_max < 1 SceneError (a ValueError; :func:`dolfinx_mortar.scene.contact_numbers`),
+    a value of the wrong type SceneTypeError (a TypeError), keyed ``KEY.NAME``
+    (``contact.penalty: must be > 0, got -5``).
     """
 
     def __init__(
@@ -565,6 +573,12 @@ class MortarContact:
         ):
             if value not in allowed:
                 raise SceneError(f"{key}.{name}", f"{value!r} is not one of {', '.join(allowed)}")
+        # the scene's rules for [[contact]]'s numbers (one definition; local, the same
+        # arguments on every rank): a penalty <= 0 ran and let the bodies pass through
+        # each other, a negative friction ran frictionless
+        friction, penalty, penalty_tangential, uzawa_tol, uzawa_max = contact_numbers(
+            key, friction, penalty, penalty_tangential, uzawa_tol, uzawa_max
+        )
         self.tangential_frame = tangential_frame
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights

@@ -789,6 +789,38 @@ def test_mortar_contact_names_a_bad_option(name, value):
     assert repr(value) in str(err.value) and "is not one of" in str(err.value)
 
 
+@pytest.mark.parametrize(
+    "name, value, error",
+    [
+        ("penalty", -5.0, ValueError),
+        ("penalty", 0.0, ValueError),
+        ("penalty", "big", ValueError),
+        ("penalty_tangential", -1.0, ValueError),
+        ("friction", -0.3, ValueError),
+        ("friction", "high", TypeError),
+        ("uzawa_tol", -1e-6, ValueError),
+        ("uzawa_max", 0, ValueError),
+        ("uzawa_max", 2.5, TypeError),
+    ],
+)
+def test_mortar_contact_checks_its_numbers_as_the_scene_does(name, value, error):
+    """``MortarContact(...)``'s numbers follow ``[[contact]]``'s rules, with the scene's
+    reason (one definition, ``scene.contact_numbers``), before it looks at the problem: a
+    ValueError or TypeError keyed ``KEY.NAME``. A penalty <= 0 ran and let the bodies pass
+    through each other, a negative friction ran frictionless (describe() said -0.3), a
+    uzawa_tol < 0 ended in "Uzawa stalled" and uzawa_max = 0 in "did not converge in 0
+    rounds"."""
+    from dolfinx_mortar.contact import MortarContact
+
+    with pytest.raises(error) as err:
+        MortarContact(None, "slave", "master", key="contact[0]", **{name: value})
+    assert isinstance(err.value, SceneError)
+    assert err.value.key == f"contact[0].{name}"
+    scene_err = raises(mutate(example(), ("contact", 0, name), value), f"contact[0].{name}", "")
+    assert scene_err.reason == err.value.reason
+    assert isinstance(scene_err, error)
+
+
 def test_numpy_values_are_taken_as_toml_numbers_and_arrays():
     """A Python caller's NumPy values (np.int64 for ``steps.n`` and generator parameters,
     np.float32, an array for a ``path``) parse as TOML's integers, floats and arrays (the
