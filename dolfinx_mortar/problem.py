@@ -20,6 +20,7 @@ boundary's dofs, per component.
 from __future__ import annotations
 
 import logging
+import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass
 from time import perf_counter
@@ -42,6 +43,7 @@ from scipy.sparse.csgraph import connected_components
 from . import compat
 from .assembly import MatrixPattern, RecordedValues, sorted_contains, unique_runs
 from .bulk import LINEAR_MODELS, internal_residual
+from .scene import problem_inputs
 
 log = logging.getLogger(__name__)
 
@@ -214,14 +216,37 @@ class ContactProblem:
     Parameters
     ----------
     mesh_data: :class:`dolfinx_mortar.mesh.MeshData`.
-    materials: sequence of ``(region_name, model, E, nu)``.
-    dirichlet: sequence of ``(boundary_name, components or None, path)``.
+    materials: sequence of ``(region_name, model, E, nu)``, one per cell group.
+    dirichlet: sequence of ``(boundary_name, components or None, path)``; path rows
+        [t, one value per component] (all components: [t, u_x, u_y(, u_z)]).
     tractions: sequence of ``(boundary_name, path)``; path rows [t, t_x, t_y(, t_z)],
         reference traction vector (force per unit reference area).
     degree: displacement degree (defaults to the mesh's geometric degree).
+
+    The arguments are checked first, by the scene's rules for ``[[material]]``,
+    ``[[dirichlet]]`` and ``[[traction]]`` (:func:`dolfinx_mortar.scene.problem_inputs`:
+    existing groups, every cell group a material, E > 0, ν in (−1, 0.5), known models,
+    rows of the right length, strictly increasing t, components in [0, gdim), degree
+    >= 1). Raises :class:`~dolfinx_mortar.errors.SceneError` (a ValueError) or
+    SceneTypeError (a TypeError) naming the argument (``materials[1].nu: Poisson's
+    ratio must lie in (-1, 0.5), got 0.5``), on every rank, before any collective.
     """
 
     def __init__(self, mesh_data, materials, dirichlet=(), tractions=(), degree: int | None = None):
+        inputs = problem_inputs(
+            materials,
+            dirichlet,
+            tractions,
+            mesh_data.cell_groups,
+            mesh_data.facet_groups,
+            mesh_data.mesh.geometry.dim,
+            tuple(mesh_data.info.get("unnamed_groups", ())),
+            degree,
+        )
+        materials = [(m.region, m.model, m.E, m.nu) for m in inputs.materials]
+        dirichlet = [(d.boundary, d.components, d.path) for d in inputs.dirichlet]
+        tractions = [(t.boundary, t.path) for t in inputs.tractions]
+        degree = inputs.degree
         self.mesh_data = mesh_data
         mesh = mesh_data.mesh
         self.mesh = mesh
@@ -298,6 +323,9 @@ class ContactProblem:
         #: (collective; False when there is none), for the exact multiplier update
         #: (``uzawa_acceleration = "newton"``); set by the Newton solver, else None
         self.linear_inverse = None
+        #: the live Newton solvers of this problem (they register themselves;
+        #: :meth:`add_contact` refuses a term while there is one)
+        self.solvers = weakref.WeakSet()
         self._contact_x = None  # local part of the x the contact state was computed at
         self._pattern = MatrixPattern(self.J_form, self.V)
         self._pattern_keys = None
@@ -439,9 +467,33 @@ class ContactProblem:
             gc.interpolate(lambda x, field=field, c=c: field(t, x)[c])
 
     def add_contact(self, term) -> None:
-        """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`).
-        Raises ValueError where another term has the same slave surface: the contact
-        output is per slave surface (a scene says so as ``contact[i].slave``)."""
+        """Register a contact term (see :class:`dolfinx_mortar.contact.MortarContact`),
+        before the Newton solver is created (local: the same decision on every rank).
+
+        Raises TypeError for an object that is not a contact term built on a problem
+        (no ``problem`` attribute); ValueError for a term built on another problem (its
+        dofs, communicator and solver hooks are the other problem's: it ran with that
+        problem's factorization, and on another communicator the job hung), or where
+        another term has the same slave surface (the contact output is per slave surface;
+        a scene says so as ``contact[i].slave``); RuntimeError while a
+        :class:`~dolfinx_mortar.solver.NewtonSolver` of this problem is alive (its matrix
+        pattern, line search and factorization were set up for the terms it found:
+        destroy it first)."""
+        if not hasattr(term, "problem"):
+            raise TypeError(
+                "add_contact takes a contact term built on this problem "
+                f"(MortarContact(problem, slave, master, ...)), got {type(term).__name__}"
+            )
+        if term.problem is not self:
+            raise ValueError(
+                f"add_contact: the contact term {getattr(term, 'name', '')!r} was built on "
+                "another ContactProblem: build it on this one (MortarContact(problem, ...))"
+            )
+        if self.solvers:
+            raise RuntimeError(
+                "add_contact: add contact terms before creating the NewtonSolver (destroy "
+                "the solver first: its matrix and options were set up for the terms it found)"
+            )
         slave = getattr(term, "slave_name", None)
         if slave is not None and any(t.slave_name == slave for t in self.contacts):
             raise ValueError(f"{slave!r} is already the slave surface of a contact term")

@@ -30,7 +30,14 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .errors import ConvergenceError, FrozenStatesError, SceneError, raise_on_every_rank
+from .errors import (
+    ConvergenceError,
+    FrozenStatesError,
+    SceneError,
+    SceneTypeError,
+    raise_on_every_rank,
+)
+from .scene import solver_options
 
 log = logging.getLogger(__name__)
 
@@ -73,7 +80,18 @@ def _linear_options(linear: str, problem) -> dict:
 @dataclass
 class SolverSettings:
     """Newton settings. ``petsc``: extra PETSc options (without prefix) that override the
-    defaults; ``step_depth_limit``: see :meth:`NewtonSolver._limit_step`."""
+    defaults; ``step_depth_limit``: see :meth:`NewtonSolver._limit_step`.
+
+    Checked when made, by the scene's rules for ``[solver]`` (one definition,
+    :func:`dolfinx_mortar.scene.solver_options`): rtol in (0, 1), atol >= 0 or "auto",
+    max_it in [1, scene.MAX_IT], linear one of scene.LINEAR_SOLVERS, line_search one of
+    scene.LINE_SEARCHES, step_depth_limit >= 0, petsc a table of scalars. Raises
+    :class:`~dolfinx_mortar.errors.SceneError` (a ValueError) or SceneTypeError (a
+    TypeError) keyed ``SolverSettings.NAME`` (``SolverSettings.linear: unknown value
+    'cholmod' (choices: ...)``); the numbers become floats and ints, petsc a new dict
+    (names without a leading ``-``). They used to fail later: inside PETSc (rtol = 2),
+    in a solve (atol = "tight"), or as PETSc's refusal of the options [] (line_search).
+    """
 
     rtol: float = 1e-9
     #: a force, or "auto": AUTO_ATOL, never looser than rtol × the forces
@@ -88,6 +106,26 @@ class SolverSettings:
     #: slave node that is out of contact; 0 = only in first-contact solves, with
     #: FIRST_CONTACT_DEPTH_LIMIT
     step_depth_limit: float = 0.0
+
+    def __post_init__(self):
+        checked = solver_options(
+            "SolverSettings",
+            self.rtol,
+            self.atol,
+            self.max_it,
+            self.linear,
+            self.line_search,
+            self.petsc,
+            self.step_depth_limit,
+        )
+        for name in ("rtol", "atol", "max_it", "linear", "line_search", "step_depth_limit"):
+            setattr(self, name, getattr(checked, name))
+        self.petsc = dict(checked.petsc)
+        if not isinstance(self.prefix, str):
+            raise SceneTypeError(
+                "SolverSettings.prefix",
+                f"expected a string (a PETSc options prefix), got {type(self.prefix).__name__}",
+            )
 
 
 #: The penetration limit of the Newton steps of a first-contact solve (a solve that starts
@@ -503,6 +541,9 @@ class NewtonSolver:
         #: (0: no solve yet), and whether ``atol`` was found to be looser than rtol × it
         self.force_scale = 0.0
         self._warned_atol = False
+        # the problem refuses new contact terms while this solver lives (destroy())
+        if hasattr(problem, "solvers"):
+            problem.solvers.add(self)
 
     def _refused_option(self) -> tuple[str, str] | None:
         """(key, reason) of a PETSc option, read from the scene's [solver.petsc] or the
@@ -1087,6 +1128,8 @@ class NewtonSolver:
         del _LOADED[prefix]
 
     def destroy(self) -> None:
+        if hasattr(self.problem, "solvers"):
+            self.problem.solvers.discard(self)
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
         prefix = self.settings.prefix

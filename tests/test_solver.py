@@ -1405,3 +1405,148 @@ def test_load_stepper_takes_the_terms_uzawa_rounds():
     # one term per slave surface, as a scene's pairs (their output is per slave)
     with pytest.raises(ValueError, match="'upper_bottom' is already the slave surface"):
         p.add_contact(MortarContact(p, "upper_bottom", "lower_top", integration="element"))
+
+
+_SCENE = {
+    "mesh": {"generator": "patch2d"},
+    "material": [{"region": "lower", "model": "neo-hookean", "E": 1.0, "nu": 0.3}],
+}
+
+
+@pytest.mark.parametrize(
+    "name, value, error",
+    [
+        ("linear", "cholmod", ValueError),
+        ("line_search", "nope", ValueError),
+        ("rtol", 2.0, ValueError),
+        ("rtol", 0.0, ValueError),
+        ("atol", "tight", ValueError),
+        ("atol", -1.0, ValueError),
+        ("max_it", 0, ValueError),
+        ("max_it", 2.5, TypeError),
+        ("step_depth_limit", -0.5, ValueError),
+        ("petsc", {"snes_monitor": None}, TypeError),
+    ],
+)
+def test_solver_settings_are_checked_as_the_scene_solver_table(name, value, error):
+    """SolverSettings follows ``[solver]``'s rules with the scene's reasons (one
+    definition, ``scene.solver_options``): a ValueError or TypeError keyed
+    ``SolverSettings.NAME`` when made. They failed later: a KeyError (linear =
+    "cholmod"), PETSc's error 63 (rtol = 2), a TypeError inside the solve (atol =
+    "tight"), "PETSc rejected the options []" (line_search = "nope"), every step failing
+    (max_it = 0)."""
+    from dolfinx_mortar.errors import SceneError
+    from dolfinx_mortar.scene import parse_scene
+
+    with pytest.raises(error) as err:
+        SolverSettings(**{name: value})
+    assert isinstance(err.value, SceneError)
+    assert err.value.key.startswith(f"SolverSettings.{name}")
+    with pytest.raises(error) as scene_err:
+        parse_scene({**_SCENE, "solver": {name: value}}, ".")
+    assert scene_err.value.key == err.value.key.replace("SolverSettings", "solver")
+    assert scene_err.value.reason == err.value.reason
+
+
+def test_solver_settings_normalizes_what_it_accepts():
+    """NumPy numbers and a leading "-" of a PETSc option name are taken as the scene takes
+    them."""
+    s = SolverSettings(rtol=np.float32(0.5), atol=0, max_it=np.int64(5), petsc={"-ksp_view": True})
+    assert (s.rtol, s.atol, s.max_it, s.petsc) == (0.5, 0.0, 5, {"ksp_view": True})
+    assert type(s.max_it) is int and type(s.atol) is float
+
+
+_MATS = [("lower", "linear-elastic", 100.0, 0.3), ("upper", "linear-elastic", 100.0, 0.3)]
+_DBC = [
+    ("lower_bottom", None, [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]),
+    ("upper_top", None, [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]),
+]
+
+
+@pytest.fixture(scope="module")
+def patch2d_api():
+    from dolfinx_mortar.mesh import load_mesh
+
+    return load_mesh(MPI.COMM_WORLD, generator="patch2d", params={"n_lower": 3, "n_upper": 4})
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "args, error, key, phrase",
+    [
+        # a decreasing t ran "ok" with zero load
+        (
+            {"dirichlet": [_DBC[0], ("upper_top", None, [[1.0, 0.0, -0.01], [0.0, 0.0, 0.0]])]},
+            ValueError,
+            "dirichlet[1].path",
+            "path not sorted in t",
+        ),
+        # one value per row was broadcast to both components
+        ({"tractions": [("upper_top", [[0.0, 0.0], [1.0, -1.0]])]}, ValueError, "tractions[0].path", "rows must be"),
+        ({"dirichlet": [("lower_bottom", None, [[0.0, 0.0], [1.0, 0.0]])]}, ValueError, "dirichlet[0].path", "rows must be"),
+        ({"dirichlet": [("lower_bottom", [2], [[0.0, 0.0]])]}, ValueError, "dirichlet[0].components", "out of range [0, 2)"),
+        ({"dirichlet": [("nosuch", None, [[0.0, 0.0, 0.0]])]}, ValueError, "dirichlet[0].boundary", "not found among facet groups"),
+        ({"materials": [("nosuch", "linear-elastic", 100.0, 0.3)]}, ValueError, "materials[0].region", "not found among cell groups"),
+        ({"materials": [_MATS[0]]}, ValueError, "materials", "cell group(s) 'upper' have no material"),
+        ({"materials": [("lower", "linear-elastic", -100.0, 0.3), _MATS[1]]}, ValueError, "materials[0].E", "must be > 0"),
+        ({"materials": [("lower", "neo-hookean", 100.0, 0.5), _MATS[1]]}, ValueError, "materials[0].nu", "(-1, 0.5)"),
+        ({"materials": [("lower", "foo", 100.0, 0.3), _MATS[1]]}, ValueError, "materials[0].model", "unknown value 'foo'"),
+        ({"materials": [("lower", 100.0, 0.3), _MATS[1]]}, TypeError, "materials[0]", "expected a tuple (region, model, E, nu)"),
+        ({"degree": 0}, ValueError, "degree", "must be >= 1"),
+    ],
+)  # fmt: skip
+def test_contact_problem_checks_its_arguments_as_the_scene_does(
+    patch2d_api, args, error, key, phrase
+):
+    """ContactProblem's materials, Dirichlet conditions, tractions and degree follow the
+    rules of ``[[material]]``, ``[[dirichlet]]`` and ``[[traction]]`` (the scene's checks,
+    ``scene.problem_inputs``): a ValueError or TypeError naming the argument, on every
+    rank, before any collective. They ran with a wrong load, or failed later with a bare
+    KeyError, an empty AssertionError inside dolfinx, a UFLException or a
+    ZeroDivisionError."""
+    from dolfinx_mortar import ContactProblem
+
+    kwargs = {"materials": _MATS, "dirichlet": _DBC, **args}
+    with pytest.raises(error) as err:
+        ContactProblem(patch2d_api, **kwargs)
+    assert err.value.key == key, str(err.value)
+    assert phrase in err.value.reason, str(err.value)
+
+
+@pytest.mark.mpi
+def test_add_contact_takes_terms_of_this_problem_before_the_solver(patch2d_api):
+    """add_contact refuses what is not a term (a str was accepted and failed later), a
+    term built on another problem (it ran with that problem's factorization; on another
+    communicator the job hung) and a term added while a NewtonSolver of the problem lives
+    (a zip ValueError in pattern_outdated); after the solver is destroyed it is taken,
+    and the next solver solves with it."""
+    from dolfinx_mortar import ContactProblem, MortarContact
+    from dolfinx_mortar.mesh import load_mesh
+
+    p = ContactProblem(patch2d_api, _MATS, _DBC)
+    q = ContactProblem(patch2d_api, _MATS, _DBC)
+    with pytest.raises(TypeError, match="add_contact takes a contact term"):
+        p.add_contact("hello")
+    other = MortarContact(q, "upper_bottom", "lower_top")
+    with pytest.raises(ValueError, match="built on another ContactProblem"):
+        p.add_contact(other)
+    if MPI.COMM_WORLD.size > 1:  # a problem on another communicator
+        md_self = load_mesh(MPI.COMM_SELF, generator="patch2d", params={"n_lower": 3})
+        s = ContactProblem(md_self, _MATS, _DBC)
+        alone = MortarContact(s, "upper_bottom", "lower_top")
+        with pytest.raises(ValueError, match="built on another ContactProblem"):
+            p.add_contact(alone)
+        alone.destroy()
+        s.destroy()
+    term = MortarContact(p, "upper_bottom", "lower_top")
+    with NewtonSolver(p, SolverSettings(prefix="test_late_term_")):
+        with pytest.raises(RuntimeError, match="before creating the NewtonSolver"):
+            p.add_contact(term)
+    p.add_contact(term)
+    with NewtonSolver(p, SolverSettings(prefix="test_late_term_")) as newton:
+        results = LoadStepper(p, newton, 1.0, 1).run()
+    assert [r.t for r in results] == [1.0]
+    assert results[0].uzawa_rounds == 2  # this problem's own exact update (the other's: 8)
+    other.destroy()
+    q.destroy()
+    p.destroy()
