@@ -77,7 +77,7 @@ CASES = {
 def _problem(case, integration="element", recovery="lumped", comm=MPI.COMM_WORLD):
     """The contact problem of CASES[case] with the given integration and recovery
     (collective on ``comm``)."""
-    gen, params, slave, master, bodies, gdim = CASES[case]
+    gen, params, slave, master, bodies, gdim = CASES[case] if isinstance(case, str) else case
     data = {
         "kinematics": "finite",
         "mesh": {"generator": gen, "params": params},
@@ -235,6 +235,52 @@ def test_contact_tangent_matches_finite_differences(case, integration, recovery)
         assert asymmetry(A) <= 1e-13, asymmetry(A)
     else:
         assert asymmetry(A) >= 1e-6, asymmetry(A)
+
+
+#: tetrahedra whose contact triangles lie on each other's edge lines: the slave grid
+#: (4 × 4 over [0, 1]²) is a subset of the master grid (6 × 6 over [-0.25, 1.25]²)
+COINCIDENT_TET_PATCH = (
+    "patch3d",
+    {"n_lower": 6, "n_upper": 4, "margin": 0.25, "quads": False, "n_y": 1},
+    "upper_bottom",
+    "lower_top",
+    ("upper", "lower"),
+    3,
+)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("shift", [(0.0, 0.0), (1e-3, 0.0)])
+def test_segment_tangent_where_triangle_edges_coincide(shift):
+    """3D segment integration with triangle facets whose edges lie on master edges (slave
+    translated rigidly by ``shift`` and pressed in: (0, 0) keeps every slave vertex on a
+    master vertex, (1e-3, 0) the master vertices on the slave edges y = const). The
+    residual is C¹ there (the master surface continues across every edge), so the tangent
+    must match central differences; the clipped polygons' vertices at the slave corners
+    and on the hypotenuses moved inconsistently before (errors 1.2e-1 and 5.5e-2)."""
+    problem = _problem(COINCIDENT_TET_PATCH, "segment", "lumped")
+    md, V, u = problem.mesh_data, problem.V, problem.u
+    cells = md.cell_tags.find(md.cell_groups["upper"])
+    w = fem.Function(V)
+    w.interpolate(lambda x: np.array([[shift[0]], [shift[1]], [-0.02]]) + 0.0 * x, cells)
+    dofs = fem.locate_dofs_topological(V, problem.mesh.topology.dim, cells)
+    bs = V.dofmap.index_map_bs
+    idx = (np.repeat(dofs * bs, bs) + np.tile(np.arange(bs), dofs.size)).astype(np.int64)
+    u.x.array[:] = 0.0
+    u.x.array[idx] = w.x.array[idx]
+    u.x.scatter_forward()
+    term = problem.contacts[0]
+    term.loaded = True
+    term.update(u)
+    rng = np.random.default_rng(1 + MPI.COMM_WORLD.rank)
+    term.lmbda = np.where(rng.random(term.lmbda.size) < 0.5, 0.2 * rng.random(term.lmbda.size), 0.0)
+    u0 = u.vector.copy()
+    term.update(u)
+    assert MPI.COMM_WORLD.allreduce(int((term.p > 0).sum())) >= 9
+    A = problem.create_matrix()
+    problem.contact_jacobian(A)
+    errs = fd_errors(problem, term, A, u0, n=2)
+    assert max(errs) < 1e-6, errs
 
 
 def asymmetry(A) -> float:

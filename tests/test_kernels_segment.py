@@ -570,3 +570,105 @@ def test_3d_segment_derivatives_match_fd(ftype_s, ftype_m, bulge):
     Xs[..., 2] += 0.1 * Xs[..., 0] ** 2  # curved reference facet: J₀ varies with ξ
     dxi, dw = _fd_derivatives(ftype_s, xs, ss, ftype_m, xm, ms, triangle_rule(2), Xs)
     assert np.abs(dxi).max() > 0.1 and np.abs(dw).max() > 0.01
+
+
+def _moment_derivative_error(xs, G, conn, h=1e-7):
+    """P1 triangles: slave facet xs (1, 3, 3) over the master triangles G[conn] (all
+    candidates). The moments Σw, Σwξ, Σwξ² summed over ALL pairs, differentiated with
+    segment_derivatives (chain rule over the points), against central differences of
+    segment_points in every coordinate of the slave nodes and of the master vertices.
+    Returns the largest |analytic − FD|."""
+    from dolfinx_mortar.kernels.segment import segment_derivatives
+
+    rule = triangle_rule(2)
+    xs = np.ascontiguousarray(xs, float)
+    Xs = xs.copy()  # fixed reference geometry
+
+    def points(xs_, G_):
+        xm = G_[conn]
+        ss = [outward_sign(TRIANGLE1, xs_[0], np.array([0.0, 0.0, -1.0]))]
+        ms = [outward_sign(TRIANGLE1, x, np.array([0.0, 0.0, 1.0])) for x in xm]
+        return xm, ss, ms, run(TRIANGLE1, xs_, ss, TRIANGLE1, xm, ms, rule, Xs=Xs)
+
+    def moments(xi, w):
+        return np.concatenate([[w.sum()], w @ xi, w @ xi**2])
+
+    xm, ss, ms, (count, qp_xi, qp_w, qp_m) = points(xs, G)
+    n = count[0]
+    xi, w, m = qp_xi[0, :n], qp_w[0, :n], qp_m[0, :n]
+    nmf = xm.shape[0]
+    dxi, dw = np.zeros((n, 2, 18)), np.zeros((n, 18))
+    segment_derivatives(
+        TRIANGLE1, xs, Xs, np.asarray(ss, float), TRIANGLE1, xm, np.asarray(ms, float),
+        np.array([0, nmf], dtype=np.int64), np.arange(nmf, dtype=np.int64), *rule, qp_m, dxi, dw,
+    )  # fmt: skip
+    worst = 0.0
+    dofs = [("s", a, c) for a in range(3) for c in range(3)]
+    dofs += [("m", v, c) for v in np.unique(conn[m]) for c in range(3)]
+    for kind, v, c in dofs:
+        # column of the dof in each point's local block [slave nodes, its master facet's nodes]
+        cols = np.full(n, v * 3 + c)
+        if kind == "m":
+            loc = conn[m] == v
+            cols = np.where(loc.any(axis=1), 9 + 3 * loc.argmax(axis=1) + c, -1)
+        sel = cols >= 0
+        dw_j = np.where(sel, dw[np.arange(n), np.maximum(cols, 0)], 0.0)
+        dxi_j = np.where(sel[:, None], dxi[np.arange(n), :, np.maximum(cols, 0)], 0.0)
+        an = np.concatenate(
+            [[dw_j.sum()], dw_j @ xi + w @ dxi_j, dw_j @ xi**2 + 2.0 * w @ (xi * dxi_j)]
+        )
+        fd = []
+        for sgn in (1.0, -1.0):
+            xs2, G2 = xs.copy(), G.copy()
+            if kind == "s":
+                xs2[0, v, c] += sgn * h
+            else:
+                G2[v, c] += sgn * h
+            _, _, _, (c2, xi2, w2, _) = points(xs2, G2)
+            fd.append(moments(xi2[0, : c2[0]], w2[0, : c2[0]]))
+        worst = max(worst, np.abs(an - (fd[0] - fd[1]) / (2 * h)).max())
+    return worst
+
+
+def _master_grid(x0, y0, spacing, n, z=-1e-3):
+    """Triangulated n × n master grid (diagonals alternating), facing up (+z)."""
+    G = np.array(
+        [[x0 + i * spacing, y0 + j * spacing, z] for j in range(n + 1) for i in range(n + 1)]
+    )
+    conn = []
+    for j in range(n):
+        for i in range(n):
+            a, b = j * (n + 1) + i, j * (n + 1) + i + 1
+            c, e = a + n + 1, b + n + 1
+            conn += [[a, b, e], [a, e, c]] if (i + j) % 2 else [[a, b, c], [b, e, c]]
+    return G, np.array(conn)
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e-9, 0.1, -0.2])
+def test_3d_segment_derivatives_master_edge_on_the_hypotenuse(shift):
+    """A master edge lying ON the slave triangle's hypotenuse (ξ₁ + ξ₂ = 1; here y = 0),
+    shared by a master triangle covering the slave and one outside it, slave moved along
+    the line by ``shift``. The covered area and the moments are constant, so every
+    derivative summed over the pairs must be 0, as the central differences are. The
+    master edge is cut by the leg ξ₂ = 0 before the hypotenuse is clipped: that cut, the
+    corner (1, 0), used to move along the leg (errors 0.34)."""
+    xs = np.array([[[0.5, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])
+    xs[..., 0] += shift
+    G = np.array([[-1.0, 0.0, -1e-3], [2.0, 0.0, -1e-3], [0.5, 2.0, -1e-3], [0.5, -2.0, -1e-3]])
+    conn = np.array([[0, 1, 2], [0, 3, 1]])
+    assert _moment_derivative_error(xs, G, conn) < 1e-6
+
+
+@pytest.mark.parametrize("x0", [-0.5, -0.499, -0.37])
+def test_3d_segment_derivatives_master_vertices_on_the_hypotenuse(x0):
+    """A triangulated master grid whose grid line y = 0 is the slave triangle's
+    hypotenuse: master vertices on it inside the slave edge (x0 = -0.499, -0.37) and at
+    its corners too (x0 = -0.5). A master vertex on the line but outside it by round-off
+    is cut away: the cut points, one per master edge at that vertex, moved as the
+    intersections of those edges with the line, and the canonical form kept one of the
+    (coincident) cuts, so the neighbouring pairs disagreed; at a corner, a vertex slid
+    along the leg and then along the hypotenuse kept part of its motion (errors 2.5e-4
+    to 0.19 before the fix)."""
+    xs = np.array([[[1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])
+    G, conn = _master_grid(x0, -0.5, 0.25, 8)
+    assert _moment_derivative_error(xs, G, conn) < 1e-6

@@ -430,8 +430,33 @@ def _slide(dout, i, ex, ey):
 
 
 @numba.njit(cache=True)
-def _clip_halfplane(inp, din, nin, out, dout, ax, ay, bx, by, ds):
-    """Sutherland-Hodgman step: the part of polygon inp[:nin] left of the line a -> b.
+def _on_edge(x, y, refx, refy, l):
+    """Whether the point (x, y) lies on the line of reference edge l (from corner l to
+    corner l + 1 of the reference polygon refx, refy), within ON_EDGE_TOL as in
+    :func:`_clip_halfplane`."""
+    l1 = (l + 1) % refx.shape[0]
+    ex = refx[l1] - refx[l]
+    ey = refy[l1] - refy[l]
+    return abs(ex * (y - refy[l]) - ey * (x - refx[l])) <= ON_EDGE_TOL * math.sqrt(
+        ex * ex + ey * ey
+    )
+
+
+@numba.njit(cache=True)
+def _corner_edge(x, y, refx, refy, e):
+    """For a point (x, y) on reference edge e: the other reference edge it also lies on
+    (:func:`_on_edge`; the point is then a corner of the slave facet), or -1."""
+    for l in range(refx.shape[0]):
+        if l != e and _on_edge(x, y, refx, refy, l):
+            return l
+    return -1
+
+
+@numba.njit(cache=True)
+def _clip_halfplane(inp, din, nin, out, dout, refx, refy, e, ds):
+    """Sutherland-Hodgman step: the part of polygon inp[:nin] left of the line a -> b,
+    a = (refx[e], refy[e]), b the next corner: reference edge e of the reference polygon
+    (refx, refy).
 
     The line is fixed (a reference-element edge). With a non-empty ``din`` (nin, 2, nloc)
     the vertex derivatives are carried into ``dout``: an intersection point
@@ -446,7 +471,26 @@ def _clip_halfplane(inp, din, nin, out, dout, ax, ay, bx, by, ds):
     edge only (dv − n (n·dv), n the edge normal). A master edge lying ON the line (both
     |δ| ≤ ON_EDGE_TOL |e|) makes s a ratio of round-off: its intersection point gets
     ds = 0 and slides along the line likewise.
+
+    A vertex of the output on the line that also lies on another reference edge
+    (:func:`_corner_edge`) is a corner of the slave facet and is fixed (zero derivative):
+    a vertex on a slave edge may only slide along it, and at a corner along both. The
+    per-line rules above do not give that by themselves where the two edges are not
+    perpendicular (at the ends of the triangle's hypotenuse): a kept vertex slid along
+    one edge and then along the other keeps a part of its motion, and a master edge
+    lying on a LATER edge's line is cut here with its full motion (that line's rule has
+    not been applied to it yet), so the corner moves along this line. Either way the
+    covered region would grow or shrink at a corner that the neighbouring segments
+    cover with a fixed corner. The one exception keeps the generic derivatives bit for
+    bit: the cut of an edge lying on an EARLIER reference edge's line (a master facet
+    covering the corner: the cut of its clipped boundary) is left as computed, as its
+    end points only slide along that line and the cut is fixed up to round-off.
     """
+    e1 = (e + 1) % refx.shape[0]
+    ax = refx[e]
+    ay = refy[e]
+    bx = refx[e1]
+    by = refy[e1]
     nout = 0
     ex = bx - ax
     ey = by - ay
@@ -471,13 +515,27 @@ def _clip_halfplane(inp, din, nin, out, dout, ax, ay, bx, by, ds):
                     ddp = ex * din[ip, 1, j] - ey * din[ip, 0, j]
                     ds[j] = 0.0 if along else (dp * ddc - dc * ddp) / den
             _cut(inp, din, ip, i, s, ds, out, dout, nout)
-            if want and along:
-                _slide(dout, nout, ex, ey)
+            if want:
+                l = _corner_edge(out[nout, 0], out[nout, 1], refx, refy, e)
+                if l >= 0 and not (
+                    l < e and _on_edge(px, py, refx, refy, l) and _on_edge(cx, cy, refx, refy, l)
+                ):
+                    dout[nout] = 0.0
+                elif along:
+                    _slide(dout, nout, ex, ey)
+                elif abs(dc) <= ON_EDGE_TOL * el or abs(dp) <= ON_EDGE_TOL * el:
+                    # the cut is (up to round-off) the end vertex on the line: it moves
+                    # as that vertex does where it is kept
+                    dout[nout] = din[i] if abs(dc) <= ON_EDGE_TOL * el else din[ip]
+                    _slide(dout, nout, ex, ey)
             nout += 1
         if dc >= 0.0:
             _copy_vertex(inp, din, i, out, dout, nout)
             if want and dc <= ON_EDGE_TOL * el:
-                _slide(dout, nout, ex, ey)
+                if _corner_edge(cx, cy, refx, refy, e) >= 0:
+                    dout[nout] = 0.0
+                else:
+                    _slide(dout, nout, ex, ey)
             nout += 1
     return nout
 
@@ -504,8 +562,7 @@ def _clip_reference(vt, subj, dsubj, nsub, buf_a, buf_b, dbuf_a, dbuf_b, ds):
     for e in range(nc):
         if n == 0:
             break
-        e1 = (e + 1) % nc
-        n = _clip_halfplane(src, dsrc, n, dst, ddst, cx[e], cy[e], cx[e1], cy[e1], ds)
+        n = _clip_halfplane(src, dsrc, n, dst, ddst, cx, cy, e, ds)
         src, dst = dst, src
         dsrc, ddst = ddst, dsrc
     return src, dsrc, n
