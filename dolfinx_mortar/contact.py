@@ -938,6 +938,7 @@ class MortarContact:
         self._jacobians = 0
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
+        self._u_n_local = None  # (version, u_n at the local slave and master facets)
         self._history_key = None
         self._pending = None  # (u, τ, t^n vectors) of a committed step, for begin_step
 
@@ -1040,21 +1041,44 @@ class MortarContact:
         us = self._fetch_slave(vec).reshape(self.slave.X.shape)
         um = self._fetch_mlocal(vec).reshape(self.master_local.X.shape)
         self.xs = self.slave.X + us
-        moved = 0.0
+        # the master ghost layer covers the pairings in the configurations it was built
+        # for, up to a motion of a quarter of the margin: the current one (u_e) and, with
+        # friction, the start of the step's (u_n,e), where the t_n pairing is made
+        # (exchange_master_facets with both). It is rebuilt when the current state left
+        # u_e, or (friction) when the start of the step is near neither u_e nor u_n,e
+        # (a step that started after a slide of more than the allowance)
+        cur = (us, um)
+        hist = self._history_displacements() if self.frictional else None
+        keep = False
         if self._u_exchange is not None:
-            moved = max(
-                np.abs(us - self._u_exchange[0]).max(initial=0.0),
-                np.abs(um - self._u_exchange[1]).max(initial=0.0),
-            )
-        moved = self.comm.allreduce(moved, op=MPI.MAX)
-        if self._u_exchange is None or moved > 0.25 * self.margin:
+            ex = self._u_exchange
+
+            def dist(a, b):
+                return max(
+                    np.abs(a[0] - b[0]).max(initial=0.0), np.abs(a[1] - b[1]).max(initial=0.0)
+                )
+
+            moved = [dist(cur, ex[0])]
+            if hist is not None:
+                moved += [dist(hist, ex[0]), dist(hist, ex[1])]
+            moved = np.array(moved)
+            self.comm.Allreduce(MPI.IN_PLACE, moved, op=MPI.MAX)
+            allow = 0.25 * self.margin
+            # (written so that a NaN iterate keeps the layer, as before: its pairing fails)
+            keep = not moved[0] > allow and (hist is None or not min(moved[1], moved[2]) > allow)
+        if not keep:
+            if hist is None:
+                xm_ex, xs_ex = self.master_local.X + um, self.xs
+            else:
+                xm_ex = [self.master_local.X + um, self.master_local.X + hist[1]]
+                xs_ex = [self.xs, self.slave.X + hist[0]]
             self.master = exchange_master_facets(
-                self.comm, self.master_local, self.master_local.X + um, self.xs, self.margin
+                self.comm, self.master_local, xm_ex, xs_ex, self.margin
             )
             if self._fetch_cand is not None:
                 self._fetch_cand.destroy()
             self._fetch_cand = Fetcher(vec, self._all_dofs(self.master))
-            self._u_exchange = (us.copy(), um.copy())
+            self._u_exchange = ((us.copy(), um.copy()), hist)
             self._exchanges += 1
         self.xm = self.master.X + self._fetch_cand(vec).reshape(self.master.X.shape)
         #: whether this rank's last update met a facet of zero size in the deformed state
@@ -1075,6 +1099,17 @@ class MortarContact:
         if self.frictional:
             self._friction_integrals()
         self._recover()
+
+    def _history_displacements(self) -> tuple[np.ndarray, np.ndarray]:
+        """The start-of-step displacements u_n of the local slave facets and the local
+        master facets (collective: fetched once per t_n, :attr:`_u_n_version`)."""
+        memo = self._u_n_local
+        if memo is None or memo[0] != self._u_n_version:
+            un = self._u_n
+            hs = self._fetch_slave(un).reshape(self.slave.X.shape)
+            hm = self._fetch_mlocal(un).reshape(self.master_local.X.shape)
+            memo = self._u_n_local = (self._u_n_version, (hs, hm))
+        return memo[1]
 
     def _pair_and_integrate(self) -> None:
         """Candidates, pairing and the nodal integrals A^I, G^I at the current ``xs`` and

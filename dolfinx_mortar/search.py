@@ -5,7 +5,8 @@
   the nodes it owns, so it needs every facet touching them).
 - :func:`exchange_master_facets`: each rank sends its master facets only to the
   ranks whose (inflated) slave bounding box they come near, with all-to-all
-  messages of packed facets (:mod:`dolfinx_mortar.layout`).
+  messages of packed facets (:mod:`dolfinx_mortar.layout`); with friction, in the
+  current and the start-of-step configurations both (the t_n pairing's masters).
 - :func:`candidates`: per slave facet, the master facets whose bounding box meets
   its inflated one (compiled sweeps along one axis, one per size class).
 - :class:`Fetcher`: current displacements of arbitrary global dofs (PETSc
@@ -71,26 +72,40 @@ def bounding_box(x: np.ndarray, d: int) -> np.ndarray:
 
 
 def exchange_master_facets(
-    comm, local: FacetArrays, x_local: np.ndarray, slave_x: np.ndarray, margin: float
+    comm, local: FacetArrays, x_local, slave_x, margin: float
 ) -> FacetArrays:
     """Master facets (of any rank) near this rank's slave facets (collective).
 
-    ``x_local`` (nf, nn, d): current coordinates of the local master facets;
-    ``slave_x``: current coordinates of this rank's slave facet nodes.
-    A facet is sent to rank r when its box, inflated by ``margin``, meets r's slave box.
+    ``x_local`` (nf, nn, d): coordinates of the local master facets; ``slave_x``:
+    coordinates of this rank's slave facet nodes (any shape (..., d)). A facet is sent
+    to rank r when its box, inflated by ``margin``, meets r's slave box.
+
+    Several configurations (the current one and the start of the step, for friction's
+    t_n pairing): ``x_local`` and ``slave_x`` are then lists of the same length K, one
+    entry per configuration, and a facet is sent to r when, in SOME configuration k, its
+    box at k (inflated) meets r's slave box at k. The boxes of different configurations
+    are not merged, so a slide within a step adds the facets near the slave surface's
+    two positions, not those along the path between them. Every rank passes the same K.
     """
     d = local.gdim
-    boxes = np.array(comm.allgather(bounding_box(slave_x, d)))
+    if not isinstance(x_local, (list, tuple)):
+        x_local, slave_x = [x_local], [slave_x]
+    if len(x_local) != len(slave_x):
+        raise ValueError("exchange_master_facets: one slave configuration per master one")
+    # (size, K, 2, d): every rank's slave box in each configuration
+    boxes = np.array(comm.allgather(np.array([bounding_box(x, d) for x in slave_x])))
     rows = pack(local)
     if local.num_facets:
-        lo = x_local.min(axis=1) - margin
-        hi = x_local.max(axis=1) + margin
+        lo = [x.min(axis=1) - margin for x in x_local]
+        hi = [x.max(axis=1) + margin for x in x_local]
     out = []
     for r in range(comm.size):
         if local.num_facets == 0:
             out.append(rows)
             continue
-        sel = np.all((hi >= boxes[r, 0]) & (lo <= boxes[r, 1]), axis=1)
+        sel = np.zeros(local.num_facets, bool)
+        for k in range(len(x_local)):
+            sel |= np.all((hi[k] >= boxes[r, k, 0]) & (lo[k] <= boxes[r, k, 1]), axis=1)
         out.append(rows[sel])
     recv = _alltoall_rows(comm, out, record_width(local.nodes_per_facet, d))
     return unpack(recv, local.ftype, local.nodes_per_facet, d)
