@@ -419,3 +419,92 @@ def test_a_rank_without_cells(shared_tmp):
         np.testing.assert_allclose(fp, fs, rtol=0, atol=1e-9)
         for b, r in ser["steps"][-1]["reactions"].items():
             np.testing.assert_allclose(par["steps"][-1]["reactions"][b], r, rtol=0, atol=1e-9)
+
+
+# Coulomb friction after a slide far beyond the master ghost layer's margin in ONE step:
+# a soft block (E = 100, 12 slave facets) pressed by 0.02 onto a stiff, longer one
+# (E = 1e6, 28 master facets over [-3, 4]), then one of them dragged by 1.3 (about 8
+# margins of 2 h_slave) in one step. The t_n pairing (slip since the start of the step)
+# needs the master facets under the slave's START-of-step position: they were not in the
+# ghost layer (exchanged around the current slave box only), the points lost their t_n
+# master, and the step ended frictionless (F_x ≈ 0) while every node reported "slip"; on
+# several ranks, a partition-dependent part of them. The stiff master stays flat and the
+# master frame is its direction, so in gross slip F_T = μ F_N up to the master's strain.
+COULOMB_MU = 0.3
+
+
+def _coulomb_slide(mover):
+    drag = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, -1.3, 0.0]]
+    press = [[0.0, 0.0, 0.0], [1.0, 0.0, -0.02], [2.0, 1.3 if mover == "slave" else 0.0, -0.02]]
+    return {
+        "kinematics": "small",
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"n_lower": 28, "n_upper": 12, "n_y": 2, "margin": 3.0, "quads": True},
+        },
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": e, "nu": 0.3}
+            for r, e in (("lower", 1e6), ("upper", 100.0))
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": COULOMB_MU,
+                "tangential_frame": "master",
+            }
+        ],
+        "dirichlet": [
+            {
+                "boundary": "lower_bottom",
+                "path": drag if mover == "master" else [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            },
+            {"boundary": "upper_top", "path": press},
+        ],
+        "steps": {"t_end": 2.0, "n": 2},
+    }
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("mover", ["slave", "master"])
+def test_a_one_step_slide_beyond_the_ghost_margin_keeps_coulomb_friction(shared_tmp, mover):
+    comm = MPI.COMM_WORLD
+    data = _coulomb_slide(mover)
+    name = f"coulomb_{mover}"
+    box = {}
+    par = _run(data, shared_tmp / f"{name}_par", comm, box)
+    assert par["status"] == "ok", par.get("error")
+    term = box["problem"].contacts[0]
+    assert 1.3 > 7 * term.margin
+    # the layer holds the masters near the two positions, not the whole master surface
+    n_master = comm.allreduce(term.master_local.num_facets)
+    assert comm.allreduce(term.master.num_facets, op=MPI.MAX) < 0.8 * n_master
+    fx, fy = par["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
+    assert fy > 1.0
+    # gross slip: the Coulomb force (frictionless before the fix: fx/fy ≈ 0)
+    assert abs(fx / (-COULOMB_MU * fy) - 1.0) < 1e-5
+    if comm.rank == 0:
+        k = len(par["steps"])
+        tp = np.loadtxt(
+            shared_tmp / f"{name}_par" / f"contact_upper_bottom_{k}.csv",
+            delimiter=",",
+            skiprows=1,
+        )
+        loaded = tp[:, 4] > 0
+        assert np.count_nonzero(loaded) >= 10 and np.all(tp[loaded, -1] == 2.0)  # slip
+        np.testing.assert_allclose(tp[:, 5], -COULOMB_MU * tp[:, 4], rtol=1e-4, atol=1e-12)
+        if comm.size > 1:  # the same result as a serial run
+            ser = _run(data, shared_tmp / f"{name}_ser", MPI.COMM_SELF)
+            assert ser["status"] == "ok" and len(ser["steps"]) == k
+            ts = np.loadtxt(
+                shared_tmp / f"{name}_ser" / f"contact_upper_bottom_{k}.csv",
+                delimiter=",",
+                skiprows=1,
+            )
+            assert tp.shape == ts.shape
+            np.testing.assert_allclose(tp, ts, rtol=0, atol=1e-8 * ts[:, 4].max())
+            fs = ser["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
+            np.testing.assert_allclose([fx, fy], fs, rtol=1e-8, atol=1e-10 * abs(fs[1]))
+            for st_p, st_s in zip(par["steps"], ser["steps"], strict=True):
+                assert st_p["newton_iterations"] == st_s["newton_iterations"]
+    comm.barrier()
