@@ -2,8 +2,11 @@
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 
-from dolfinx_mortar.search import candidates
+from dolfinx_mortar.kernels.shape import INTERVAL1
+from dolfinx_mortar.layout import FacetArrays
+from dolfinx_mortar.search import candidates, exchange_master_facets
 
 
 def _brute_force(xs, xm, reach):
@@ -47,3 +50,32 @@ def test_no_facets():
     assert off.tolist() == [0] and idx.size == 0
     off, idx = candidates(np.zeros((2, 2, 2)), np.empty((0, 2, 2)), np.zeros(2))
     assert off.tolist() == [0, 0, 0] and idx.size == 0
+
+
+def test_the_exchange_covers_each_configuration_it_is_given():
+    """``exchange_master_facets`` with two configurations (friction: the current one and
+    the start of the step): a master facet is sent when, in SOME configuration, its box
+    inflated by the margin meets the slave box of that configuration; facets between the
+    two positions (the path of a slide) are not. One configuration: as before."""
+    comm = MPI.COMM_SELF
+    n = 40  # master segments [i, i+1] × {0} along x ∈ [0, 40]
+    x0 = np.arange(n, dtype=float)
+    X = np.zeros((n, 2, 2))
+    X[:, 0, 0], X[:, 1, 0] = x0, x0 + 1.0
+    blocks = np.stack([np.arange(n), np.arange(n) + 1], axis=1)
+    dofs = np.repeat(2 * blocks, 2, axis=1) + np.tile([0, 1], 2)
+    master = FacetArrays(INTERVAL1, 2, blocks, dofs, X, np.ones(n), np.zeros(n, np.int32))
+    # the slave: [2, 4] at the start of the step, slid by 20 to [22, 24] now
+    xs_n = np.array([[[2.0, 0.1], [4.0, 0.1]]])
+    xs = xs_n + [20.0, 0.0]
+
+    def sent(xm, xsl, margin=0.5):
+        return sorted(exchange_master_facets(comm, master, xm, xsl, margin).blocks[:, 0])
+
+    assert sent(X, xs) == [21, 22, 23, 24]  # the current configuration only
+    assert sent([X, X], [xs, xs_n]) == [1, 2, 3, 4, 21, 22, 23, 24]
+    # the master slid instead (by -20): its start-of-step facets under the slave
+    Xm = X - [20.0, 0.0]
+    assert sent([Xm, X], [xs_n, xs_n]) == [1, 2, 3, 4, 21, 22, 23, 24]
+    # a rank without slave facets receives none
+    assert sent([X, X], [np.empty((0, 2, 2)), np.empty((0, 2, 2))]) == []
