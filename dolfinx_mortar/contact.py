@@ -2,7 +2,8 @@
 
 Per Newton iteration (``update``): fetch the current displacements of the
 slave facets and master candidates, refresh the master ghost layer when the
-bodies moved by more than a quarter of the search margin, pair the slave
+bodies moved by more than a quarter of the search margin (with friction the layer
+also covers the start-of-step configuration of the t_n pairing), pair the slave
 quadrature points with master facets (:mod:`dolfinx_mortar.kernels.mortar`),
 and recover the nodal mixed variables. Lumped recovery (METHOD.md §3):
 
