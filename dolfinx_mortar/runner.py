@@ -326,13 +326,14 @@ def run(
 
 
 def _progress_on_every_rank(comm, callback, *args) -> None:
-    """``callback(*args)`` on every rank; where it raises an Exception on some ranks, it
-    goes on there and every other rank raises RuntimeError naming the first such rank and
-    its exception (collective: one gather). A callback that raised on one rank left the
-    others in the next step's collectives and the job hung, with no traceback."""
+    """``callback(*args)`` on every rank; where it raises on some ranks (any exception,
+    KeyboardInterrupt and SystemExit too), it goes on there and every other rank raises
+    RuntimeError naming the first such rank and its exception (collective: one gather). A
+    callback that raised on one rank left the others in the next step's collectives and
+    the job hung, with no traceback."""
     try:
         callback(*args)
-    except Exception as exc:
+    except BaseException as exc:
         first_on_any_rank(comm, f"{type(exc).__name__}: {exc}")
         raise
     found, rank, _ = first_on_any_rank(comm, None)

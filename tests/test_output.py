@@ -267,29 +267,32 @@ def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
 
 
 @pytest.mark.mpi
-def test_a_callback_that_raises_on_one_rank_stops_every_rank(shared_tmp):
+@pytest.mark.parametrize("error", [ValueError, SystemExit])
+def test_a_callback_that_raises_on_one_rank_stops_every_rank(shared_tmp, error):
     """``progress`` raising on the last rank only: that rank gets its exception, every
     other rank a RuntimeError that names it, and summary.json says "failed" with the
     steps before. The other ranks went on into the next step's collectives and the job
-    hung, with no traceback (a probe: 2 ranks, killed after 120 s)."""
+    hung, with no traceback (a probe: 2 ranks, killed after 120 s); SystemExit and
+    KeyboardInterrupt, which are not Exceptions, hung it after the first fix."""
     import json
 
     from dolfinx_mortar import parse_scene, run
 
     comm = MPI.COMM_WORLD
-    out = shared_tmp / "one_rank_raises"
+    out = shared_tmp / f"one_rank_raises_{error.__name__}"
     last = comm.size - 1
 
     def progress(step, record):
         if step == 2 and comm.rank == last:
-            raise ValueError("only this rank stops")
+            raise error("only this rank stops")
 
     scene = parse_scene(_small_press(steps=3), shared_tmp)
     if comm.rank == last:
-        with pytest.raises(ValueError, match="only this rank stops"):
+        with pytest.raises(error, match="only this rank stops"):
             run(scene, comm, out_dir=out, progress=progress)
     else:
-        with pytest.raises(RuntimeError, match=rf"raised on rank {last}: ValueError: only"):
+        name = error.__name__
+        with pytest.raises(RuntimeError, match=rf"raised on rank {last}: {name}: only"):
             run(scene, comm, out_dir=out, progress=progress)
     comm.barrier()
     summary = json.loads((out / "summary.json").read_text())
