@@ -107,7 +107,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -511,10 +511,10 @@ def _key(prefix: str, name: str) -> str:
 def _plain(value: Any) -> Any:
     """``value`` with NumPy scalars and arrays (a Python caller's, e.g. ``np.int64(4)``
     for ``steps.n`` or an array for a ``path``) made the Python numbers and lists that TOML
-    gives, in nested tables and arrays (local)."""
+    gives, in nested tables and arrays, and a range a list (local)."""
     if isinstance(value, Mapping):
         return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
+    if isinstance(value, list | tuple | range):
         return [_plain(v) for v in value]
     if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
         return _plain(value.tolist())  # a scalar gives a number, an array nested lists
@@ -1567,7 +1567,8 @@ def problem_inputs(
     lists = {}
     for name, value in ((mat, materials), (dir_, dirichlet), (tra, tractions)):
         value = _plain(value) if type(value).__module__ == "numpy" else value
-        if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence):
+        # any iterable of entries (a generator too), but not a table or a string
+        if isinstance(value, str | bytes | Mapping) or not isinstance(value, Iterable):
             raise SceneTypeError(
                 name, f"expected a sequence of tuples, got {_type_name(value)} {_show(value)}"
             )

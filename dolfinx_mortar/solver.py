@@ -126,6 +126,14 @@ class SolverSettings:
                 "SolverSettings.prefix",
                 f"expected a string (a PETSc options prefix), got {type(self.prefix).__name__}",
             )
+        # an empty prefix would make every option of the database this solver's (a host
+        # program's -log_view set aside with the rest)
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.prefix):
+            raise SceneError(
+                "SolverSettings.prefix",
+                "a PETSc options prefix is a name of letters, digits and '_' not starting "
+                f"with a digit (e.g. 'dm_'), got {self.prefix!r}",
+            )
 
 
 #: The penetration limit of the Newton steps of a first-contact solve (a solve that starts
@@ -385,6 +393,26 @@ _LOADED: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 _HOST_OPTIONS: dict[str, dict] = {}
 
 
+def _loaded_keys() -> set[str]:
+    """The names (prefix included) of the options the loaded solvers put in PETSc's global
+    database: not a host program's, whatever prefix they start with (``dm_x_`` starts
+    with ``dm_``)."""
+    return {prefix + key for prefix, s in _LOADED.items() for key in s._options}
+
+
+def _drop_options(prefix: str, options: dict) -> None:
+    """A solver collected without :meth:`NewtonSolver.destroy`: if its ``options`` were
+    loaded under ``prefix`` (no live solver's are), take them out and put the host
+    program's back (the weakref finalizer; local)."""
+    if _LOADED.get(prefix) is not None or prefix not in _HOST_OPTIONS:
+        return
+    opts = PETSc.Options()
+    for key in options:
+        opts.delValue(prefix + key)
+    for key, value in _HOST_OPTIONS.pop(prefix).items():
+        opts[key] = "" if value is None else value
+
+
 def _owning_options(method):
     """Run ``method`` of a :class:`NewtonSolver` with the solver's options in PETSc's
     global database (:meth:`NewtonSolver._load_options`)."""
@@ -453,6 +481,10 @@ class NewtonSolver:
         #: (compat.option_used)
         self._used: set[str] = set()
         self._usage_known = True
+        # a solver that is collected without destroy() takes its options out and puts
+        # the host's back; not at exit, when PETSc may be finalized
+        self._drop = weakref.finalize(self, _drop_options, settings.prefix, self._options)
+        self._drop.atexit = False
         self._b = _create_vector(problem)
         self._A = problem.create_matrix()
         #: the last iterate with a finite residual norm of the current solve (the
@@ -1107,7 +1139,10 @@ class NewtonSolver:
         if loaded is not None:
             loaded._unload_options()
         else:
-            aside = {k: v for k, v in opts.getAll().items() if k.startswith(prefix)}
+            theirs = _loaded_keys()
+            aside = {
+                k: v for k, v in opts.getAll().items() if k.startswith(prefix) and k not in theirs
+            }
             for key in aside:
                 opts.delValue(key)
             _HOST_OPTIONS[prefix] = aside
@@ -1128,6 +1163,7 @@ class NewtonSolver:
         del _LOADED[prefix]
 
     def destroy(self) -> None:
+        self._drop.detach()
         if hasattr(self.problem, "solvers"):
             self.problem.solvers.discard(self)
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:

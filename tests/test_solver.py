@@ -1014,6 +1014,42 @@ def test_solvers_alive_at_the_same_time_keep_their_own_options(cubic_vectors):
         opts.delValue("test_two_ksp_rtol")
 
 
+def test_solver_options_of_nested_prefixes_and_of_a_collected_solver(cubic_vectors):
+    """A solver of prefix ``t_n_`` loading its options set aside every option starting with
+    ``t_n_``, the loaded options of a solver of prefix ``t_n_x_`` included: those were
+    gone during that solver's solves and came back at the first one's destroy as a host's.
+    A solver collected without destroy() left its options in the database and the host's
+    set aside for good. An empty prefix (every option the solver's) is refused."""
+    import gc
+
+    opts = PETSc.Options()
+
+    def held(prefix):
+        return {k for k in opts.getAll() if k.startswith(prefix)}
+
+    inner = NewtonSolver(
+        _Cubic(1.0), SolverSettings(prefix="t_n_x_", petsc={"ksp_type": "cg", "pc_type": "none"})
+    )
+    outer = NewtonSolver(_Cubic(1.0), SolverSettings(prefix="t_n_"))
+    with inner, outer:
+        assert "t_n_x_ksp_type" in held("t_n_") and "t_n_ksp_type" in held("t_n_")
+        inner.solve()
+        assert inner.snes.getKSP().getType() == "cg"
+    assert held("t_n_") == set()
+    opts["t_gc_ksp_rtol"] = "0.5"  # a host's option
+    try:
+        dropped = NewtonSolver(_Cubic(1.0), SolverSettings(prefix="t_gc_"))
+        assert "t_gc_ksp_rtol" not in held("t_gc_")
+        del dropped
+        gc.collect()
+        assert held("t_gc_") == {"t_gc_ksp_rtol"}
+    finally:
+        opts.delValue("t_gc_ksp_rtol")
+    for prefix in ("", "-dm_", "dm x_"):
+        with pytest.raises(ValueError, match="SolverSettings.prefix: a PETSc options prefix"):
+            SolverSettings(prefix=prefix)
+
+
 def test_symmetric_jacobians_factorize_ldlt(cubic_vectors, monkeypatch):
     """MUMPS factorizes LDLᵀ (pc_type cholesky) where problem.symmetric_jacobian holds, LU
     otherwise; other solvers keep their LU; [solver.petsc] pc_type overrides; the solve
@@ -1511,6 +1547,21 @@ def test_contact_problem_checks_its_arguments_as_the_scene_does(
         ContactProblem(patch2d_api, **kwargs)
     assert err.value.key == key, str(err.value)
     assert phrase in err.value.reason, str(err.value)
+
+
+def test_contact_problem_takes_what_it_took_before_its_checks(patch2d_api):
+    """Inputs the API took before it checked them still work: components as a range,
+    materials as a generator, paths as NumPy arrays (a probe of the checks)."""
+    from dolfinx_mortar import ContactProblem
+
+    problem = ContactProblem(
+        patch2d_api,
+        materials=(m for m in _MATS),
+        dirichlet=[(name, range(2), np.asarray(path)) for name, _, path in _DBC],
+    )
+    assert [d.components for d in problem._dirichlet] == [(0, 1), (0, 1)]
+    assert len(problem.materials) == 2
+    problem.destroy()
 
 
 @pytest.mark.mpi
