@@ -430,6 +430,37 @@ def _slide(dout, i, ex, ey):
 
 
 @numba.njit(cache=True)
+def _on_line_motion(inp, din, nin, k, dout, nout, ax, ay, ex, ey, el, w):
+    """dout[nout] += w u, u the motion of vertex k of inp[:nin], on the line
+    a + t (ex, ey) (within ON_EDGE_TOL |e|, el = |e|), where the vertex is kept or
+    replaced by a cut that coincides with it: the one-sided derivative of the clipped
+    polygon for the vertex moving OUT of the half-plane (see :func:`_clip_halfplane`).
+    Its neighbours k − 1 and k + 1 decide: both inside (beyond ON_EDGE_TOL), the polygon
+    only touches the line there and u is the full motion; one inside, the vertex moving
+    out is replaced by the cut of the edge to that neighbour, which slides along the line
+    as that edge crosses it (the projection along the edge, not the orthogonal one
+    unless the edge is perpendicular to the line); none inside, the orthogonal
+    projection (a degenerate polygon)."""
+    q = -1
+    nq = 0
+    for kk in ((k - 1 + nin) % nin, (k + 1) % nin):
+        if ex * (inp[kk, 1] - ay) - ey * (inp[kk, 0] - ax) > ON_EDGE_TOL * el:
+            q = kk
+            nq += 1
+    if nq == 1:
+        tx = inp[q, 0] - inp[k, 0]
+        ty = inp[q, 1] - inp[k, 1]
+    else:
+        tx = -ey
+        ty = ex
+    den = ex * ty - ey * tx  # δ_q − δ_k > 0
+    for j in range(dout.shape[2]):
+        t = 0.0 if nq == 2 else (ex * din[k, 1, j] - ey * din[k, 0, j]) / den
+        dout[nout, 0, j] += w * (din[k, 0, j] - t * tx)
+        dout[nout, 1, j] += w * (din[k, 1, j] - t * ty)
+
+
+@numba.njit(cache=True)
 def _on_edge(x, y, refx, refy, l):
     """Whether the point (x, y) lies on the line of reference edge l (from corner l to
     corner l + 1 of the reference polygon refx, refy), within ON_EDGE_TOL as in
@@ -465,12 +496,20 @@ def _clip_halfplane(inp, din, nin, out, dout, refx, refy, e, ds):
     ``ds`` (nloc,) is scratch.
 
     A kept vertex ON the line (δ ≤ ON_EDGE_TOL |e|: a master vertex on the slave facet's
-    edge, as where the two surfaces end together) sits on a kink of the clipped region:
-    moving out, it is clipped and the region keeps the edge; moving in, the region
-    shrinks. Of the two one-sided derivatives the first is taken, the motion along the
-    edge only (dv − n (n·dv), n the edge normal). A master edge lying ON the line (both
+    edge, as where the two surfaces end together) may sit on a kink of the clipped
+    region: moving out, it is clipped; moving in, the region shrinks. Of the two
+    one-sided derivatives the first is taken, in every pair alike, so that the pairs
+    add up to the exact derivative wherever their sum is differentiable
+    (:func:`_on_line_motion`): the vertex moves as the crossing of the line with its
+    polygon edge to the neighbour inside the half-plane (the projection of dv onto the
+    line along that edge), with its full motion where both neighbours are inside (the
+    polygon only touches the line) and slid orthogonally where none is. The orthogonal
+    slide (dv − n (n·dv), n the edge normal) taken before for every such vertex adds up
+    right only where the master surface continues across the line: along a master
+    BOUNDARY edge that crosses the line obliquely (in reference coordinates) the covered
+    region's corner moved wrongly. A master edge lying ON the line (both
     |δ| ≤ ON_EDGE_TOL |e|) makes s a ratio of round-off: its intersection point gets
-    ds = 0 and slides along the line likewise.
+    ds = 0 and moves as its end vertices do (weighted by s).
 
     A vertex of the output on the line that also lies on another reference edge
     (:func:`_corner_edge`) is a corner of the slave facet and is fixed (zero derivative):
@@ -522,12 +561,18 @@ def _clip_halfplane(inp, din, nin, out, dout, refx, refy, e, ds):
                 ):
                     dout[nout] = 0.0
                 elif along:
-                    _slide(dout, nout, ex, ey)
+                    # a cut at a round-off ratio along the edge: it moves as the end
+                    # vertices on the line do (weighted by where it lies), since the
+                    # canonical form may keep it for the end vertex it coincides with
+                    dout[nout] = 0.0
+                    _on_line_motion(inp, din, nin, ip, dout, nout, ax, ay, ex, ey, el, 1.0 - s)
+                    _on_line_motion(inp, din, nin, i, dout, nout, ax, ay, ex, ey, el, s)
                 elif abs(dc) <= ON_EDGE_TOL * el or abs(dp) <= ON_EDGE_TOL * el:
                     # the cut is (up to round-off) the end vertex on the line: it moves
                     # as that vertex does where it is kept
-                    dout[nout] = din[i] if abs(dc) <= ON_EDGE_TOL * el else din[ip]
-                    _slide(dout, nout, ex, ey)
+                    k = i if abs(dc) <= ON_EDGE_TOL * el else ip
+                    dout[nout] = 0.0
+                    _on_line_motion(inp, din, nin, k, dout, nout, ax, ay, ex, ey, el, 1.0)
             nout += 1
         if dc >= 0.0:
             _copy_vertex(inp, din, i, out, dout, nout)
@@ -535,7 +580,8 @@ def _clip_halfplane(inp, din, nin, out, dout, refx, refy, e, ds):
                 if _corner_edge(cx, cy, refx, refy, e) >= 0:
                     dout[nout] = 0.0
                 else:
-                    _slide(dout, nout, ex, ey)
+                    dout[nout] = 0.0
+                    _on_line_motion(inp, din, nin, i, dout, nout, ax, ay, ex, ey, el, 1.0)
             nout += 1
     return nout
 
