@@ -442,7 +442,8 @@ def main(argv=None) -> list[dict]:
 
     from dolfinx_mortar.output import check_out_dir
 
-    check_out_dir(out, "--out", MPI.COMM_SELF)  # SceneError: one line from the CLI
+    # the name as given: Path("") resolves to the working directory
+    check_out_dir(args.out, "--out", MPI.COMM_SELF)  # SceneError: one line from the CLI
     out.mkdir(parents=True, exist_ok=True)
     command = "OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py " + " ".join(
         argv if argv is not None else sys.argv[1:]

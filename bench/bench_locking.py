@@ -622,8 +622,9 @@ def main(argv=None, comm=None) -> list[dict]:
     args = parse_args(argv)
     comm = comm or MPI.COMM_WORLD
     logging.getLogger("dolfinx_mortar").setLevel(logging.ERROR)  # cutback warnings: in the CSV
+    # the name as given: Path("") resolves to the working directory
+    check_out_dir(args.out, "--out", comm)  # SceneError: one line from the CLI
     out = Path(args.out).resolve()
-    check_out_dir(out, "--out", comm)  # SceneError: one line from the CLI
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
     comm.barrier()

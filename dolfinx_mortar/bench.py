@@ -371,12 +371,9 @@ def run_bench(
         raise SceneError("--recovery", f"must be one of {', '.join(RECOVERIES)} or all, got {bad}")
     if not 1 <= int(levels) <= MAX_LEVELS:
         raise SceneError("--levels", f"must be in 1 .. {MAX_LEVELS}, got {levels}")
-    mods = _import_demos()
-    out_dir = Path(out_dir).resolve()
-    if comm.rank == 0:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    comm.barrier()
-    rows, histories = [], []
+    # what runs, decided before anything is written: a sweep with nothing to run is a
+    # usage error that leaves no output directory behind
+    sweeps = []
     for bname in names:
         for integration, recovery in ((i, r) for r in recoveries for i in integrations):
             if bname in FRICTIONAL and recovery == "unconstrained":
@@ -386,28 +383,36 @@ def run_bench(
             nlev = min(int(levels), caps.get(bname, int(levels)))
             if nlev < int(levels) and comm.rank == 0 and integration == integrations[0]:
                 print(f"[bench] {bname}: {nlev} levels in `bench all` (ALL_LEVEL_CAPS)")
-            for level in range(nlev):
-                tag = "" if recovery == "lumped" else f"_{recovery}"
-                run_dir = out_dir / f"{bname}_L{level}_{integration}{tag}"
-                row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0, recovery)
-                rows.append(row)
-                histories.append(hist)
-                if comm.rank == 0:
-                    print(
-                        f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
-                        f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
-                        f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
-                        f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s "
-                        f"({row['time_per_iteration']:.3g} s per iteration, overhead "
-                        f"{row['contact_overhead']:.2f}), "
-                        f"mem={row['peak_memory_mb']:.0f} MB"
-                        + (f", {row['note']}" if row["note"] else ""),
-                        flush=True,
-                    )
-                if comm.rank == 0:  # rewritten after every run: a partial sweep keeps its rows
-                    write_csv(rows, out_dir / "bench.csv")
-    if not rows:
+            sweeps.append((bname, integration, recovery, nlev))
+    if not sweeps:
         raise SceneError("bench", f"nothing to run for {name!r} with these options (see above)")
+    mods = _import_demos()
+    out_dir = Path(out_dir).resolve()
+    if comm.rank == 0:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    rows, histories = [], []
+    for bname, integration, recovery, nlev in sweeps:
+        for level in range(nlev):
+            tag = "" if recovery == "lumped" else f"_{recovery}"
+            run_dir = out_dir / f"{bname}_L{level}_{integration}{tag}"
+            row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0, recovery)
+            rows.append(row)
+            histories.append(hist)
+            if comm.rank == 0:
+                print(
+                    f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
+                    f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
+                    f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
+                    f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s "
+                    f"({row['time_per_iteration']:.3g} s per iteration, overhead "
+                    f"{row['contact_overhead']:.2f}), "
+                    f"mem={row['peak_memory_mb']:.0f} MB"
+                    + (f", {row['note']}" if row["note"] else ""),
+                    flush=True,
+                )
+            if comm.rank == 0:  # rewritten after every run: a partial sweep keeps its rows
+                write_csv(rows, out_dir / "bench.csv")
     if comm.rank == 0 and plots:
         plot(rows, histories, out_dir)
     comm.barrier()

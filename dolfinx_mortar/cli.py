@@ -94,7 +94,8 @@ def _parser() -> argparse.ArgumentParser:
         "`dolfinx-mortar bench hard --help`)",
     )
     b.add_argument("--levels", type=int, default=3, help="mesh levels 0 .. K-1 [3]")
-    b.add_argument("--out", type=Path, default=Path("bench/out"), help="output dir [bench/out]")
+    # a string, not a Path: Path("") is ".", and check_out_dir must see the empty name
+    b.add_argument("--out", default="bench/out", help="output dir [bench/out]")
     b.add_argument(
         "--integration",
         choices=("element", "segment", "both"),
@@ -373,7 +374,7 @@ def main(argv=None) -> int:
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
             recs = RECOVERIES if args.recovery == "all" else (args.recovery,)
-            run_bench(args.name, args.levels, args.out, integ, comm, h0=h0, recoveries=recs)
+            run_bench(args.name, args.levels, Path(args.out), integ, comm, h0=h0, recoveries=recs)
             return 0
         from .scene import load_scene
 

@@ -1300,6 +1300,15 @@ def test_bench_hard_refuses_mpirun_and_a_missing_script(tmp_path, monkeypatch, c
     assert len(err) == 1 and "no_such_script.py not found" in err[0], err
 
 
+@pytest.mark.parametrize("name", ["patch2d", "hard", "locking"])
+def test_bench_refuses_an_empty_output_name(tmp_path, name):
+    """``bench NAME --out ''``: the output directory's one-line error (Path("") is the
+    working directory, into which the sweeps wrote their CSVs, plots and runs)."""
+    res = cli(tmp_path, "bench", name, *(["--quick"] if name != "patch2d" else []), "--out", "")
+    _one_error_line(res, 1, "--out", "cannot use '' as output directory: empty name")
+    assert not list(tmp_path.iterdir())
+
+
 @pytest.mark.parametrize("name", ["hard", "locking"])
 def test_bench_scripts_refuse_an_output_path_on_a_file(tmp_path, name):
     """``bench hard|locking --out FILE``: one error line naming --out, exit 2 (it was a
