@@ -97,6 +97,9 @@ RATIOS = (0.25, 0.5, 1.0, 2.0, 4.0)
 KAPPAS = (1.0, 10.0, 100.0, 1e3, 1e4)
 INTEGRATIONS = ("element", "segment", "node")
 RECOVERIES = ("lumped",)
+#: the method's recoveries, what ``--recoveries`` may name (a version of the package
+#: without one of them skips it: :func:`available_recoveries`)
+METHOD_RECOVERIES = ("lumped", "unconstrained", "constrained")
 UZAWA_RATIOS = (0.25, 4.0)
 UZAWA_TOL = 1e-6  # the scene default
 BENCHMARKS = ("patch2d", "hertz2d")
@@ -546,24 +549,44 @@ def available_recoveries(requested) -> list[str]:
     return out
 
 
+def _positive(kind):
+    """An argparse type: ``kind`` (float or int) of a finite value > 0 (a ratio of 0 ran
+    into a ZeroDivisionError traceback, a negative one a TypeError, mid-sweep)."""
+
+    def parse(text: str):
+        value = kind(text)
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="bench/out/locking", help="output directory")
     ap.add_argument("--quick", action="store_true", help="a small subset (< 30 s serially)")
     ap.add_argument("--benchmarks", nargs="+", choices=BENCHMARKS, default=list(BENCHMARKS))
-    ap.add_argument("--ratios", type=float, nargs="+", default=None, help="h_master/h_slave")
-    ap.add_argument("--kappas", type=float, nargs="+", default=None, help="ε_N h_slave/E*")
+    positive_float, positive_int = _positive(float), _positive(int)
+    ap.add_argument(
+        "--ratios", type=positive_float, nargs="+", default=None, help="h_master/h_slave"
+    )
+    ap.add_argument("--kappas", type=positive_float, nargs="+", default=None, help="ε_N h_slave/E*")
     ap.add_argument("--integrations", nargs="+", choices=INTEGRATIONS, default=list(INTEGRATIONS))
-    ap.add_argument("--recoveries", nargs="+", default=list(RECOVERIES))
+    ap.add_argument("--recoveries", nargs="+", choices=METHOD_RECOVERIES, default=list(RECOVERIES))
     ap.add_argument(
         "--uzawa-ratios",
-        type=float,
+        type=positive_float,
         nargs="*",
         default=None,
         help="mesh ratios also run with Uzawa on (none: pure penalty only) [0.25 4]",
     )
     ap.add_argument(
-        "--max-steps", type=int, default=MAX_STEPS, help="stop a run after this many steps [64]"
+        "--max-steps",
+        type=positive_int,
+        default=MAX_STEPS,
+        help="stop a run after this many steps [64]",
     )
     ap.add_argument(
         "--fixed",
@@ -573,11 +596,14 @@ def parse_args(argv=None):
         "side, or the slave [coarse]",
     )
     ap.add_argument(
-        "--patch-n", type=int, default=15, help="elements of the fixed side (patch2d) [15]"
+        "--patch-n", type=positive_int, default=15, help="elements of the fixed side (patch2d) [15]"
     )
-    ap.add_argument("--patch-ny", type=int, default=6, help="elements through a block [6]")
+    ap.add_argument("--patch-ny", type=positive_int, default=6, help="elements through a block [6]")
     ap.add_argument(
-        "--hertz-h", type=float, default=None, help="h_contact of the fixed side (hertz2d) [0.1]"
+        "--hertz-h",
+        type=positive_float,
+        default=None,
+        help="h_contact of the fixed side (hertz2d) [0.1]",
     )
     return ap.parse_args(argv)
 

@@ -1338,6 +1338,12 @@ def test_bench_levels_and_timeout_bounds(tmp_path):
         (["hard", "--cases", "nosuch"], "argument --cases: invalid choice: 'nosuch'"),
         (["hard", "--timeout", "soon"], "argument --timeout: invalid float value: 'soon'"),
         (["locking", "--no-such-option"], "unrecognized arguments: --no-such-option"),
+        # a ratio of 0 was a ZeroDivisionError traceback mid-sweep, -1 a TypeError
+        (["locking", "--ratios", "0"], "argument --ratios: must be a finite number > 0"),
+        (["locking", "--patch-n", "0"], "argument --patch-n: must be a finite number > 0"),
+        (["locking", "--hertz-h", "-1"], "argument --hertz-h: must be a finite number > 0"),
+        # an unknown recovery was skipped, and an empty locking.csv written
+        (["locking", "--recoveries", "foo"], "argument --recoveries: invalid choice: 'foo'"),
     ],
 )
 def test_bench_script_usage_errors_are_one_line(tmp_path, argv, reason):
