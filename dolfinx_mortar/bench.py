@@ -81,6 +81,16 @@ ALL_LEVEL_CAPS = {"hertz3d": 2, "ironing2d": 2}
 #: 8⁵ ≈ 33 000 times in 3D. An unbounded K ran on until memory or time ran out, writing a
 #: directory per level.
 MAX_LEVELS = 6
+#: The files a sweep writes into its output directory: the CSV (a row per run) and the
+#: plots (:func:`plot`); the output directory's check refuses a directory at their names
+CSV_FILE = "bench.csv"
+PLOT_FILES = {
+    "work_precision": "work_precision.png",
+    "error_vs_h": "error_vs_h.png",
+    "newton_history": "newton_history.png",
+    "cost": "cost.png",
+}
+OUTPUT_FILES = (CSV_FILE, *PLOT_FILES.values())
 INTEGRATIONS = ("element", "segment")
 RECOVERIES = ("lumped", "unconstrained", "constrained")
 
@@ -412,7 +422,7 @@ def run_bench(
                     flush=True,
                 )
             if comm.rank == 0:  # rewritten after every run: a partial sweep keeps its rows
-                write_csv(rows, out_dir / "bench.csv")
+                write_csv(rows, out_dir / CSV_FILE)
     if comm.rank == 0 and plots:
         plot(rows, histories, out_dir)
     comm.barrier()
@@ -483,7 +493,7 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out_dir / "work_precision.png", dpi=120)
+    fig.savefig(out_dir / PLOT_FILES["work_precision"], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -499,7 +509,7 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out_dir / "error_vs_h.png", dpi=120)
+    fig.savefig(out_dir / PLOT_FILES["error_vs_h"], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -518,7 +528,7 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(out_dir / "newton_history.png", dpi=120)
+    fig.savefig(out_dir / PLOT_FILES["newton_history"], dpi=120)
     plt.close(fig)
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.5), sharey=True)
@@ -538,5 +548,5 @@ def plot(rows: list[dict], histories: list[list[float]], out_dir) -> None:
     axes[0].set_ylabel("wall time per Newton iteration (s)")
     fig.suptitle("cost per Newton iteration (fitted log-log slopes in the legends)")
     fig.tight_layout()
-    fig.savefig(out_dir / "cost.png", dpi=120)
+    fig.savefig(out_dir / PLOT_FILES["cost"], dpi=120)
     plt.close(fig)

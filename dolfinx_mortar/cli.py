@@ -368,9 +368,9 @@ def main(argv=None) -> int:
     _setup_logging(comm.rank, getattr(args, "verbose", 0))
     try:
         if args.command == "bench":
-            from .bench import INTEGRATIONS, RECOVERIES, TINY_H0, run_bench
+            from .bench import INTEGRATIONS, OUTPUT_FILES, RECOVERIES, TINY_H0, run_bench
 
-            check_out_dir(args.out, "--out", comm)
+            check_out_dir(args.out, "--out", comm, files=OUTPUT_FILES)
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
             recs = RECOVERIES if args.recovery == "all" else (args.recovery,)

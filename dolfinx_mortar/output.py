@@ -136,7 +136,7 @@ def previous_slaves(out_dir: Path) -> set[str]:
         return set()
 
 
-def check_out_dir(out: Path | str, key: str, comm, slaves=()) -> None:
+def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=()) -> None:
     """Raise SceneError on every rank if the output directory cannot be used (collective;
     rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
     link, or one that cannot be created. A missing directory is created to find out, and
@@ -144,17 +144,18 @@ def check_out_dir(out: Path | str, key: str, comm, slaves=()) -> None:
     of an OSError from the writer, after the set-up). An existing directory must let a
     file be created in it, and hold no directory (nor a read-only file) where a file of
     the run goes (:func:`output_names` of the slave surfaces ``slaves``, and their
-    ``contact_<SLAVE>_<k>.csv``) or where it removes an earlier run's contact files
-    (those of the slaves its summary.json names: :meth:`OutputWriter.start`)."""
+    ``contact_<SLAVE>_<k>.csv``, and the names ``files`` of a caller's own: the bench's
+    CSV and plots) or where it removes an earlier run's contact files (those of the
+    slaves its summary.json names: :meth:`OutputWriter.start`)."""
     reason = None
     if comm.rank == 0:
-        reason = _out_dir_problem(str(out), tuple(slaves))
+        reason = _out_dir_problem(str(out), tuple(slaves), tuple(files))
     reason = comm.bcast(reason, root=0)
     if reason is not None:
         raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
 
 
-def _out_dir_problem(out: str, slaves=()) -> str | None:
+def _out_dir_problem(out: str, slaves=(), files=()) -> str | None:
     """Why ``out`` cannot be the output directory, or None (local)."""
     if not out.strip():
         return "empty name"
@@ -166,7 +167,7 @@ def _out_dir_problem(out: str, slaves=()) -> str | None:
     if p.exists():
         if not p.is_dir():
             return "it exists and is not a directory"
-        return _existing_dir_problem(p, out, slaves)
+        return _existing_dir_problem(p, out, slaves, files)
     top = p  # the outermost directory to create
     while not top.parent.exists() and top.parent != top:
         top = top.parent
@@ -180,7 +181,7 @@ def _out_dir_problem(out: str, slaves=()) -> str | None:
     return None
 
 
-def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
+def _existing_dir_problem(p: Path, out: str, slaves=(), files=()) -> str | None:
     """Why the existing directory ``p`` (named ``out``) cannot take the run's files, or
     None (local): a file cannot be created in it (tried: ``os.access`` says yes to root
     on a read-only file system or in /proc), or a directory or a read-only file is where
@@ -192,7 +193,7 @@ def _existing_dir_problem(p: Path, out: str, slaves=()) -> str | None:
         return "not writable (a file cannot be created in it)"
     slaves = tuple(slaves) + tuple(sorted(previous_slaves(p) - set(slaves)))
     csv = contact_csv_names(slaves)
-    names = output_names(slaves)
+    names = output_names(slaves) + list(files)
     names += sorted(f.name for f in p.iterdir() if csv.fullmatch(f.name))
     for name in names:
         f = p / name

@@ -1309,6 +1309,16 @@ def test_bench_refuses_an_empty_output_name(tmp_path, name):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("where", ["bench.csv", "cost.png"])
+def test_bench_refuses_a_directory_where_its_csv_or_a_plot_goes(tmp_path, where):
+    """A directory at the sweep's CSV or a plot: the output directory's one line before
+    any run (an IsADirectoryError traceback after the first run, or after them all)."""
+    (tmp_path / "q" / where).mkdir(parents=True)
+    res = cli(tmp_path, "bench", "patch2d", "--levels", "1", "--out", "q")
+    _one_error_line(res, 1, "--out", f"'q/{where}' is a directory")
+    assert [f.name for f in (tmp_path / "q").iterdir()] == [where]
+
+
 @pytest.mark.parametrize("name", ["hard", "locking"])
 def test_bench_scripts_refuse_an_output_path_on_a_file(tmp_path, name):
     """``bench hard|locking --out FILE``: one error line naming --out, exit 2 (it was a
