@@ -312,6 +312,23 @@ def _subcommand_options(parser: argparse.ArgumentParser, command: str | None) ->
     return set()
 
 
+def _interrupted(args, exc: KeyboardInterrupt) -> str:
+    """What a Ctrl-C of command ``args`` left behind, for its one line (local): a run's
+    summary.json keeps the finished steps (once they had begun), a sweep's CSV its
+    finished runs (it is rewritten after each; the run that was interrupted is not in
+    it: it spoke of a load step before)."""
+    if args.command == "bench":
+        from .bench import CSV_FILE
+
+        csv = Path(args.out) / CSV_FILE
+        if csv.is_file():
+            return f"interrupted: {csv} keeps the finished runs"
+        return "interrupted before the first run finished"
+    if getattr(exc, "summary_kept", False):  # set once the steps had begun
+        return "interrupted: summary.json keeps the finished steps"
+    return "interrupted before the first load step"
+
+
 def main(argv=None) -> int:
     tokens = list(sys.argv[1:] if argv is None else argv)
     if len(tokens) >= 2 and tokens[0] == "bench" and tokens[1] in BENCH_SCRIPTS:
@@ -415,12 +432,7 @@ def main(argv=None) -> int:
         return _failed(comm)
     except KeyboardInterrupt as exc:  # Ctrl-C: one line, no traceback
         if comm.rank == 0:
-            kept = getattr(exc, "summary_kept", False)  # set once the steps had begun
-            _error_line(
-                "dolfinx-mortar: interrupted: summary.json keeps the finished steps"
-                if kept
-                else "dolfinx-mortar: interrupted before the first load step"
-            )
+            _error_line(f"dolfinx-mortar: {_interrupted(args, exc)}")
         return 130
     except Exception:
         traceback.print_exc()

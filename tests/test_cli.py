@@ -10,6 +10,7 @@ run under mpirun (no nested MPI): none is marked ``mpi``. The MPI variant launch
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import re
@@ -1307,6 +1308,31 @@ def test_bench_refuses_an_empty_output_name(tmp_path, name):
     res = cli(tmp_path, "bench", name, *(["--quick"] if name != "patch2d" else []), "--out", "")
     _one_error_line(res, 1, "--out", "cannot use '' as output directory: empty name")
     assert not list(tmp_path.iterdir())
+
+
+def test_a_bench_interrupted_says_what_its_csv_keeps(tmp_path, monkeypatch, capsys):
+    """Ctrl-C in a sweep: one line naming the CSV of the finished runs, or saying that none
+    had finished (it spoke of a load step and summary.json, a single run's), exit 130."""
+    from dolfinx_mortar import bench
+    from dolfinx_mortar import cli as cli_module
+
+    def sweep(name, levels, out, *args, finished, **kwargs):
+        out.mkdir(parents=True, exist_ok=True)
+        if finished:
+            (out / bench.CSV_FILE).write_text("benchmark\nhertz2d\n")
+        raise KeyboardInterrupt
+
+    for finished, line in (
+        (False, "dolfinx-mortar: interrupted before the first run finished"),
+        (
+            True,
+            f"dolfinx-mortar: interrupted: {tmp_path / 'b1' / 'bench.csv'} keeps the finished runs",
+        ),
+    ):
+        monkeypatch.setattr(bench, "run_bench", functools.partial(sweep, finished=finished))
+        out = tmp_path / f"b{int(finished)}"
+        assert cli_module.main(["bench", "hertz2d", "--levels", "2", "--out", str(out)]) == 130
+        assert capsys.readouterr().err.splitlines() == [line]
 
 
 @pytest.mark.parametrize("where", ["bench.csv", "cost.png"])
