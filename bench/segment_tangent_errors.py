@@ -74,4 +74,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    # no options: --help says what the script does instead of running it
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args()
     main()
