@@ -400,6 +400,10 @@ def run_bench(
     out_dir = Path(out_dir).resolve()
     if comm.rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
+        # an earlier sweep's CSV and plots go: an interrupted sweep left them next to the
+        # new rows (the run directories are each rewritten by their run)
+        for name in OUTPUT_FILES:
+            (out_dir / name).unlink(missing_ok=True)
     comm.barrier()
     rows, histories = [], []
     for bname, integration, recovery, nlev in sweeps:

@@ -225,3 +225,21 @@ def test_bench_nothing_to_run(tmp_path, capsys):
         run_bench("cattaneo2d", 1, out, comm=MPI.COMM_SELF, recoveries=("unconstrained",))
     assert capsys.readouterr().out.count("skipped") == 1
     assert not out.exists()
+
+
+def test_a_new_sweep_removes_the_earlier_csv_and_plots(tmp_path, monkeypatch):
+    """A sweep into a directory that holds an earlier sweep's bench.csv and plots removes
+    them first: interrupted, it left them next to its own rows (the last probe)."""
+    from dolfinx_mortar import bench
+
+    for name in bench.OUTPUT_FILES:
+        (tmp_path / name).write_text("an earlier sweep's\n")
+    (tmp_path / "notes.txt").write_text("mine\n")
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench, "run_one", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_bench("patch2d", 1, tmp_path, comm=MPI.COMM_SELF)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["notes.txt"]
