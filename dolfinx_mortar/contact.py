@@ -508,6 +508,12 @@ class UzawaAcceleration:
         return x + f - (np.column_stack(dX) + F) @ theta
 
 
+def _max_change(a: tuple, b: tuple) -> float:
+    """The largest entry of |a_i − b_i| over the pairs of arrays (a_0, a_1), (b_0, b_1)
+    (slave and master facet displacements; local, 0 for empty arrays)."""
+    return max(np.abs(x - y).max(initial=0.0) for x, y in zip(a, b, strict=True))
+
+
 class MortarContact:
     """Mortar contact (frictionless or Coulomb) between two facet groups (collective construction).
 
@@ -940,6 +946,7 @@ class MortarContact:
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
         self._u_n_local = None  # (version, u_n at the local slave and master facets)
+        self._hist_far = None  # ((version, exchanges), _history_far's value)
         self._history_key = None
         self._pending = None  # (u, τ, t^n vectors) of a committed step, for begin_step
 
@@ -1052,21 +1059,11 @@ class MortarContact:
         hist = self._history_displacements() if self.frictional else None
         keep = False
         if self._u_exchange is not None:
-            ex = self._u_exchange
-
-            def dist(a, b):
-                return max(
-                    np.abs(a[0] - b[0]).max(initial=0.0), np.abs(a[1] - b[1]).max(initial=0.0)
-                )
-
-            moved = [dist(cur, ex[0])]
-            if hist is not None:
-                moved += [dist(hist, ex[0]), dist(hist, ex[1])]
-            moved = np.array(moved)
-            self.comm.Allreduce(MPI.IN_PLACE, moved, op=MPI.MAX)
             allow = 0.25 * self.margin
-            # (written so that a NaN iterate keeps the layer, as before: its pairing fails)
-            keep = not moved[0] > allow and (hist is None or not min(moved[1], moved[2]) > allow)
+            moved = self.comm.allreduce(_max_change(cur, self._u_exchange[0]), op=MPI.MAX)
+            # (written so that a NaN iterate keeps the layer, as before: its pairing fails;
+            # `moved` is the same on every rank, so every rank calls _history_far or none)
+            keep = not moved > allow and (hist is None or not self._history_far() > allow)
         if not keep:
             if hist is None:
                 xm_ex, xs_ex = self.master_local.X + um, self.xs
@@ -1100,6 +1097,19 @@ class MortarContact:
         if self.frictional:
             self._friction_integrals()
         self._recover()
+
+    def _history_far(self) -> float:
+        """How far the start-of-step displacements u_n of the local slave and master facets
+        lie from the nearer of the last exchange's two configurations (the largest change
+        over the ranks; collective). Both change only with a new step or an exchange: it
+        is computed once per pair of them, not at every Newton iteration."""
+        key = (self._u_n_version, self._exchanges)
+        if self._hist_far is None or self._hist_far[0] != key:
+            hist, (current, start) = self._history_displacements(), self._u_exchange
+            far = np.array([_max_change(hist, current), _max_change(hist, start)])
+            self.comm.Allreduce(MPI.IN_PLACE, far, op=MPI.MAX)
+            self._hist_far = (key, float(far.min()))
+        return self._hist_far[1]
 
     def _history_displacements(self) -> tuple[np.ndarray, np.ndarray]:
         """The start-of-step displacements u_n of the local slave facets and the local
