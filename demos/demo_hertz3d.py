@@ -18,7 +18,7 @@ measures are integrals of p_h, the piecewise-linear interpolant of the nodal pre
 on a Delaunay triangulation of the slave nodes projected onto z = 0:
 
 - ``p0``: the mean of p_h over the quarter disc r < a/2 divided by its exact value for
-  the Hertz profile, 8/3 (1 - (3/4)^(3/2)) p0 = 0.93457 p0 (a from the measured load);
+  the Hertz profile, 8/3 (1 - (3/4)^(3/2)) p0 = 0.93462 p0 (a from the measured load);
 - ``a``: the moment estimate a = sqrt(5/2 · ∫ r² p_h dA / ∫ p_h dA), exact for the
   Hertz profile; the bracket [largest active r, smallest inactive r beyond it] is
   printed as well;

@@ -31,7 +31,7 @@ Metrics per benchmark:
   the slave nodes, ``max_rel_error`` = max |p_i/p0 − 1|.
 - ``cattaneo2d`` (friction; lumped or constrained recovery): ``l2_rel_error`` = the L2 error of the
   tangential traction q against Cattaneo–Mindlin over ±1.25 a, ``max_rel_error`` =
-  max over slave nodes |q_i − q(x_i)|/(μ p0); level 0 has h = 0.1 (≈ a/6.5).
+  max over slave nodes |q_i − q(x_i)|/(μ p0); level 0 has h = 0.1 (≈ a/6.7).
 - ``ironing2d`` (finite deformation, friction μ = 0.3; no analytic solution): the
   die of ``demos/demo_ironing2d.py`` pressed 0.6 (not the demo's 1.4) in 5 steps, then
   slid 2.0 in 25·2^k steps, on a slab lengthened to the left (x from −4, L = 11,
@@ -97,7 +97,7 @@ RECOVERIES = ("lumped", "unconstrained", "constrained")
 #: Level-0 contact element sizes of ``--tiny`` (quick smoke runs; the patch test is
 #: already coarse at its default level 0).
 TINY_H0 = {"hertz2d": 0.4, "hertz3d": 0.5, "cattaneo2d": 0.14, "ironing2d": 0.4}
-#: Level-0 contact element size of cattaneo2d (≈ a/6.5; the demo's default 0.05 is level 1).
+#: Level-0 contact element size of cattaneo2d (≈ a/6.7; the demo's default 0.05 is level 1).
 CATTANEO_H0 = 0.1
 #: ironing2d: level-0 slab and die element size, die travel, slide steps at level 0, and
 #: the start of the force window (die position u_x).
