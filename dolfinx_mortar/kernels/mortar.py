@@ -438,15 +438,26 @@ def contact_terms(
 ):
     """Residual entries, Hessian blocks and the number of B^I entries of every active node.
 
-    Inputs: node_of (nsf, nphi) owned-node index or −1; p (n_nodes,) nodal pressures;
-    kcoef (n_nodes,) = ε H^I / A^I (0: no B⊗B term); sdofs (nsf, ns·d), mdofs (nmf, nm·d)
-    global dofs (−1 = ignored by PETSc).
-    Outputs: res_idx, res_val (n_paired, nloc): entries of R_c = −Σ_I p^I B^I per PAIRED
-    point (qp_m ≥ 0), in (facet, point) order (row unused: res_idx −1); hess_val
-    (n_paired, nloc, nloc): −Σ_I p^I w J₀ Φ_I ∂²g per paired point when want_jac (indices =
-    res_idx row). Rows are per paired point only: segment integration leaves most of the
-    (nsf, nq) slots empty, and a dense Hessian per slot took gigabytes in 3D; b_count (n_nodes,) += entries of B^I;
-    force (d,) += Σ_I p^I Σ_q w J₀ Φ_I ν, the force of the master on the slave.
+    Inputs: xs (nsf, ns, d), xm (nmf, nm, d) current nodes, msign (nmf,), qp_xi (nsf, nq,
+    ks), qp_w (nsf, nq) weights w J₀, qp_m (nsf, nq) paired master facet or −1, qp_zeta
+    (nsf, nq, km) the converged closest-point projections of the paired points (as
+    :func:`pair_points`); node_of (nsf, nphi) owned-node index or −1; p (n_nodes,) nodal
+    pressures; kcoef (n_nodes,) = ε H^I / A^I (0: no B⊗B term); sdofs (nsf, ns·d), mdofs
+    (nmf, nm·d) global dofs (−1 = ignored by PETSc); nloc = (ns + nm)·d.
+
+    Per paired point (f, q) with master m, p_w = w J₀ Σ_I p^I Φ_I(ξ_q) over the owned nodes
+    I of facet f (node_of ≥ 0). Outputs: res_idx, res_val (n_paired, nloc): entries of
+    R_c = −Σ_I p^I B^I per PAIRED point (qp_m ≥ 0), in (facet, point) order: res_idx =
+    [sdofs[f], mdofs[m]], res_val = −p_w ∂g/∂u (local dofs); a row with p_w = 0 (weight 0,
+    or no pressure at its facet's owned nodes) gets res_idx −1 and its res_val and hess_val
+    rows are left as given (pass zeros); hess_val (n_paired, nloc, nloc): −p_w ∂²g/∂u² =
+    −Σ_I p^I w J₀ Φ_I ∂²g per paired point when want_jac (indices = res_idx row; not
+    touched otherwise, then (1, nloc, nloc) will do). Rows are per paired point only:
+    segment integration leaves most of the (nsf, nq) slots empty, and a dense Hessian per
+    slot took gigabytes in 3D. b_count (n_nodes,) += nloc for every paired point (weight 0
+    included) of every facet of an owned node with kcoef > 0: the length of its row B^I in
+    :func:`node_rows`. force (d,) += Σ_q p_w ν(ζ_q) = Σ_I p^I Σ_q w J₀ Φ_I ν, the force of
+    the master on the slave (ν = ∂g/∂x₁, the master's outward unit normal).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -528,7 +539,15 @@ def node_rows(
     b_idx,
     b_val,
 ):
-    """Fill the rows B^I (entries b_idx/b_val in b_off[I]:b_off[I+1]) of the nodes with kcoef > 0."""
+    """Fill the rows B^I = ∂G^I/∂u = Σ_q w J₀ Φ_I(ξ_q) ∂g_q/∂u of the owned nodes with
+    kcoef > 0, uncompressed (:func:`compress_rows` merges them).
+
+    The leading arguments are those of :func:`contact_terms`; kcoef (n_nodes,); b_off
+    (n_nodes + 1,) the offsets of the rows, the cumulative sum of :func:`contact_terms`'
+    b_count. Row I (b_idx, b_val in b_off[I]:b_off[I+1]) holds, per paired point of each
+    facet f of I (weight 0 included), in (facet, point) order, nloc = (ns + nm)·d entries:
+    the dofs [sdofs[f], mdofs[m]] (−1 kept) and the values w J₀ Φ_I ∂g/∂u (local dofs).
+    """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
     nm = xm.shape[1]
@@ -586,7 +605,12 @@ def node_rows(
 
 @numba.njit(cache=True)
 def compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val):
-    """Merge duplicate dofs of every row (sorted), dropping dofs < 0; c_off gets the new offsets."""
+    """Merge duplicate dofs of every row (sorted), dropping dofs < 0; c_off gets the new offsets.
+
+    b_off (n + 1,), b_idx, b_val (b_off[n],): the rows (row r in b_off[r]:b_off[r+1], any
+    order, repeats). Outputs c_off (n + 1,), c_idx, c_val (at least b_off[n] long): row r
+    in c_off[r]:c_off[r+1], each dof ≥ 0 once, ascending, with the sum of its values.
+    """
     n = b_off.shape[0] - 1
     c_off[0] = 0
     for r in range(n):
@@ -631,12 +655,13 @@ def point_xi_terms(
     phi,
     dphi,
 ):
-    r"""Per paired point (rows as in :func:`contact_terms`), the gap and its derivatives
-    along the slave parameters ξ_β (β < k), for the linearisation of moving segment points:
+    r"""Per paired point (rows as in :func:`contact_terms`, weight 0 included), the gap and
+    its derivatives along the slave parameters ξ_β (β < k), for the linearisation of moving
+    segment points:
 
     b = ∂g/∂u (local dofs), db_β = d(∂g/∂u)/dξ_β, g, gxi_β = dg/dξ_β = ν·x_s,β(ξ) (the
     closest point is stationary), phi = Φ_I(ξ), dphi_β = ∂Φ_I/∂ξ_β. With y = [x₁, x_m] and
-    the slave point x₁ = Σ_a N_a(ξ) x_a moving by x_s,β(ξ) dξ_β:
+    the slave point x₁ = Σ_a N_a(ξ) x_a moving by x_s,β(ξ) dξ_β (x_s,β = Σ_a ∂_βN_a x_a):
 
         db_β(a,c) = ∂_β N_a(ξ) ∂g/∂x₁_c + N_a(ξ) Σ_c' ∂²g/∂x₁_c∂x₁_c' x_s,β_c',
         db_β(master j) = Σ_c' ∂²g/∂xm_j∂x₁_c' x_s,β_c'.

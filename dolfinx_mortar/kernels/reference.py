@@ -1,8 +1,13 @@
 r"""Slow, obviously-correct NumPy/SciPy reference implementations of the contact kernels.
 
-Used by the tests to validate the numba kernels of :mod:`.shape` and :mod:`.gap`; same
-conventions (see :mod:`dolfinx_mortar.kernels.gap`). The derivatives are obtained by a
-route independent of the numba code:
+Used by the tests to validate the numba kernels of :mod:`.shape` and :mod:`.gap`, the
+point kernels of :mod:`.mortar` (:func:`facet_mass`, :func:`contact_terms`,
+:func:`node_rows`, :func:`compress_rows`, :func:`point_xi_terms`) and
+:func:`.friction.slip_motion_blocks` (:func:`slip_motion_blocks`; the other references
+of :mod:`.friction` live there); same conventions (see :mod:`dolfinx_mortar.kernels.gap`).
+The point kernels' references are written from the kernels' docstring equations, with the
+gap derivatives of :func:`gap_derivatives` and the chain rule to the local dofs as one
+matrix product. The derivatives are obtained by a route independent of the numba code:
 
 * shape functions are written once as polynomial expressions (:func:`shape_expressions`,
   N and its first derivatives); second derivatives come from automatic differentiation;
@@ -329,3 +334,244 @@ def facet_mass(ftype_phi, qp_xi, qp_w, qp_m):
                 phi = shape(ftype_phi, qp_xi[f, q])[0]
                 out[f] += qp_w[f, q] * np.outer(phi, phi)
     return out
+
+
+# ------------------------------------------------------------- mortar point kernels
+# References of the per-point kernels of :mod:`dolfinx_mortar.kernels.mortar` written from
+# their docstrings' equations: the gap derivatives come from :func:`gap_derivatives` (AD
+# and implicit differentiation, not the envelope formulas of the numba kernel), the
+# normal from :func:`normal` and the chain rule to the local dofs is one matrix product.
+
+
+def _dof_map(N, nm, d, master=1.0):
+    """T = ∂y/∂u_loc (d (1 + nm), (ns + nm) d) of y = [x₁, xm.ravel()] with x₁ = Σ_a N_a x_a
+    and the node-major local dofs u_loc = [slave facet nodes, master facet nodes];
+    ``master = 0`` gives ∂_βT when N holds ∂_βN (the master nodes do not depend on ξ)."""
+    ns = N.size
+    T = np.zeros((d * (1 + nm), (ns + nm) * d))
+    T[:d, : ns * d] = np.kron(N[None, :], np.eye(d))  # T[c, a d + c'] = N_a δ_cc'
+    T[d:, ns * d :] = master * np.eye(nm * d)
+    return T
+
+
+def _paired_rows(qp_m):
+    """(facet, point) of the paired points (qp_m ≥ 0), in (facet, point) order."""
+    return np.nonzero(qp_m >= 0)
+
+
+def contact_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    p,
+    kcoef,
+    want_jac,
+):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.contact_terms`.
+
+    Per paired point (f, q) with master m, p_w = w_q J₀ Σ_I p^I Φ_I(ξ_q) over the owned
+    nodes I of facet f; rows with p_w = 0 keep res_idx = −1. Otherwise res_idx = [sdofs[f],
+    mdofs[m]], res_val = −p_w ∂g/∂u, hess_val = −p_w ∂²g/∂u² (u the local dofs, through
+    x₁ = Σ_a N_a(ξ) x_a) and force += p_w ν(ζ_q). b_count^I = nloc × (paired points of the
+    facets of I) for the owned nodes with kcoef > 0 (the length of the row B^I).
+    Returns (res_idx, res_val, hess_val or None, b_count, force).
+    """
+    nsf, ns, d = xs.shape
+    nm = xm.shape[1]
+    nloc = (ns + nm) * d
+    fr, qr = _paired_rows(qp_m)
+    n = fr.size
+    res_idx = np.full((n, nloc), -1, np.int64)
+    res_val = np.zeros((n, nloc))
+    hess_val = np.zeros((n, nloc, nloc)) if want_jac else None
+    force = np.zeros(d)
+    b_count = np.zeros(p.size, np.int64)
+    fi, ii = np.nonzero(node_of >= 0)
+    nodes = node_of[fi, ii]
+    sel = kcoef[nodes] > 0.0
+    np.add.at(b_count, nodes[sel], nloc * np.bincount(fr, minlength=nsf)[fi[sel]])
+    for r, (f, q) in enumerate(zip(fr, qr, strict=True)):
+        m = qp_m[f, q]
+        xi, zeta = qp_xi[f, q], qp_zeta[f, q]
+        pn = np.where(node_of[f] >= 0, p[np.maximum(node_of[f], 0)], 0.0)
+        pw = qp_w[f, q] * (pn @ shape(ftype_phi, xi)[0])
+        if pw == 0.0:
+            continue
+        N = shape(ftype_s, xi)[0]
+        _, dg, d2g = gap_derivatives(N @ xs[f], xm[m], ftype_m, msign[m], zeta)
+        T = _dof_map(N, nm, d)
+        res_idx[r] = np.concatenate([sdofs[f], mdofs[m]])
+        res_val[r] = -pw * (T.T @ dg)
+        if want_jac:
+            hess_val[r] = -pw * (T.T @ d2g @ T)
+        force += pw * normal(xm[m], ftype_m, msign[m], zeta)
+    return res_idx, res_val, hess_val, b_count, force
+
+
+def node_rows(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    kcoef,
+):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.node_rows`: the rows
+    B^I = ∂G^I/∂u = Σ_q w_q J₀ Φ_I(ξ_q) ∂g_q/∂u of the owned nodes with kcoef > 0, one block
+    of nloc entries (dofs [sdofs[f], mdofs[m]], values w Φ_I ∂g/∂u_loc) per paired point of
+    the node's facets, in (facet, point) order, uncompressed. Returns (b_off, b_idx, b_val).
+    """
+    ns, d = xs.shape[1:]
+    nm = xm.shape[1]
+    n_nodes = kcoef.size
+    idx = [[] for _ in range(n_nodes)]
+    val = [[] for _ in range(n_nodes)]
+    for f, q in zip(*_paired_rows(qp_m), strict=True):
+        m = qp_m[f, q]
+        xi = qp_xi[f, q]
+        N = shape(ftype_s, xi)[0]
+        _, dg, _ = gap_derivatives(N @ xs[f], xm[m], ftype_m, msign[m], qp_zeta[f, q])
+        dg_loc = _dof_map(N, nm, d).T @ dg
+        phi = shape(ftype_phi, xi)[0]
+        for i, node in enumerate(node_of[f]):
+            if node >= 0 and kcoef[node] > 0.0:
+                idx[node].append(np.concatenate([sdofs[f], mdofs[m]]))
+                val[node].append(qp_w[f, q] * phi[i] * dg_loc)
+    counts = [sum(v.size for v in row) for row in val]
+    b_off = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    b_idx = np.concatenate([np.zeros(0, np.int64)] + [v for row in idx for v in row])
+    b_val = np.concatenate([np.zeros(0)] + [v for row in val for v in row])
+    return b_off, b_idx.astype(np.int64), b_val
+
+
+def compress_rows(b_off, b_idx, b_val):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.compress_rows`: every row's
+    entries with dof ≥ 0, duplicates summed, dofs sorted. Returns (c_off, c_idx, c_val)."""
+    n = b_off.size - 1
+    row = np.repeat(np.arange(n), np.diff(b_off))
+    keep = b_idx >= 0
+    pairs, inv = np.unique(np.stack([row[keep], b_idx[keep]], axis=1), axis=0, return_inverse=True)
+    c_val = np.bincount(inv.ravel(), weights=b_val[keep], minlength=len(pairs))
+    c_off = np.concatenate([[0], np.cumsum(np.bincount(pairs[:, 0], minlength=n))])
+    return c_off.astype(np.int64), pairs[:, 1].astype(np.int64), c_val
+
+
+def point_xi_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.point_xi_terms`, per paired
+    point: b = ∂g/∂u = Tᵀ ∂g/∂y, g, gxi_β = ν·x_s,β, db_β = (∂_βT)ᵀ ∂g/∂y + Tᵀ (∂²g/∂y∂x₁)
+    x_s,β (the total ξ_β-derivative of Tᵀ ∂g/∂y with x₁(ξ)), phi = Φ(ξ), dphi = ∂Φ/∂ξ.
+    Returns (b, db, g, gxi, phi, dphi)."""
+    ns, d = xs.shape[1:]
+    nm = xm.shape[1]
+    k = qp_xi.shape[2]
+    nloc = (ns + nm) * d
+    fr, qr = _paired_rows(qp_m)
+    n = fr.size
+    nphi = node_of.shape[1]
+    b, db = np.zeros((n, nloc)), np.zeros((n, k, nloc))
+    g, gxi = np.zeros(n), np.zeros((n, k))
+    phi, dphi = np.zeros((n, nphi)), np.zeros((n, nphi, k))
+    for r, (f, q) in enumerate(zip(fr, qr, strict=True)):
+        m = qp_m[f, q]
+        xi, zeta = qp_xi[f, q], qp_zeta[f, q]
+        N, dN, _ = shape(ftype_s, xi)
+        g[r], dgy, d2gy = gap_derivatives(N @ xs[f], xm[m], ftype_m, msign[m], zeta)
+        T = _dof_map(N, nm, d)
+        b[r] = T.T @ dgy
+        xp = dN.T @ xs[f]  # (k, d): x_s,β
+        gxi[r] = xp @ normal(xm[m], ftype_m, msign[m], zeta)
+        for be in range(k):
+            db[r, be] = _dof_map(dN[:, be], nm, d, 0.0).T @ dgy + T.T @ (d2gy[:, :d] @ xp[be])
+        phi[r], dphi[r] = shape(ftype_phi, xi)[:2]
+    return b, db, g, gxi, phi, dphi
+
+
+# ---------------------------------------------------------- friction point kernels
+def slip_motion_blocks(
+    g1,
+    g2,
+    slot_node,
+    used,
+    t_vec,
+    w,
+    dxi,
+    dw,
+    dg,
+    dgxi,
+    Ns,
+    dNs,
+    Nm,
+    dNm,
+    psi,
+    dpsi,
+    vh,
+    dvh,
+    n_g1,
+    n_g2,
+):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.friction.slip_motion_blocks`, from
+    its docstring's sums (vectorised over the rows, summed per group with ``np.add.at``).
+    Returns (dS (n_g1, nphi, d, nloc), dAT (n_g1, nphi, nloc), tw (n_g2, (ns + nm) d, nloc),
+    dMv (nv, n_g1, nphi, m, nloc)), the contributions alone (the kernel adds them)."""
+    n, k, nloc = dxi.shape
+    d = dg.shape[1]
+    ns, nm, nphi = Ns.shape[1], Nm.shape[1], psi.shape[1]
+    nv, m = vh.shape[0], vh.shape[3]
+    sel = (used[:, None] & (slot_node >= 0)).astype(float)  # (n, nphi)
+    wp = w[:, None] * psi * sel  # w Ψ_i
+    # dA = Ψ_i dw + w ∂_βΨ_i dξ^β
+    dA = sel[:, :, None] * (
+        psi[:, :, None] * dw[:, None, :] + w[:, None, None] * np.einsum("rib,rbj->rij", dpsi, dxi)
+    )
+    dgx = np.einsum("rbc,rbj->rcj", dgxi, dxi)  # ∂_βΔg_c dξ^β
+    dS_r = dg[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dgx[:, None]
+    # facet node weights: +(N_a dA + w Ψ ∂_βN_a dξ^β) (slave), −(…N^m_b…) (t_n master)
+    Na = np.concatenate([Ns, -Nm], axis=1)
+    dNa = np.einsum("rab,rbj->raj", np.concatenate([dNs, -dNm], axis=1), dxi)
+    dX = Na[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dNa[:, None]
+    t = t_vec[np.maximum(slot_node, 0)] * sel[:, :, None]  # (n, nphi, d)
+    tw_r = np.einsum("ric,riaj->racj", t, dX).reshape(n, (ns + nm) * d, nloc)
+    dv = np.einsum("vriba,rbj->vriaj", dvh, dxi)
+    dM_r = vh[..., None] * dA[None, :, :, None, :] + wp[None, :, :, None, None] * dv
+    dS = np.zeros((n_g1, nphi, d, nloc))
+    dAT = np.zeros((n_g1, nphi, nloc))
+    tw = np.zeros((n_g2, (ns + nm) * d, nloc))
+    dMv = np.zeros((nv, n_g1, nphi, m, nloc))
+    np.add.at(dS, g1, dS_r)
+    np.add.at(dAT, g1, dA)
+    np.add.at(tw, g2, tw_r)
+    for v in range(nv):
+        np.add.at(dMv[v], g1, dM_r[v])
+    return dS, dAT, tw, dMv

@@ -1,0 +1,253 @@
+"""The point kernels of :mod:`dolfinx_mortar.kernels.mortar` that build the contact residual
+and tangent (``contact_terms``, ``node_rows``, ``compress_rows``, ``point_xi_terms``)
+against their NumPy references in :mod:`dolfinx_mortar.kernels.reference` (written from
+the kernels' docstring equations, with the AD gap derivatives), on random but valid
+configurations: 2D and 3D, P1 and P2 facets, unpaired points (−1), zero weights, nodes not
+owned (−1), nodes with p = 0 or kcoef = 0, constrained (−1) and repeated dofs. The
+ξ-derivatives of ``point_xi_terms`` are also checked against central differences."""
+
+import numpy as np
+import pytest
+
+from dolfinx_mortar.kernels import (
+    INTERVAL1,
+    INTERVAL2,
+    QUAD1,
+    QUAD2,
+    REFERENCE_NODES,
+    TRIANGLE1,
+    TRIANGLE2,
+    tdim,
+)
+from dolfinx_mortar.kernels import mortar as kmortar
+from dolfinx_mortar.kernels import reference as kref
+
+#: (slave, master, mixed) facet types: the mixed field as MortarContact picks it (P1 on P2
+#: triangles), and one slave/master mix
+CASES = [
+    (INTERVAL1, INTERVAL1, INTERVAL1),
+    (INTERVAL2, INTERVAL2, INTERVAL2),
+    (TRIANGLE1, TRIANGLE1, TRIANGLE1),
+    (TRIANGLE2, TRIANGLE2, TRIANGLE1),
+    (QUAD1, QUAD1, QUAD1),
+    (QUAD2, QUAD2, QUAD2),
+    (TRIANGLE1, QUAD2, TRIANGLE1),
+]
+IDS = ["I1", "I2", "T1", "T2-T1", "Q1", "Q2", "T1|Q2"]
+RTOL = 1e-12
+#: second derivatives of the gap: on the strongly curved random P2 triangles one point
+#: (projection Hessian condition number 29) puts the kernel's Hessian (envelope formulas)
+#: 3e-12 and the AD reference's 1e-12 from a 50-digit evaluation (mpmath, second
+#: differences): the float64 conditioning of the point, not a disagreement
+RTOL_HESS = 1e-11
+
+
+def close(a, b, rtol=RTOL):
+    """Agreement to rtol relative to the largest entry."""
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape
+    scale = max(np.abs(b).max(initial=0.0), 1e-300)
+    err = np.abs(a - b).max(initial=0.0) / scale
+    assert err <= rtol, err
+
+
+def rotation(rng, d):
+    q, r = np.linalg.qr(rng.standard_normal((d, d)))
+    q = q * np.sign(np.diag(r))
+    if np.linalg.det(q) < 0:
+        q[:, 0] *= -1
+    return q
+
+
+def reference_points(ftype, rng, n):
+    """n random points in the reference facet."""
+    xi = rng.uniform(0.0, 1.0, (n, tdim(ftype)))
+    if ftype in (TRIANGLE1, TRIANGLE2):
+        out = xi.sum(axis=1) > 1.0
+        xi[out] = 1.0 - xi[out][:, ::-1]
+    return xi
+
+
+def project_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, start=None):
+    """Closest-point projections (the SciPy reference, from ``start`` or the reference
+    centre) and gaps of the paired points: (qp_zeta, qp_g), NaN and 0 elsewhere."""
+    nsf, nq = qp_m.shape
+    km = tdim(ftype_m)
+    qp_zeta = np.full((nsf, nq, km), np.nan)
+    qp_g = np.zeros((nsf, nq))
+    for f, q in zip(*np.nonzero(qp_m >= 0), strict=True):
+        m = qp_m[f, q]
+        x1 = kref.shape(ftype_s, qp_xi[f, q])[0] @ xs[f]
+        z0 = np.full(km, 1.0 / 3.0) if start is None else start[f, q]
+        qp_zeta[f, q] = kref.project(x1, xm[m], ftype_m, zeta0=z0)
+        qp_g[f, q] = kref.gap(x1, xm[m], ftype_m, msign[m], qp_zeta[f, q])
+    return qp_zeta, qp_g
+
+
+def scene(ftype_s, ftype_m, ftype_phi, seed, nsf=3, nmf=3, nq=5):
+    """Random slave and master facets near the plane x_d = 0 (master below, its outward
+    normal ≈ +e_d), rotated and shifted; random points paired with random master facets
+    (about 1 in 4 unpaired, one paired point of weight 0 per facet), projected by the
+    reference. Returns the leading arguments of the point kernels and
+    (p, kcoef)."""
+    rng = np.random.default_rng(seed)
+    k = tdim(ftype_s)
+    d = k + 1
+    Q, shift = rotation(rng, d), rng.uniform(-2.0, 2.0, d)
+
+    def facets(ftype, n, height, amp):
+        X = REFERENCE_NODES[ftype]
+        x = np.concatenate([X, np.zeros((len(X), 1))], axis=1)
+        x = np.broadcast_to(x, (n, *x.shape)) + amp * rng.standard_normal((n, *x.shape))
+        x[..., -1] += np.asarray(height)[:, None]
+        return np.ascontiguousarray(x @ Q.T + shift)
+
+    xs = facets(ftype_s, nsf, 0.08 * (np.arange(nsf) % 2) - 0.03, 0.03)  # open, penetrating
+    xm = facets(ftype_m, nmf, np.zeros(nmf), 0.06)
+    msign = np.full(nmf, -1.0 if d == 2 else 1.0)
+    qp_xi = np.stack([reference_points(ftype_s, rng, nq) for _ in range(nsf)])
+    qp_w = rng.uniform(0.1, 1.0, (nsf, nq))
+    qp_m = rng.integers(0, nmf, (nsf, nq)).astype(np.int64)
+    qp_m[rng.random((nsf, nq)) < 0.25] = -1
+    qp_m[:, 0] = -1  # unpaired
+    qp_m[:, 1] = rng.integers(0, nmf, nsf)
+    qp_w[:, 1] = 0.0  # paired, weight 0
+    qp_zeta, qp_g = project_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign)
+    paired = qp_m >= 0
+    assert np.all(np.abs(qp_zeta[paired] - 0.5) < 1.0)  # projections near the facets
+    assert (qp_g[paired] > 0).any() and (qp_g[paired] < 0).any()
+    ns, nm = xs.shape[1], xm.shape[1]
+    nphi = REFERENCE_NODES[ftype_phi].shape[0]
+    n_nodes = nphi + 3
+    node_of = np.stack([rng.permutation(n_nodes)[:nphi] for _ in range(nsf)]).astype(np.int64)
+    node_of[rng.random(node_of.shape) < 0.2] = -1  # not owned
+    ndof = 12 * d  # few dofs: repeats within and across the rows
+    sdofs = rng.integers(-1, ndof, (nsf, ns * d)).astype(np.int64)
+    mdofs = rng.integers(-1, ndof, (nmf, nm * d)).astype(np.int64)
+    sdofs[:, 0] = -1  # constrained
+    p = rng.uniform(0.5, 2.0, n_nodes)
+    p[rng.permutation(n_nodes)[:2]] = 0.0
+    kcoef = rng.uniform(0.5, 2.0, n_nodes)
+    kcoef[rng.permutation(n_nodes)[:2]] = 0.0
+    args = (ftype_s, ftype_m, ftype_phi, xs, xm, msign, qp_xi, qp_w, qp_m, qp_zeta)
+    return args + (sdofs, mdofs, node_of), p, kcoef
+
+
+def run_contact_terms(args, p, kcoef, want_jac):
+    xs, xm, qp_m = args[3], args[4], args[8]
+    nloc = (xs.shape[1] + xm.shape[1]) * xs.shape[2]
+    n = int(np.count_nonzero(qp_m >= 0))
+    res_idx = np.full((n, nloc), -7, np.int64)
+    res_val = np.zeros((n, nloc))
+    hess_val = np.zeros((n if want_jac else 1, nloc, nloc))
+    b_count = np.zeros(p.size, np.int64)
+    force = np.zeros(xs.shape[2])
+    kmortar.contact_terms(*args, p, kcoef, want_jac, res_idx, res_val, hess_val, b_count, force)
+    return res_idx, res_val, hess_val, b_count, force
+
+
+@pytest.mark.parametrize("want_jac", [True, False])
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_contact_terms_matches_reference(ftypes, want_jac):
+    args, p, kcoef = scene(*ftypes, seed=sum(ftypes) + 10 * ftypes[0])
+    res_idx, res_val, hess_val, b_count, force = run_contact_terms(args, p, kcoef, want_jac)
+    r_idx, r_val, r_hess, r_count, r_force = kref.contact_terms(*args, p, kcoef, want_jac)
+    np.testing.assert_array_equal(res_idx, r_idx)
+    np.testing.assert_array_equal(b_count, r_count)
+    close(res_val, r_val)
+    close(force, r_force)
+    if want_jac:
+        close(hess_val, r_hess, RTOL_HESS)
+    # the cases exercise every branch: rows with p_w = 0 (res_idx −1) and constrained dofs
+    live = (res_idx >= 0).any(axis=1)
+    assert live.sum() >= 3 and (~live).sum() >= 3
+    assert (res_idx[live] < 0).any()
+    assert (b_count > 0).any() and (b_count == 0).any()
+
+
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_node_rows_and_compress_rows_match_reference(ftypes):
+    """B^I rows: with the offsets of contact_terms' b_count (the reference's, compared with
+    the kernel's in test_contact_terms_matches_reference), node_rows fills them entry for
+    entry as the reference; compressed, the row is the dense sum of the entries per dof ≥ 0."""
+    args, p, kcoef = scene(*ftypes, seed=100 + sum(ftypes))
+    b_count = kref.contact_terms(*args, p, kcoef, False)[3]
+    r_off, r_idx, r_val = kref.node_rows(*args, kcoef)
+    b_off = np.concatenate([[0], np.cumsum(b_count)]).astype(np.int64)
+    np.testing.assert_array_equal(b_off, r_off)
+    b_idx = np.full(b_off[-1], -7, np.int64)
+    b_val = np.full(b_off[-1], np.nan)
+    kmortar.node_rows(*args, kcoef, b_off, b_idx, b_val)
+    np.testing.assert_array_equal(b_idx, r_idx)
+    close(b_val, r_val)
+    c_off, c_idx, c_val = np.zeros_like(b_off), np.empty_like(b_idx), np.empty_like(b_val)
+    kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+    rc_off, rc_idx, rc_val = kref.compress_rows(b_off, b_idx, b_val)
+    np.testing.assert_array_equal(c_off, rc_off)
+    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
+    close(c_val[: c_off[-1]], rc_val)
+    ndof = 1 + max(b_idx.max(initial=0), 0)
+    dense = np.zeros((b_count.size, ndof))
+    row = np.repeat(np.arange(b_count.size), b_count)
+    keep = b_idx >= 0
+    np.add.at(dense, (row[keep], b_idx[keep]), b_val[keep])
+    back = np.zeros_like(dense)
+    back[np.repeat(np.arange(b_count.size), np.diff(c_off)), c_idx[: c_off[-1]]] = c_val[
+        : c_off[-1]
+    ]
+    close(back, dense)
+    assert (b_idx < 0).any() and c_off[-1] < b_off[-1]
+
+
+def test_compress_rows_matches_reference():
+    """Random rows with repeated dofs, dofs < 0 (−1 and others), empty rows and a row of
+    negative dofs only."""
+    rng = np.random.default_rng(3)
+    counts = np.array([0, 7, 1, 30, 0, 4, 12, 3])
+    b_off = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    b_idx = rng.integers(-3, 9, b_off[-1]).astype(np.int64)
+    b_idx[b_off[7] : b_off[8]] = [-1, -2, -1]
+    b_val = rng.standard_normal(b_off[-1])
+    c_off, c_idx, c_val = np.zeros_like(b_off), np.empty_like(b_idx), np.empty_like(b_val)
+    kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+    rc_off, rc_idx, rc_val = kref.compress_rows(b_off, b_idx, b_val)
+    np.testing.assert_array_equal(c_off, rc_off)
+    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
+    close(c_val[: c_off[-1]], rc_val)
+    assert c_off[8] == c_off[7] and c_off[1] == c_off[0] == 0
+
+
+def run_point_xi_terms(args):
+    xs, xm, qp_xi, qp_m, node_of = args[3], args[4], args[6], args[8], args[12]
+    n = int(np.count_nonzero(qp_m >= 0))
+    k, nloc, nphi = qp_xi.shape[2], (xs.shape[1] + xm.shape[1]) * xs.shape[2], node_of.shape[1]
+    b, db = np.zeros((n, nloc)), np.zeros((n, k, nloc))
+    g, gxi = np.zeros(n), np.zeros((n, k))
+    phi, dphi = np.zeros((n, nphi)), np.zeros((n, nphi, k))
+    kmortar.point_xi_terms(*args, b, db, g, gxi, phi, dphi)
+    return b, db, g, gxi, phi, dphi
+
+
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_point_xi_terms_matches_reference_and_fd(ftypes):
+    """Against the reference, and db, gxi, dphi against central differences in ξ of b, g
+    and phi (the closest point re-projected at every shifted ξ)."""
+    args, _, _ = scene(*ftypes, seed=200 + sum(ftypes))
+    out = run_point_xi_terms(args)
+    for a, r in zip(out, kref.point_xi_terms(*args), strict=True):
+        close(a, r)
+    b, db, g, gxi, phi, dphi = out
+    ftype_s, ftype_m, xs, xm, msign, qp_xi, qp_m = (args[i] for i in (0, 1, 3, 4, 5, 6, 8))
+    h = 1e-6
+    fd = []
+    for be in range(qp_xi.shape[2]):
+        shifted = []
+        for s in (h, -h):
+            xi = qp_xi.copy()
+            xi[..., be] += s
+            zeta = project_points(ftype_s, ftype_m, xs, xi, qp_m, xm, msign, args[9])[0]
+            shifted.append(run_point_xi_terms(args[:6] + (xi,) + args[7:9] + (zeta,) + args[10:]))
+        fd.append([(p - m) / (2 * h) for p, m in zip(*shifted, strict=True)])
+    close(db, np.stack([f[0] for f in fd], axis=1), 1e-7)
+    close(gxi, np.stack([f[2] for f in fd], axis=1), 1e-7)
+    close(dphi, np.stack([f[4] for f in fd], axis=2), 1e-7)
