@@ -801,6 +801,9 @@ class MortarContact:
         self.qp_flip = None
         self._carried_pins = None
         self._jac_active = None  # the active set at the previous Jacobian of the solve
+        #: the contact states of the Jacobian the Newton solver factorized last
+        #: (:meth:`note_factorization`): (contact set (n,) bool, stick/slip states or None)
+        self._factored_states = None
         #: whether the current Newton solve is a first contact of the pair (decided at the
         #: solve's first Jacobian, the same on every rank; :meth:`_drop_geometric_tangent`)
         self.first_contact = False
@@ -2874,6 +2877,68 @@ class MortarContact:
         (which EXACT_FORCING = 0 restores) (local)."""
         return max(rtol, EXACT_FORCING * min(self.uzawa_tol / change, 1.0))
 
+    def note_factorization(self) -> None:
+        """The Newton solver factorizes the Jacobian just assembled (local): note its
+        contact states, the nodes with a normal tangent (the lumped contact set, held
+        nodes included) and the stick/slip states (:meth:`_current_factorization`)."""
+        states = getattr(self, "fstate", None) if self.frictional else None
+        self._factored_states = (
+            np.asarray(self.kcoef) > 0.0,
+            None if states is None else states.copy(),
+        )
+
+    def _current_factorization(self, fstate, info: dict) -> None:
+        """Make the solver's last factorization (``problem.linear_inverse``) that of the
+        Jacobian at the converged state where its contact states differ (collective;
+        the exact updates). A round whose solve took one Newton iteration on a reused
+        factorization (the rounds after an exact update) leaves the factorization of an
+        earlier round, and where a stick/slip state or the contact set changed since,
+        K⁻¹ is not the inverse of this state's Jacobian: du/dx of the update was off by
+        up to 30 % and the rounds converged linearly (about 0.5 per round) instead of
+        quadratically (docs/method-notes.md, "The exact update's factorization"). Then
+        the Jacobian is assembled at u and factorized once more
+        (``problem.factorize_jacobian``), with the per-solve chattering control and
+        predictor state of every term as it was (the next solve starts afresh anyway).
+
+        fstate: the converged stick/slip states (n,) the update linearises, or None
+        (frictionless)."""
+        refactor = getattr(self.problem, "factorize_jacobian", None)
+        noted = self._factored_states
+        if refactor is None or noted is None:
+            return
+        stale = not np.array_equal(noted[0], np.asarray(self.kcoef) > 0.0)
+        if fstate is not None and noted[1] is not None:
+            stale = stale or not np.array_equal(noted[1], fstate)
+        if not self.comm.allreduce(bool(stale), op=MPI.LOR):
+            return
+        terms = list(getattr(self.problem, "contacts", [self]))
+        saved = [t._jacobian_watch() if hasattr(t, "_jacobian_watch") else None for t in terms]
+        try:
+            ok = refactor()
+        finally:
+            for t, w in zip(terms, saved, strict=True):
+                if w is not None:
+                    t._restore_jacobian_watch(w)
+        info["refactorized"] = bool(ok)
+
+    #: the per-solve state that a Jacobian changes (the chattering controls' counters,
+    #: pins, holds and freezes, the contact predictor's track): kept across the extra
+    #: Jacobian of :meth:`_current_factorization`
+    _JACOBIAN_WATCH = (
+        "held", "_set_jacobians", "qp_pinned", "qp_flip", "_pair_hist", "_pair_jacobians",
+        "_pin_exchange", "_jac_active", "first_contact", "_predictor_track", "_jacobians",
+        "qp_frozen", "frozen", "_slip_prev", "_reversed",
+    )  # fmt: skip
+
+    def _jacobian_watch(self) -> dict:
+        """Copies of :attr:`_JACOBIAN_WATCH` (local)."""
+        return {k: copy.copy(getattr(self, k)) for k in self._JACOBIAN_WATCH if hasattr(self, k)}
+
+    def _restore_jacobian_watch(self, watch: dict) -> None:
+        """Put back a :meth:`_jacobian_watch` (local)."""
+        for k, v in watch.items():
+            setattr(self, k, v)
+
     def _exact_outcome(self, ok: bool, its: int, du, info: dict) -> bool:
         """Record how an exact update ended (local; ``ok`` is collective): with GMRES
         converged after ``its`` products, the displacement ``du`` (owned dofs) becomes
@@ -2919,6 +2984,7 @@ class MortarContact:
         if solve is None or n_glob == 0:
             info["exact_update"] = "plain (no factorization)" if n_glob else "plain"
             return plain
+        self._current_factorization(None, info)
         first = comm.exscan(n_loc) or 0
         c_off, c_idx, c_val = self._b_rows(act.astype(float), self.slave.dofs, self.master.dofs)
         u = self.problem.u.vector
@@ -3008,6 +3074,7 @@ class MortarContact:
         if solve is None:
             info["exact_update"] = "plain (no factorization)"
             return plain
+        self._current_factorization(fstate, info)
         x0 = prob.u.vector.copy()
         lam0 = np.concatenate([self.lmbda, self.lmbda_t.ravel()])
         saved = (self.lmbda.copy(), self.lmbda_t.copy(), self.frozen)

@@ -323,6 +323,11 @@ class ContactProblem:
         #: (collective; False when there is none), for the exact multiplier update
         #: (``uzawa_acceleration = "newton"``); set by the Newton solver, else None
         self.linear_inverse = None
+        #: ``() -> bool``: assemble the Jacobian at the current u and factorize it for
+        #: :attr:`linear_inverse` (collective); set by the Newton solver, else None. The
+        #: exact update asks for it where the last factorization belongs to other contact
+        #: states (:meth:`note_factorization`)
+        self.factorize_jacobian = None
         #: the live Newton solvers of this problem (they register themselves;
         #: :meth:`add_contact` refuses a term while there is one)
         self.solvers = weakref.WeakSet()
@@ -860,6 +865,16 @@ class ContactProblem:
         if moved:
             self.u.x.scatter_forward()
         return done, info
+
+    def note_factorization(self) -> None:
+        """The Newton solver factorizes the Jacobian just assembled (local): every
+        contact term notes the contact states it was assembled with
+        (``MortarContact.note_factorization``), for the exact update to tell whether
+        :attr:`linear_inverse` still inverts the Jacobian of the converged state."""
+        for term in self.contacts:
+            note = getattr(term, "note_factorization", None)
+            if note is not None:
+                note()
 
     @property
     def exact_multiplier_update(self) -> bool:

@@ -546,6 +546,8 @@ class NewtonSolver:
             self.snes.setLineSearchPreCheck(self._limit_step)
         if hasattr(problem, "linear_inverse"):
             problem.linear_inverse = self.solve_with_last_jacobian
+        if hasattr(problem, "factorize_jacobian"):
+            problem.factorize_jacobian = self.factorize_current_jacobian
         self._dtol = None
         #: whether the current solve uses ENERGY_LINE_SEARCH (decided at its first Jacobian)
         self._energy = False
@@ -712,6 +714,10 @@ class NewtonSolver:
             self._energy = False
         if self._reusing and not first_iteration:
             self._reuse_mode(False)  # only the first iteration of a solve reuses
+        if not self._reusing:  # this Jacobian is factorized: its contact states are noted
+            note = getattr(self.problem, "note_factorization", None)
+            if note is not None:
+                note()
 
     def _use_l2(self, secant_steps: int) -> None:
         """The SNES's line search becomes "l2" with ``secant_steps`` secant steps and
@@ -1104,6 +1110,47 @@ class NewtonSolver:
             self.timings["linear_solve"] += _ksp_time() - t0
         return ksp.getConvergedReason() > 0
 
+    @_owning_options
+    def factorize_current_jacobian(self) -> bool:
+        """Assemble the Jacobian at the problem's current u and factorize it, so that
+        :meth:`solve_with_last_jacobian` solves with it (collective). For the exact
+        multiplier update, where the last factorization belongs to contact states that
+        the converged state no longer has (``contact.MortarContact._current_factorization``):
+        a round's solve that took one Newton iteration on the last factorization (reuse)
+        leaves that of an earlier round. Returns False where the factorization failed
+        (then there is none: :meth:`solve_with_last_jacobian` returns False)."""
+        p = self.problem
+        x = p.u.vector
+        t0 = _ksp_time()
+        try:
+            p.ensure_contact_at(x)
+            if p.pattern_outdated():
+                self._A.destroy()
+                self._A = p.create_matrix()
+                self.snes.setJacobian(self._J, self._A, self._A)
+            p.jacobian(x, self._A)
+            if self._reusing:
+                self._reuse_mode(False)
+            ksp = self.snes.getKSP()
+            ksp.setOperators(self._A, self._A)
+            # a solve whose Jacobians all reused the factorization (SNES lag −1) left the
+            # PC marked for reuse: it would keep the old factorization
+            ksp.getPC().setReusePreconditioner(False)
+            # a failed factorization that raises nothing fails the next linear solve:
+            # solve_with_last_jacobian returns False then
+            self._factored = False
+            try:
+                ksp.setUp()
+            except PETSc.Error:
+                return False
+        finally:
+            self.timings["linear_solve"] += _ksp_time() - t0
+        self._factored = True
+        note = getattr(p, "note_factorization", None)
+        if note is not None:
+            note()
+        return True
+
     @property
     def options(self) -> dict[str, str | int | float]:
         """The PETSc options this solver works with, without its prefix (a copy; a
@@ -1168,6 +1215,8 @@ class NewtonSolver:
             self.problem.solvers.discard(self)
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
+        if getattr(self.problem, "factorize_jacobian", None) == self.factorize_current_jacobian:
+            self.problem.factorize_jacobian = None
         prefix = self.settings.prefix
         if _LOADED.get(prefix) is self:
             self._unload_options()

@@ -536,3 +536,78 @@ def test_a_3d_frictional_press_takes_the_exact_update(tmp_path_factory):
         summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"]["uzawa_acceleration"]
         == "newton"
     )
+
+
+def test_the_exact_update_refactorizes_after_a_state_change(tmp_path_factory):
+    """The exact update's K⁻¹ must be the Jacobian of the converged state. A round's solve
+    that takes one Newton iteration on the reused factorization leaves the factorization
+    of an earlier round; where a stick/slip state changed since, du/dx was off (K⁻¹K
+    differed from the identity by 28 %) and the rounds contracted by about 0.52 each
+    (helper probe, session 45). The case: a 3D frictional press (μ = 0.3, finite strain,
+    hexahedra, segment integration) in two steps, then both blocks rotated rigidly by
+    30° about (1, 1, 1) in one step; the 16 slip nodes turn to stick during the rounds,
+    the last two in a one-iteration solve. With uzawa_tol = 1e-10 that step took 18
+    rounds (its first attempt failed after uzawa_max = 20), with the factorization of the
+    converged state 6: two with state changes, then 8.9e-6 → 4.5e-10 → 2.6e-12."""
+    import math
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    axis = np.ones(3) / math.sqrt(3.0)
+    cross = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    centre = np.array([0.5, 0.5, 0.0])[:, None]
+
+    def field(press):
+        def value(t, x):
+            th = math.radians(60.0) * max(t - 1.0, 0.0)
+            rot = np.eye(3) + math.sin(th) * cross + (1.0 - math.cos(th)) * cross @ cross
+            y = x[:3] + np.asarray(press)[:, None] * min(t, 1.0) - centre
+            return rot @ y + centre - x[:3]
+
+        return value
+
+    mats = [
+        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ]
+    data = {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch3d",
+            "params": {"L": 1.0, "H": 0.5, "n_lower": 3, "n_upper": 4, "n_y": 1, "margin": 0.2},
+        },
+        "material": mats,
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": 0.3,
+                "integration": "segment",
+                "uzawa_tol": 1e-10,
+            }
+        ],
+        "steps": {"t_end": 1.5, "n": 3},
+        "solver": {"rtol": 1e-11},
+    }
+    comm = MPI.COMM_WORLD
+    name = tmp_path_factory.mktemp("rotation") if comm.rank == 0 else None
+    path = Path(comm.bcast(str(name) if comm.rank == 0 else None))
+    box = {}
+
+    def setup(problem):
+        box["p"] = problem
+        problem.add_dirichlet_field("lower_bottom", field([0.0, 0.0, 0.0]))
+        problem.add_dirichlet_field("upper_top", field([0.002, 0.0, -0.02]))
+
+    try:
+        summary = run(parse_scene(data, path), comm, path, setup=setup)
+    finally:
+        if "p" in box:
+            box["p"].destroy()
+    assert summary["status"] == "ok", summary.get("error")
+    step = summary["steps"][-1]
+    updates = [next(iter(r.values())) for r in step["uzawa"][:-1]]
+    assert step["stick_nodes"] == 25 and step["slip_nodes"] == 0
+    assert step["uzawa_rounds"] <= 7 and step["cutbacks"] == 0, step["uzawa_rounds"]
+    assert any(u.get("refactorized") for u in updates), updates
