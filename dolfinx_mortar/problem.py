@@ -584,12 +584,20 @@ class ContactProblem:
         self._contact_x = x.array_r.copy() if self.contacts else None
 
     def ensure_contact_at(self, x: PETSc.Vec) -> None:
-        """Update the contact terms unless their state already belongs to ``x`` and to the
-        current multipliers (collective: every rank takes the same decision)."""
+        """Bring the state to ``x``: u ← x and the contact terms updated at x, unless both
+        already are, the contact state also for the current multipliers (collective:
+        every rank takes the same decision). Where they are, it costs two comparisons of
+        the owned entries and one reduction: :meth:`residual` and :meth:`jacobian` call it,
+        and the solver's callbacks, which update first, pay no second search."""
         if not self.contacts:
             self._set_state(x)
             return
-        same = self._contact_x is not None and np.array_equal(self._contact_x, x.array_r)
+        self._check_alive()
+        xa = x.array_r
+        same = self._contact_x is not None and np.array_equal(self._contact_x, xa)
+        if same and x.handle != self.u.vector.handle:
+            # u set since the update (a load step's predictor, say): the bulk reads u
+            same = np.array_equal(self.u.x.array[: xa.size], xa)
         if not self.comm.allreduce(int(same), op=MPI.MIN):
             self.update_contact(x)
 
@@ -634,9 +642,16 @@ class ContactProblem:
         return self._dirichlet_rows
 
     def residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool = True) -> None:
-        """Assemble R(x) into ``b`` (collective). With ``apply_bcs``, rows of constrained
-        dofs hold s_i (x_i − ū_i) instead of the residual (:meth:`dirichlet_scale`)."""
+        """Assemble R(x) into ``b`` (collective; x, b of the layout of ``u.vector``). With
+        ``apply_bcs``, rows of constrained dofs hold s_i (x_i − ū_i) instead of the
+        residual (:meth:`dirichlet_scale`). The bulk and the contact terms are evaluated
+        at x: u becomes x and the contact terms are updated there unless their state
+        already is x's (:meth:`ensure_contact_at`; the solver's callbacks update first,
+        so they pay no second search). Raises RuntimeError after :meth:`destroy`."""
         self._check_alive()
+        t0 = perf_counter()
+        self.ensure_contact_at(x)
+        self.timings["search"] += perf_counter() - t0
         t0 = perf_counter()
         if self.linear_bulk is not None:
             self.linear_bulk.residual(x, b, apply_bcs)
@@ -707,10 +722,16 @@ class ContactProblem:
         return float(f)
 
     def jacobian(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective). The contact terms'
-        part is computed first and the pattern of A grown to hold it, so that a growth
-        (which drops A's values) comes before the bulk is assembled, not after."""
+        """Assemble the Jacobian dR/du at ``x`` into ``A`` (collective; ``A`` from
+        :meth:`create_matrix`). Like :meth:`residual`, u becomes x and the contact terms
+        are updated there unless their state already is x's (:meth:`ensure_contact_at`).
+        The contact terms' part is computed first and the pattern of A grown to hold it,
+        so that a growth (which drops A's values) comes before the bulk is assembled, not
+        after. Raises RuntimeError after :meth:`destroy`."""
         self._check_alive()
+        t0 = perf_counter()
+        self.ensure_contact_at(x)
+        self.timings["search"] += perf_counter() - t0
         values, keys = self._contact_values(A)
         self._assemble_bulk_jacobian(A)
         self._add_contact_values(A, values, keys, bulk=True)

@@ -7,6 +7,8 @@ directions v, (R_c(u + h v) − R_c(u − h v)) / 2h must equal K_c v. Runs
 serially and under MPI (the contact data then crosses ranks).
 """
 
+import copy
+
 import numpy as np
 import pytest
 from dolfinx import fem
@@ -980,3 +982,104 @@ def test_batched_block_insertion_equals_one_call_per_block():
     assert np.allclose(_dense(A, n), ref, rtol=0, atol=1e-13)
     with pytest.raises(ValueError):
         rec.setValuesRCV(R, R, V, addv=PETSc.InsertMode.INSERT_VALUES)
+
+
+#: a small frictional press of the patch2d generator (quads, segment integration)
+FRICTIONAL_PATCH = {
+    "kinematics": "finite",
+    "mesh": {
+        "generator": "patch2d",
+        "params": {"L": 1.0, "H": 0.5, "n_lower": 8, "n_upper": 5, "n_y": 2, "quads": True},
+    },
+    "material": [
+        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ],
+    "contact": [
+        {
+            "slave": "upper_bottom",
+            "master": "lower_top",
+            "integration": "segment",
+            "friction": 0.3,
+        }
+    ],
+    "dirichlet": [
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+        # pressed at t = 1, then slid by SHIFT at t = 2
+        {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.02, -0.02]]},
+    ],
+    "steps": {"t_end": 1.0, "n": 1},
+}
+
+
+def test_residual_and_jacobian_are_evaluated_at_x(tmp_path):
+    """ContactProblem.residual(x) and jacobian(x) evaluate at x, whatever state the
+    contact terms were last updated at (they were evaluated at the last update: the
+    Jacobian differed by 41 % from J(x) on a slide), and the Jacobian is the derivative
+    of the residual, through the public API alone: a press step solved by the runner,
+    then a state of the next step, the slave body slid by SHIFT with stick and slip
+    nodes, and a perturbation of the free dofs."""
+    from dolfinx_mortar.runner import run
+
+    shift = 4e-3
+    data = copy.deepcopy(FRICTIONAL_PATCH)
+    data["dirichlet"][1]["path"].append([2.0, 0.02 + shift, -0.02])
+    data["output"] = {"dir": str(tmp_path)}
+    held = []
+    summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, setup=held.append)
+    assert summary["status"] == "ok", summary["error"]
+    problem = held[0]
+    try:
+        term = problem.contacts[0]
+        md, V = problem.mesh_data, problem.V
+        upper = md.cell_tags.find(md.cell_groups["upper"])
+        blocks = fem.locate_dofs_topological(V, problem.mesh.topology.dim, upper)
+        n = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        fixed = problem.dirichlet_scale()[0]
+        problem.begin_step()
+        problem.set_time(2.0)
+        rng = np.random.default_rng(3)
+        x1 = problem.u.vector.copy()
+        x = x1.array
+        x[blocks[blocks * 2 < n] * 2] += shift  # the slave body slid along x (bs = 2)
+        pert = 1e-3 * rng.standard_normal(n)
+        pert[fixed] = 0.0  # the constrained dofs at their values (x_c = ū_c)
+        x += pert
+        x0 = x1.duplicate()
+        x0.set(0.0)
+        A_at, A_ref = problem.create_matrix(), problem.create_matrix()
+        b_at, b_ref = x1.duplicate(), x1.duplicate()
+        # evaluated at x1 after an update at x0, against an explicit update at x1
+        problem.begin_solve()
+        problem.update_contact(x0)
+        problem.jacobian(x1, A_at)
+        problem.update_contact(x0)
+        problem.residual(x1, b_at)
+        states = term.fstate.copy()
+        problem.begin_solve()
+        problem.update_contact(x1)
+        problem.jacobian(x1, A_ref)
+        problem.residual(x1, b_ref)
+        assert np.count_nonzero(states == 1) and np.count_nonzero(states == 2), states
+        A_at.axpy(-1.0, A_ref)
+        assert A_at.norm() == 0.0
+        b_at.axpy(-1.0, b_ref)
+        assert b_at.norm() == 0.0
+        # central differences of residual(x) along free directions against J v
+        h = 1e-7
+        xp, rp, rm, Jv, v = (x1.duplicate() for _ in range(5))
+        for _ in range(3):
+            v.array[:] = rng.standard_normal(n)
+            v.array[fixed] = 0.0
+            for sign, r in ((1.0, rp), (-1.0, rm)):
+                x1.copy(xp)
+                xp.axpy(sign * h, v)
+                problem.residual(xp, r)
+            rp.axpy(-1.0, rm)
+            rp.scale(0.5 / h)
+            A_ref.mult(v, Jv)
+            rp.axpy(-1.0, Jv)
+            assert rp.norm() <= 1e-8 * Jv.norm(), rp.norm() / Jv.norm()
+        for obj in (A_at, A_ref, b_at, b_ref, x0, x1, xp, rp, rm, Jv, v):
+            obj.destroy()
+    finally:
+        problem.destroy()
