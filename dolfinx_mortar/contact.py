@@ -398,11 +398,21 @@ def resolve_acceleration(
     return "newton"
 
 
-def _gmres(comm, size: tuple[int, int], product, rhs: np.ndarray, rtol: float, max_it: int):
+def _gmres(
+    comm,
+    size: tuple[int, int],
+    product,
+    rhs: np.ndarray,
+    rtol: float,
+    max_it: int,
+    configure=None,
+):
     """Solve A x = rhs by unpreconditioned GMRES from x = 0, A given by its product
-    ``product(x, y)`` (y ← A x on PETSc vectors of layout ``size`` = (owned, global)),
-    options prefix ``dm_uzawa_newton_`` (collective; the exact multiplier updates). The
-    shell matrix, KSP and vectors are created and destroyed here. rhs: (owned,).
+    ``product(x, y)`` (y ← A x on PETSc vectors of layout ``size`` = (owned, global);
+    collective; the exact multiplier updates). ``configure(ksp)``, where given, is called
+    after these settings: the problem's ``configure_uzawa_ksp``, which sets the options
+    prefix ``<solver prefix>uzawa_newton_`` and the options given under it. The shell
+    matrix, KSP and vectors are created and destroyed here. rhs: (owned,).
     Returns (converged, iterations, x (owned,))."""
 
     class _Shell:
@@ -415,11 +425,12 @@ def _gmres(comm, size: tuple[int, int], product, rhs: np.ndarray, rtol: float, m
     b = PETSc.Vec().createMPI(size, comm=comm)
     x = b.duplicate()
     try:
-        ksp.setOptionsPrefix("dm_uzawa_newton_")
         ksp.setOperators(A)
         ksp.setType(PETSc.KSP.Type.GMRES)
         ksp.getPC().setType(PETSc.PC.Type.NONE)
         ksp.setTolerances(rtol=rtol, atol=0.0, max_it=max_it)
+        if configure is not None:
+            configure(ksp)
         b.array[:] = rhs
         x.set(0.0)
         ksp.solve(b, x)
@@ -3014,7 +3025,13 @@ class MortarContact:
         du = None
         try:
             ok, its, step = _gmres(
-                comm, (n_loc, n_glob), schur, d[nodes], rtol, EXACT_UPDATE_MAX_IT
+                comm,
+                (n_loc, n_glob),
+                schur,
+                d[nodes],
+                rtol,
+                EXACT_UPDATE_MAX_IT,
+                getattr(self.problem, "configure_uzawa_ksp", None),
             )
             ok = ok and not comm.allreduce(bool(failed), op=MPI.LOR)
             if ok:  # the displacement the new multipliers move u by: δu = K⁻¹ Bᵀ δλ
@@ -3130,9 +3147,15 @@ class MortarContact:
         du = None
         try:
             size = (lam0.size, comm.allreduce(lam0.size))
-            ok, its, step = _gmres(
-                comm, size, jacobian, lam0 - T0, rtol, EXACT_FD_MAX_IT
-            )  # −F on the right
+            ok, its, step = _gmres(  # −F on the right
+                comm,
+                size,
+                jacobian,
+                lam0 - T0,
+                rtol,
+                EXACT_FD_MAX_IT,
+                getattr(prob, "configure_uzawa_ksp", None),
+            )
             ok = ok and not comm.allreduce(bool(failed), op=MPI.LOR)
             if ok:  # δu = −K⁻¹ ∂R/∂x δx (linear in δx, so one more difference)
                 h = dudx(step)

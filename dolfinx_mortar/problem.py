@@ -328,6 +328,10 @@ class ContactProblem:
         #: exact update asks for it where the last factorization belongs to other contact
         #: states (:meth:`note_factorization`)
         self.factorize_jacobian = None
+        #: ``(ksp) -> None``: the options prefix and options of the exact multiplier
+        #: update's GMRES under the solver's prefix (``NewtonSolver.configure_uzawa_ksp``);
+        #: set by the Newton solver with :attr:`linear_inverse`, else None
+        self.configure_uzawa_ksp = None
         #: the live Newton solvers of this problem (they register themselves;
         #: :meth:`add_contact` refuses a term while there is one)
         self.solvers = weakref.WeakSet()

@@ -385,6 +385,10 @@ REUSE_RTOL_FACTOR = 0.1
 REUSE_MAX_IT = 8
 
 
+#: Options prefix, after the solver's own (``dm_uzawa_newton_``), of the GMRES of the exact
+#: multiplier update (:meth:`NewtonSolver.configure_uzawa_ksp`).
+UZAWA_KSP_PREFIX = "uzawa_newton_"
+
 #: Per options prefix, the :class:`NewtonSolver` whose options are in PETSc's global
 #: database now (:meth:`NewtonSolver._load_options`), and what the database held under
 #: that prefix before the first of them loaded its own: a host program's options, put
@@ -546,6 +550,7 @@ class NewtonSolver:
             self.snes.setLineSearchPreCheck(self._limit_step)
         if hasattr(problem, "linear_inverse"):
             problem.linear_inverse = self.solve_with_last_jacobian
+            problem.configure_uzawa_ksp = self.configure_uzawa_ksp
         if hasattr(problem, "factorize_jacobian"):
             problem.factorize_jacobian = self.factorize_current_jacobian
         self._dtol = None
@@ -1151,6 +1156,19 @@ class NewtonSolver:
             note()
         return True
 
+    @_owning_options
+    def configure_uzawa_ksp(self, ksp: PETSc.KSP) -> None:
+        """Give ``ksp``, the GMRES of the exact multiplier update
+        (``contact.MortarContact.uzawa_update``, ``uzawa_acceleration = "newton"``), the
+        options prefix ``<settings.prefix>uzawa_newton_`` (:data:`UZAWA_KSP_PREFIX`) and
+        the options set under it (KSPSetFromOptions; local to ``ksp``'s communicator, on
+        every rank of it). The solver's options are loaded first, so
+        ``[solver.petsc] uzawa_newton_ksp_monitor = true`` or ``-dm_uzawa_newton_ksp_max_it
+        5`` on the command line take effect; without such options the KSP keeps the
+        settings the update gave it (unpreconditioned GMRES, its tolerances)."""
+        ksp.setOptionsPrefix(self.settings.prefix + UZAWA_KSP_PREFIX)
+        ksp.setFromOptions()
+
     @property
     def options(self) -> dict[str, str | int | float]:
         """The PETSc options this solver works with, without its prefix (a copy; a
@@ -1215,6 +1233,7 @@ class NewtonSolver:
             self.problem.solvers.discard(self)
         if getattr(self.problem, "linear_inverse", None) == self.solve_with_last_jacobian:
             self.problem.linear_inverse = None
+            self.problem.configure_uzawa_ksp = None
         if getattr(self.problem, "factorize_jacobian", None) == self.factorize_current_jacobian:
             self.problem.factorize_jacobian = None
         prefix = self.settings.prefix

@@ -451,6 +451,39 @@ def test_a_failed_exact_update_falls_back_to_the_plain_one(friction, tmp_path, m
         assert max(last["multiplier_change"], last.get("tangential_change", 0.0)) <= 1e-8
 
 
+@pytest.mark.parametrize("friction", [0.0, 0.2])
+def test_the_exact_update_reads_its_options_under_the_solver_prefix(
+    friction, tmp_path, monkeypatch
+):
+    """The GMRES of the exact update takes the PETSc options given under the solver's
+    prefix + ``uzawa_newton_`` (``NewtonSolver.configure_uzawa_ksp``): a monitor writes
+    its file, and ``ksp_max_it = 1`` makes every update fail over to the plain one, as
+    the library's own limit of one product does (the test above). They were set as
+    ``dm_uzawa_newton_`` but never read (serial)."""
+    from dolfinx_mortar import contact
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    monkeypatch.setattr(contact, "EXACT_FORCING", 0.0)
+    monitor = tmp_path / "gmres.txt"
+    data = _hertz("newton", friction=friction)
+    petsc = {"uzawa_newton_ksp_monitor": f"ascii:{monitor}", "uzawa_newton_ksp_max_it": 1}
+    data["solver"] = {**data.get("solver", {}), "petsc": petsc}
+    out = run(parse_scene(data, tmp_path), MPI.COMM_WORLD, tmp_path / "out")
+    assert out["status"] == "ok", out["error"]
+    updates = [
+        r["exact_update"]
+        for st in out["steps"]
+        for r in (next(iter(u.values())) for u in st["uzawa"])
+        if "exact_update" in r
+    ]
+    assert "plain (GMRES failed)" in updates and not any(u.startswith("newton") for u in updates)
+    text = monitor.read_text()
+    assert "KSP Residual norm" in text
+    # one product per solve: iterations 0 and 1 only
+    assert "  2 KSP Residual norm" not in text
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("weights", ["standard", "dual"])
 def test_a_slip_reversal_freezes_the_states(weights, shared_tmp):
