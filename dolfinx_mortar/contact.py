@@ -70,6 +70,8 @@ from .scene import (
     UZAWA_ACCELERATIONS,
     contact_numbers,
     exact_update_applies,
+    quadrature_degree_choice,
+    uzawa_acceleration_choice,
 )
 from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
 from .surface import (
@@ -538,10 +540,11 @@ class MortarContact:
     uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`;
         "newton": the exact update of :meth:`_exact_multipliers` (frictionless) or
         :meth:`_exact_multipliers_fd` (friction), pairs with the lumped recovery (and
-        lumped tangential recovery) only, otherwise ValueError; "auto", the default:
+        lumped tangential recovery) only, otherwise SceneError; "auto", the default:
         "newton" where it applies (2D and 3D, with or without friction), "aitken"
         elsewhere, :func:`resolve_acceleration`).
-    quadrature_degree: of the slave facet rule (default: :data:`DEFAULT_QUADRATURE_DEGREE`).
+    quadrature_degree: of the slave facet rule, an integer >= 1, or None (the default:
+        :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type).
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
     penalty_tangential: ε_T (stress per length), "auto" (AUTO_PENALTY_T_FACTOR E*/h_I,
@@ -559,8 +562,11 @@ class MortarContact:
     ``[[contact]]``: an unknown choice raises SceneError, a friction < 0, a penalty or
     penalty_tangential <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a
     uzawa_max < 1 SceneError (a ValueError; :func:`dolfinx_mortar.scene.contact_numbers`),
-    a value of the wrong type SceneTypeError (a TypeError), keyed ``KEY.NAME``
-    (``contact.penalty: must be > 0, got -5``).
+    so do a uzawa_acceleration "newton" where the exact update does not apply
+    (:func:`~dolfinx_mortar.scene.uzawa_acceleration_choice`) and a quadrature_degree < 1
+    (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`), a value of the wrong type
+    SceneTypeError (a TypeError), keyed ``KEY.NAME`` (``contact.penalty: must be > 0, got
+    -5``).
     """
 
     def __init__(
@@ -597,6 +603,12 @@ class MortarContact:
         friction, penalty, penalty_tangential, uzawa_tol, uzawa_max = contact_numbers(
             key, friction, penalty, penalty_tangential, uzawa_tol, uzawa_max
         )
+        # the scene's rules too, before any collective (a bad value was a ValueError after
+        # the set-up's collectives, a quadrature_degree of 0 the default, -3 a C++ error)
+        uzawa_acceleration = uzawa_acceleration_choice(
+            key, uzawa_acceleration, friction, recovery, tangential_recovery
+        )
+        quadrature_degree = quadrature_degree_choice(key, quadrature_degree)
         self.tangential_frame = tangential_frame
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights
@@ -651,7 +663,7 @@ class MortarContact:
         nsf = self.slave.num_facets
 
         # quadrature: the element rule on every slave facet, or the rule per segment
-        qdeg = quadrature_degree or DEFAULT_QUADRATURE_DEGREE[self.ftype]
+        qdeg = DEFAULT_QUADRATURE_DEGREE[self.ftype] if quadrature_degree is None else quadrature_degree
         self.rule = quadrature(self.ftype, qdeg)
         if integration == "node":
             try:
@@ -760,22 +772,10 @@ class MortarContact:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
 
         # multipliers and nodal state
-        if uzawa_acceleration not in ACCELERATIONS:
-            raise ValueError(
-                f"{key}: unknown uzawa_acceleration {uzawa_acceleration!r}: one of {ACCELERATIONS}"
-            )
+        # checked on entry (uzawa_acceleration_choice)
         uzawa_acceleration = resolve_acceleration(
             uzawa_acceleration, self.mu, recovery, tangential_recovery
         )
-        if uzawa_acceleration == "newton" and not exact_update_applies(
-            self.mu, recovery, tangential_recovery
-        ):
-            raise ValueError(
-                f"{key}: uzawa_acceleration 'newton' (the exact multiplier update) needs "
-                "the lumped recovery, and with friction the lumped tangential recovery, got "
-                f"recovery {recovery!r} and tangential_recovery {tangential_recovery!r} "
-                f"(friction {self.mu:g})"
-            )
         self.uzawa_acceleration = UzawaAcceleration(comm, uzawa_acceleration)
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)

@@ -94,7 +94,8 @@ increasing t.
 Public API: :func:`load_scene`, :func:`parse_scene`, :func:`dump_scene`,
 :func:`check_groups`, :func:`check_components`, :func:`interpolate_path`, the
 checks the Python API shares with the scene (:func:`contact_numbers`,
-:func:`solver_options`, :func:`problem_inputs`, :func:`check_regions_covered`), the
+:func:`solver_options`, :func:`problem_inputs`, :func:`check_regions_covered`,
+:func:`uzawa_acceleration_choice`, :func:`quadrature_degree_choice`), the
 dataclasses, and the
 module-level :data:`KNOWN_GENERATORS` (which the mesh module may replace).
 """
@@ -141,6 +142,8 @@ __all__ = [
     "check_components",
     "check_regions_covered",
     "contact_numbers",
+    "uzawa_acceleration_choice",
+    "quadrature_degree_choice",
     "solver_options",
     "problem_inputs",
     "interpolate_path",
@@ -964,6 +967,41 @@ def contact_numbers(
     return friction, penalty, penalty_tangential, uzawa_tol, uzawa_max
 
 
+def uzawa_acceleration_choice(
+    prefix: str, value: Any, friction: float, recovery: str, tangential_recovery: str
+) -> str:
+    """``value`` of ``uzawa_acceleration`` checked: one of :data:`UZAWA_ACCELERATIONS`, and
+    "newton" only where the exact update applies (:func:`exact_update_applies`). The one
+    definition of its rules, for ``[[contact]]`` and for
+    :class:`~dolfinx_mortar.contact.MortarContact` (``prefix``: the key of the pair; local).
+    Raises SceneError keyed ``PREFIX.uzawa_acceleration`` (SceneTypeError for a value
+    that is not a string)."""
+    key = _key(prefix, "uzawa_acceleration")
+    acceleration = _choice(_plain(value), key, UZAWA_ACCELERATIONS)
+    if acceleration == "newton" and not exact_update_applies(
+        friction, recovery, tangential_recovery
+    ):
+        raise SceneError(
+            key,
+            '"newton" (the exact multiplier update) needs recovery = "lumped", and with '
+            f'friction tangential_recovery = "lumped", got recovery = {recovery!r} and '
+            f"tangential_recovery = {tangential_recovery!r} (friction = {friction:g})",
+        )
+    return acceleration
+
+
+def quadrature_degree_choice(prefix: str, value: Any) -> int | None:
+    """``quadrature_degree`` of a contact pair's slave facet rule checked: None (the
+    element type's default) or an integer >= 1 (local). The scene has no such key: the
+    rule for :class:`~dolfinx_mortar.contact.MortarContact`'s argument. Raises SceneError
+    keyed ``PREFIX.quadrature_degree`` for an integer < 1 (0 stood for the default, -3
+    was a C++ length error), SceneTypeError for a non-integer (2.5 was a basix
+    TypeError)."""
+    if value is None:
+        return None
+    return _int_at_least(_plain(value), _key(prefix, "quadrature_degree"), 1)
+
+
 def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     """Parse one ``[[contact]]``."""
     _check_keys(table, _CONTACT_KEYS, prefix)
@@ -998,18 +1036,13 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         _key(prefix, "tangential_frame"),
         TANGENTIAL_FRAMES,
     )
-    acceleration = _choice(
+    acceleration = uzawa_acceleration_choice(
+        prefix,
         table.get("uzawa_acceleration", UZAWA_ACCELERATIONS[0]),
-        _key(prefix, "uzawa_acceleration"),
-        UZAWA_ACCELERATIONS,
+        friction,
+        recovery,
+        t_recovery,
     )
-    if acceleration == "newton" and not exact_update_applies(friction, recovery, t_recovery):
-        raise SceneError(
-            _key(prefix, "uzawa_acceleration"),
-            '"newton" (the exact multiplier update) needs recovery = "lumped", and with '
-            f'friction tangential_recovery = "lumped", got recovery = {recovery!r} and '
-            f"tangential_recovery = {t_recovery!r} (friction = {friction:g})",
-        )
     return ContactPair(
         slave=slave,
         master=master,

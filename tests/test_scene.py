@@ -801,6 +801,8 @@ def test_mortar_contact_names_a_bad_option(name, value):
         ("uzawa_tol", -1e-6, ValueError),
         ("uzawa_max", 0, ValueError),
         ("uzawa_max", 2.5, TypeError),
+        ("uzawa_acceleration", "broyden", ValueError),
+        ("uzawa_acceleration", 3, TypeError),
     ],
 )
 def test_mortar_contact_checks_its_numbers_as_the_scene_does(name, value, error):
@@ -819,6 +821,33 @@ def test_mortar_contact_checks_its_numbers_as_the_scene_does(name, value, error)
     scene_err = raises(mutate(example(), ("contact", 0, name), value), f"contact[0].{name}", "")
     assert scene_err.reason == err.value.reason
     assert isinstance(scene_err, error)
+
+
+@pytest.mark.parametrize(
+    "value, error, reason",
+    [
+        (0, ValueError, "must be >= 1, got 0"),
+        (-3, ValueError, "must be >= 1, got -3"),
+        (2.5, TypeError, "expected an integer, got float 2.5"),
+        (True, TypeError, "expected an integer, got boolean"),
+    ],
+)
+def test_mortar_contact_checks_its_quadrature_degree(value, error, reason):
+    """``MortarContact(quadrature_degree=...)``: None (the facet type's default) or an
+    integer >= 1, checked before the problem is looked at (before any collective;
+    ``scene.quadrature_degree_choice``), a SceneError or SceneTypeError keyed
+    ``KEY.quadrature_degree``. 0 stood for the default, -3 was a C++ length error in the
+    set-up and 2.5 a basix TypeError. The scene has no such key."""
+    from dolfinx_mortar.contact import MortarContact
+    from dolfinx_mortar.scene import quadrature_degree_choice
+
+    with pytest.raises(error) as err:
+        MortarContact(None, "slave", "master", key="contact[0]", quadrature_degree=value)
+    assert isinstance(err.value, SceneError)
+    assert err.value.key == "contact[0].quadrature_degree"
+    assert reason in err.value.reason
+    assert quadrature_degree_choice("contact", None) is None
+    assert quadrature_degree_choice("contact", 3) == 3
 
 
 def test_numpy_values_are_taken_as_toml_numbers_and_arrays():

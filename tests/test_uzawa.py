@@ -240,7 +240,7 @@ def test_without_a_factorization_the_exact_update_is_the_plain_one(shared_tmp):
 
 
 def test_the_exact_update_needs_lumped_recoveries(tmp_path):
-    """A scene error naming the key, and a ValueError from the Python API, for a pair
+    """A scene error naming the key, and the same from the Python API, for a pair
     whose normal (or, with friction, tangential) recovery is not lumped; friction with
     the lumped recoveries takes it."""
     from dolfinx_mortar.contact import MortarContact
@@ -261,7 +261,7 @@ def test_the_exact_update_needs_lumped_recoveries(tmp_path):
         {"recovery": "constrained"},
         {"friction": 0.2, "tangential_recovery": "constrained"},
     ):
-        with pytest.raises(ValueError, match="uzawa_acceleration 'newton'"):
+        with pytest.raises(SceneError, match=r"contact\.uzawa_acceleration: \"newton\""):
             MortarContact(
                 problem, "cylinder_surface", "block_top", uzawa_acceleration="newton", **extra
             )
@@ -298,10 +298,10 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
     with the lumped recoveries (with friction in 2D and, since session 41, in 3D),
     "aitken" where one is not lumped; the resolved
     update is what the pair reports (summary.json ``modelled``); an unknown name is a
-    ValueError of the Python API."""
+    SceneError (a ValueError) of the Python API, as in a scene."""
     from dolfinx_mortar.contact import MortarContact, resolve_acceleration
     from dolfinx_mortar.runner import prepare
-    from dolfinx_mortar.scene import parse_scene
+    from dolfinx_mortar.scene import SceneError, parse_scene
 
     assert resolve_acceleration("auto", 0.0, "lumped") == "newton"
     assert resolve_acceleration("auto", 0.2, "lumped") == "newton"
@@ -323,7 +323,7 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
         term = MortarContact(problem, "cylinder_surface", "block_top", **extra)
         assert term.uzawa_acceleration.method == expected
         term.destroy()
-    with pytest.raises(ValueError, match="unknown uzawa_acceleration 'broyden'"):
+    with pytest.raises(SceneError, match="uzawa_acceleration: unknown value 'broyden'"):
         MortarContact(problem, "cylinder_surface", "block_top", uzawa_acceleration="broyden")
 
 
