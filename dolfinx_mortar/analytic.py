@@ -59,8 +59,9 @@ def effective_modulus(E1: float, nu1: float, E2: float | None = None, nu2: float
         nu2 = nu1
     if E1 <= 0.0 or E2 <= 0.0:
         raise ValueError("Young's moduli must be positive")
-    inv = (1.0 - nu1**2) / E1 + (0.0 if math.isinf(E2) else (1.0 - nu2**2) / E2)
-    return 1.0 / inv
+    if math.isinf(E2):  # as MortarContact's plane modulus always was, to the last bit
+        return E1 / (1.0 - nu1**2)
+    return 1.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
 
 
 def effective_radius(R1: float, R2: float = math.inf) -> float:

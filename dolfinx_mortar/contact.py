@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 
 import numpy as np
 import scipy.sparse as sp
@@ -59,6 +60,7 @@ from petsc4py import PETSc
 
 from . import friction as fr
 from . import recovery as rc
+from .analytic import effective_modulus
 from .errors import SceneError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
@@ -446,10 +448,6 @@ def _gmres(
             obj.destroy()
 
 
-def _plane_modulus(E: float, nu: float) -> float:
-    return E / (1.0 - nu**2)
-
-
 class UzawaAcceleration:
     """The accelerated update x ← x + f of the Uzawa rounds of one contact pair (collective).
 
@@ -663,7 +661,11 @@ class MortarContact:
         nsf = self.slave.num_facets
 
         # quadrature: the element rule on every slave facet, or the rule per segment
-        qdeg = DEFAULT_QUADRATURE_DEGREE[self.ftype] if quadrature_degree is None else quadrature_degree
+        qdeg = (
+            DEFAULT_QUADRATURE_DEGREE[self.ftype]
+            if quadrature_degree is None
+            else quadrature_degree
+        )
         self.rule = quadrature(self.ftype, qdeg)
         if integration == "node":
             try:
@@ -719,6 +721,9 @@ class MortarContact:
         self.margin = 2.0 * self.h_slave_max
         E_s = self._surface_modulus(slave_cells)
         E_m = self._surface_modulus(master_cells)
+        # 1/E* = 1/E_s + 1/E_m of the two surfaces' largest plane moduli (ν already in
+        # them, and a maximum over the bodies of each surface: not effective_modulus's
+        # (E, ν) pairs)
         self.E_star = 1.0 / (1.0 / E_s + 1.0 / E_m)
         #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I (n,): the "auto" penalty, and the reference
         #: of the stiff-penalty rules (SOFT_START_RATIO)
@@ -978,14 +983,18 @@ class MortarContact:
         return np.linalg.norm(verts[:, :, None, :] - verts[:, None, :, :], axis=3).max(axis=(1, 2))
 
     def _surface_modulus(self, cells) -> float:
-        """Largest plane-strain modulus E/(1−ν²) of the bodies owning ``cells`` (collective)."""
+        """Largest plane-strain modulus E/(1−ν²) of the bodies owning ``cells`` (collective):
+        :func:`~dolfinx_mortar.analytic.effective_modulus` against a rigid body, the same
+        in plane strain and in 3D."""
         md = self.problem.mesh_data
         tags = dict(
             zip(np.asarray(md.cell_tags.indices), np.asarray(md.cell_tags.values), strict=True)
         )
         by_tag = {md.cell_groups[r]: (E, nu) for r, _m, E, nu in self.problem.materials}
         vals = [
-            _plane_modulus(*by_tag[tags[c]]) for c in set(cells.tolist()) if tags.get(c) in by_tag
+            effective_modulus(*by_tag[tags[c]], math.inf)
+            for c in set(cells.tolist())
+            if tags.get(c) in by_tag
         ]
         return self.comm.allreduce(max(vals, default=0.0), op=MPI.MAX)
 
