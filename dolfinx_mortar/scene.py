@@ -114,12 +114,11 @@ from pathlib import Path
 from typing import Any
 
 from dolfinx_mortar.errors import SceneError, SceneTypeError
-from dolfinx_mortar.laws import BUILTIN_MODELS, model_names, registered_law
+from dolfinx_mortar.laws import model_names, registered_law
 
 __all__ = [
     "KNOWN_GENERATORS",
     "LoadPath",
-    "MODELS",
     "KINEMATICS",
     "RECOVERIES",
     "INTEGRATIONS",
@@ -166,9 +165,6 @@ KNOWN_GENERATORS: set[str] = {
 
 #: Allowed values of ``kinematics``.
 KINEMATICS = ("finite", "small")
-#: The built-in values of ``material.model``; a script may add laws of its own
-#: (:func:`dolfinx_mortar.laws.register_law`).
-MODELS = BUILTIN_MODELS
 #: Allowed values of ``contact.recovery`` (METHOD.md section 3).
 RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).

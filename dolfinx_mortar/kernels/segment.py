@@ -420,16 +420,6 @@ def _copy_vertex(inp, din, i, out, dout, nout):
 
 
 @numba.njit(cache=True)
-def _slide(dout, i, ex, ey):
-    """Keep only the part of vertex i's derivative along the line direction (ex, ey)."""
-    e2 = ex * ex + ey * ey
-    for j in range(dout.shape[2]):
-        dn = (ex * dout[i, 1, j] - ey * dout[i, 0, j]) / e2
-        dout[i, 0, j] += ey * dn
-        dout[i, 1, j] -= ex * dn
-
-
-@numba.njit(cache=True)
 def _on_line_motion(inp, din, nin, k, dout, nout, ax, ay, ex, ey, el, w):
     """dout[nout] += w u, u the motion of vertex k of inp[:nin], on the line
     a + t (ex, ey) (within ON_EDGE_TOL |e|, el = |e|), where the vertex is kept or
