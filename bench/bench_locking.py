@@ -238,7 +238,6 @@ def _build_hertz2d_ratio(h_master, **params):
 def hertz2d_ratio_generator():
     """Register the generator ``hertz2d_ratio`` (hertz2d + ``h_master``) while inside."""
     from dolfinx_mortar import generators as g
-    from dolfinx_mortar import scene
 
     base = g.GENERATORS["hertz2d"]
     gen = g.Generator(
@@ -253,9 +252,7 @@ def hertz2d_ratio_generator():
         checks=base.checks + (("h_master", lambda p: p["h_master"] > 0.0, "must be positive"),),
     )
     previous = g.GENERATORS.get(gen.name)
-    known = gen.name in scene.KNOWN_GENERATORS
-    g.GENERATORS[gen.name] = gen
-    scene.KNOWN_GENERATORS.add(gen.name)
+    g.GENERATORS[gen.name] = gen  # the scene accepts the registry's names
     try:
         yield gen.name
     finally:
@@ -263,8 +260,6 @@ def hertz2d_ratio_generator():
             g.GENERATORS.pop(gen.name, None)
         else:
             g.GENERATORS[gen.name] = previous
-        if not known:
-            scene.KNOWN_GENERATORS.discard(gen.name)
 
 
 # ---------------------------------------------------------------------------- scenes

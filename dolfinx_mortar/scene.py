@@ -17,7 +17,7 @@ Schema (``*`` = required; defaults in brackets)::
 
     [mesh] *     exactly one of:
       file       string, gmsh .msh path, relative to the scene file's directory
-      generator  string, one of KNOWN_GENERATORS
+      generator  string, a name registered in generators.GENERATORS
       [mesh.params]  table of int / float / string / bool (only with generator)
 
     [[material]] *   one or more; distinct regions
@@ -96,8 +96,9 @@ Public API: :func:`load_scene`, :func:`parse_scene`, :func:`dump_scene`,
 checks the Python API shares with the scene (:func:`contact_numbers`,
 :func:`solver_options`, :func:`problem_inputs`, :func:`check_regions_covered`,
 :func:`uzawa_acceleration_choice`, :func:`quadrature_degree_choice`), the
-dataclasses, and the
-module-level :data:`KNOWN_GENERATORS` (which the mesh module may replace).
+dataclasses, and :data:`KNOWN_GENERATORS` (a read-only snapshot of the names
+registered in :data:`dolfinx_mortar.generators.GENERATORS`, the one list of
+generators; a generator registered there is accepted by ``mesh.generator``).
 """
 
 from __future__ import annotations
@@ -148,20 +149,29 @@ __all__ = [
     "interpolate_path",
 ]
 
-#: Names accepted by ``mesh.generator``. Looked up at parse time, so the mesh
-#: module may replace or extend it (``scene.KNOWN_GENERATORS = {...}``).
-KNOWN_GENERATORS: set[str] = {
-    "hertz2d",
-    "hertz3d",
-    "patch2d",
-    "patch3d",
-    "cattaneo2d",
-    "wedge2d",
-    "ironing2d",
-    "ironing3d",
-    "tiedcurved2d",
-    "twist3d",
-}
+
+def _generator_names() -> frozenset[str]:
+    """The names accepted by ``mesh.generator``: the keys of
+    :data:`dolfinx_mortar.generators.GENERATORS`, read at each call, so a generator
+    registered there is accepted by the scene. Imported here, not at the top, because
+    ``generators`` imports this module (it imports no gmsh until it builds)."""
+    from dolfinx_mortar.generators import GENERATORS
+
+    return frozenset(GENERATORS)
+
+
+#: Names accepted by ``mesh.generator``: a frozenset snapshot of the keys of
+#: :data:`dolfinx_mortar.generators.GENERATORS` taken at each access (the module
+#: ``__getattr__`` below; declared, not bound, so that the access reaches it). Read-only:
+#: register a generator in ``generators.GENERATORS`` to have the scene accept it.
+KNOWN_GENERATORS: frozenset[str]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "KNOWN_GENERATORS":
+        return _generator_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: Allowed values of ``kinematics``.
 KINEMATICS = ("finite", "small")
@@ -221,7 +231,8 @@ class MeshSpec:
         Absolute path of a gmsh ``.msh`` file (resolved against the scene file's
         directory), or ``None``.
     generator:
-        Name of a built-in generator (one of :data:`KNOWN_GENERATORS`), or ``None``.
+        Name of a generator registered in
+        :data:`dolfinx_mortar.generators.GENERATORS`, or ``None``.
     params:
         Generator parameters (lengths in the scene's length unit, etc.); empty
         for a mesh file.
@@ -889,8 +900,9 @@ def _parse_mesh(value: Any, base_dir: Path) -> MeshSpec:
         text = _nonempty_string(table["file"], "mesh.file")
         return MeshSpec(file=_resolve(text, base_dir), generator=None, params={})
     name = _nonempty_string(table["generator"], "mesh.generator")
-    known = sorted(KNOWN_GENERATORS)
-    if name not in KNOWN_GENERATORS:
+    names = _generator_names()
+    known = sorted(names)
+    if name not in names:
         raise SceneError(
             "mesh.generator",
             f"unknown generator {name!r} (choices: {', '.join(known)}){_suggest(name, known)}",

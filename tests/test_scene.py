@@ -320,12 +320,36 @@ def test_dataclasses_are_frozen():
         s.materials[0].E = 1.0
 
 
-def test_known_generators_can_be_replaced(monkeypatch):
+def test_a_generator_registered_in_the_registry_is_accepted(monkeypatch):
+    from dolfinx_mortar import generators as G
+
     data = minimal()
     data["mesh"]["generator"] = "spiral9d"
     raises(data, "mesh.generator", "unknown generator 'spiral9d'")
-    monkeypatch.setattr(scene_mod, "KNOWN_GENERATORS", {"spiral9d"})
+    monkeypatch.setitem(G.GENERATORS, "spiral9d", G.GENERATORS["hertz2d"])
     assert parse_scene(data, BASE).mesh.generator == "spiral9d"
+    assert "spiral9d" in scene_mod.KNOWN_GENERATORS
+
+
+def test_the_accepted_generators_are_the_registry():
+    # One list: the scene accepts exactly the names of generators.GENERATORS.
+    from dolfinx_mortar import generators as G
+
+    assert scene_mod.KNOWN_GENERATORS == frozenset(G.GENERATORS)
+    assert "KNOWN_GENERATORS" in scene_mod.__all__
+    with pytest.raises(AttributeError):
+        scene_mod.KNOWN_GENERATORS.add("x")  # a snapshot, not a second registry
+    data = minimal()
+    for name in G.GENERATORS:
+        data["mesh"]["generator"] = name
+        assert parse_scene(data, BASE).mesh.generator == name
+    data["mesh"]["generator"] = "hertz2e"
+    known = ", ".join(sorted(G.GENERATORS))
+    raises(
+        data,
+        "mesh.generator",
+        f"unknown generator 'hertz2e' (choices: {known}); did you mean 'hertz2d'?",
+    )
 
 
 def test_module_does_not_import_dolfinx():
