@@ -452,6 +452,8 @@ class NewtonSolver:
         self.settings = settings = settings or SolverSettings()
         #: whether a solve has run (the options were read: _warn_unused_options)
         self._solved = False
+        #: whether destroy() has run (a second call does nothing)
+        self._destroyed = False
         comm = problem.comm
         # a viewer file that cannot be opened fails on rank 0 only, in setFromOptions or
         # at the end of a solve (-snes_view), and the other ranks went on into a
@@ -1228,6 +1230,29 @@ class NewtonSolver:
         del _LOADED[prefix]
 
     def destroy(self) -> None:
+        """Free the solver (collective on the problem's communicator); idempotent: a
+        second call, e.g. the ``with`` block's exit after a call by hand, does nothing.
+
+        - Frees the SNES (its KSP and PC), the Jacobian matrix and the residual and work
+          vectors it owns; the solver cannot solve afterwards.
+        - Gives the problem back: leaves ``problem.solvers`` (the problem takes new contact
+          terms again once no solver lives) and sets ``problem.linear_inverse``,
+          ``problem.configure_uzawa_ksp`` and ``problem.factorize_jacobian`` to None
+          where they are this solver's (another solver's hooks stay).
+        - PETSc options: where this solver's options are the ones loaded under its
+          prefix (it worked last), takes them out of PETSc's global database and puts
+          back what a host program had there under the prefix before a solver loaded
+          its own (:meth:`_load_options`); where another solver's are loaded, the
+          database is left as it is.
+        - After at least one :meth:`solve`, logs one warning (logger
+          ``dolfinx_mortar.solver``) naming the options of ``settings.petsc`` (the
+          scene's ``[solver.petsc]``, the command line's ``-dm_...``) that PETSc never
+          read in this solver's work: a typo, or an option of a solver not in use.
+          Nothing is logged where PETSc cannot tell (``compat.option_used``).
+        """
+        if self._destroyed:
+            return
+        self._destroyed = True
         self._drop.detach()
         if hasattr(self.problem, "solvers"):
             self.problem.solvers.discard(self)

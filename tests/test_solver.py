@@ -1601,3 +1601,38 @@ def test_add_contact_takes_terms_of_this_problem_before_the_solver(patch2d_api):
     other.destroy()
     q.destroy()
     p.destroy()
+
+
+def test_destroy_is_idempotent(patch2d_api, caplog):
+    """A second destroy() does nothing: it logged the unused-option warning again (a
+    solver destroyed by hand inside its ``with`` block). The host's options and the
+    problem's hooks (now another solver's) stay as the first call left them."""
+    from dolfinx_mortar import ContactProblem, MortarContact
+
+    p = ContactProblem(patch2d_api, _MATS, _DBC)
+    p.add_contact(MortarContact(p, "upper_bottom", "lower_top"))
+    opts = PETSc.Options()
+    opts["test_twice_host_opt"] = "7"
+    try:
+        with NewtonSolver(
+            p, SolverSettings(prefix="test_twice_", petsc={"snes_monitr": True})
+        ) as newton:
+            LoadStepper(p, newton, 1.0, 1).run()
+            assert not opts.hasName("test_twice_host_opt")  # set aside while loaded
+            with caplog.at_level("WARNING", logger="dolfinx_mortar.solver"):
+                newton.destroy()
+                assert opts.getString("test_twice_host_opt") == "7"  # put back
+                assert p.linear_inverse is None
+                later = NewtonSolver(p, SolverSettings(prefix="test_twice_"))
+                newton.destroy()  # again: the later solver keeps its hooks
+                assert p.linear_inverse == later.solve_with_last_jacobian
+            # and __exit__ a third time
+        later.destroy()
+        warned = [r for r in caplog.records if "never read the option" in r.getMessage()]
+        assert len(warned) == 1, [r.getMessage() for r in warned]
+        assert "-test_twice_snes_monitr" in warned[0].getMessage()
+    finally:
+        opts.delValue("test_twice_host_opt")
+        for term in p.contacts:
+            term.destroy()
+        p.destroy()
