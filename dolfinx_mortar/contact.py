@@ -1901,7 +1901,25 @@ class MortarContact:
         )
 
     def add_residual(self, b: PETSc.Vec, masked: bool = True) -> None:
-        """Add R_c = −Σ p^I B^I to ``b`` with global indices (call before b.assemble())."""
+        """Add this pair's residual to ``b`` (the global PETSc residual vector of the
+        displacement space, force units) with global indices and ADD_VALUES: the normal
+        part R_c = −Σ_I p^I B^I and, with friction, the tangential part
+        R_T = Σ_I (∂S^I/∂u)ᵀ t^I (t^I the nodal tangential traction vector, S^I = Σ_k W_k
+        x_k the node's mortar slip integral). Nodes with t^I = 0 add nothing; the
+        consistent recoveries may give t^I ≠ 0 at nodes the nodal law calls open, and
+        those add theirs.
+
+        Both are evaluated at the contact state of the last :meth:`update` (current
+        coordinates, pairing, p^I, t^I), not at ``b``'s or the problem's ``u`` now. Each
+        rank adds the rows of its own slave nodes; rows of other ranks' dofs are sent by
+        the caller's ``b.assemble()`` (collective), which must follow. This method is local.
+
+        ``masked``: True (the default) skips the dofs a Dirichlet condition constrains
+        (their global index is −1, which PETSc ignores), as the Newton residual wants,
+        whose constrained rows hold the condition; False adds to every dof, the
+        constrained ones included (``ContactProblem.residual(..., apply_bcs=False)``:
+        the reactions, which need the contact force on those dofs too).
+        """
         res_idx, res_val, _, _, _, _, _ = self._terms(False, masked)
         keep = res_idx >= 0
         b.setValues(
@@ -3305,6 +3323,16 @@ class MortarContact:
             self._pending = (self.problem.u.vector.copy(), hist, t_n)
 
     def restore_step(self) -> None:
+        """Undo a failed attempt at a step (local): the normal multipliers λ go back to
+        those of the last :meth:`commit_step` (zero before the first), the Uzawa
+        acceleration's history is dropped and no stick/slip states are carried into the
+        next attempt; with friction, the tangential multipliers λ_T go back to those the
+        step started from (the history t^n of the last commit, set by :meth:`begin_step`
+        or, with the master frame, at the step's first search) and no state is frozen.
+        The slip history (u_n, t^n), the accumulated slip and the dissipation are those
+        of the last commit already (an attempt does not change them). The nodal state
+        (p̂, γ, τ, the stick/slip states, the pairing) is not restored: it is the failed
+        attempt's until the next :meth:`update`, after the caller has put u back."""
         self.lmbda = self.lmbda_committed.copy()
         self._carried = None
         self._reset_acceleration()
@@ -3324,8 +3352,26 @@ class MortarContact:
 
     # ------------------------------------------------------------------ results
     def statistics(self) -> dict:
-        """Force of the master on the slave, penetration, node counts and (with friction)
-        the frictional dissipation of the last committed step (collective)."""
+        """This pair's totals at the state of the last contact update (after a converged
+        step: that step's, until the next one starts), summed over all ranks: collective,
+        the same dict on every rank. Keys:
+
+        - ``max_penetration``: the largest −γ^I (mixed nodal gap) over the slave nodes
+          with pressure (p̂^I > 0), a length ≥ 0; 0 where none penetrates.
+        - ``dissipation`` (frictional pairs only): the frictional work of the last
+          committed step, Σ over slipping nodes of τ^I·σ^I (σ^I = A_T^I γ_T^I lumped),
+          force × length (per unit thickness in 2D); set by :meth:`commit_step`.
+        - ``force``: list of ``gdim`` floats, the total force that the master exerts on
+          the slave, Σ_I p^I ∫ Φ_I ν dA over the reference slave surface, minus
+          Σ_I A_T^I t^I with friction (force units; per unit thickness in 2D).
+        - ``active_nodes``: the number of slave nodes with p̂^I > 0.
+        - ``stick_nodes``, ``slip_nodes``: the numbers of slave nodes in the output
+          states 1 and 2 (:meth:`_output_state`: an active frictionless node, and an
+          active frictional node without tangential traction yet, counts as slipping).
+
+        The nodes are the mixed-field nodes of the slave surface, each counted on its
+        owning rank.
+        """
         force = self._terms(False)[4]
         active = self.p_hat > 0
         out = {"max_penetration": self._max_penetration()}

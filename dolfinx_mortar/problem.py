@@ -510,6 +510,11 @@ class ContactProblem:
 
     @property
     def num_dofs(self) -> int:
+        """The global number of scalar displacement dofs: the blocks (nodes) of the vector
+        space over all ranks, each counted once (ghosts not again), times the block size
+        ``gdim``; the constrained (Dirichlet) dofs included. The contact terms add no
+        unknowns (their mixed variables are recovered), so it is the size of the global
+        system. Local: the same on every rank, no communication."""
         return self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
 
     def destroy(self) -> None:

@@ -1754,6 +1754,35 @@ class LoadStepper:
         self.results: list[StepResult] = []
 
     def run(self) -> list[StepResult]:
+        """Walk the load path from t = 0, starting from the problem's current ``u``, to
+        ``t_end`` (collective: every rank calls it, and ``on_step`` runs on every rank).
+
+        Returns :attr:`results` (the list it appends to): one :class:`StepResult` per
+        converged step, in order of t. The times are the targets (the ``n`` equal steps
+        and ``output_times``) and the midpoints that cutbacks inserted before them, each
+        a converged step of its own. A result's ``cutbacks`` counts the halvings made
+        since the previous converged step (those that led to it); its ``uzawa_rounds``,
+        iterations and norms are those of its accepted attempt; its timings and solve
+        counters include its failed attempts.
+
+        Cutbacks: an attempt that raises ConvergenceError is first retried at the same
+        size where the class docstring says so (carried stick/slip states once, after a
+        FrozenStatesError; from the last converged state, after a failure from the
+        extrapolated predictor); otherwise the step is halved (its midpoint becomes the
+        next target) at most ``max_cutbacks`` times in a row. The halvings count again
+        from 0 after each converged step.
+
+        Raises ConvergenceError (the last attempt's as its cause, the message ending with
+        the problem's hints: open pairs, points at a master edge) where another halving
+        would exceed ``max_cutbacks`` in a row, make the step shorter than
+        2^-max_cutbacks of the load step it divides, or shorter than
+        :data:`MIN_STEP_FRACTION` × ``t_end``. The problem is then back at the last
+        converged step: its ``u`` and time, and the contact multipliers of its commit
+        (``problem.restore_step``), with no stick/slip states carried; every converged
+        step has been passed to ``on_step``. Other exceptions (a PETSc error, or what
+        ``on_step`` raises, e.g. an OutputError) propagate at once, the problem left as
+        it was then.
+        """
         p = self.problem
         t = 0.0
         step = 0
