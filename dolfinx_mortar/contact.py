@@ -947,7 +947,9 @@ class MortarContact:
         self.tau = np.zeros((n, d - 1))  # recovered traction components (residual, output)
         self.tau_law = np.zeros((n, d - 1))  # the nodal law's τ̂ (Uzawa, history)
         self.gamma_t = np.zeros((n, d - 1))
-        self.sigma_t = np.zeros((n, d - 1))  # weighted slip a_α·S in the node's frame
+        self.sigma_t = np.zeros((n, d - 1))  # weighted slip since t_n, a_α·S − a_α,n·S_n
+        self.frame_a_n = np.zeros((n, d - 1, d))  # the nodal frames at t_n
+        self.S_n = np.zeros((n, d))  # the S-weights on the t_n coordinates
         self.fstate = np.zeros(n, np.int64)  # the nodal law's states
         self._trec = None  # recovery.TangentialRecovered (consistent recoveries)
         self.slip_length = np.zeros(n)  # accumulated |γ_T| over converged steps
@@ -1353,7 +1355,8 @@ class MortarContact:
         self._pair_hist = [*self._pair_hist[-1:], cur.copy()]
 
     def _friction_integrals(self) -> None:
-        """Pairing at t_n, A_T, S and the S-weights per node, and the nodal frames.
+        """Pairing at t_n, A_T, S, S_n and the S-weights per node, and the nodal frames (now
+        and, once per t_n and exchange, in the t_n configuration: ``frame_a_n``).
 
         The t_n pairing depends only on u_n, the quadrature points and the master ghost
         layer: it is recomputed when one of them changed (every update for segments).
@@ -1408,15 +1411,20 @@ class MortarContact:
             closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
             self.dual_area = np.where(closed, self.t_facet_area, np.inf)
             self._history_key = key
-            if self.tangential_frame == "master" and new_key:  # not per segment update
-                self._master_points(xs_n, xm_n, off, idx)
+            if new_key:  # not per segment update
+                if self.tangential_frame == "master":
+                    self._master_points(xs_n, xm_n, off, idx)
+                # the nodes' frames in the t_n configuration, a_n of σ = a·S − a_n·S_n
+                self.frame_a_n = self._frames_at(xs_n, xm_n, False)[0]
+                if self._hist_vec is not None:  # master frames, the first search at a new t_n
+                    self._carry_history()
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
         e_node = np.empty(cap, np.int64)
         e_key = np.empty(cap, np.int64)
         e_dof = np.empty((cap, d), np.int64)
         e_w = np.empty(cap)
-        self.AT, self.S = np.zeros(n), np.zeros((n, d))
+        self.AT, self.S, self.S_n = np.zeros(n), np.zeros((n, d)), np.zeros((n, d))
         ne = 0
         if nsf:
             ne = kfriction.slip_integrals(
@@ -1425,6 +1433,7 @@ class MortarContact:
                 self.ftype_phi,
                 self.xs,
                 self.xm,
+                *self._x_n,
                 self.qp_xi,
                 self.qp_w,
                 self.qp_m,
@@ -1440,6 +1449,7 @@ class MortarContact:
                 self.master.dofs,
                 self.AT,
                 self.S,
+                self.S_n,
                 e_node,
                 e_key,
                 e_dof,
@@ -1466,16 +1476,7 @@ class MortarContact:
     def _master_points(self, xs_n, xm_n, off, idx) -> None:
         """The master frames' t_n points (``tangential_frame = "master"``, local): the
         closest-point projection of every owned node in the t_n configuration (the
-        occurrence with the smallest |gap| among the facets around it), and, at a new
-        t_n, the history's traction carried into the new frames.
-
-        The traction τ^n of the last step was committed as a physical vector t^n =
-        τ̂_α ê_α (:meth:`commit_step`): its components in the frames of the new master
-        points, λ_T = ê_α·t^n, both evaluated in the t_n configuration, so a rigid motion
-        superposed on the coming step leaves them as they are. Where the node faces the
-        same affine master facet this is the paper's "covariant components carry over";
-        where the projection moved to another facet, it is the physical-slip rule applied
-        to the multiplier (METHOD.md §1)."""
+        occurrence with the smallest |gap| among the facets around it)."""
         nsf, nphi = self.node_of.shape
         n, km = self.node_blocks.size, self.gdim - 1
         mn, zn = np.full(n, -1, np.int64), np.zeros((n, km))
@@ -1500,11 +1501,40 @@ class MortarContact:
             zn[node[first]] = pz[f[first], i[first]]
         mdofs = self.master.dofs.reshape(self.master.X.shape)
         self.frames.set_points(mn, zn, xs_n, xm_n, mdofs)
-        if self._hist_vec is not None:  # the first search at a new t_n (begin_step)
-            a_n = self._frames_at(xs_n, xm_n, False)[0]
-            lam = np.einsum("nac,nc->na", a_n, self._hist_vec)
-            self.lmbda_t, self.lmbda_t_committed = lam, lam.copy()
-            self._hist_vec = None
+
+    def _carry_history(self) -> None:
+        """The master frames at a new t_n (begin_step): the history's traction carried
+        into the new frames (local).
+
+        The traction τ^n of the last step was committed as a physical vector t^n =
+        τ̂_α ê_α (:meth:`commit_step`): its components in the frames of the new master
+        points, λ_T = ê_α·t^n, both evaluated in the t_n configuration (``frame_a_n``), so
+        a rigid motion superposed on the coming step leaves them as they are. Where the
+        node faces the same affine master facet this is the paper's "covariant components
+        carry over"; where the projection moved to another facet, it is the physical-slip
+        rule applied to the multiplier (METHOD.md §1)."""
+        lam = np.einsum("nac,nc->na", self.frame_a_n, self._hist_vec)
+        self.lmbda_t, self.lmbda_t_committed = lam, lam.copy()
+        self._hist_vec = None
+
+    def _slip_since_t_n(self) -> np.ndarray:
+        """σ (n, m): the tangential components of the weighted slip since the start of the
+        step, in the node's convected frame (local; friction module docstring),
+
+            σ_α^I = a_α^I·S^I − a_{α,n}^I·S_n^I,
+
+        a^I the frame now, a_n^I in the t_n configuration, S_n^I the S-weights applied to
+        the t_n coordinates: σ = 0 at u = u_n (S^I = S_n^I there is the weighted t_n gap
+        vector, which on a non-matching interface has a tangential part), and a rigid
+        motion superposed on the step leaves σ as it is. Zero at the nodes without a
+        tangential area A_T. Its derivative: a·∂S + S·∂a, and with segment integration
+        − a_n·∂S_n of the moving points too (:meth:`_segment_slip_motion`)."""
+        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        sigma = np.einsum("nac,nc->na", self.frame_a, self.S) - np.einsum(
+            "nac,nc->na", self.frame_a_n, self.S_n
+        )
+        sigma[~hasT] = 0.0
+        return sigma
 
     @property
     def frame_dA(self) -> np.ndarray:
@@ -1701,15 +1731,15 @@ class MortarContact:
         self._recovered = rec
 
     def _recover_tangential(self, frozen="current"):
-        """Tangential recovery and the nodal return mapping: lumped γ = a·S/A_T (local), or
-        the consistent recoveries of :func:`.recovery.recover_tangential` (collective).
+        """Tangential recovery and the nodal return mapping: lumped γ = σ/A_T (local; σ of
+        :meth:`_slip_since_t_n`), or the consistent recoveries of
+        :func:`.recovery.recover_tangential` (collective).
 
         With ``frozen = None`` the states of the nodal law are computed free and only
         returned, with the law's traction τ̂ (n, m) for those states.
         """
         hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
-        sigma = np.einsum("nac,nc->na", self.frame_a, self.S)
-        sigma[~hasT] = 0.0
+        sigma = self._slip_since_t_n()
         gam = sigma / np.where(hasT, self.AT, 1.0)[:, None]  # the lumped slip since t_n
         imposed = self._reentry(self.frozen if frozen == "current" else frozen, gam, hasT)
         if self.tangential_recovery != "lumped":
@@ -2421,6 +2451,7 @@ class MortarContact:
         :func:`.kernels.friction.slip_point_terms`:
 
             dA_T^I = Ψ_I dw + w ∂_βΨ_I dξ^β,   dS^I = Δg dA_T^I + w Ψ_I ∂_βΔg dξ^β,
+            dS_n^I = d_n dA_T^I + w Ψ_I ∂_βd_n dξ^β   (the t_n gap vector d_n, S_n's weights),
             dW_Ia = N_a dA_T^I + w Ψ_I ∂_βN_a dξ^β,
             dW_Ib = −(N^m_b dA_T^I + w Ψ_I ∂_β[N^m_b(ζ_n)] dξ^β),
 
@@ -2432,9 +2463,10 @@ class MortarContact:
         (:meth:`_tangential_mass`): the consistent tangential recoveries need them.
 
         Returns the entries e = (facet, master facet, node I): ``node`` (E,), ``cols``
-        (E, nloc) global dofs, ``dS`` (E, d, nloc), ``dAT`` (E, nloc), ``dMv``
-        (len(values), E, m, nloc), and the rows of ∂S^I and ∂A_T^I summed per node as CSR
-        ``dS_rows`` (n·d, ndof), ``dAT_rows`` (n, ndof).
+        (E, nloc) global dofs, ``dsig`` (E, m, nloc) the moving points' part of the slip
+        since t_n, ∂σ^I = a^I·dS^I − a_n^I·dS_n^I (:meth:`_slip_since_t_n`), ``dAT``
+        (E, nloc), ``dMv`` (len(values), E, m, nloc), and the rows of ∂σ^I and ∂A_T^I
+        summed per node as CSR ``dsig_rows`` (n·m, ndof), ``dAT_rows`` (n, ndof).
         """
         dxi, dw = self._seg_motion
         n_rows = dw.shape[0]
@@ -2442,6 +2474,7 @@ class MortarContact:
         k, m = d - 1, d - 1
         nphi = self.node_of.shape[1]
         dg, dgxi = np.zeros((n_rows, d)), np.zeros((n_rows, k, d))
+        dgn, dgxin = np.zeros((n_rows, d)), np.zeros((n_rows, k, d))
         Ns, dNs = np.zeros((n_rows, ns)), np.zeros((n_rows, ns, k))
         Nm, dNm = np.zeros((n_rows, nm)), np.zeros((n_rows, nm, k))
         psi, dpsi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
@@ -2463,6 +2496,8 @@ class MortarContact:
                 self.dual_area,
                 dg,
                 dgxi,
+                dgn,
+                dgxin,
                 Ns,
                 dNs,
                 Nm,
@@ -2495,6 +2530,7 @@ class MortarContact:
             )
         nloc = (ns + nm) * d
         dS = np.zeros((k1.size, nphi, d, nloc))
+        dSn = np.zeros((k1.size, nphi, d, nloc))
         dAT = np.zeros((k1.size, nphi, nloc))
         tw = np.zeros((k2.size, nloc, nloc))
         dMv = np.zeros((nv, k1.size, nphi, m, nloc))
@@ -2509,6 +2545,8 @@ class MortarContact:
             dw,
             dg,
             dgxi,
+            dgn,
+            dgxin,
             Ns,
             dNs,
             Nm,
@@ -2518,6 +2556,7 @@ class MortarContact:
             vh,
             dvh,
             dS,
+            dSn,
             dAT,
             tw,
             dMv,
@@ -2535,29 +2574,34 @@ class MortarContact:
         )
         # the entries (group, slot) of a node taking part
         f1, m1 = np.divmod(k1, nmf)
-        gg, ii = np.nonzero(np.any(dAT != 0.0, axis=2) | np.any(dS != 0.0, axis=(2, 3)))
+        moved = np.any(dS != 0.0, axis=(2, 3)) | np.any(dSn != 0.0, axis=(2, 3))
+        gg, ii = np.nonzero(np.any(dAT != 0.0, axis=2) | moved)
         node = self.node_of[f1[gg], ii]
         cols = np.concatenate([self.slave.dofs[f1], self.master.dofs[m1]], axis=1)[gg]
-        dS, dAT, dMv = dS[gg, ii], dAT[gg, ii], dMv[:, gg, ii]
+        # ∂σ = a·dS − a_n·dS_n of the moving points (σ of _slip_since_t_n)
+        dsig = np.einsum("eac,ecj->eaj", self.frame_a[node], dS[gg, ii]) - np.einsum(
+            "eac,ecj->eaj", self.frame_a_n[node], dSn[gg, ii]
+        )
+        dAT, dMv = dAT[gg, ii], dMv[:, gg, ii]
         n, ndof = self.node_blocks.size, int(self.ranges[-1]) * self.bs
         keep = cols >= 0
         en = np.broadcast_to(node[:, None], cols.shape)[keep]
-        dS_rows = sp.csr_matrix(
+        dsig_rows = sp.csr_matrix(
             (
-                dS.transpose(1, 0, 2)[:, keep].ravel(),
-                ((en[None, :] * d + np.arange(d)[:, None]).ravel(), np.tile(cols[keep], d)),
+                dsig.transpose(1, 0, 2)[:, keep].ravel(),
+                ((en[None, :] * m + np.arange(m)[:, None]).ravel(), np.tile(cols[keep], m)),
             ),
-            shape=(n * d, ndof),
+            shape=(n * m, ndof),
         )
         dAT_rows = sp.csr_matrix((dAT[keep], (en, cols[keep])), shape=(n, ndof))
         order = np.argsort(node, kind="stable")
         return {
             "node": node,
             "cols": cols,
-            "dS": dS,
+            "dsig": dsig,
             "dAT": dAT,
             "dMv": dMv,
-            "dS_rows": dS_rows,
+            "dsig_rows": dsig_rows,
             "dAT_rows": dAT_rows,
             "order": order,
             "off": np.searchsorted(node[order], np.arange(n + 1)),
@@ -2570,21 +2614,22 @@ class MortarContact:
 
     def _moving_rows(self, mot: dict, node: int):
         """``moving`` of :func:`.friction.node_tangent` for one node, or None."""
-        d = self.gdim
-        rows, at = mot["dS_rows"][node * d : (node + 1) * d], mot["dAT_rows"][node]
+        m = self.gdim - 1
+        rows, at = mot["dsig_rows"][node * m : (node + 1) * m], mot["dAT_rows"][node]
         dofs = np.union1d(rows.indices, at.indices)
         if not dofs.size:
             return None
-        return dofs, rows[:, dofs].toarray(), at[:, dofs].toarray()[0]
+        return dofs, rows[:, dofs].toarray(), at[:, dofs].toarray()[0], self.sigma_t[node]
 
     def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val, mot=None) -> None:
         """K_T = Σ_I (∂S^I/∂u)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] for the consistent tangential
         recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
-        ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α and ∂p^K = −(row of the normal recovery). The rows
-        ∂σ^K and ∂p^K of every node are gathered (collective); non-symmetric.
+        ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α (:meth:`_slip_since_t_n`: a_n·S_n is constant at
+        fixed points) and ∂p^K = −(row of the normal recovery). The rows ∂σ^K and ∂p^K of
+        every node are gathered (collective); non-symmetric.
 
-        Segment integration (``mot`` from :meth:`_segment_slip_motion`): ∂S^K has the
-        part of the moving points, and M and A_T move too, ∂τ = Tsig(∂σ − ∂M γ) + Tp ∂p
+        Segment integration (``mot`` from :meth:`_segment_slip_motion`): ∂σ^K has the
+        part of the moving points, a·∂S − a_n·∂S_n, and M and A_T move too, ∂τ = Tsig(∂σ − ∂M γ) + Tp ∂p
         + TF(τ̂ ∂A_T − ∂M τ); the rows τ̂ ∂A_T − ∂M τ are gathered as well."""
         comm, rec = self.comm, self._trec
         d, m, bs = self.gdim, self.gdim - 1, self.bs
@@ -2617,7 +2662,7 @@ class MortarContact:
             if sel.size:
                 cols = mot["cols"][sel].ravel()
                 keep = cols >= 0
-                dsig = np.einsum("ac,ecj->eaj", self.frame_a[node], mot["dS"][sel]) - dMg[sel]
+                dsig = mot["dsig"][sel] - dMg[sel]
                 dF = self._trec.tau_hat[g][None, :, None] * mot["dAT"][sel][:, None, :] - dMt[sel]
                 for a in range(m):
                     rows_a = np.full(int(keep.sum()), g * m + a)
@@ -3312,7 +3357,7 @@ class MortarContact:
                 act, np.linalg.norm(self.gamma_t, axis=1), 0.0
             )
             slip = self.fstate == fr.SLIP
-            # Σ over slipping nodes of τ^I·σ^I (σ = a·S = A_T γ when lumped)
+            # Σ over slipping nodes of τ^I·σ^I (σ = a·S − a_n·S_n = A_T γ when lumped)
             local = float(np.sum(np.einsum("na,na->n", self.tau, self.sigma_t)[slip]))
             self.dissipation = self.comm.allreduce(local)
             if self._pending is not None:

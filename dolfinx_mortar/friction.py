@@ -32,8 +32,25 @@ lumped or the constrained normal recovery); the point integrals are in
   one-sided weighted slip S^I = ∫_{half support} Φ_I Δg had put the full Coulomb
   traction μ p_N on the axis node of a frictional Hertz half model, where the
   mirrored model has S^I = 0.
-- **Recovery** (lumped): γ_α^I = a_α^I · S^I / A_T^I, the tangential components
-  of the nodal average slip since t_n.
+- **Slip since the start of the step** (session 45): the tangential components of the
+  weighted slip, measured from t_n in the node's convected frame,
+
+      σ_α^I = a_α^I · S^I − a_{α,n}^I · S_n^I,
+
+  with S_n^I = Σ_e W_e x_{e,n} the same S-weights (same points, pairing set and Ψ_I) on
+  the t_n coordinates and a_{α,n}^I the node's frame (either kind, symmetry cuts
+  included) in the t_n configuration. At u = u_n, S^I = S_n^I is the weighted t_n gap
+  vector ∫Ψ_I d_n, d_n(ξ) = x¹_n(ξ) − x²_n(ζ_n) along the normal of the point's master
+  facet, which on a non-matching interface has a tangential part in the node's frame:
+  a·S alone counted it as a slip in every step, and the stick tractions of a held load
+  drifted step by step (docs/method-notes.md, "Slip since t_n"). σ = 0 at u = u_n
+  exactly, and a rigid motion R superposed on the step gives S = R S_n and a = R a_n, so
+  σ stays incrementally objective. With element and node integration the weights are
+  constant, a_n·S_n does not depend on u and the residual and tangent below are those of
+  a·S; with segment integration the weights move with the points and ∂σ gains
+  −a_n·∂S_n.
+- **Recovery** (lumped): γ_α^I = σ_α^I / A_T^I, the tangential components of the nodal
+  average slip since t_n.
 - **Return mapping** (:func:`return_mapping`): trial τ^tr = λ_T + ε_T γ,
   Φ = |τ^tr| − μ p_N; stick (Φ ≤ 0) τ = τ^tr, slip τ = μ p_N τ^tr/|τ^tr|; open
   nodes (p_N = 0) τ = 0. λ_T is the tangential multiplier: the traction of the
@@ -43,7 +60,8 @@ lumped or the constrained normal recovery); the point integrals are in
   variation of the frame is not part of the weak form (as the paper omits the
   variation of a_αβ); it IS part of the tangent, through t^I(u).
 - **Tangent** (:func:`node_tangent`): K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u, with
-  ∂t = a_αᵀ ∂τ_α + τ_α ∂a_α, ∂τ = D ∂γ + P ∂p_N, ∂γ_β = (a_β·∂S + S·∂a_β)/A_T,
+  ∂t = a_αᵀ ∂τ_α + τ_α ∂a_α, ∂τ = D ∂γ + P ∂p_N, ∂γ_β = (a_β·∂S + S·∂a_β)/A_T
+  (segment integration: also − a_{β,n}·∂S_n and − γ_β ∂A_T, the moving points),
   ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric. The contact term
   computes all nodes at once with the numba kernel
   :func:`dolfinx_mortar.kernels.friction.node_tangents`; :func:`node_tangent` is its
@@ -273,9 +291,11 @@ class MasterFrames:
 
     with the metric a_αβ = g_α·g_β, its inverse a^αβ and the contravariant basis
     g^α = a^αβ g_β (:meth:`covariant`). The nodal slip components are contravariant,
-    g_T^α = g^α·S^I/A_T^I: on an affine master facet exactly ζ̄^α − ζ_n^α of the paper's
-    eq. 2.2, and across master facets the physical-slip rule (S is the motion relative
-    to the t_n material point). The paper's return mapping in covariant components with
+    g_T^α = g^α·(σ_β ê_β)/A_T^I with σ_β = ê_β·S^I − ê_{β,n}·S_n^I (the slip since the
+    start of the step, module docstring): where the node's points faced one affine master
+    facet at t_n (d_n ⊥ ê_n, so ê_n·S_n = 0) exactly ζ̄^α − ζ_n^α of the paper's eq. 2.2,
+    and across master facets the physical-slip rule (S is the motion relative to the t_n
+    material point). The paper's return mapping in covariant components with
     the metric (eq. 2.8, :func:`covariant_return_mapping`) is carried out in an
     orthonormal basis ê_α of the same plane, convected with the master as g_α is:
 
@@ -511,9 +531,12 @@ def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_v
     a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
     :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs, s_w, f_dofs, f_dA as
     :func:`node_rows`; b_idx, b_val the row B^I. Dofs < 0 are dropped. ``moving`` = (dofs
-    (E,), dS (d, E), dA_T (E,)): the parts of ∂S and ∂A_T from moving integration points
-    (segment integration), so that ∂γ = (a·∂S + S·∂a)/A_T − γ ∂A_T/A_T; the left factor
-    (the residual weights) stays (∂S/∂u at fixed points).
+    (E,), dsig (m, E), dA_T (E,), sigma (m,)): the parts of ∂σ and ∂A_T from moving
+    integration points (segment integration), dsig = a·∂S − a_n·∂S_n (both S-weights
+    move), and the node's σ = a·S − a_n·S_n, so that
+    ∂γ = (a·∂S + S·∂a + dsig)/A_T − γ ∂A_T/A_T with γ = σ/A_T; the left factor (the
+    residual weights) stays (∂S/∂u at fixed points). Without ``moving`` a_n·S_n is
+    constant in u and σ is not needed.
     Returns (dofs (U,), K (U, U)).
     """
     m, d = a.shape
@@ -522,14 +545,14 @@ def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_v
     nu = U.size
     Brow = np.zeros(nu + 1)
     np.add.at(Brow, pos(b_idx), b_val)
-    dS = Srow.reshape(d, -1)
+    dgam = a @ Srow.reshape(d, -1) + np.einsum("c,acu->au", S, Frow)
     if moving is not None:
         j = pos(moving[0])
-        dS = dS + np.stack([np.bincount(j, moving[1][c], nu + 1) for c in range(d)])
+        dgam += np.stack([np.bincount(j, moving[1][al], nu + 1) for al in range(m)])
         at_row = np.bincount(j, moving[2], nu + 1)
-    dgam = (a @ dS + np.einsum("c,acu->au", S, Frow)) / AT
+    dgam /= AT
     if moving is not None:
-        dgam -= np.outer(a @ S / AT, at_row / AT)
+        dgam -= np.outer(moving[3] / AT, at_row / AT)
     dtau = D @ dgam - np.outer(Pd, kN * Brow)
     dt = a.T @ dtau + np.einsum("a,acu->cu", tau, Frow)
     K = Srow[:, :nu].T @ dt[:, :nu]

@@ -242,8 +242,9 @@ def test_master_frames(case):
 def test_covariant_return_mapping_is_the_orthonormal_one(case):
     """The paper's update in covariant components with the metric (eq. 2.8,
     friction.covariant_return_mapping), fed with the covariant multipliers L λ̂ and the
-    contravariant slip g^α·S/A_T of the master frames, gives the states and the traction
-    vector τ_α g^α of the orthonormal return mapping the code runs: τ_α = L_αi τ̂_i."""
+    contravariant components g^α·(γ̂_β ê_β) of the slip since t_n (γ̂ = σ/A_T, σ = ê·S −
+    ê_n·S_n) in the master frames, gives the states and the traction vector τ_α g^α of the
+    orthonormal return mapping the code runs: τ_α = L_αi τ̂_i."""
     problem = _problem(case, frame="master")
     term = _frictional_state(problem, case)
     frames = term.frames
@@ -253,7 +254,8 @@ def test_covariant_return_mapping_is_the_orthonormal_one(case):
     e = term.frame_a[use]
     L = np.einsum("uac,ubc->uab", g[sel], e)
     p, lam, eps = term.p[use], term.lmbda_t[use], term.eps_t[use]
-    gam_contra = np.einsum("uac,uc->ua", gc[sel], term.S[use]) / term.AT[use][:, None]
+    slip = np.einsum("ua,uac->uc", term.gamma_t[use], e)
+    gam_contra = np.einsum("uac,uc->ua", gc[sel], slip)
     tau_c, state_c = fr.covariant_return_mapping(
         np.einsum("uai,ui->ua", L, lam), gam_contra, G[sel], p, MU, eps
     )
@@ -332,12 +334,13 @@ def test_slip_integrals_match_reference(case, weights):
         assert np.allclose(term.t_weights, C)
     else:
         assert np.isinf(term.dual_area).all()
-    AT, S, W = slip_integrals_reference(
+    AT, S, Sn, W = slip_integrals_reference(
         term.ftype,
         term.master.ftype,
         term.ftype_phi,
         term.xs,
         term.xm,
+        *term._x_n,
         term.qp_xi,
         term.qp_w,
         term.qp_m,
@@ -350,6 +353,7 @@ def test_slip_integrals_match_reference(case, weights):
     )
     assert np.allclose(term.AT, AT, rtol=1e-13, atol=1e-15)
     assert np.allclose(term.S, S, rtol=1e-12, atol=1e-15)
+    assert np.allclose(term.S_n, Sn, rtol=1e-12, atol=1e-15)
     assert (term.AT > 0).sum() >= 3
     # S = Σ_k W_k x_k with the merged weights
     coords = {}
@@ -362,6 +366,18 @@ def test_slip_integrals_match_reference(case, weights):
     S_w = np.zeros_like(S)
     np.add.at(S_w, term.s_node, term.s_w[:, None] * np.array([coords[k] for k in term.s_key]))
     assert np.allclose(S_w, S, atol=1e-12)
+    # S_n = Σ_k W_k x_k,n: the same weights on the t_n coordinates
+    xs_n, xm_n = term._x_n
+    for f in range(term.slave.num_facets):
+        for a in range(term.slave.nodes_per_facet):
+            coords[term.slave.blocks[f, a]] = xs_n[f, a]
+    for f in range(term.master.num_facets):
+        for b in range(term.master.nodes_per_facet):
+            coords[term.master.blocks[f, b]] = xm_n[f, b]
+    Sn_w = np.zeros_like(S)
+    np.add.at(Sn_w, term.s_node, term.s_w[:, None] * np.array([coords[k] for k in term.s_key]))
+    assert np.allclose(Sn_w, Sn, atol=1e-12)
+    assert np.abs(Sn - S).max() > 1e-6  # the history u_n = 0.85 u: S_n ≠ S
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -411,8 +427,9 @@ def test_node_tangents_kernel_matches_reference(d):
 def test_slip_point_terms_match_reference(case):
     """kernels.friction.slip_point_terms against the NumPy reference geometry
     (kernels.reference): Δg(ξ) = x¹(ξ) − x²(ζ_n(ξ)), with ζ_n(ξ) the reference projection of
-    the t_n slave point on the t_n master facet, and its ξ-derivatives by central
-    differences; the shape functions and weights at the point (serial)."""
+    the t_n slave point on the t_n master facet, the t_n gap vector d_n(ξ) = x¹_n(ξ) −
+    x²_n(ζ_n(ξ)), and their ξ-derivatives by central differences; the shape functions and
+    weights at the point (serial)."""
     from dolfinx_mortar.kernels import reference as ref
     from dolfinx_mortar.kernels.friction import slip_point_terms
 
@@ -425,6 +442,8 @@ def test_slip_point_terms_match_reference(case):
     out = [
         np.zeros(sh)
         for sh in (
+            (n, d),
+            (n, k, d),
             (n, d),
             (n, k, d),
             (n, ns),
@@ -454,14 +473,14 @@ def test_slip_point_terms_match_reference(case):
         term.dual_area,
         *out,
     )
-    dg, dgxi, Ns, dNs, Nm, dNm, psi, dpsi, phi, dphi = out
+    dg, dgxi, dgn, dgxin, Ns, dNs, Nm, dNm, psi, dpsi, phi, dphi = out
     mt = term.master.ftype
 
-    def delta_g(f, mn, xi, zeta0):
+    def delta_g(f, mn, xi, zeta0, xs=term.xs, xm=term.xm):
         N, _, _ = ref.shape(term.ftype, xi)
         zeta = ref.project(N @ xs_n[f], xm_n[mn], mt, zeta0=zeta0)
         Nb, _, _ = ref.shape(mt, zeta)
-        return N @ term.xs[f] - Nb @ term.xm[mn], Nb
+        return N @ xs[f] - Nb @ xm[mn], Nb
 
     rows = np.flatnonzero(term.qp_mn[fr_, qr] >= 0)
     assert rows.size > 10
@@ -471,6 +490,7 @@ def test_slip_point_terms_match_reference(case):
         mn, xi, zn = term.qp_mn[f, q], term.qp_xi[f, q], term.qp_zn[f, q]
         g0, Nb = delta_g(f, mn, xi, zn)
         np.testing.assert_allclose(dg[r], g0, atol=1e-12)
+        np.testing.assert_allclose(dgn[r], delta_g(f, mn, xi, zn, xs_n, xm_n)[0], atol=1e-12)
         np.testing.assert_allclose(Nm[r], Nb, atol=1e-12)
         N, dN, _ = ref.shape(term.ftype, xi)
         np.testing.assert_allclose(Ns[r], N, atol=1e-12)
@@ -484,6 +504,8 @@ def test_slip_point_terms_match_reference(case):
             (gp, Np), (gm, Nmm) = delta_g(f, mn, xi + e, zn), delta_g(f, mn, xi - e, zn)
             np.testing.assert_allclose(dgxi[r, be], (gp - gm) / (2 * h), atol=1e-7)
             np.testing.assert_allclose(dNm[r, :, be], (Np - Nmm) / (2 * h), atol=1e-7)
+            gp, gm = (delta_g(f, mn, xi + sg * e, zn, xs_n, xm_n)[0] for sg in (1, -1))
+            np.testing.assert_allclose(dgxin[r, be], (gp - gm) / (2 * h), atol=1e-7)
 
 
 # ---------------------------------------------------------------- the tangent

@@ -9,26 +9,29 @@ configuration); its slip is its motion relative to that material point,
 
 evaluated with the CURRENT coordinates of the old master facet. Δg is linear in
 the current nodal coordinates (ξ, ζ_n and m_n are fixed during the step), it
-rotates with a superposed rigid motion (the tangential components taken in a
-convected frame are incrementally objective), and it needs no special rule
-when the projection moves to another master facet. Its normal component is
-discarded by the nodal frame (:mod:`dolfinx_mortar.friction`).
+rotates with a superposed rigid motion, and it needs no special rule when the
+projection moves to another master facet. At u = u_n it is the point's t_n gap
+vector d_n(ξ) = x¹_n(ξ) − x²_n(ζ_n; m_n), along the normal of the master facet m_n,
+not zero: the nodal slip is therefore measured from the start of the step,
+σ^I_α = a^I_α·S^I − a^I_{α,n}·S^I_n (:mod:`dolfinx_mortar.friction`), with S_n below.
 
 Nodal integrals over the owned mixed-field nodes I that touched at t_n (``node_ok``;
 points paired now AND at t_n), with the weight functions Ψ_I (the mixed basis Φ_I, or its
 dual basis on the facets of finite ``area``: ``tangential_weights``):
 
     A_T^I = Σ_q w_q J₀ Ψ_I(ξ_q),    S^I = Σ_q w_q J₀ Ψ_I(ξ_q) Δg(ξ_q)   (d-vector),
+    S_n^I = Σ_q w_q J₀ Ψ_I(ξ_q) d_n(ξ_q)   (the same weights on the t_n coordinates),
 
 and the constant weights W^I_k of S^I = Σ_k W^I_k x_k over the slave facet nodes
 (W = w J₀ Ψ_I N_a) and the old master facet nodes (W = −w J₀ Ψ_I N^m_b(ζ_n)), one
 entry per (node I, point, facet node): ``e_node``, ``e_key`` (global block of
 node k), ``e_dof`` (its d global dofs, −1 where constrained), ``e_w``.
 
-With segment integration the points move with u; :func:`slip_point_terms` gives the
-pieces of those derivatives along ξ (Δg, ∂Δg/∂ξ through the t_n projection, the shape
-functions and weights), which :mod:`dolfinx_mortar.contact` combines with the motion of
-the points.
+With element and node integration the weights, hence S_n, are constant in u. With
+segment integration the points move with u; :func:`slip_point_terms` gives the pieces of
+those derivatives along ξ (Δg and d_n, ∂Δg/∂ξ and ∂d_n/∂ξ through the t_n projection, the
+shape functions and weights), which :mod:`dolfinx_mortar.contact` combines with the
+motion of the points.
 """
 
 from __future__ import annotations
@@ -81,6 +84,8 @@ def slip_integrals(
     ftype_phi,
     xs,
     xm,
+    xs_n,
+    xm_n,
     qp_xi,
     qp_w,
     qp_m,
@@ -96,14 +101,21 @@ def slip_integrals(
     mdofs,
     AT,
     S,
+    Sn,
     e_node,
     e_key,
     e_dof,
     e_w,
 ):
-    """Fill A_T (n,), S (n, d) and the weight entries; returns the number of entries.
+    """Fill A_T (n,), S (n, d), S_n (n, d) and the weight entries; returns the number of
+    entries.
 
-    xs (nsf, ns, d), xm (nmf, nm, d) current coordinates; qp_xi (nsf, nq, ks), qp_w
+    S_n = Σ_q w_q J₀ Ψ_I(ξ_q) d_n(ξ_q) are the same S-weights applied to the t_n
+    coordinates, d_n(ξ) = x¹_n(ξ) − x²_n(ζ_n; m_n) the point's t_n gap vector (module
+    docstring): S = S_n at u = u_n.
+
+    xs (nsf, ns, d), xm (nmf, nm, d) current and xs_n, xm_n (same shapes) t_n
+    coordinates; qp_xi (nsf, nq, ks), qp_w
     (nsf, nq) weights with J₀; qp_m (nsf, nq) current pairing (−1: none), qp_mn, qp_zn
     (nsf, nq), (nsf, nq, km) the pairing at t_n; node_of (nsf, nphi); node_ok (n,) the nodes
     that take part (touching at t_n, see MortarContact); dual (nsf, nphi, nphi) the
@@ -132,8 +144,10 @@ def slip_integrals(
     dP = np.empty((9, ks))
     ddP = np.empty((9, ks, ks))
     dg = np.empty(d)
+    dgn = np.empty(d)
     AT[:] = 0.0
     S[:, :] = 0.0
+    Sn[:, :] = 0.0
     e = 0
     for f in range(nsf):
         use_dual = _use_dual(f, qp_w, qp_m, qp_mn, area)
@@ -146,11 +160,15 @@ def slip_integrals(
             _weights(ftype_phi, qp_xi[f, q], use_dual, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for c in range(d):
                 s = 0.0
+                sn = 0.0
                 for a in range(ns):
                     s += N[a] * xs[f, a, c]
+                    sn += N[a] * xs_n[f, a, c]
                 for b in range(nm):
                     s -= Nm[b] * xm[mn, b, c]
+                    sn -= Nm[b] * xm_n[mn, b, c]
                 dg[c] = s
+                dgn[c] = sn
             for i in range(nphi):
                 node = node_of[f, i]
                 if node < 0 or not node_ok[node]:
@@ -159,6 +177,7 @@ def slip_integrals(
                 AT[node] += wphi
                 for c in range(d):
                     S[node, c] += wphi * dg[c]
+                    Sn[node, c] += wphi * dgn[c]
                 for a in range(ns):
                     e_node[e] = node
                     e_key[e] = skeys[f, a]
@@ -194,6 +213,8 @@ def slip_point_terms(
     area,
     dg,
     dgxi,
+    dgn,
+    dgxin,
     Ns,
     dNs,
     Nm,
@@ -214,6 +235,10 @@ def slip_point_terms(
 
         ∂Δg/∂ξ_β = x¹,β(ξ) − Σ_b ∂_γ N^m_b(ζ_n) x_b · ∂ζ_n^γ/∂ξ_β,
         ∂ζ_n/∂ξ_β = (∂ζ_n/∂x¹_n) x¹_n,β(ξ)   (:func:`.gap.projection_derivative`);
+
+    dgn = d_n(ξ) (d,) and dgxin_β = ∂d_n/∂ξ_β (k, d): the same with the t_n coordinates
+    in place of the current ones, d_n(ξ) = x¹_n(ξ) − x²_n(ζ_n(ξ); m_n) (the point's t_n gap
+    vector, whose weighted sum is S_n of :func:`slip_integrals`);
 
     Ns, dNs (ns,), (ns, k): the slave shape functions and their ξ-derivatives at ξ;
     Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; psi, dpsi (nphi,),
@@ -296,18 +321,26 @@ def slip_point_terms(
                     dNm[row, b, be] = s
             for c in range(d):
                 s = 0.0
+                sn = 0.0
                 for a in range(ns):
                     s += N[a] * xs[f, a, c]
+                    sn += N[a] * xs_n[f, a, c]
                 for b in range(nm):
                     s -= Nb[b] * xm[mn, b, c]
+                    sn -= Nb[b] * xm_n[mn, b, c]
                 dg[row, c] = s
+                dgn[row, c] = sn
                 for be in range(k):
                     s = 0.0
+                    sn = 0.0
                     for a in range(ns):
                         s += dN[a, be] * xs[f, a, c]
+                        sn += dN[a, be] * xs_n[f, a, c]
                     for b in range(nm):
                         s -= dNm[row, b, be] * xm[mn, b, c]
+                        sn -= dNm[row, b, be] * xm_n[mn, b, c]
                     dgxi[row, be, c] = s
+                    dgxin[row, be, c] = sn
 
 
 @numba.njit(cache=True)
@@ -322,6 +355,8 @@ def slip_motion_blocks(
     dw,
     dg,
     dgxi,
+    dgn,
+    dgxin,
     Ns,
     dNs,
     Nm,
@@ -331,6 +366,7 @@ def slip_motion_blocks(
     vh,
     dvh,
     dS,
+    dSn,
     dAT,
     tw,
     dMv,
@@ -342,6 +378,7 @@ def slip_motion_blocks(
     taking part), with dA = Ψ_i dw + w ∂_βΨ_i dξ^β:
 
         dAT[g1[r], i] += dA,    dS[g1[r], i, c] += Δg_c dA + w Ψ_i ∂_βΔg_c dξ^β,
+        dSn[g1[r], i, c] += d_n,c dA + w Ψ_i ∂_βd_n,c dξ^β   (S_n's weights move too),
         tw[g2[r], a·d + c] += t_c (N_a dA + w Ψ_i ∂_βN_a dξ^β)            (slave node a),
         tw[g2[r], (ns + b)·d + c] −= t_c (N^m_b dA + w Ψ_i ∂_β[N^m_b] dξ^β) (t_n master node b),
         dMv[v, g1[r], i, α] += v_h,α dA + w Ψ_i ∂_β v_h,α dξ^β          ((∂M v)^I per value v),
@@ -349,10 +386,11 @@ def slip_motion_blocks(
     t = t_vec[slot_node[r, i]]. Inputs: g1, g2 (n,) group numbers (rows of a group share
     their local dofs: (facet, master) and (facet, master, t_n master)); slot_node (n, nphi);
     used (n,) bool; t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
-    :func:`.segment.segment_derivatives`; dg … dpsi from :func:`slip_point_terms`; vh
+    :func:`.segment.segment_derivatives`; dg … dpsi (dgn, dgxin: d_n, ∂d_n/∂ξ) from
+    :func:`slip_point_terms`; vh
     (nv, n, nphi, m), dvh (nv, n, nphi, k, m): the interpolated nodal values of the
     consistent tangential recoveries as seen by slot i (nv = 0: none). Outputs (added to):
-    dS (G1, nphi, d, nloc), dAT (G1, nphi, nloc), tw (G2, (ns + nm)·d, nloc), dMv
+    dS, dSn (G1, nphi, d, nloc), dAT (G1, nphi, nloc), tw (G2, (ns + nm)·d, nloc), dMv
     (nv, G1, nphi, m, nloc).
     """
     n, k, nloc = dxi.shape
@@ -383,9 +421,12 @@ def slip_motion_blocks(
             for c in range(d):
                 for j in range(nloc):
                     s = dg[r, c] * dA[j]
+                    sn = dgn[r, c] * dA[j]
                     for be in range(k):
                         s += wp * dgxi[r, be, c] * dxi[r, be, j]
+                        sn += wp * dgxin[r, be, c] * dxi[r, be, j]
                     dS[a1, i, c, j] += s
+                    dSn[a1, i, c, j] += sn
             for a in range(ns + nm):
                 for j in range(nloc):
                     if a < ns:
@@ -459,7 +500,9 @@ def node_tangents(
     (numba; :func:`dolfinx_mortar.friction.node_tangent` is the NumPy reference, one node
     at a time, and the module docstring there has the equations):
 
-        ∂γ = (a ∂S + S·∂a)/A_T,   ∂τ = D ∂γ − Pd kN B,   ∂t = aᵀ ∂τ + τ_α ∂a_α.
+        ∂γ = (a ∂S + S·∂a)/A_T,   ∂τ = D ∂γ − Pd kN B,   ∂t = aᵀ ∂τ + τ_α ∂a_α
+
+    (γ = σ/A_T, σ = a·S − a_n·S_n: at fixed points a_n·S_n does not depend on u).
 
     nodes (k,): node indices into a (n, m, d) frames, S (n, d) weighted slips, AT (n,),
     tau (n, m); per listed node D (k, m, m), Pd (k, m), kN (k,) and the row B as CSR
@@ -541,6 +584,8 @@ def slip_integrals_reference(
     ftype_phi,
     xs,
     xm,
+    xs_n,
+    xm_n,
     qp_xi,
     qp_w,
     qp_m,
@@ -551,7 +596,7 @@ def slip_integrals_reference(
     dual,
     area,
 ):
-    """NumPy reference of :func:`slip_integrals`: returns (A_T, S, W) with W a dict
+    """NumPy reference of :func:`slip_integrals`: returns (A_T, S, S_n, W) with W a dict
     {(node, slave|master, facet, local node): weight} (for tests)."""
     from .shape import REFERENCE_NODES
 
@@ -559,6 +604,7 @@ def slip_integrals_reference(
     n_nodes = node_ok.size
     AT = np.zeros(n_nodes)
     S = np.zeros((n_nodes, d))
+    Sn = np.zeros((n_nodes, d))
     W = {}
 
     def sh(ftype, xi):
@@ -580,16 +626,18 @@ def slip_integrals_reference(
             Nm = sh(ftype_m, qp_zn[f, q])
             Phi = C @ sh(ftype_phi, qp_xi[f, q])
             dg = N @ xs[f] - Nm @ xm[mn]
+            dgn = N @ xs_n[f] - Nm @ xm_n[mn]
             for i, node in enumerate(node_of[f]):
                 if node < 0 or not node_ok[node]:
                     continue
                 wphi = qp_w[f, q] * Phi[i]
                 AT[node] += wphi
                 S[node] += wphi * dg
+                Sn[node] += wphi * dgn
                 for a in range(N.size):
                     key = (node, "s", f, a)
                     W[key] = W.get(key, 0.0) + wphi * N[a]
                 for b in range(Nm.size):
                     key = (node, "m", mn, b)
                     W[key] = W.get(key, 0.0) - wphi * Nm[b]
-    return AT, S, W
+    return AT, S, Sn, W
