@@ -1040,3 +1040,151 @@ def test_a_3d_press_with_the_constrained_tangential_recovery(tmp_path):
     assert [st["newton_iterations"] for st in summary["steps"]] == [[3], [2], [7]]
     fx, fy, fz = summary["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
     assert 0.40 < np.hypot(fx, fy) / abs(fz) < 0.5
+
+
+# ---------------------------------------------------------------- a held load
+def _held_patch(dim, integration, frame, out, keep=False):
+    """The non-matching frictional patch (patch2d/patch3d, small strain, μ = 0.3): both
+    blocks' outer faces moved by Dirichlet fields, the upper one pressed by 0.02 and
+    sheared by 0.002 in 2 steps (t ≤ 1; in 3D its edge nodes reach the Coulomb cone), then
+    held for 4 steps (t = 1.5 … 3). Returns the steps of the summary and, per step, p_N
+    (n,), |p_T| (n,) of the slave nodes (rank 0's CSV, broadcast); with ``keep`` also the
+    problem at the end of the run (the caller destroys it)."""
+    from dolfinx_mortar.runner import run
+
+    d = dim
+    press = [0.002] + [0.0] * (d - 2) + [-0.02]
+
+    def field(u1):
+        def f(t, x):
+            return np.asarray(u1, float)[:, None] * min(t, 1.0) * np.ones_like(x[0])
+
+        return f
+
+    params = (
+        dict(L=1.0, H=0.5, n_lower=6, n_upper=5, n_y=2, margin=0.2, quads=True)
+        if d == 2
+        else dict(L=1.0, H=0.5, n_lower=3, n_upper=4, n_y=1, margin=0.2, quads=True)
+    )
+    data = {
+        "kinematics": "small",
+        "mesh": {"generator": f"patch{d}d", "params": params},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": MU,
+                "integration": integration,
+                "tangential_frame": frame,
+                "uzawa_tol": 1e-11,
+                "uzawa_max": 60,
+            }
+        ],
+        "steps": {"t_end": 3.0, "n": 6},
+        "solver": {"rtol": 1e-11},
+        "output": {"dir": str(out)},
+    }
+
+    held = []
+
+    def setup(problem):
+        problem.add_dirichlet_field("lower_bottom", field([0.0] * d))
+        problem.add_dirichlet_field("upper_top", field(press))
+        held.append(problem)
+
+    comm = MPI.COMM_WORLD
+    summary = run(parse_scene(data, pathlib.Path(".")), comm, out_dir=out, setup=setup)
+    if not keep:
+        held[0].destroy()
+    assert summary["status"] == "ok", summary.get("error")
+    steps = summary["steps"]
+    tables = None
+    if comm.rank == 0:
+        tables = []
+        for i in range(len(steps)):
+            tab = np.genfromtxt(out / f"contact_upper_bottom_{i + 1}.csv", delimiter=",", names=True)
+            pt = np.stack([tab[f"p_T{k}"] for k in range(d - 1)], axis=1)
+            tables.append((tab["p_N"], np.linalg.norm(pt, axis=1)))
+    tables = comm.bcast(tables, root=0)
+    return (steps, tables, held[0]) if keep else (steps, tables)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("frame", ["slave", "master"])
+@pytest.mark.parametrize("integration", ["element", "segment"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_tmp):
+    """Under a constant load the tractions stay where they are. On this non-matching
+    interface the weighted slip a·S of a node at u = u_n was the tangential part of its
+    weighted t_n gap vector (the master facets' normals are not the node's): a spurious
+    slip in every step, which moved |p_T| by ~1e-4 p_max and |F| by ~2e-6 per held step,
+    with 2–3 Newton iterations each, growing linearly (session 45). With the slip
+    measured from the start of the step, σ = a·S − a_n·S_n, a held step needs at most
+    one Newton iteration and changes nothing to 1e-8.
+
+    The first held step still moves the state a little (2D 7e-8 |F|, 3D 3e-6 |F|, where
+    nodes slipped): the t_n material points ζ_n at which the tangential traction acts on
+    the master are those of the last loading step's end, and its slip moved them; the
+    steps after it are compared. 1–3 ranks."""
+    out = shared_tmp / f"held{dim}d_{integration}_{frame}"
+    steps, tables = _held_patch(dim, integration, frame, out)
+    assert [s["t"] for s in steps] == [0.5, 1.0, 1.5, 2.0, 2.5, 3.0]
+    key = "upper_bottom:lower_top"
+    F = [np.array(s["contact_force"][key]) for s in steps]
+    pn0, pt0 = tables[2]  # the first held step's state
+    scale = np.abs(pn0).max()
+    assert np.abs(pt0).max() > 0.1 * MU * scale  # a sheared state
+    for k in range(3, 6):
+        pn, pt = tables[k]
+        assert np.abs(pn - pn0).max() <= 1e-8 * scale, (k, np.abs(pn - pn0).max() / scale)
+        assert np.abs(pt - pt0).max() <= 1e-8 * scale, (k, np.abs(pt - pt0).max() / scale)
+        assert np.linalg.norm(F[k] - F[2]) <= 1e-8 * np.linalg.norm(F[2])
+        assert sum(steps[k]["newton_iterations"]) <= 2, steps[k]["newton_iterations"]
+    # the first held step: the one-off move of the t_n material points, small
+    assert np.linalg.norm(F[2] - F[1]) <= 3e-5 * np.linalg.norm(F[1])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("frame", ["slave", "master"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_incremental_objectivity_on_a_held_step(dim, frame, shared_tmp):
+    """A rigid rotation superposed on a held step of a converged frictional run (the
+    non-matching patch of :func:`_held_patch`, at its last converged state): the slip
+    since t_n is zero with and without it (S = R S_n, a = R a_n), and the pressures, the
+    tangential traction components and the states are those of the step without it, the
+    traction vectors rotated. Before session 45 the held step itself had a spurious slip,
+    a_n·S_n ≠ 0 (the weighted t_n gap vector's tangential part)."""
+    out = shared_tmp / f"held_objectivity{dim}d_{frame}"
+    _, _, problem = _held_patch(dim, "element", frame, out, keep=True)
+    try:
+        term = problem.contacts[0]
+        problem.begin_step()  # a new held step from the converged state, u = u_n
+        term.update(problem.u)
+        comm = MPI.COMM_WORLD
+        h = comm.allreduce(float(term.h_node.max(initial=0.0)), op=MPI.MAX)
+        assert comm.allreduce(int((term.fstate > 0).sum())) >= 3
+        assert np.abs(term.gamma_t).max(initial=0.0) <= 1e-12 * h
+        # the old weighted slip a·S: not zero on this interface (what drifted)
+        aS = np.einsum("nac,nc->na", term.frame_a, term.S)
+        gam_old = np.abs(aS / np.maximum(term.AT, 1e-300)[:, None]).max(initial=0.0)
+        assert comm.allreduce(float(gam_old), op=MPI.MAX) > 1e-8 * h
+        p, tau, state, t = term.p.copy(), term.tau.copy(), term.fstate.copy(), term.t_vec.copy()
+        assert np.allclose(tau, term.lmbda_t, rtol=1e-12, atol=1e-12)  # τ = λ_T: no slip
+        Q = _rotation(dim, 0.6)
+        V = problem.V
+        X = V.tabulate_dof_coordinates()[:, :dim]
+        x = X + problem.u.x.array.reshape(-1, dim)
+        problem.u.x.array[:] = (x @ Q.T + 0.3 - X).ravel()
+        problem.u.x.scatter_forward()
+        term.update(problem.u)
+        assert np.abs(term.gamma_t).max(initial=0.0) <= 1e-10 * h
+        assert np.allclose(term.p, p, rtol=1e-9, atol=1e-9 * p.max(initial=1.0))
+        assert np.array_equal(term.fstate, state)
+        assert np.allclose(term.tau, tau, rtol=1e-8, atol=1e-9)
+        assert np.allclose(term.t_vec, t @ Q.T, rtol=1e-8, atol=1e-9)
+    finally:
+        problem.destroy()
