@@ -44,11 +44,11 @@ lumped or the constrained normal recovery); the point integrals are in
   facet, which on a non-matching interface has a tangential part in the node's frame:
   a·S alone counted it as a slip in every step, and the stick tractions of a held load
   drifted step by step (docs/method-notes.md, "Slip since t_n"). σ = 0 at u = u_n
-  exactly, and a rigid motion R superposed on the step gives S = R S_n and a = R a_n, so
-  σ stays incrementally objective. With element and node integration the weights are
-  constant, a_n·S_n does not depend on u and the residual and tangent below are those of
-  a·S; with segment integration the weights move with the points and ∂σ gains
-  −a_n·∂S_n.
+  exactly, and a rigid motion superposed on the t_{n+1} configuration turns S and a
+  alike and leaves a_n·S_n: σ stays incrementally objective. With element and node
+  integration the weights are constant, a_n·S_n does not depend on u and the residual
+  and tangent below are those of a·S; with segment integration the weights move with
+  the points and ∂σ gains −a_n·∂S_n.
 - **Recovery** (lumped): γ_α^I = σ_α^I / A_T^I, the tangential components of the nodal
   average slip since t_n.
 - **Return mapping** (:func:`return_mapping`): trial τ^tr = λ_T + ε_T γ,

@@ -1106,7 +1106,9 @@ def _held_patch(dim, integration, frame, out, keep=False):
     if comm.rank == 0:
         tables = []
         for i in range(len(steps)):
-            tab = np.genfromtxt(out / f"contact_upper_bottom_{i + 1}.csv", delimiter=",", names=True)
+            tab = np.genfromtxt(
+                out / f"contact_upper_bottom_{i + 1}.csv", delimiter=",", names=True
+            )
             pt = np.stack([tab[f"p_T{k}"] for k in range(d - 1)], axis=1)
             tables.append((tab["p_N"], np.linalg.norm(pt, axis=1)))
     tables = comm.bcast(tables, root=0)
