@@ -322,7 +322,8 @@ class TangentialRecovered(_LazyTangent):
 
     The tangent operator, built on first use: ``Tsig`` (n·m, n·m) = ∂τ/∂σ and ``Tp``
     (n·m, n) = ∂τ/∂p, dense, with the components of node I at rows I·m + α (σ^I_α =
-    a^I_α·S^I: the weighted slip in the node's frame; p: the normal pressures of the cone),
+    a^I_α·S^I − a^I_{α,n}·S^I_n: the weighted slip since t_n in the node's frame; p: the
+    normal pressures of the cone),
     and ``TF`` (n·m, n·m) = ∂τ/∂F at fixed M (W = M⁻¹ unconstrained, the linearised
     M-norm projection constrained; zero when lumped), with which a variation of M and A
     enters as ∂τ = Tsig(∂σ − ∂M γ) + TF(τ̂ ∂A − ∂M τ) (moving integration points).
@@ -453,7 +454,8 @@ def recover_tangential(
     r"""Tangential recovery of n slave nodes (docs/method-notes.md, "Tangential recoveries").
 
     With the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J dA₀ (Ψ the tangential weights, row
-    sums A^I = ∫Ψ_I dA₀) and the weighted slip σ^I_α = a^I_α·S^I in each node's frame:
+    sums A^I = ∫Ψ_I dA₀) and the weighted slip since t_n σ^I_α = a^I_α·S^I − a^I_{α,n}·S^I_n
+    in each node's frame (:meth:`.contact.MortarContact._slip_since_t_n`):
 
         M γ_α = σ_α,    τ̂^I = Coulomb(λ_T^I + ε_T^I γ^I; μ p^I),    F^I = A^I τ̂^I,
 
