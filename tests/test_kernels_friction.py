@@ -41,14 +41,16 @@ def test_slip_motion_blocks_matches_reference(dims, nv):
     w[1] = 0.0
     dxi, dw = rng.standard_normal((n, k, nloc)), rng.standard_normal((n, nloc))
     dg, dgxi = rng.standard_normal((n, d)), rng.standard_normal((n, k, d))
+    dgn, dgxin = rng.standard_normal((n, d)), rng.standard_normal((n, k, d))
     Ns, dNs = rng.standard_normal((n, ns)), rng.standard_normal((n, ns, k))
     Nm, dNm = rng.standard_normal((n, nm)), rng.standard_normal((n, nm, k))
     psi, dpsi = rng.standard_normal((n, nphi)), rng.standard_normal((n, nphi, k))
     vh, dvh = rng.standard_normal((nv, n, nphi, m)), rng.standard_normal((nv, n, nphi, k, m))
-    inputs = (g1, g2, slot_node, used, t_vec, w, dxi, dw, dg, dgxi)
+    inputs = (g1, g2, slot_node, used, t_vec, w, dxi, dw, dg, dgxi, dgn, dgxin)
     inputs += (Ns, dNs, Nm, dNm, psi, dpsi, vh, dvh)
     # the kernel adds to its outputs
     start = (
+        rng.standard_normal((G1, nphi, d, nloc)),
         rng.standard_normal((G1, nphi, d, nloc)),
         rng.standard_normal((G1, nphi, nloc)),
         rng.standard_normal((G2, (ns + nm) * d, nloc)),
@@ -57,11 +59,12 @@ def test_slip_motion_blocks_matches_reference(dims, nv):
     out = tuple(a.copy() for a in start)
     slip_motion_blocks(*inputs, *out)
     ref = kref.slip_motion_blocks(*inputs, G1, G2)
-    for name, a, a0, r in zip(("dS", "dAT", "tw", "dMv"), out, start, ref, strict=True):
+    for name, a, a0, r in zip(("dS", "dSn", "dAT", "tw", "dMv"), out, start, ref, strict=True):
         assert a.shape == r.shape, name
         close(a - a0, r)
-    assert np.abs(ref[0]).max() > 0.0 and np.abs(ref[2]).max() > 0.0
+    assert np.abs(ref[0]).max() > 0.0 and np.abs(ref[1]).max() > 0.0
+    assert np.abs(ref[3]).max() > 0.0
     # a group no used row reaches stays as it was
-    for g, G, a, a0 in ((g1, G1, out[1], start[1]), (g2, G2, out[2], start[2])):
+    for g, G, a, a0 in ((g1, G1, out[2], start[2]), (g2, G2, out[3], start[3])):
         idle = np.setdiff1d(np.arange(G), g[used])
         np.testing.assert_array_equal(a[idle], a0[idle])

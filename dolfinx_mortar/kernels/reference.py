@@ -530,6 +530,8 @@ def slip_motion_blocks(
     dw,
     dg,
     dgxi,
+    dgn,
+    dgxin,
     Ns,
     dNs,
     Nm,
@@ -543,8 +545,8 @@ def slip_motion_blocks(
 ):
     """NumPy reference of :func:`dolfinx_mortar.kernels.friction.slip_motion_blocks`, from
     its docstring's sums (vectorised over the rows, summed per group with ``np.add.at``).
-    Returns (dS (n_g1, nphi, d, nloc), dAT (n_g1, nphi, nloc), tw (n_g2, (ns + nm) d, nloc),
-    dMv (nv, n_g1, nphi, m, nloc)), the contributions alone (the kernel adds them)."""
+    Returns (dS, dSn (n_g1, nphi, d, nloc), dAT (n_g1, nphi, nloc), tw (n_g2, (ns + nm) d,
+    nloc), dMv (nv, n_g1, nphi, m, nloc)), the contributions alone (the kernel adds them)."""
     n, k, nloc = dxi.shape
     d = dg.shape[1]
     ns, nm, nphi = Ns.shape[1], Nm.shape[1], psi.shape[1]
@@ -557,6 +559,8 @@ def slip_motion_blocks(
     )
     dgx = np.einsum("rbc,rbj->rcj", dgxi, dxi)  # ∂_βΔg_c dξ^β
     dS_r = dg[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dgx[:, None]
+    dgxn = np.einsum("rbc,rbj->rcj", dgxin, dxi)  # ∂_βd_n,c dξ^β (S_n's weights move too)
+    dSn_r = dgn[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dgxn[:, None]
     # facet node weights: +(N_a dA + w Ψ ∂_βN_a dξ^β) (slave), −(…N^m_b…) (t_n master)
     Na = np.concatenate([Ns, -Nm], axis=1)
     dNa = np.einsum("rab,rbj->raj", np.concatenate([dNs, -dNm], axis=1), dxi)
@@ -566,12 +570,14 @@ def slip_motion_blocks(
     dv = np.einsum("vriba,rbj->vriaj", dvh, dxi)
     dM_r = vh[..., None] * dA[None, :, :, None, :] + wp[None, :, :, None, None] * dv
     dS = np.zeros((n_g1, nphi, d, nloc))
+    dSn = np.zeros((n_g1, nphi, d, nloc))
     dAT = np.zeros((n_g1, nphi, nloc))
     tw = np.zeros((n_g2, (ns + nm) * d, nloc))
     dMv = np.zeros((nv, n_g1, nphi, m, nloc))
     np.add.at(dS, g1, dS_r)
+    np.add.at(dSn, g1, dSn_r)
     np.add.at(dAT, g1, dA)
     np.add.at(tw, g2, tw_r)
     for v in range(nv):
         np.add.at(dMv[v], g1, dM_r[v])
-    return dS, dAT, tw, dMv
+    return dS, dSn, dAT, tw, dMv
