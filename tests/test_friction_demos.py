@@ -284,7 +284,7 @@ def test_ironing3d_short(shared_tmp):
 def test_twist3d_torque_plateau(shared_tmp):
     """Twisting a Hertz contact to full slip (coarse mesh h = 0.42, 7056 dofs, Uzawa to
     1e-2; ~75 s; on 2 ranks only: marker mpi2): the torque rises monotonically to the plateau (3π/16) μ P a
-    of the measured load, within 5 % (measured −3.76 %, the same with Uzawa to 1e-3; at
+    of the measured load, within 5 % (measured −3.10 % in session 45, −3.76 % in earlier sessions; at
     h = 0.3, −0.48 %), with all contact nodes but at most one slipping at the end. The
     demo's exact multiplier update: at most 20 Newton iterations per step, all Uzawa
     rounds together (measured; Aitken 16, in 65 s instead of 97 s on this coarse path,
