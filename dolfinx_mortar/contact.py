@@ -1517,6 +1517,11 @@ class MortarContact:
         self.lmbda_t, self.lmbda_t_committed = lam, lam.copy()
         self._hist_vec = None
 
+    def _has_tangential_area(self) -> np.ndarray:
+        """(n,) bool: the owned nodes with a tangential area, A_T^I > 1e-12 h_I^(d−1)
+        (local): the others take no part in the slip and carry no tangential traction."""
+        return self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+
     def _slip_since_t_n(self) -> np.ndarray:
         """σ (n, m): the tangential components of the weighted slip since the start of the
         step, in the node's convected frame (local; friction module docstring),
@@ -1529,7 +1534,7 @@ class MortarContact:
         motion superposed on the step leaves σ as it is. Zero at the nodes without a
         tangential area A_T. Its derivative: a·∂S + S·∂a, and with segment integration
         − a_n·∂S_n of the moving points too (:meth:`_segment_slip_motion`)."""
-        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        hasT = self._has_tangential_area()
         sigma = np.einsum("nac,nc->na", self.frame_a, self.S) - np.einsum(
             "nac,nc->na", self.frame_a_n, self.S_n
         )
@@ -1738,7 +1743,7 @@ class MortarContact:
         With ``frozen = None`` the states of the nodal law are computed free and only
         returned, with the law's traction τ̂ (n, m) for those states.
         """
-        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        hasT = self._has_tangential_area()
         sigma = self._slip_since_t_n()
         gam = sigma / np.where(hasT, self.AT, 1.0)[:, None]  # the lumped slip since t_n
         imposed = self._reentry(self.frozen if frozen == "current" else frozen, gam, hasT)
@@ -2359,7 +2364,7 @@ class MortarContact:
         fo, fdofs = self.frames.off, self.frames.dofs
         # predictor nodes (nothing in contact yet: tangent-only normal stiffness) get the
         # stick stiffness too, or a body held only by contact would be free tangentially
-        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        hasT = self._has_tangential_area()
         predictor = (
             (self.fstate == fr.OPEN) & (self.kcoef > 0.0) & (self.predictor_nodes > 0) & hasT
         )
@@ -2637,7 +2642,7 @@ class MortarContact:
         N = rec.tau.shape[0]
         ndof = int(self.ranges[-1]) * bs
         fo, fdofs = self.frames.off, self.frames.dofs
-        hasT = self.AT > 1e-12 * self.h_node ** (self.gdim - 1)
+        hasT = self._has_tangential_area()
         trip_s, trip_p, trip_f, local_rows = [], [], [], {}
         if mot is not None:
             dMg, dMt = mot["dMv"]  # (E, m, nloc): ∂M γ and ∂M τ
