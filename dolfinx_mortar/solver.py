@@ -682,11 +682,8 @@ class NewtonSolver:
 
     def _J(self, snes, x, A, P):
         # The line search may have evaluated F last at a trial point other than x: the
-        # contact pairing and nodal state must be those of x for a consistent tangent
-        # (re-computed only when they are not).
-        t0 = perf_counter()
-        self.problem.ensure_contact_at(x)
-        self.problem.timings["search"] += perf_counter() - t0
+        # contact pairing and nodal state must be those of x for a consistent tangent;
+        # problem.jacobian brings them there (re-computed only when they are not).
         self.problem.jacobian(x, A)
         first_iteration = snes.getIterationNumber() == 0
         if self._line_search_type() != "l2":  # the scene's, or a continuation's
