@@ -180,12 +180,7 @@ def test_node_rows_and_compress_rows_match_reference(ftypes):
     kmortar.node_rows(*args, kcoef, b_off, b_idx, b_val)
     np.testing.assert_array_equal(b_idx, r_idx)
     close(b_val, r_val)
-    c_off, c_idx, c_val = np.zeros_like(b_off), np.empty_like(b_idx), np.empty_like(b_val)
-    kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
-    rc_off, rc_idx, rc_val = kref.compress_rows(b_off, b_idx, b_val)
-    np.testing.assert_array_equal(c_off, rc_off)
-    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
-    close(c_val[: c_off[-1]], rc_val)
+    c_off, c_idx, c_val = _compressed(b_off, b_idx, b_val)
     ndof = 1 + max(b_idx.max(initial=0), 0)
     dense = np.zeros((b_count.size, ndof))
     row = np.repeat(np.arange(b_count.size), b_count)
@@ -199,6 +194,18 @@ def test_node_rows_and_compress_rows_match_reference(ftypes):
     assert (b_idx < 0).any() and c_off[-1] < b_off[-1]
 
 
+def _compressed(b_off, b_idx, b_val):
+    """compress_rows of the rows (b_off, b_idx, b_val), checked against its reference;
+    returns the kernel's (c_off, c_idx, c_val)."""
+    c_off, c_idx, c_val = np.zeros_like(b_off), np.empty_like(b_idx), np.empty_like(b_val)
+    kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+    rc_off, rc_idx, rc_val = kref.compress_rows(b_off, b_idx, b_val)
+    np.testing.assert_array_equal(c_off, rc_off)
+    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
+    close(c_val[: c_off[-1]], rc_val)
+    return c_off, c_idx, c_val
+
+
 def test_compress_rows_matches_reference():
     """Random rows with repeated dofs, dofs < 0 (−1 and others), empty rows and a row of
     negative dofs only."""
@@ -208,12 +215,7 @@ def test_compress_rows_matches_reference():
     b_idx = rng.integers(-3, 9, b_off[-1]).astype(np.int64)
     b_idx[b_off[7] : b_off[8]] = [-1, -2, -1]
     b_val = rng.standard_normal(b_off[-1])
-    c_off, c_idx, c_val = np.zeros_like(b_off), np.empty_like(b_idx), np.empty_like(b_val)
-    kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
-    rc_off, rc_idx, rc_val = kref.compress_rows(b_off, b_idx, b_val)
-    np.testing.assert_array_equal(c_off, rc_off)
-    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
-    close(c_val[: c_off[-1]], rc_val)
+    c_off, c_idx, c_val = _compressed(b_off, b_idx, b_val)
     assert c_off[8] == c_off[7] and c_off[1] == c_off[0] == 0
 
 
