@@ -28,9 +28,11 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
 import ufl
 from ufl.algorithms import expand_derivatives
 
+from . import compat
 from .errors import SceneError
 from .laws import registered_law
 
@@ -60,6 +62,21 @@ def quadrature_degree(model: str, degree: int, simplex: bool, affine: bool) -> i
     if model == "linear-elastic":
         return max(2 * (degree - 1), 1) if simplex else 2 * degree
     return 2 * degree if simplex else 2 * degree + 1
+
+
+def inversion_points(model: str, degree: int, cell_name: str, affine: bool) -> np.ndarray:
+    """The reference points (n, tdim) at which a state's det F is checked in the cells
+    of a region of ``model`` (``solver.NewtonSolver`` refuses a converged state with
+    det F <= 0 at one of them: docs/method-notes.md, "Inverted elements"): the points of
+    the quadrature rule its bulk forms use (:func:`quadrature_degree`), where the law is
+    evaluated, and the cell's vertices, which catch a Q1 cell inverted at a corner
+    between its Gauss points. det F is the ratio of the current and the reference
+    cell's Jacobian determinants; for a bilinear quadrilateral both are affine in the
+    reference coordinates, so a Q1 cell in 2D has det F <= 0 somewhere only if it has at
+    a vertex; a P1 simplex has one det F. A trilinear hexahedron or a P2 cell can fold
+    between the points checked, unseen."""
+    simplex = cell_name in ("triangle", "tetrahedron")
+    return compat.reference_points(cell_name, quadrature_degree(model, degree, simplex, affine))
 
 
 def strain_energy(model: str, E: float, nu: float, F):

@@ -155,6 +155,44 @@ def create_form(form: ufl.Form, jit_params: dict | None = None):
     return fem.form(form, jit_params=jit_params or {})
 
 
+def reference_points(cell_name: str, quadrature_degree: int) -> np.ndarray:
+    """The points of FFCx's default quadrature rule of ``quadrature_degree`` on the
+    reference cell ``cell_name`` ("triangle", "quadrilateral", "tetrahedron",
+    "hexahedron"), then the cell's vertices: (num_points + num_vertices, tdim) float
+    (local). The default rule is the one a form without a ``quadrature_rule`` metadata
+    integrates with (``ffcx.element_interface.create_quadrature``)."""
+    import basix
+
+    cell = basix.cell.string_to_type(cell_name)
+    points, _ = basix.make_quadrature(cell, quadrature_degree)
+    return np.vstack([points, basix.geometry(cell)])
+
+
+def point_expression(expr, points: np.ndarray):
+    """A compiled UFL expression ``expr`` at the reference ``points`` (n, tdim) of each
+    cell (``fem.Expression``; collective: FFCx compiles on the mesh's communicator)."""
+    return fem.Expression(expr, points)
+
+
+def evaluate_expression(expression, cells: np.ndarray) -> np.ndarray:
+    """The values of :func:`point_expression`'s ``expression`` in the local ``cells``
+    (int32): (len(cells), num_points × value size) float (local; the coefficients'
+    ghost values must be up to date)."""
+    return expression.eval(np.asarray(cells, dtype=np.int32))
+
+
+def push_forward(mesh, points: np.ndarray, cell_nodes: np.ndarray) -> np.ndarray:
+    """The physical coordinates (n, gdim) of the reference ``points`` (n, tdim) in the
+    cell whose geometry nodes are ``cell_nodes`` (nodes, gdim), in the order of the
+    geometry dofmap (local)."""
+    return np.asarray(mesh.geometry.cmap.push_forward(points, cell_nodes))
+
+
+def owned_cell_count(mesh) -> int:
+    """Number of cells this rank owns (they come first in the local numbering)."""
+    return mesh.topology.index_map(mesh.topology.dim).size_local
+
+
 def cell_geometry_nodes(mesh) -> np.ndarray:
     """Geometry dofmap as an array (num_cells, nodes_per_cell) of indices into
     ``mesh.geometry.x`` ((0, nodes_per_cell) on a rank that holds no cell: the node count

@@ -60,6 +60,16 @@ class FrozenStatesError(ConvergenceError):
         self.resume = resume
 
 
+class InvertedElementsError(ConvergenceError):
+    """A Newton solve converged to a state with inverted elements (det F <= 0 at a point
+    checked, ``problem.ContactProblem.min_det_F``; ``solver.NewtonSolver``): a failed
+    solve, so the step is cut back. ``det`` is the ``problem.DetF`` found."""
+
+    def __init__(self, message: str, det=None):
+        super().__init__(message)
+        self.det = det
+
+
 class OutputError(DolfinxMortarError):
     """A file of the run's output could not be written (an OSError on the rank that
     writes it: a full disk, a quota, the directory gone), raised on every rank."""

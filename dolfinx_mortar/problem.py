@@ -42,7 +42,7 @@ from scipy.sparse.csgraph import connected_components
 
 from . import compat
 from .assembly import MatrixPattern, RecordedValues, sorted_contains, unique_runs
-from .bulk import LINEAR_MODELS, internal_residual
+from .bulk import LINEAR_MODELS, internal_residual, inversion_points
 from .scene import problem_inputs
 
 log = logging.getLogger(__name__)
@@ -62,6 +62,31 @@ class _Dirichlet:
     constants: list
     bcs: list
     dofs_by_component: list  # owned local dofs of the boundary, per component (all gdim components)
+
+
+@dataclass
+class DetF:
+    """The smallest det F of a state over the points :meth:`ContactProblem.min_det_F`
+    checks, with where it is (the same on every rank)."""
+
+    #: the smallest det F (dimensionless; +inf where no rank holds a cell)
+    value: float
+    #: the point's coordinates X in the reference configuration (gdim,); empty with no cell
+    point: tuple[float, ...]
+    #: the region (cell group) of its cell ("" with no cell)
+    region: str
+    #: the number of points checked with det F <= 0, and of points checked, over all ranks
+    inverted: int
+    checked: int
+
+    def describe(self) -> str:
+        """``det F = -1 at X = (0.5, -0.25) in region 'lower'; 6 of 96 points checked
+        have det F <= 0`` (for messages)."""
+        where = ", ".join(f"{c:.4g}" for c in self.point)
+        return (
+            f"det F = {self.value:.3g} at X = ({where}) in region {self.region!r}; "
+            f"{self.inverted} of {self.checked} points checked have det F <= 0"
+        )
 
 
 class LinearBulk:
@@ -347,6 +372,9 @@ class ContactProblem:
         self._recorded_last = None
         self.t = 0.0
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
+        #: per region, (name, det F compiled at its points X, X, its owned cells); built
+        #: at the first :meth:`min_det_F` (:meth:`_inversion_checks`)
+        self._det_checks = None
 
     @property
     def small_strain(self) -> bool:
@@ -567,6 +595,63 @@ class ContactProblem:
         n = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
         d = self.u.x.array[:n] - u_old[:n]
         return float(np.sqrt(self.comm.allreduce(float(d @ d))))
+
+    def min_det_F(self, x: PETSc.Vec | None = None) -> DetF:
+        """The smallest det F, F = I + ∇u, over the owned cells at the points of
+        :func:`~dolfinx_mortar.bulk.inversion_points` (the bulk forms' quadrature points
+        and the cell vertices), at ``x`` (u ← x first) or at the current u (collective;
+        one evaluation of a compiled expression per region, compiled at the first call,
+        and one allgather). det F <= 0 is an inverted element: no deformation, though a
+        law finite there (saint-venant-kirchhoff: ψ(F) = ψ(RF) with R a reflection)
+        gives finite stresses, and Newton can converge to it (the solver refuses such a
+        state in finite kinematics: docs/method-notes.md, "Inverted elements")."""
+        if x is not None:
+            self._set_state(x)
+        else:
+            self._check_alive()
+        if self._det_checks is None:
+            self._det_checks = self._inversion_checks()
+        best = (np.inf, None, -1, -1)  # value, region index, cell, point
+        inverted = checked = 0
+        for i, (_, expr, X, cells) in enumerate(self._det_checks):
+            if cells.size == 0:
+                continue
+            vals = compat.evaluate_expression(expr, cells)  # (cells, points)
+            inverted += int(np.count_nonzero(vals <= 0.0))
+            checked += vals.size
+            k = int(np.argmin(vals))
+            if vals.flat[k] < best[0]:
+                best = (float(vals.flat[k]), i, int(cells[k // len(X)]), k % len(X))
+        point, region = (), ""
+        if best[1] is not None:
+            region, _, X, _ = self._det_checks[best[1]]
+            nodes = compat.cell_geometry_nodes(self.mesh)[best[2]]
+            coords = self.mesh.geometry.x[nodes, : self.gdim]
+            at = compat.push_forward(self.mesh, X[best[3] : best[3] + 1], coords)[0]
+            # a coordinate at round-off of the mesh's size is 0 (not "-4.163e-17")
+            point = tuple(float(c) if abs(c) > 1e-12 * self.extent else 0.0 for c in at)
+        found = self.comm.allgather((best[0], point, region, inverted, checked))
+        value, point, region, _, _ = min(found, key=lambda f: f[0])
+        return DetF(value, point, region, sum(f[3] for f in found), sum(f[4] for f in found))
+
+    def _inversion_checks(self) -> list:
+        """Per region, (name, det F compiled at its points X, X (n, tdim), its owned
+        cells) (:func:`~dolfinx_mortar.bulk.inversion_points`; collective: the expressions
+        are compiled on the mesh's communicator, one per distinct set of points)."""
+        mesh = self.mesh
+        affine = mesh.ufl_domain().ufl_coordinate_element().degree() == 1
+        detF = ufl.det(ufl.Identity(self.gdim) + ufl.grad(self.u))
+        owned = compat.owned_cell_count(mesh)
+        checks, compiled = [], {}
+        for name, model, _, _ in self.materials:
+            X = inversion_points(model, self.degree, mesh.topology.cell_name(), affine)
+            key = X.tobytes()
+            if key not in compiled:
+                compiled[key] = compat.point_expression(detF, X)
+            tag = self.mesh_data.cell_groups[name]
+            cells = compat.tagged_entities(self.mesh_data.cell_tags, tag)
+            checks.append((name, compiled[key], X, cells[cells < owned]))
+        return checks
 
     # ---------------------------------------------------------------- assembly
     def _check_alive(self) -> None:

@@ -33,6 +33,7 @@ from . import compat
 from .errors import (
     ConvergenceError,
     FrozenStatesError,
+    InvertedElementsError,
     SceneError,
     SceneTypeError,
     raise_on_every_rank,
@@ -360,6 +361,14 @@ _STALLED = (
 #: return a λ in (1/2, 1) where the residual is NaN again (the first press step of
 #: ironing2d, the full steps at its onset of gross slip); bt only shrinks λ.
 _NONFINITE = (PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN,)
+# A law finite at det F <= 0 (saint-venant-kirchhoff: ψ(RF) = ψ(F) for a reflection R, so
+# a mirrored element is stress-free) gives no NaN there, and Newton can converge to a
+# state with inverted elements (patch2d with SVK blocks, a press then a slide: a row of
+# the lower block mirrored, det F = −1, contact lost, status "ok"). In finite kinematics
+# a converged solve is therefore checked once, at its end (``problem.min_det_F``: the
+# bulk forms' quadrature points and the cell vertices), and one with det F <= 0 fails
+# (errors.InvertedElementsError): the step is cut back (NewtonSolver._check_inversion;
+# docs/method-notes.md, "Inverted elements").
 #: NewtonSolver counters that StepResult reports per step
 _SOLVE_COUNTERS = (
     "all_iterations",
@@ -818,14 +827,17 @@ class NewtonSolver:
                 with self._line_search_as("basic", s.max_it, dtol=ROUND_FULL_STEP_GROWTH):
                     reason = self._run(x, reuse)
                 its, norms = self._history()
-                if reason > 0 and np.all(np.isfinite(norms)):
+                converged = reason > 0 and np.all(np.isfinite(norms))
+                inverted = self._inversion(x) if converged else None
+                if converged and inverted is None:
                     return self._accept(x, its, norms)
                 self.full_step_restarts += 1
                 log.info(
-                    "Full Newton steps failed (SNES reason %s, %d iterations); the solve "
+                    "Full Newton steps failed (SNES reason %s, %d iterations%s); the solve "
                     "starts again with line search %s",
                     _reason_name(PETSc.SNES.ConvergedReason, reason),
                     its,
+                    "" if inverted is None else f", elements inverted: {inverted.describe()}",
                     self._line_search,
                 )
                 tried = its, norms
@@ -890,6 +902,7 @@ class NewtonSolver:
             if tried[0]:  # the restart's first norm is the attempt's first
                 its, norms = tried[0] + its, tried[1] + norms[1:]
             self._check_drift(x, tried[0] + its)
+            self._check_inversion(x, tried[0] + its)
             self._check_escape(x, touching, tried[0] + its)
             out = self._accept(x, its, norms)
             measure = getattr(p, "residual_round_off", None)
@@ -1011,6 +1024,32 @@ class NewtonSolver:
             f"the displacement reached {umax:.3g}, {umax / extent:.3g} times the mesh's "
             "extent: a body is free along a rigid motion that no [[dirichlet]] boundary "
             "and no contact holds (a singular Jacobian)"
+        )
+
+    def _inversion(self, x: PETSc.Vec):
+        """The ``problem.DetF`` of the solve's end x where it has det F <= 0 at a point
+        checked, else None; None without a check: small kinematics (``problem.small_strain``,
+        a linear bulk) or a problem without ``min_det_F`` (collective; the problem's u
+        becomes x)."""
+        p = self.problem
+        if getattr(p, "small_strain", True) or not hasattr(p, "min_det_F"):
+            return None
+        det = p.min_det_F(x)
+        return det if det.value <= 0.0 else None
+
+    def _check_inversion(self, x: PETSc.Vec, its: int) -> None:
+        """Raise InvertedElementsError (x destroyed, ``its`` counted) where the solve's
+        end x has inverted elements (:meth:`_inversion`; the note after :data:`_NONFINITE`;
+        collective)."""
+        det = self._inversion(x)
+        if det is None:
+            return
+        self.all_iterations += its
+        x.destroy()
+        raise InvertedElementsError(
+            f"elements inverted ({det.describe()}): Newton converged to a state that is "
+            "no deformation of the bodies",
+            det,
         )
 
     def _check_escape(self, x: PETSc.Vec, touching: list[bool], its: int) -> None:

@@ -530,3 +530,41 @@ def test_constrained_rows_are_scaled_by_the_bulk_stiffness(block_msh, model, kin
     assert np.allclose(d.array_r[:n][constrained], s, rtol=1e-12)
     for obj in (K, diag, x, b, ubar, A, d):
         obj.destroy()
+
+
+@pytest.mark.mpi
+def test_min_det_F_of_homogeneous_and_corner_folded_states(block_msh):
+    """ContactProblem.min_det_F on the 2 × 1 block of 3 × 3 Q1 cells (SVK): u = (F₀ − I)X
+    gives det F₀ at every point checked (72: 4 Gauss points and 4 vertices per cell),
+    0.6 for a stretch with shear, −1 at all 72 for the mirror y → −y. The corner node
+    (2, 1) moved to X₀ + s(X₃ − X₀) in its one cell [4/3, 2] × [2/3, 1] (X₀ the opposite
+    corner) gives det F = 1 + c(ξ + η), c = s − 1, in the cell's reference coordinates:
+    with s = 0.4, −0.2 at the moved vertex and 1 − 0.6 · 2 · 0.7887 = 0.054 at the
+    nearest Gauss point, so only the vertex sees the fold. On 1–3 ranks."""
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(2, n=3, quads=True)
+    data = _table(msh, 2, "saint-venant-kirchhoff", "finite", 0.0)
+    problem, _ = prepare(parse_scene(data, msh.parent), MPI.COMM_WORLD)
+    try:
+        for F0, expected, inverted in (
+            ([[1.2, 0.1], [0.0, 0.5]], 0.6, 0),
+            ([[1.0, 0.0], [0.0, -1.0]], -1.0, 72),
+        ):
+            H = np.array(F0) - np.eye(2)
+            problem.u.interpolate(lambda x, H=H: H @ x[:2])
+            det = problem.min_det_F()
+            assert det.value == pytest.approx(expected, rel=1e-12)
+            assert (det.inverted, det.checked, det.region) == (inverted, 72, "body")
+        s, corner, opposite = 0.4, np.array([2.0, 1.0]), np.array([4.0 / 3.0, 2.0 / 3.0])
+        u = problem.u.x.array.reshape(-1, 2)
+        X = problem.V.tabulate_dof_coordinates()[:, :2]
+        u[:] = 0.0
+        u[np.linalg.norm(X - corner, axis=1) < 1e-9] = (s - 1.0) * (corner - opposite)
+        det = problem.min_det_F()
+        assert det.value == pytest.approx(2 * s - 1, rel=1e-12)
+        assert det.point == pytest.approx(tuple(corner), abs=1e-12)
+        assert det.inverted == 1 and det.checked == 72
+        assert "det F = -0.2 at X = (2, 1) in region 'body'; 1 of 72 points" in det.describe()
+    finally:
+        problem.destroy()

@@ -225,6 +225,87 @@ def test_a_run_that_stalls_across_the_master_edge_says_so(shared_tmp):
     assert 'integration = "element", or a master surface that extends beyond' in s["error"]
 
 
+def _svk_press_slide(integration: str, penalty: float, press: float, slide: float) -> dict:
+    """patch2d (6 | 7 elements, 2 through the thickness, the master 0.2 wider than the
+    slave on each side), Saint Venant–Kirchhoff blocks (E = 100), μ = 0.5, lumped
+    recovery, pure penalty (uzawa_tol 0): a press of ``press`` at t = 1, then a slide of
+    ``slide`` at t = 2, in steps of 0.5 with 4 cutbacks. SVK is finite and stress-free at
+    det F = −1 (a mirrored element), so Newton can converge to a folded state."""
+    mat = {"model": "saint-venant-kirchhoff", "E": 100.0, "nu": 0.3}
+    path = [[0.0, 0.0, 0.0], [1.0, 0.0, -press], [2.0, slide, -press]]
+    return {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"n_lower": 6, "n_upper": 7, "n_y": 2, "margin": 0.2},
+        },
+        "material": [{"region": r, **mat} for r in ("lower", "upper")],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": 0.5,
+                "integration": integration,
+                "recovery": "lumped",
+                "penalty": penalty,
+                "uzawa_tol": 0.0,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": path},
+        ],
+        "steps": {"t_end": 2.0 if slide else 1.0, "n": 4 if slide else 2, "max_cutbacks": 4},
+    }
+
+
+def _cell_det_F(problem) -> float:
+    """The smallest det F at the cell midpoints (DG0 interpolation of det(I + ∇u), over
+    all ranks): a check of its own, not ContactProblem.min_det_F."""
+    import dolfinx.fem as fem
+    import ufl
+
+    Q = fem.FunctionSpace(problem.mesh, ("DG", 0))
+    J = fem.Function(Q)
+    F = ufl.Identity(problem.gdim) + ufl.grad(problem.u)
+    J.interpolate(fem.Expression(ufl.det(F), Q.element.interpolation_points()))
+    n = Q.dofmap.index_map.size_local
+    return problem.comm.allreduce(float(J.x.array[:n].min(initial=np.inf)), op=MPI.MIN)
+
+
+@pytest.mark.mpi
+def test_a_converged_state_with_inverted_elements_is_refused(shared_tmp):
+    """The SVK press and slide with a stiff penalty (3.85e8): the cutback of the first
+    slide step to t = 0.6875 converged (7 + 31 iterations) to a state with a row of the
+    lower block mirrored (det F = −1), contact lost (active 0, force 0), and the run went
+    on to status "ok" (2 ranks stopped instead). A converged solve with det F <= 0 now
+    fails (NewtonSolver._check_inversion): every kept step has det F > 0 (at the cell
+    midpoints, checked here independently) and the contact force of the press (8 active
+    nodes, 1.3–1.7); the run stops at t = 0.65625 on 1 and 2 ranks."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    box, dets = {}, []
+    data = _svk_press_slide("element", 3.85e8, 0.02, 0.05)
+    data["steps"] = {"t_end": 1.0, "n": 2, "max_cutbacks": 4}  # the slide's first step
+    s = run(
+        parse_scene(data, shared_tmp),
+        MPI.COMM_WORLD,
+        out_dir=shared_tmp / "inverted",
+        setup=lambda problem: box.update(p=problem),
+        progress=lambda step, record: dets.append(_cell_det_F(box["p"])),
+    )
+    box["p"].destroy()
+    steps = s["steps"]
+    assert len(dets) == len(steps) >= 4 and min(dets) > 0.5, dets
+    assert all(st["active_nodes"] == 8 for st in steps), [st["active_nodes"] for st in steps]
+    forces = [st["contact_force"]["upper_bottom:lower_top"][1] for st in steps]
+    assert min(forces) > 1.0, forces
+    if MPI.COMM_WORLD.size <= 2:
+        assert s["status"] == "failed", [st["t"] for st in steps]
+        assert [st["t"] for st in steps] == [0.5, 0.53125, 0.5625, 0.625, 0.65625]
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize(
     "integration,margin,expected",
