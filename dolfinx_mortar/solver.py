@@ -1684,9 +1684,33 @@ def _edge_hint(problem) -> str:
     )
 
 
-def _stop_hints(problem) -> str:
-    """The clauses of :func:`_open_contact_hint` and :func:`_edge_hint` (collective)."""
-    return _open_contact_hint(problem) + _edge_hint(problem)
+def _failed_inversion(problem, exc: ConvergenceError):
+    """The ``problem.DetF`` of a failed attempt's last state (the problem's u: the point
+    of the last residual evaluation, whose contact state the stop hints read) where it
+    has inverted elements, else None (collective). That of an InvertedElementsError
+    itself; None without a check (small kinematics, no ``min_det_F``), as in
+    :meth:`NewtonSolver._inversion`."""
+    if isinstance(exc, InvertedElementsError):
+        return exc.det
+    if getattr(problem, "small_strain", True) or not hasattr(problem, "min_det_F"):
+        return None
+    det = problem.min_det_F()
+    return det if det.value <= 0.0 else None
+
+
+def _stop_hints(problem, inverted=None, exc: ConvergenceError | None = None) -> str:
+    """The clauses of :func:`_open_contact_hint` and :func:`_edge_hint` (collective), or,
+    where the failed attempt's last state had inverted elements (``inverted``, a
+    ``problem.DetF`` from :func:`_failed_inversion`), a clause saying so instead: the
+    contact state of a folded iterate says nothing of the contact (an SVK slide whose
+    collapsed last iterate had 6 slave facets "across the master's edge", the master
+    0.2 wider than the slave on each side); "" where ``exc`` (an InvertedElementsError)
+    already says so (local then)."""
+    if inverted is None:
+        return _open_contact_hint(problem) + _edge_hint(problem)
+    if isinstance(exc, InvertedElementsError):
+        return ""
+    return f"; the last attempt ended with inverted elements ({inverted.describe()})"
 
 
 def _released_pins(info_all: list[dict]) -> bool:
@@ -1809,7 +1833,8 @@ class LoadStepper:
         from 0 after each converged step.
 
         Raises ConvergenceError (the last attempt's as its cause, the message ending with
-        the problem's hints: open pairs, points at a master edge) where another halving
+        the problem's hints: open pairs, points at a master edge; or, where the last
+        attempt's state had inverted elements, a clause saying so instead) where another halving
         would exceed ``max_cutbacks`` in a row, make the step shorter than
         2^-max_cutbacks of the load step it divides, or shorter than
         :data:`MIN_STEP_FRACTION` × ``t_end``. The problem is then back at the last
@@ -1868,6 +1893,8 @@ class LoadStepper:
                     resume=resume,
                 )
             except ConvergenceError as exc:
+                # read before u goes back: the stop hints need it (collective)
+                inverted = _failed_inversion(p, exc)
                 p.u.x.array[:] = saved
                 p.set_time(t)
                 p.restore_step()
@@ -1902,7 +1929,7 @@ class LoadStepper:
                 if cutbacks >= self.max_cutbacks:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks: "
-                        f"{exc}{_stop_hints(p)}"
+                        f"{exc}{_stop_hints(p, inverted, exc)}"
                     ) from exc
                 mid = 0.5 * (t + t_new)
                 step_of = load_step[next(s for s in pending if s in grid)]
@@ -1915,7 +1942,7 @@ class LoadStepper:
                         f"step to t = {t_new:g} failed after {cutbacks} cutbacks from t = "
                         f"{t:g}, and another would make the step shorter than "
                         f"1/2^{self.max_cutbacks} of the load step ({step_of:.3g}; "
-                        f"max_cutbacks = {self.max_cutbacks}): {exc}{_stop_hints(p)}"
+                        f"max_cutbacks = {self.max_cutbacks}): {exc}{_stop_hints(p, inverted, exc)}"
                     ) from exc
                 cutbacks += 1
                 if mid - t <= MIN_STEP_FRACTION * self.t_end:
@@ -1923,7 +1950,7 @@ class LoadStepper:
                     raise ConvergenceError(
                         f"step to t = {t_new:g} failed and the step size {t_new - t:.3g} "
                         f"cannot be halved further (minimum {MIN_STEP_FRACTION:g} t_end): "
-                        f"{exc}{_stop_hints(p)}"
+                        f"{exc}{_stop_hints(p, inverted, exc)}"
                     ) from exc
                 pending.insert(0, mid)
                 log.warning(

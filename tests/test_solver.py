@@ -281,7 +281,8 @@ def test_a_converged_state_with_inverted_elements_is_refused(shared_tmp):
     on to status "ok" (2 ranks stopped instead). A converged solve with det F <= 0 now
     fails (NewtonSolver._check_inversion): every kept step has det F > 0 (at the cell
     midpoints, checked here independently) and the contact force of the press (8 active
-    nodes, 1.3–1.7); the run stops at t = 0.65625 on 1 and 2 ranks."""
+    nodes, 1.3–1.7); the run stops at t = 0.65625 on 1 and 2 ranks, naming the inverted
+    elements of its last attempt."""
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
@@ -304,6 +305,29 @@ def test_a_converged_state_with_inverted_elements_is_refused(shared_tmp):
     if MPI.COMM_WORLD.size <= 2:
         assert s["status"] == "failed", [st["t"] for st in steps]
         assert [st["t"] for st in steps] == [0.5, 0.53125, 0.5625, 0.625, 0.65625]
+        assert "; the last attempt ended with inverted elements (det F = " in s["error"]
+
+
+@pytest.mark.mpi
+def test_the_stop_message_of_a_folded_attempt_names_no_master_edge(shared_tmp):
+    """The SVK press of the test above with segment integration: every cutback of the
+    step to t = 1 fails, the last attempt's iterate folded (det F < 0; on 2 ranks the
+    last attempt converged folded, and is refused). The stop message named "6 slave facets ... in contact across the master
+    surface's edge" (the master 0.2 wider than the slave on each side, every slave facet
+    fully paired at t = 0.5), counted on the folded iterate; it now says that the
+    attempt ended with inverted elements, and gives no edge hint."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = _svk_press_slide("segment", 3.85e8, 0.02, 0.05)
+    data["steps"] = {"t_end": 1.0, "n": 2, "max_cutbacks": 4}
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=shared_tmp / "folded")
+    assert s["status"] == "failed" and [st["t"] for st in s["steps"]] == [0.5], s["steps"]
+    assert "across the master surface's edge" not in s["error"], s["error"]
+    # the last attempt's iterate folded (serial), or it converged folded (2 ranks)
+    assert "inverted elements (det F = -" in s["error"] or s["error"].endswith(
+        "Newton converged to a state that is no deformation of the bodies"
+    ), s["error"]
 
 
 @pytest.mark.mpi
