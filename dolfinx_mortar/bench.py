@@ -69,6 +69,9 @@ import numpy as np
 from .errors import SceneError
 
 BENCHMARKS = ("hertz2d", "hertz3d", "patch2d", "cattaneo2d", "ironing2d")
+#: ``bench NAME`` -> the script of a source checkout that NAME runs with its own options
+#: (``cli._bench_script``): the hard-case sweep and the surface-locking study
+BENCH_SCRIPTS = {"hard": "bench_hard_cases.py", "locking": "bench_locking.py"}
 #: Benchmarks with friction: the unconstrained recovery is skipped (friction rejects it).
 FRICTIONAL = ("cattaneo2d", "ironing2d")
 #: ``bench all --levels K`` runs these benchmarks at min(K, cap) levels so that the whole
@@ -168,9 +171,8 @@ def _names(name: str) -> tuple[str, ...]:
     if name == "all":
         return BENCHMARKS
     if name not in BENCHMARKS:
-        raise SceneError(
-            "bench", f"unknown benchmark {name!r} (choose from {', '.join(BENCHMARKS)}, all)"
-        )
+        choices = ", ".join((*BENCHMARKS, "all", *BENCH_SCRIPTS))
+        raise SceneError("bench", f"unknown benchmark {name!r} (choose from {choices})")
     return (name,)
 
 

@@ -24,6 +24,7 @@ import sys
 import traceback
 from pathlib import Path
 
+from .bench import BENCH_SCRIPTS
 from .errors import OutputError, SceneError, every_rank_arrives, raise_on_every_rank
 
 
@@ -231,10 +232,6 @@ def _is_number(text: str) -> bool:
     except ValueError:
         return False
     return True
-
-
-#: ``bench NAME`` -> the script of a source checkout that NAME runs, with its own options
-BENCH_SCRIPTS = {"hard": "bench_hard_cases.py", "locking": "bench_locking.py"}
 
 
 def _bench_script(name: str, argv: list[str]) -> int:

@@ -15,7 +15,14 @@ import pytest
 from mpi4py import MPI
 
 from dolfinx_mortar import cli
-from dolfinx_mortar.bench import COLUMNS, RECOVERIES, cost_columns, fitted_rate, run_bench
+from dolfinx_mortar.bench import (
+    BENCHMARKS,
+    COLUMNS,
+    RECOVERIES,
+    cost_columns,
+    fitted_rate,
+    run_bench,
+)
 from dolfinx_mortar.errors import SceneError
 
 REQUIRED = (
@@ -136,6 +143,10 @@ def test_cli_bench_unknown_name(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert err[0].startswith("dolfinx-mortar: error: bench: unknown benchmark 'NOPE'")
+    # every name the command takes, the sweep and the locking study too
+    assert err[0].endswith(
+        "(choose from " + ", ".join((*BENCHMARKS, "all", "hard", "locking")) + ")"
+    )
     assert not (tmp_path / "x").exists()
 
 
