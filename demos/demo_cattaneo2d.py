@@ -17,9 +17,11 @@ same with their outer neighbours], as the peers' harness), its error against c i
 slave-element sizes, the L2 error of the nodal tangential traction against q(x), the L2
 error of the pressure, Newton iterations.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_cattaneo2d.py [--refine K] [--integration segment]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_cattaneo2d.py [--refine K] [--integration segment]
 """
 
 from __future__ import annotations

@@ -21,9 +21,11 @@ measured load) and their wall time (the first run's includes loading the compile
 kernels, about 0.5 s; the Mooney–Rivlin bulk costs about 3× the neo-Hookean one to
 assemble, its integrand being longer).
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_custom_law.py [--refine K] [--beta 0.3]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_custom_law.py [--refine K] [--beta 0.3]
 """
 
 from __future__ import annotations

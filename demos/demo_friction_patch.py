@@ -20,9 +20,11 @@ sides x = 0 and x = L.
 Both to round-off with ``--integration segment``, to the quadrature error of the
 element rule (≤ 2 %) with ``element``.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_friction_patch.py [--dim 3] [--mode slide] [--integration segment]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_friction_patch.py [--dim 3] [--mode slide] [--integration segment]
         [--uzawa-acceleration newton]
 """
 

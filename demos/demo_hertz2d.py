@@ -13,10 +13,12 @@ Hertz's p(x) = p0 sqrt(1 - x²/a²), a = 2 sqrt(P R*/(pi E*)), p0 = 2P/(pi a), w
 R* = R (flat block), E* = E/(2(1 - nu²)) and the MEASURED load P = 2 × the
 y-component of the contact force (BENCHMARKS.md: a = 0.9628, p0 = 6.612 at P = 10).
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_hertz2d.py [--refine K] [--order 2] [--integration segment]
-                                              [--tri] [--load P]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_hertz2d.py [--refine K] [--order 2] [--integration segment]
+                                          [--tri] [--load P]
 
 Known figures (h_contact = 0.1 ≈ a/10, Q1): L2 ≈ 1.9 %, p_max ≈ 0.3 %; 1.2 % L2 with Q2.
 P1 triangles (``--tri``) are stiffer at the same h: L2 ≈ 3.6 %, half-width −4.4 %.

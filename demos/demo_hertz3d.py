@@ -24,9 +24,11 @@ on a Delaunay triangulation of the slave nodes projected onto z = 0:
   printed as well;
 - ``l2``: ‖p_h - p‖/‖p‖ over the quarter disc r < 1.25 a.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_hertz3d.py [--refine K] [--integration segment] [--order 2]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_hertz3d.py [--refine K] [--integration segment] [--order 2]
 
 (``--order 2``: P2 tetrahedra, whose slave facets carry P1 mixed fields: the vertex
 functions of a P2 triangle integrate to zero.)

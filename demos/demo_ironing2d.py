@@ -51,14 +51,17 @@ summed per step); wall time. ``--plot`` writes F_x and F_y against the die posit
 u_x to ``ironing2d_forces.png`` in the output directory. A failed run reports the
 history up to the failure, then exits with an error.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    python3 demos/demo_ironing2d.py [--mu 0.3] [--press-steps 10] [--slide-steps 100]
+    . scripts/env.sh
+    $PY demos/demo_ironing2d.py [--mu 0.3] [--press-steps 10] [--slide-steps 100]
         [--slave die] [--integration segment] [--plot]
 """
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -184,6 +187,14 @@ def window_stats(s: np.ndarray, y: np.ndarray, h: float) -> dict:
         # at wavelength <= 2.2 sample spacings the sinusoids are (nearly) aliased: no value
         "amp_element": float(amplitude(h) / scale) if h >= 2.2 * ds else float("nan"),
     }
+
+
+def _percent(a: float, b: float, why: str) -> str:
+    """ "a %, b %" (3 decimals), or "n/a (``why``)" where the values are not defined
+    (NaN: :func:`window_stats` cannot resolve that wavelength)."""
+    if math.isnan(a) or math.isnan(b):
+        return f"n/a ({why})"
+    return f"{100 * a:.3f} %, {100 * b:.3f} %"
 
 
 def evaluate(summary: dict, mu: float, press: float, slide: float, h: float) -> dict:
@@ -348,7 +359,9 @@ def main(argv=None) -> dict:
             ),
             (
                 "amplitude at λ = h: F_x, F_y",
-                f"{100 * ox['amp_element']:.3f} %, {100 * oy['amp_element']:.3f} %",
+                _percent(
+                    ox["amp_element"], oy["amp_element"], "slide step > h / 2.2: λ = h aliased"
+                ),
             ),
         ]
     rows += [

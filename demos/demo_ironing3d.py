@@ -22,9 +22,11 @@ of F_x and F_z (relative range and detrended std, as in ``demo_ironing2d``) over
 window u_x ≥ 1 (gross slip), whether the whole path finished without a failed step,
 Newton iterations. ``--plot`` writes F_x and F_z against u_x to ``ironing3d_forces.png``.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_ironing3d.py [--refine 1] [--plot]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_ironing3d.py [--refine 1] [--plot]
 """
 
 from __future__ import annotations

@@ -5,9 +5,11 @@ slave node: to round-off with ``--integration segment``, within the quadrature
 error (<= 2 %) with ``--integration element`` (the default). ``--swap`` makes the
 coarser side the slave; ``--tri`` uses triangles.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_patch2d.py [--integration segment] [--swap] [--refine K]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_patch2d.py [--integration segment] [--swap] [--refine K]
 """
 
 from __future__ import annotations

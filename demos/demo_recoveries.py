@@ -15,9 +15,11 @@ pressures and the most negative one, oscillation index Σ|p_{i+1} − 2 p_i + p_
 the active nodes, Newton iterations and wall time. Saves ``p_profiles.png`` (p/p0 against
 x/a, one panel per integration, with the Hertz curve) in ``--out``.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_recoveries.py [--refine K] [--order 2] [--tri]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_recoveries.py [--refine K] [--order 2] [--tri]
 
 On the demo's quadrilaterals the lumped and constrained recoveries nearly coincide (the
 structured slave mesh); on triangles (``--tri``) the constrained one is clearly better.

@@ -22,9 +22,11 @@ L2 stress error falls like h^1.5 (BENCHMARKS.md "tied-curved": O(h²) facet gaps
 Prints, per level: the relative L2 stress error over both bodies ‖σ_h − σ‖/‖σ‖, the
 largest nodal pressure and shear errors over |σ_nn|, and the fitted rates.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_tiedcurved2d.py [--levels 4] [--refine K] [--integration segment]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_tiedcurved2d.py [--levels 4] [--refine K] [--integration segment]
 
 ``--refine K`` starts the levels at K (levels K .. K + levels − 1).
 """

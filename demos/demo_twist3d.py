@@ -12,9 +12,11 @@ the torque M_z = Σ (x R_y − y R_x) over the reactions R of ``sphere_top``; on
 contact node slips it stays on the plateau M = (3π/16) μ P a with
 a = (3 P R / (4 E*))^(1/3), E* = E/(2(1 − ν²)), from the measured P.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_twist3d.py [--refine K] [--integration segment]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_twist3d.py [--refine K] [--integration segment]
         [--uzawa-acceleration newton|aitken|...]
 
 The multipliers are updated by the exact (Newton) update between Uzawa rounds

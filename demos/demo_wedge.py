@@ -13,9 +13,11 @@ plateau F_x/F_y = (tan α + μ)/(1 − μ tan α) (0.41237 for μ = 0.3, 0.63158
 Metrics: the plateau ratio and its error, the step at which every node slips,
 the ratio history, Newton iterations.
 
-Run::
+Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
+lets Open MPI run as root and on fewer cores than ranks)::
 
-    mpirun -n 2 python3 demos/demo_wedge.py [--mu 0.5] [--integration segment]
+    . scripts/env.sh
+    mpirun -n 2 $PY demos/demo_wedge.py [--mu 0.5] [--integration segment]
 """
 
 from __future__ import annotations
