@@ -63,8 +63,9 @@ repository root, serially (``OMP_NUM_THREADS=1``)::
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_locking.py --out bench/out/locking
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_locking.py --quick --out /tmp/locking
 
-``--quick`` is a small subset (< 30 s serially): patch2d at ratios 1/4 and 4 with
-κ = 1 and 1e4 (Uzawa at ratio 4) and hertz2d at h_slave = 0.2, ratio 2, κ = 100.
+``--quick`` is a small subset (< 30 s serially once the numba kernels are compiled;
+about 2 min in a fresh clone, which compiles them first): patch2d at ratios 1/4 and 4
+with κ = 1 and 1e4 (Uzawa at ratio 4) and hertz2d at h_slave = 0.2, ratio 2, κ = 100.
 """
 
 from __future__ import annotations
@@ -561,7 +562,11 @@ def _positive(kind):
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="bench/out/locking", help="output directory")
-    ap.add_argument("--quick", action="store_true", help="a small subset (< 30 s serially)")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small subset (< 30 s serially with compiled kernels; ~2 min in a fresh clone)",
+    )
     ap.add_argument("--benchmarks", nargs="+", choices=BENCHMARKS, default=list(BENCHMARKS))
     positive_float, positive_int = _positive(float), _positive(int)
     ap.add_argument(
