@@ -2926,6 +2926,7 @@ class MortarContact:
         # rounds keeps free states
         self._carried = carry if changed or not done else None
         if done:
+            self._clear_unloaded(pmax, tau_law if self.frictional else None, info, True)
             return changed == 0, info
         if self.uzawa_acceleration.method == "newton":  # lumped (exact_update_applies)
             if changed:
@@ -2944,6 +2945,7 @@ class MortarContact:
                 self.lmbda, self.lmbda_t = self._exact_multipliers_fd(fstate, tau_law, info, rtol)
             else:
                 self.lmbda = self._exact_multipliers(d, info, self._forcing(EXACT_UPDATE_RTOL, rel))
+            self._clear_unloaded(pmax, None, info, False)
             return False, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
         x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
@@ -2956,7 +2958,53 @@ class MortarContact:
         self.lmbda = np.maximum(x[:n], 0.0)
         if self.frictional:
             self.lmbda_t = x[n:].reshape(self.lmbda_t.shape)
+        self._clear_unloaded(pmax, None, info, False)
         return False, info
+
+    def _clear_unloaded(
+        self, pmax: float, tau_law: np.ndarray | None, info: dict, converged: bool
+    ) -> None:
+        """The plain update λ ← p̂, λ_T ← τ̂ where it leaves the converged state as it is
+        (local; ``pmax``, the largest p̂ of the pair, is reduced over the ranks, so every
+        rank takes the same branch). Not with ``uzawa_tol = 0`` (pure penalty: λ stays 0,
+        λ_T is the history τ_n).
+
+        - ``pmax = 0`` (no node of the pair carries pressure, the round counts as
+          converged): every node takes λ ← p̂ = 0 and, with friction, λ_T ← τ̂ (``tau_law``:
+          the free law's traction, 0 where nothing is pressed). With p̂ = ⟨λ − εγ⟩ = 0,
+          λ ≤ εγ at every node with paired area, so p̂ stays 0 with λ = 0 and the state
+          (the residual, the tangent) does not change: no solve follows. Without it the
+          multipliers of the last state in contact survived any number of open steps and
+          pressed at re-contact (a ghost pressure p̂ = λ − εγ > 0 at γ > 0).
+        - every round (``converged``: the round converged, no update; otherwise after the
+          update): a node without paired area (a slave node beyond the master's edge;
+          ``has_area``) takes λ = 0, λ_T = 0, its p̂ and τ̂ whatever its multipliers; such
+          a node does not enter the residual, so its multipliers only mattered where
+          it came back into contact. Elsewhere a converged round keeps its multipliers.
+
+        Where a multiplier changed on a converged round, ``info["cleared_multipliers"]``
+        gives the number of nodes (collective count) and the acceleration's history
+        (:class:`UzawaAcceleration`) restarts: its last x is no longer the iterate."""
+        if self.uzawa_tol == 0.0:
+            return
+        nodes = np.ones(self.lmbda.shape, bool) if pmax <= 0.0 else ~self.has_area
+        stale = nodes & (self.lmbda != 0.0)
+        if self.frictional:
+            stale |= nodes & np.any(self.lmbda_t != 0.0, axis=1)
+        if pmax <= 0.0:  # a converged round (rel = 0)
+            self.lmbda = np.maximum(self.p_hat, 0.0)
+            if self.frictional:
+                self.lmbda_t = tau_law.copy()
+        else:
+            self.lmbda = np.where(nodes, 0.0, self.lmbda)
+            if self.frictional:
+                self.lmbda_t = np.where(nodes[:, None], 0.0, self.lmbda_t)
+        if not converged:  # after an update: part of the round's change
+            return
+        cleared = self.comm.allreduce(int(np.count_nonzero(stale)))
+        if cleared:
+            info["cleared_multipliers"] = cleared
+            self._reset_acceleration()
 
     def _forcing(self, rtol: float, change: float) -> float:
         """GMRES's relative tolerance for an exact update of a round whose relative

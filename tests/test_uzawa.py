@@ -644,3 +644,73 @@ def test_the_exact_update_refactorizes_after_a_state_change(tmp_path_factory):
     assert step["stick_nodes"] == 25 and step["slip_nodes"] == 0
     assert step["uzawa_rounds"] <= 7 and step["cutbacks"] == 0, step["uzawa_rounds"]
     assert any(u.get("refactorized") for u in updates), updates
+
+
+def _press_lift_touch(friction: float, recovery: str) -> dict:
+    """patch2d (neo-Hookean blocks, finite strain, element integration): the upper block
+    pressed by 0.02 (t = 1), lifted 0.02 above the touch in one step (t = 1.5: the
+    contact opens from full pressure), held there (t = 2), brought back to the touch (t
+    = 2.5) and pressed by 0.02 again (t = 3)."""
+    mats = [
+        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ]
+    path = [[0, 0, 0], [1, 0, -0.02], [1.5, 0, 0.02], [2, 0, 0.02], [2.5, 0, 0], [3, 0, -0.02]]
+    return {
+        "kinematics": "finite",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 6, "n_upper": 7, "n_y": 2}},
+        "material": mats,
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": friction,
+                "integration": "element",
+                "recovery": recovery,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0, 0, 0], [3, 0, 0]]},
+            {"boundary": "upper_top", "path": path},
+        ],
+        "steps": {"t_end": 3.0, "n": 6},
+    }
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "friction, recovery", [(0.0, "constrained"), (0.3, "constrained"), (0.3, "lumped")]
+)
+def test_open_contact_keeps_no_multipliers(friction, recovery, tmp_path_factory, monkeypatch):
+    """A round in which no node of the pair carries pressure (p̂ = 0 everywhere) counted
+    as converged and returned before the update, so λ (and λ_T) kept the values of the
+    last state in contact through any number of open steps, and at re-contact they
+    pressed as a ghost pressure p̂ = λ − εγ > 0 at γ > 0 (``MortarContact.uzawa_update``,
+    ``_clear_unloaded``). Pressed, lifted off in one step, held open and brought back to
+    the touch: the multipliers committed while open were those of the press (max 2.57),
+    and the step back to the touch took 9 + 14 + 6 + 5 Newton iterations (constrained
+    recovery, μ = 0 and 0.3; lumped 10 + 1) to push the blocks λ/ε apart and release
+    them again; now λ = λ_T = 0 while open and that step takes 4 + 1 + 1 (lumped 4). The contact opens completely,
+    so the second press starts from no history and ends in the first press's state:
+    the same force at t = 3 as at t = 1. 1–3 ranks."""
+    from dolfinx_mortar.contact import MortarContact
+
+    seen = []
+    commit = MortarContact.commit_step
+
+    def record(self):
+        commit(self)
+        lt = float(np.abs(self.lmbda_t).max(initial=0.0)) if self.frictional else 0.0
+        local = max(float(np.abs(self.lmbda).max(initial=0.0)), lt)
+        seen.append(self.comm.allreduce(local, op=MPI.MAX))
+
+    monkeypatch.setattr(MortarContact, "commit_step", record)
+    summary = _run_scene(_press_lift_touch(friction, recovery), tmp_path_factory, "lift")
+    steps = summary["steps"]
+    assert [st["t"] for st in steps] == pytest.approx([0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+    assert all(st["cutbacks"] == 0 for st in steps)
+    force = [next(iter(st["contact_force"].values())) for st in steps]
+    assert force[1][1] > 2.0  # pressed at t = 1, open at t = 1.5 and 2
+    assert force[2] == [0.0, 0.0] and force[3] == [0.0, 0.0]
+    assert seen[1] > 2.0 and seen[2] == 0.0 and seen[3] == 0.0, seen
+    assert sum(steps[4]["newton_iterations"]) <= 8, steps[4]["newton_iterations"]
+    assert np.allclose(force[5], force[1], rtol=1e-6, atol=1e-8), (force[5], force[1])
