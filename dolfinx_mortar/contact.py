@@ -1975,7 +1975,12 @@ class MortarContact:
             )
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
-        """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored)."""
+        """Add K_c to ``A`` with global indices (constrained dofs are −1 and ignored).
+
+        Counts the Jacobians of the Newton solve in ``_jacobians``, once per call: the
+        chattering control's freezes of the QP free set (constrained recovery) and of the
+        stick/slip states (friction) read it (FREEZE_AFTER). Local."""
+        self._jacobians += 1
         self._watch_pairing()
         if self.recovery == "lumped":
             self._watch_contact_set()
@@ -2044,8 +2049,8 @@ class MortarContact:
             if self.recovery == "constrained":
                 # chattering control: after FREEZE_AFTER Jacobians the QP's free set can only
                 # grow (no node leaves it within the solve); uzawa_update re-checks it
-                # against the plain QP when the solve has converged
-                self._jacobians += 1
+                # against the plain QP when the solve has converged (_jacobians counts
+                # the Jacobians of the solve, this one included: add_jacobian)
                 if self._jacobians >= self.freeze_after:
                     self.qp_frozen = self._recovered.free.copy()
         if self.frictional:
@@ -2318,8 +2323,8 @@ class MortarContact:
                 keys.append((ab[:, None] * nb + cb[None, :]).ravel())
 
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
-        """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric."""
-        self._jacobians += 1
+        """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric.
+        ``_jacobians`` counts this Jacobian already (:meth:`add_jacobian`)."""
         if self.frozen is None:  # the chattering control's freeze is still ahead
             norm = np.linalg.norm(self.tau_law, axis=1)
             dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]

@@ -714,3 +714,65 @@ def test_open_contact_keeps_no_multipliers(friction, recovery, tmp_path_factory,
     assert seen[1] > 2.0 and seen[2] == 0.0 and seen[3] == 0.0, seen
     assert sum(steps[4]["newton_iterations"]) <= 8, steps[4]["newton_iterations"]
     assert np.allclose(force[5], force[1], rtol=1e-6, atol=1e-8), (force[5], force[1])
+
+
+def _press_slide() -> dict:
+    """A helper's scene (session 46): patch2d without margin (neo-Hookean, finite strain,
+    μ = 0.3, element integration, constrained recovery), the upper block pressed by 0.02
+    (t = 1) and slid by 1.3 towards the master's end (t = 2), to t = 1.5 in steps of
+    0.5: the step to 1.5 fails (27 iterations) and is cut back."""
+    data = _press_lift_touch(0.3, "constrained")
+    path = [[0, 0, 0], [1, 0, -0.02], [2, 1.3, -0.02]]
+    data["dirichlet"][1] = {"boundary": "upper_top", "path": path}
+    data["steps"] = {"t_end": 1.5, "n": 3, "max_cutbacks": 4}
+    return data
+
+
+def test_the_chattering_control_counts_each_jacobian_once(tmp_path_factory, monkeypatch):
+    """A frictional pair with the constrained normal recovery counted every Newton
+    Jacobian twice in ``MortarContact._jacobians`` (``_add_jacobian``'s QP branch and
+    ``_add_tangential_jacobian``), so the QP free set froze at the 5th Jacobian of a solve
+    and the stick/slip states at the 4th instead of FREEZE_AFTER = 8. The press and slide
+    off the master's end of ``_press_slide`` (constrained recovery, μ = 0.3), whose slide
+    step takes solves of 27–35 Jacobians: in every solve the free set freezes at the 8th
+    Jacobian, and the stick/slip states not before it unless a slip reversal froze them
+    (lumped tangential recovery). Serial (the rule is per term and reads no rank)."""
+    from dolfinx_mortar import friction as fr
+    from dolfinx_mortar.contact import FREEZE_AFTER, MortarContact
+
+    solves = []
+    begin, add = MortarContact.begin_solve, MortarContact.add_jacobian
+
+    def begin_solve(self):
+        begin(self)
+        solves.append({"start_frozen": self.frozen is not None, "jacobians": []})
+
+    def add_jacobian(self, A):
+        add(self, A)
+        if not solves:  # the runner's warm-up, before any solve
+            return
+        reversed_ = getattr(self, "_reversed", None)
+        solves[-1]["jacobians"].append(
+            (
+                self.qp_frozen is not None,
+                self.frozen is not None,
+                bool(reversed_ is not None and np.any(reversed_ & (self.fstate == fr.SLIP))),
+            )
+        )
+
+    monkeypatch.setattr(MortarContact, "begin_solve", begin_solve)
+    monkeypatch.setattr(MortarContact, "add_jacobian", add_jacobian)
+    _run_scene(_press_slide(), tmp_path_factory, "count")
+    long_ = [s for s in solves if len(s["jacobians"]) >= FREEZE_AFTER]
+    assert len(long_) >= 2, [len(s["jacobians"]) for s in solves]
+    for s in solves:
+        jac = s["jacobians"]
+        qp = [k + 1 for k, j in enumerate(jac) if j[0]]
+        assert qp == list(range(FREEZE_AFTER, len(jac) + 1)), (len(jac), qp)
+        if s["start_frozen"]:
+            continue
+        first = next((k + 1 for k, j in enumerate(jac) if j[1]), None)
+        if first is not None and first < FREEZE_AFTER:
+            assert jac[first - 1][2], (first, len(jac))  # frozen early: a slip reversal
+        if len(jac) >= FREEZE_AFTER:
+            assert first is not None and first <= FREEZE_AFTER
