@@ -458,7 +458,12 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
 
     lam, gamma (n, m) tangential multiplier and mixed slip; p (n,) normal pressure;
     active (n,) the normal active set (a node touching with p = 0 is active: it sticks
-    when τ^tr = 0 and otherwise slips with τ = 0 and ∂τ/∂p = μ s);
+    when τ^tr = 0 and otherwise slips with τ = 0 and ∂τ/∂p = μ s). A node with p < 0 (the
+    constrained normal recovery with its free set frozen by the chattering control:
+    p = M_𝒫𝒫⁻¹F alternates in sign) has no Coulomb cone and counts as open whatever
+    ``active`` and ``frozen`` say: τ = 0, D = 0, Pd = 0 (the Coulomb radius is
+    μ max(p, 0); before session 46 such a node slipped with τ = μ p s, a traction along
+    its slip);
     mu friction coefficient; eps_t (n,) tangential penalty (stress per length);
     frozen: None or (states (n,), directions (n, m) or None) to impose where states ≥ 0
     (the chattering control of :class:`~dolfinx_mortar.contact.MortarContact`): a frozen
@@ -472,6 +477,9 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     Pd (n, m) = ∂τ/∂p_N; state is the one used (frozen where imposed).
     """
     n, m = gamma.shape
+    # a negative nodal pressure has no Coulomb cone: the node is open for the law (τ = 0,
+    # no tangent, no imposed state), so that the radius is μ max(p, 0) and ∂τ/∂p = μ s H(p)
+    active = active & (p >= 0.0)
     trial = lam + eps_t[:, None] * gamma
     norm = np.linalg.norm(trial, axis=1)
     slip = active & (norm - mu * p > (0.0 if tol is None else tol))

@@ -529,7 +529,8 @@ def recover_tangential(
 
     def constrained_tangent():
         PR = _blockdiag(dPz) * np.repeat(1.0 / np.diag(Mh), m)[None, :]
-        rhs_p = PR @ dF_p + _column_blocks(dPc) * mu
+        # ∂c/∂p = μ H(p): a negative pressure has no cone (radius μ max(p, 0))
+        rhs_p = PR @ dF_p + _column_blocks(dPc * (p[idx] >= 0.0)[:, None]) * mu
         TF = np.linalg.solve(J, PR)
         return embed(TF @ dF_sig, np.linalg.solve(J, rhs_p), TF)
 

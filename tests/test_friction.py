@@ -508,6 +508,39 @@ def test_slip_point_terms_match_reference(case):
             np.testing.assert_allclose(dgxin[r, be], (gp - gm) / (2 * h), atol=1e-7)
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_return_mapping_without_a_cone_in_tension(d):
+    """p < 0 (a mixed normal recovery) has no Coulomb cone: the node is open whatever its
+    normal state and imposed state, τ = D = ∂τ/∂p = 0 (central differences in p and γ
+    agree); p ≥ 0 is unchanged."""
+    rng = np.random.default_rng(5)
+    n, m = 40, d - 1
+    lam, gam = rng.normal(size=(n, m)), rng.normal(size=(n, m))
+    p = rng.random(n) * 4 - 2  # half in tension
+    eps = 1.0 + rng.random(n)
+    active = np.ones(n, bool)
+    tension = p < 0
+    tau, state, D, Pd = fr.return_mapping(lam, gam, p, active, MU, eps)
+    assert tension.sum() >= 10
+    assert np.all(state[tension] == fr.OPEN) and np.all(tau[tension] == 0.0)
+    assert np.all(D[tension] == 0.0) and np.all(Pd[tension] == 0.0)
+    ref = fr.return_mapping(
+        lam[~tension], gam[~tension], p[~tension], active[~tension], MU, eps[~tension]
+    )
+    assert np.array_equal(ref[0], tau[~tension]) and np.array_equal(ref[1], state[~tension])
+    # imposed stick and slip states do not apply in tension either
+    for frozen_state in (fr.STICK, fr.SLIP):
+        frozen = (np.full(n, frozen_state), np.tile(np.eye(m)[:1], (n, 1)))
+        tau_f, state_f, D_f, Pd_f = fr.return_mapping(lam, gam, p, active, MU, eps, frozen=frozen)
+        assert np.all(state_f[tension] == fr.OPEN) and np.all(tau_f[tension] == 0.0)
+        assert np.all(D_f[tension] == 0.0) and np.all(Pd_f[tension] == 0.0)
+    h = 1e-7  # the pressures keep their sign within h
+    assert np.abs(p).min() > 10 * h
+    tp = fr.return_mapping(lam, gam, p + h, active, MU, eps)[0]
+    tm = fr.return_mapping(lam, gam, p - h, active, MU, eps)[0]
+    assert np.allclose((tp - tm) / (2 * h), Pd, atol=1e-6)
+
+
 # ---------------------------------------------------------------- the tangent
 FD_CASES = [
     ("hertz2d-P1", "element", "lumped"),
@@ -622,6 +655,70 @@ def test_frictional_tangent_with_tangential_recovery(case, recovery, t_recovery,
         # (a closed cone, p = 0, keeps a round-off traction below it: recovery.cone_qp)
         bound = np.maximum(MU * term.p * (1 + 1e-10), term._slip_tol) + 1e-14
         assert np.all(np.linalg.norm(term.tau, axis=1) <= bound)
+    _check_tangent(problem, term)
+
+
+def _tensile_state(problem, case):
+    """A state with negative nodal pressures at active nodes (constrained normal recovery):
+    the QP's free set frozen to every node, as the chattering control freezes it after
+    FREEZE_AFTER Jacobians, and nodal penalty pressures p̂ = 10 near contact with a dip to
+    0.05 at the centre of the tangential zone, so that p = M_𝒫𝒫⁻¹F is negative there. Tangential
+    multipliers of 0.5 μ|p| (stick) at the tangential node with the largest pressure and
+    1.5 μ|p| (slip) at the others, those in tension included. The choices
+    go by reference node positions: the same state on any partition."""
+    comm = MPI.COMM_WORLD
+    term = _frictional_state(problem, case)
+    term.qp_frozen = np.ones(comm.allreduce(term.node_blocks.size), bool)
+    f, i = term._node_at
+    X = term.slave.X[f, i]
+    phase = X @ np.array([37.0, 11.0, 5.0])[: problem.gdim]
+    near = term.has_area & (term.gamma < 0.3 * term.h_node)
+    # the dip: the node of the tangential zone closest to its centre
+    zone = np.concatenate(comm.allgather(X[near & term._has_tangential_area()]))
+    centre = zone[np.argmin(np.linalg.norm(zone - zone.mean(axis=0), axis=1))]
+    dip = np.linalg.norm(X - centre, axis=1) < 1e-12
+    target = np.where(near, np.where(dip, 0.05, 10.0), -1.0)
+    term.lmbda = term.eps * term.gamma + target  # p̂ = target where it is > 0
+    term.update(problem.u)
+    m = term.lmbda_t.shape[1]
+    angle = 2.0 * phase
+    direction = np.stack([np.cos(angle), np.sin(angle)], axis=1)[:, :m]
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    tz = term.active & term._has_tangential_area() & (term.p > 0)
+    pmax = comm.allreduce(float(term.p[tz].max(initial=0.0)), op=MPI.MAX)
+    scale = np.where(term.p >= pmax, 0.5, 1.5) * MU * np.maximum(np.abs(term.p), 1e-3)
+    term.lmbda_t = direction * scale[:, None] - term.eps_t[:, None] * term.gamma_t
+    term.update(problem.u)
+    return term
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "case, integration, t_recovery",
+    [
+        ("hertz2d-P1", "element", "lumped"),
+        ("hertz2d-P1", "segment", "lumped"),
+        ("hertz3d-P1", "element", "lumped"),
+        ("hertz3d-P1", "segment", "lumped"),
+        ("hertz2d-P1", "element", "constrained"),
+        ("hertz3d-P1", "segment", "unconstrained"),
+    ],
+)
+def test_a_node_in_tension_has_no_coulomb_cone(case, integration, t_recovery):
+    """Constrained normal recovery with a frozen free set: an active node (p̂ > 0) whose
+    recovered pressure p is negative is open for the friction law, τ̂ = 0 (before
+    session 46 it slipped with τ̂ = μ p s, a traction along its slip), and the tangent
+    stays exact there (no ∂τ/∂p)."""
+    comm = MPI.COMM_WORLD
+    problem = _problem(case, integration, recovery="constrained", t_recovery=t_recovery)
+    term = _tensile_state(problem, case)
+    tension = term.active & (term.p < 0.0) & term._has_tangential_area()
+    trial = term.lmbda_t + term.eps_t[:, None] * term.gamma_t
+    # the trial traction lies outside any cone there: the old law slipped
+    assert np.all(np.linalg.norm(trial[tension], axis=1) > term._slip_tol[tension])
+    assert comm.allreduce(int(tension.sum())) >= 1
+    assert np.all(term.fstate[tension] == fr.OPEN)
+    assert np.all(term.tau_law[tension] == 0.0)
     _check_tangent(problem, term)
 
 
