@@ -1027,15 +1027,9 @@ class NewtonSolver:
         )
 
     def _inversion(self, x: PETSc.Vec):
-        """The ``problem.DetF`` of the solve's end x where it has det F <= 0 at a point
-        checked, else None; None without a check: small kinematics (``problem.small_strain``,
-        a linear bulk) or a problem without ``min_det_F`` (collective; the problem's u
-        becomes x)."""
-        p = self.problem
-        if getattr(p, "small_strain", True) or not hasattr(p, "min_det_F"):
-            return None
-        det = p.min_det_F(x)
-        return det if det.value <= 0.0 else None
+        """:func:`_inverted_state` of the problem at the solve's end x (collective; the
+        problem's u becomes x)."""
+        return _inverted_state(self.problem, x)
 
     def _check_inversion(self, x: PETSc.Vec, its: int) -> None:
         """Raise InvertedElementsError (x destroyed, ``its`` counted) where the solve's
@@ -1684,18 +1678,25 @@ def _edge_hint(problem) -> str:
     )
 
 
+def _inverted_state(problem, x: PETSc.Vec | None = None):
+    """The ``problem.DetF`` of the state x (None: the problem's current u) where it has
+    det F <= 0 at a point checked, else None; None without a check: small kinematics
+    (``problem.small_strain``, a linear bulk) or a problem without ``min_det_F``
+    (collective; with x the problem's u becomes x)."""
+    if getattr(problem, "small_strain", True) or not hasattr(problem, "min_det_F"):
+        return None
+    det = problem.min_det_F(x)
+    return det if det.value <= 0.0 else None
+
+
 def _failed_inversion(problem, exc: ConvergenceError):
     """The ``problem.DetF`` of a failed attempt's last state (the problem's u: the point
     of the last residual evaluation, whose contact state the stop hints read) where it
-    has inverted elements, else None (collective). That of an InvertedElementsError
-    itself; None without a check (small kinematics, no ``min_det_F``), as in
-    :meth:`NewtonSolver._inversion`."""
+    has inverted elements, else None (collective): that of an InvertedElementsError
+    itself, otherwise :func:`_inverted_state`."""
     if isinstance(exc, InvertedElementsError):
         return exc.det
-    if getattr(problem, "small_strain", True) or not hasattr(problem, "min_det_F"):
-        return None
-    det = problem.min_det_F()
-    return det if det.value <= 0.0 else None
+    return _inverted_state(problem)
 
 
 def _stop_hints(problem, inverted=None, exc: ConvergenceError | None = None) -> str:
