@@ -532,6 +532,20 @@ def test_the_warm_up_leaves_no_state_behind(tmp_path_factory, monkeypatch):
         assert np.allclose(fw, fc, rtol=1e-10, atol=1e-12)
 
 
+def _neo_hookean_blocks() -> list[dict]:
+    """The ``material`` list of the patch generators' two blocks, neo-Hookean (E = 100,
+    ν = 0.3)."""
+    return [
+        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ]
+
+
+def _patch_pair(**keys) -> list[dict]:
+    """The ``contact`` list of the patch generators' pair (slave ``upper_bottom``, master
+    ``lower_top``) with the given scene keys."""
+    return [{"slave": "upper_bottom", "master": "lower_top", **keys}]
+
+
 def test_a_3d_frictional_press_takes_the_exact_update(tmp_path_factory):
     """ "auto" on a 3D frictional pair with lumped recoveries is the exact update since
     session 41. A coarse tetrahedral press with μ = 0.3 (stick-dominated): its plain
@@ -539,23 +553,13 @@ def test_a_3d_frictional_press_takes_the_exact_update(tmp_path_factory):
     at a change of 4.6e-5 after 20 rounds whatever its size (6 cutbacks, the run
     stopped), and from session 39 on Aitken switched to the exact update after 8 rounds
     (11 or 10 a step). The exact update from the start takes 5 (measured)."""
-    mats = [
-        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
-    ]
     data = {
         "mesh": {
             "generator": "patch3d",
             "params": {"n_lower": 3, "n_upper": 4, "n_y": 1, "quads": False},
         },
-        "material": mats,
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": 0.3,
-                "integration": "segment",
-            }
-        ],
+        "material": _neo_hookean_blocks(),
+        "contact": _patch_pair(friction=0.3, integration="segment"),
         "dirichlet": [
             {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]},
             {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.01]]},
@@ -601,25 +605,14 @@ def test_the_exact_update_refactorizes_after_a_state_change(tmp_path_factory):
 
         return value
 
-    mats = [
-        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
-    ]
     data = {
         "kinematics": "finite",
         "mesh": {
             "generator": "patch3d",
             "params": {"L": 1.0, "H": 0.5, "n_lower": 3, "n_upper": 4, "n_y": 1, "margin": 0.2},
         },
-        "material": mats,
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": 0.3,
-                "integration": "segment",
-                "uzawa_tol": 1e-10,
-            }
-        ],
+        "material": _neo_hookean_blocks(),
+        "contact": _patch_pair(friction=0.3, integration="segment", uzawa_tol=1e-10),
         "steps": {"t_end": 1.5, "n": 3},
         "solver": {"rtol": 1e-11},
     }
@@ -651,23 +644,12 @@ def _press_lift_touch(friction: float, recovery: str) -> dict:
     pressed by 0.02 (t = 1), lifted 0.02 above the touch in one step (t = 1.5: the
     contact opens from full pressure), held there (t = 2), brought back to the touch (t
     = 2.5) and pressed by 0.02 again (t = 3)."""
-    mats = [
-        {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
-    ]
     path = [[0, 0, 0], [1, 0, -0.02], [1.5, 0, 0.02], [2, 0, 0.02], [2.5, 0, 0], [3, 0, -0.02]]
     return {
         "kinematics": "finite",
         "mesh": {"generator": "patch2d", "params": {"n_lower": 6, "n_upper": 7, "n_y": 2}},
-        "material": mats,
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": friction,
-                "integration": "element",
-                "recovery": recovery,
-            }
-        ],
+        "material": _neo_hookean_blocks(),
+        "contact": _patch_pair(friction=friction, integration="element", recovery=recovery),
         "dirichlet": [
             {"boundary": "lower_bottom", "path": [[0, 0, 0], [3, 0, 0]]},
             {"boundary": "upper_top", "path": path},
@@ -689,9 +671,9 @@ def test_open_contact_keeps_no_multipliers(friction, recovery, tmp_path_factory,
     the touch: the multipliers committed while open were those of the press (max 2.57),
     and the step back to the touch took 9 + 14 + 6 + 5 Newton iterations (constrained
     recovery, μ = 0 and 0.3; lumped 10 + 1) to push the blocks λ/ε apart and release
-    them again; now λ = λ_T = 0 while open and that step takes 4 + 1 + 1 (lumped 4). The contact opens completely,
-    so the second press starts from no history and ends in the first press's state:
-    the same force at t = 3 as at t = 1. 1–3 ranks."""
+    them again; now λ = λ_T = 0 while open and that step takes 4 + 1 + 1 (lumped 4). The
+    contact opens completely, so the second press starts from no history and ends in the
+    first press's state: the same force at t = 3 as at t = 1. 1–3 ranks."""
     from dolfinx_mortar.contact import MortarContact
 
     seen = []
