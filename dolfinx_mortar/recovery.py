@@ -213,9 +213,11 @@ def recover(
     weighted gap, multiplier and penalty; has (n,) bool: nodes with paired area (the
     others get γ = p = 0 and no tangent). ``free`` (constrained only): nodes that stay in
     the free set: the QP's free set 𝒫 is replaced by 𝒫 ∪ ``free`` when it lacks some of
-    them (p is then M_𝒫𝒫⁻¹F_𝒫 on the union, 0 elsewhere, not necessarily ≥ 0). The
-    contact term's chattering control uses it so that the set can only grow within a
-    Newton solve.
+    them (p is then M_𝒫𝒫⁻¹F_𝒫 on the union, 0 elsewhere, not necessarily ≥ 0). A kept
+    node whose nodal law is open (F_I = A^I p̂^I = 0) and whose p_I on the union is < 0
+    leaves it again (repeated until none does): the returned ``free`` lacks it. The
+    contact term's chattering control uses ``free`` so that the set can only grow within
+    a Newton solve, except for such nodes.
 
     ``predictor`` (unconstrained only): (tol, h), h (n,) nodal sizes: while NO node
     carries pressure, the nodes of :func:`near_contact` get the tangent of an active node
@@ -274,11 +276,19 @@ def recover(
         raise ValueError(f"unknown recovery {method!r}")
     ph, fmask, lu_free, its = nonnegative_qp(Mh, F[idx])
     if free is not None and not np.all(fmask[free[idx]]):
+        # a node of the union whose nodal law is open (F_I = A p̂ = 0) and whose p is < 0
+        # there leaves it (hysteresis: a kept node stays while p ≥ 0 or F_I > 0)
         fmask = fmask | free[idx]
-        sub = np.flatnonzero(fmask)
-        ph = np.zeros(idx.size)
-        lu_free = _factor(sp.csr_matrix(Mh)[sub][:, sub])
-        ph[sub] = lu_free.solve(F[idx][sub])
+        Fh = F[idx]
+        while True:
+            sub = np.flatnonzero(fmask)
+            ph = np.zeros(idx.size)
+            lu_free = _factor(sp.csr_matrix(Mh)[sub][:, sub])
+            ph[sub] = lu_free.solve(Fh[sub])
+            drop = fmask & (Fh <= 0.0) & (ph < 0.0)
+            if not drop.any():
+                break
+            fmask &= ~drop
     p[idx] = ph
     fidx = idx[fmask]
     free_all = np.zeros(n, bool)

@@ -173,7 +173,7 @@ def test_paired_fraction_is_the_paired_reference_measure(ftype):
 def test_constrained_with_imposed_free_set():
     """The chattering control keeps nodes in the QP's free set: with the converged set the
     result is the QP's; with a wider set, p solves M_𝒫𝒫 p = F on the union (and may be
-    negative there)."""
+    negative there at a node with p̂ > 0)."""
     rng = np.random.default_rng(5)
     M, A, G, lam, eps = _random_state(31, rng)
     has = np.ones(A.size, bool)
@@ -182,7 +182,9 @@ def test_constrained_with_imposed_free_set():
     np.testing.assert_allclose(r2.p, r.p, atol=1e-12)
     assert (r2.left != r.left).nnz == 0
     extra = np.zeros(A.size, bool)
-    extra[np.flatnonzero(~r.free)[0]] = True
+    # a node outside the QP's set whose law presses (p̂ > 0): it stays in the set even in
+    # tension (one with p̂ = 0 and p < 0 leaves it: the test below)
+    extra[np.flatnonzero(~r.free & (r.p_hat > 0.0))[0]] = True
     r3 = recover("constrained", M, A, G, lam, eps, has, free=extra)
     wider = r.free | extra
     np.testing.assert_array_equal(r3.free, wider)
@@ -344,3 +346,33 @@ def test_cone_qp_converges_with_z_just_outside_a_cone():
     tau, *_ = cone_qp(M, F, c, np.full(3, 1e-6))
     np.testing.assert_allclose(tau, tau0, atol=1e-14)
     assert np.all(np.abs(tau[:, 0]) <= c * (1 + 1e-14))
+
+
+def test_a_kept_node_whose_law_is_open_leaves_the_free_set_in_tension():
+    """The chattering control keeps the free set of a Newton solve (``free``); a node of
+    the union with F_I = A p̂ = 0 (its law is open: it slid off the master's end) and p_I < 0
+    there leaves it. On a P1 line (M = h/6 tridiag(1, 4, 1)) with F = 0 on the first four
+    nodes and all nodes kept, p = M⁻¹F alternates in sign there (5.3, −10.6, 37.0, −137.5
+    next to 513 at node 4: the diagnosed iterates); nodes 1 and 3 (p < 0) leave, which
+    decouples nodes 0 and 2 from the loaded ones: p = 0 there, and p on the loaded nodes
+    solves M p = F on the set. Before, p = M⁻¹F on all nodes."""
+    n, h = 8, 1.0 / 7
+    diag = np.full(n, 4 * h / 6)
+    diag[[0, -1]] = 2 * h / 6
+    off = np.full(n - 1, h / 6)
+    M = sp.csr_matrix(sp.diags([off, diag, off], [-1, 0, 1]))
+    A = np.asarray(M.sum(axis=1)).ravel()
+    lam = np.array([0.0, 0.0, 0.0, 0.0, 400.0, 500.0, 500.0, 400.0])
+    has = np.ones(n, bool)
+    # G = 0: γ = 0 and p̂ = λ, F = A λ
+    r = recover("constrained", M, A, np.zeros(n), lam, np.ones(n), has, free=has)
+    F = A * lam
+    kept = np.array([True, False, True, False, True, True, True, True])
+    np.testing.assert_array_equal(r.free, kept)
+    expected = np.zeros(n)
+    expected[4:] = np.linalg.solve(M.toarray()[4:, 4:], F[4:])
+    np.testing.assert_allclose(r.p, expected, rtol=1e-12, atol=1e-12)
+    assert np.all(r.p >= 0.0)
+    # the union's p = M⁻¹F (the rule before) alternates in sign where F = 0
+    full = np.linalg.solve(M.toarray(), F)
+    np.testing.assert_allclose(full[:5], [5.290, -10.581, 37.032, -137.547, 513.157], atol=1e-3)
