@@ -1098,6 +1098,8 @@ class MortarContact:
             self.master = exchange_master_facets(
                 self.comm, self.master_local, xm_ex, xs_ex, self.margin
             )
+            # the pairing's tie-break keys (kernels.mortar.PAIR_TIE_TOL)
+            self.master_key = kmortar.facet_keys(self.master.X)
             if self._fetch_cand is not None:
                 self._fetch_cand.destroy()
             self._fetch_cand = Fetcher(vec, self._all_dofs(self.master))
@@ -1248,6 +1250,7 @@ class MortarContact:
                 self.qp_w,
                 self.xm,
                 self.master.sign,
+                self.master_key,
                 self.cand_off,
                 self.cand,
                 2.0 * self.h_facet,
@@ -1385,6 +1388,7 @@ class MortarContact:
                     self.qp_w,
                     xm_n,
                     self.master.sign,
+                    self.master_key,
                     off,
                     idx,
                     2.0 * self.h_facet,
@@ -1489,7 +1493,7 @@ class MortarContact:
             reach = 2.0 * self.h_facet
             kmortar.pair_points(
                 self.ftype, self.master.ftype, xs_n, self.slave.sign, xi, w, xm_n,
-                self.master.sign, off, idx, reach, reach, pm, pz, pg,
+                self.master.sign, self.master_key, off, idx, reach, reach, pm, pz, pg,
             )  # fmt: skip
             f, i = np.nonzero((self.node_of >= 0) & (pm >= 0))
             order = np.lexsort((np.abs(pg[f, i]), self.node_of[f, i]))

@@ -454,7 +454,7 @@ def _pair_one(ftype_s, xs, xi, ftype_m, xm, msign):
     qp_m, qp_zeta, qp_g = np.empty((1, 1), np.int64), np.empty((1, 1, d - 1)), np.empty((1, 1))
     kmortar.pair_points(
         ftype_s, ftype_m, xs[None], ssign, np.asarray(xi, float)[None, None], np.ones((1, 1)),
-        xm, msign, np.array([0, nmf]), np.arange(nmf), np.full(1, 1.0), np.full(1, 10.0),
+        xm, msign, kmortar.facet_keys(xm), np.array([0, nmf]), np.arange(nmf), np.full(1, 1.0), np.full(1, 10.0),
         qp_m, qp_zeta, qp_g,
     )  # fmt: skip
     return int(qp_m[0, 0]), float(qp_g[0, 0])

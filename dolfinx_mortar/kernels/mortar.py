@@ -116,6 +116,16 @@ OUTSIDE_TOL = 1e-3
 #: Penetrating points (g ≤ 0) keep OUTSIDE_TOL: with |g| in place of g the hertz2d bench
 #: at level 2 (element) took 54 Newton iterations instead of 45.
 BLIND_SPOT_SLOPE = 0.1
+#: Ties of the pairing (relative to the ``reach`` of :func:`pair_points`: the slave facet
+#: size h in the current pairing, 2 h in the t_n pairings of friction): two valid projections whose ζ-distances outside their facets
+#: differ by at most INSIDE_TOL and whose |g| differ by at most PAIR_TIE_TOL × h are a
+#: tie, and the facet with the smaller key (its reference centroid, lexicographically)
+#: wins. A slave point over a master vertex (3D: edge) of a nearly flat master projects
+#: into both (all) facets around it with gaps equal to round-off; the closest one was
+#: decided by that round-off and by the facets' local order, both of which depend on the
+#: partition: on the patch3d press with node integration (matching 4 × 4 faces) the
+#: Newton iterations of the first step were 12, 9 and 8 on 1, 2 and 3 ranks.
+PAIR_TIE_TOL = 1e-10
 
 
 @numba.njit(cache=True)
@@ -144,6 +154,34 @@ def _outside(ftype, zeta):
     return max(-zeta[0], zeta[0] - 1.0, -zeta[1], zeta[1] - 1.0)
 
 
+def facet_keys(X: np.ndarray) -> np.ndarray:
+    """Tie-break keys of facets (:func:`pair_points`): their reference centroids, shape
+    (nf, d) from the reference node coordinates X (nf, nn, d). Partition-independent
+    (global node numbers are not), and distinct for distinct facets of a surface."""
+    return np.ascontiguousarray(X.mean(axis=1)) if X.size else np.zeros((0, X.shape[-1]))
+
+
+@numba.njit(cache=True)
+def _better(out, dist, key, best_out, best_dist, best_key, tie):
+    """Whether a projection (ζ-distance ``out`` outside its facet, |g| = ``dist``, facet
+    key ``key``) beats the best so far: less outside, then closer, then the smaller key,
+    with ties within INSIDE_TOL in ζ and ``tie`` in distance (PAIR_TIE_TOL)."""
+    if best_dist == np.inf:
+        return True
+    if out < best_out - INSIDE_TOL:
+        return True
+    if out > best_out + INSIDE_TOL:
+        return False
+    if dist < best_dist - tie:
+        return True
+    if dist > best_dist + tie:
+        return False
+    for c in range(key.shape[0]):
+        if key[c] != best_key[c]:
+            return key[c] < best_key[c]
+    return False
+
+
 @numba.njit(cache=True)
 def pair_points(
     ftype_s,
@@ -154,6 +192,7 @@ def pair_points(
     qp_w,
     xm,
     msign,
+    mkey,
     cand_off,
     cand,
     max_depth,
@@ -165,7 +204,9 @@ def pair_points(
     """Pair every slave quadrature point with its closest valid master facet (or none: -1).
 
     Inputs: xs (nsf, ns, d) current slave nodes, ssign (nsf,), qp_xi (nsf, nq, ks),
-    qp_w (nsf, nq), xm (nmf, nm, d) current master nodes, msign (nmf,), max_depth (nsf,)
+    qp_w (nsf, nq), xm (nmf, nm, d) current master nodes, msign (nmf,), mkey (nmf, k)
+    the tie-break key of each master facet (:func:`facet_keys`: the same on every
+    partition; see PAIR_TIE_TOL), max_depth (nsf,)
     deepest accepted penetration and reach (nsf,) largest accepted distance per slave
     facet, candidates of
     facet f in cand[cand_off[f]:cand_off[f+1]]. Outputs qp_m (nsf, nq), qp_zeta
@@ -221,11 +262,12 @@ def pair_points(
                             hi = max(hi, xm[m, a, c])
                         e = max(lo - x1[c], x1[c] - hi, 0.0)
                         dbox += e * e
-                    if dbox > min(best_dist, reach[f]) ** 2:
+                    tie = PAIR_TIE_TOL * reach[f]
+                    if dbox > min(best_dist + tie, reach[f]) ** 2:
                         continue
                     project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
-                    if out > best_out or (sweep == 0 and out > OUTSIDE_TOL):
+                    if out > best_out + INSIDE_TOL or (sweep == 0 and out > OUTSIDE_TOL):
                         continue
                     unit_normal_in(xm[m], ftype_m, msign[m], zeta, num, wm)
                     facing = 0.0
@@ -243,7 +285,7 @@ def pair_points(
                     ):
                         continue
                     out = max(out, INSIDE_TOL)
-                    if out < best_out or abs(g) < best_dist:
+                    if _better(out, abs(g), mkey[m], best_out, best_dist, mkey[max(best, 0)], tie):
                         best_out = out
                         best_dist = abs(g)
                         best = m
