@@ -8,7 +8,8 @@ times), each integration ("element", "segment") and each recovery (``recoveries`
 corresponding demo is run in its own directory ``OUT/<name>_L<k>_<integration>``
 (``_<recovery>`` appended for the non-lumped recoveries), evaluated with the demo's own
 metrics (``demos/_common.py``: pressure profile errors, observed Newton order), and
-written as one row of ``OUT/bench.csv``. A progress line per run is printed on rank 0.
+written as one row of ``OUT/bench.csv``. A progress line per run goes to ``progress``
+(the command line prints it on rank 0) or, without one, to this module's logger (INFO).
 Then rank 0 draws ``work_precision.png`` (L2 pressure error against wall time,
 log-log, one curve per benchmark, recovery and integration), ``error_vs_h.png``
 (L2 error against h with the fitted rate in the legend), ``newton_history.png``
@@ -59,6 +60,7 @@ recovery, assembly), the line search's residuals, Uzawa updates and Python.
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import resource
 import sys
@@ -67,6 +69,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SceneError
+
+log = logging.getLogger(__name__)
 
 BENCHMARKS = ("hertz2d", "hertz3d", "patch2d", "cattaneo2d", "ironing2d")
 #: ``bench NAME`` -> the script of a source checkout that NAME runs with its own options
@@ -354,23 +358,27 @@ def run_bench(
     levels: int,
     out_dir,
     integrations=INTEGRATIONS,
-    comm=None,
+    *,
+    comm,
     h0=None,
     plots: bool = True,
     recoveries=("lumped",),
+    progress=None,
 ) -> list[dict]:
-    """Run benchmark ``name`` (or "all") at levels 0 .. ``levels``-1 (collective).
+    """Run benchmark ``name`` (or "all") at levels 0 .. ``levels``-1 (collective over
+    ``comm``, the communicator every run's mesh lives on; required).
 
     ``h0``: level-0 contact element size of the Hertz benchmarks (a float, or a dict
     by benchmark name; None: the demos' defaults). Writes ``out_dir/bench.csv`` and,
     with ``plots``, the PNGs (rank 0). Returns the rows (on every rank).
     ``recoveries``: the recoveries to run (each a curve of the plots).
+    ``progress(line)`` is called on every rank with each progress line (the same on every
+    rank): a sweep skipped (friction and the unconstrained recovery), a benchmark's levels
+    capped by ``bench all`` (ALL_LEVEL_CAPS), and one line per finished run (its dofs,
+    errors, iterations, times, memory); None: each line is logged at INFO.
     Raises SceneError for an unknown name, integration, recovery or a level count < 1.
     """
-    if comm is None:
-        from mpi4py import MPI
-
-        comm = MPI.COMM_WORLD
+    report = progress if progress is not None else log.info
     names = _names(name)
     caps = ALL_LEVEL_CAPS if name == "all" else {}
     integrations = tuple(integrations)
@@ -389,12 +397,12 @@ def run_bench(
     for bname in names:
         for integration, recovery in ((i, r) for r in recoveries for i in integrations):
             if bname in FRICTIONAL and recovery == "unconstrained":
-                if comm.rank == 0 and integration == integrations[0]:
-                    print(f"[bench] {bname} {recovery}: skipped (friction needs p >= 0)")
+                if integration == integrations[0]:
+                    report(f"[bench] {bname} {recovery}: skipped (friction needs p >= 0)")
                 continue
             nlev = min(int(levels), caps.get(bname, int(levels)))
-            if nlev < int(levels) and comm.rank == 0 and integration == integrations[0]:
-                print(f"[bench] {bname}: {nlev} levels in `bench all` (ALL_LEVEL_CAPS)")
+            if nlev < int(levels) and integration == integrations[0]:
+                report(f"[bench] {bname}: {nlev} levels in `bench all` (ALL_LEVEL_CAPS)")
             sweeps.append((bname, integration, recovery, nlev))
     if not sweeps:
         raise SceneError("bench", f"nothing to run for {name!r} with these options (see above)")
@@ -415,18 +423,15 @@ def run_bench(
             row, hist = run_one(mods, bname, level, integration, run_dir, comm, h0, recovery)
             rows.append(row)
             histories.append(hist)
-            if comm.rank == 0:
-                print(
-                    f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
-                    f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
-                    f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
-                    f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s "
-                    f"({row['time_per_iteration']:.3g} s per iteration, overhead "
-                    f"{row['contact_overhead']:.2f}), "
-                    f"mem={row['peak_memory_mb']:.0f} MB"
-                    + (f", {row['note']}" if row["note"] else ""),
-                    flush=True,
-                )
+            report(
+                f"[bench] {bname} L{level} {integration} {recovery}: dofs={row['dofs']}, "
+                f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
+                f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
+                f"uzawa={row['uzawa_rounds']}, t={row['wall_time']:.2f} s "
+                f"({row['time_per_iteration']:.3g} s per iteration, overhead "
+                f"{row['contact_overhead']:.2f}), "
+                f"mem={row['peak_memory_mb']:.0f} MB" + (f", {row['note']}" if row["note"] else "")
+            )
             if comm.rank == 0:  # rewritten after every run: a partial sweep keeps its rows
                 write_csv(rows, out_dir / CSV_FILE)
     if comm.rank == 0 and plots:

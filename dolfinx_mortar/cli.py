@@ -210,6 +210,17 @@ def _progress(comm):
     return show
 
 
+def _bench_progress(comm):
+    """``bench``'s progress lines (:func:`dolfinx_mortar.bench.run_bench`) on stdout, once
+    under mpirun (rank 0)."""
+
+    def show(line: str) -> None:
+        if comm.rank == 0:
+            print(line, flush=True)
+
+    return show
+
+
 def petsc_arguments(tokens: list[str], prefix: str = "dm_") -> dict:
     """``[solver.petsc]`` entries from command-line tokens ``-dm_KEY [VALUE] ...``: KEY
     without the prefix, VALUE the next token unless that is another option (a bare flag is
@@ -388,7 +399,16 @@ def main(argv=None) -> int:
             integ = INTEGRATIONS if args.integration == "both" else (args.integration,)
             h0 = TINY_H0 if args.tiny else None
             recs = RECOVERIES if args.recovery == "all" else (args.recovery,)
-            run_bench(args.name, args.levels, Path(args.out), integ, comm, h0=h0, recoveries=recs)
+            run_bench(
+                args.name,
+                args.levels,
+                Path(args.out),
+                integ,
+                comm=comm,
+                h0=h0,
+                recoveries=recs,
+                progress=_bench_progress(comm),
+            )
             return 0
         from .scene import load_scene
 

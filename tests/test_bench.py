@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import logging
 import math
 
 import pytest
@@ -169,11 +170,12 @@ def test_bench_recoveries(tmp_path):
         run_bench("patch2d", 1, tmp_path, comm=MPI.COMM_SELF, recoveries=("exact",))
 
 
-def test_bench_cattaneo2d_tiny(tmp_path, capsys):
+def test_bench_cattaneo2d_tiny(tmp_path, caplog):
     """The frictional benchmark: the L2 error of the tangential traction per level; the
     unconstrained recovery is skipped with a message (friction rejects it)."""
     from dolfinx_mortar.bench import TINY_H0
 
+    caplog.set_level(logging.INFO, logger="dolfinx_mortar.bench")
     rows = run_bench(
         "cattaneo2d",
         1,
@@ -184,7 +186,7 @@ def test_bench_cattaneo2d_tiny(tmp_path, capsys):
         recoveries=("lumped", "unconstrained", "constrained"),
         plots=False,
     )
-    assert "cattaneo2d unconstrained: skipped" in capsys.readouterr().out
+    assert "[bench] cattaneo2d unconstrained: skipped (friction needs p >= 0)" in caplog.messages
     assert [r["recovery"] for r in rows] == ["lumped", "constrained"]
     # each row ran the recovery it is labelled with (the constrained rows once ran lumped)
     for tag, recovery in (("", "lumped"), ("_constrained", "constrained")):
@@ -228,14 +230,67 @@ def test_bench_ironing2d_tiny(tmp_path):
     assert ALL_LEVEL_CAPS["ironing2d"] == 2
 
 
-def test_bench_nothing_to_run(tmp_path, capsys):
+def test_bench_nothing_to_run(tmp_path):
     """Options that leave no run (friction refuses the unconstrained recovery): one clear
     error, the skip said once, and no output directory (it was created, empty)."""
     out = tmp_path / "none"
+    lines = []
     with pytest.raises(SceneError, match="nothing to run for 'cattaneo2d'"):
-        run_bench("cattaneo2d", 1, out, comm=MPI.COMM_SELF, recoveries=("unconstrained",))
-    assert capsys.readouterr().out.count("skipped") == 1
+        run_bench(
+            "cattaneo2d",
+            1,
+            out,
+            comm=MPI.COMM_SELF,
+            recoveries=("unconstrained",),
+            progress=lines.append,
+        )
+    assert lines == ["[bench] cattaneo2d unconstrained: skipped (friction needs p >= 0)"]
     assert not out.exists()
+
+
+def test_the_sweep_logs_its_progress_and_prints_nothing(tmp_path, capfd, caplog):
+    """run_bench (library code) prints nothing: its progress lines go to the logger
+    dolfinx_mortar.bench (INFO), or to ``progress`` where one is given, each run's line
+    with the numbers of its row; the command line prints the same lines on stdout. The
+    communicator is the caller's: there is no COMM_WORLD default."""
+    caplog.set_level(logging.INFO, logger="dolfinx_mortar.bench")
+    kw = {"integrations": ("segment",), "plots": False}
+    (row,) = run_bench("patch2d", 1, tmp_path / "a", comm=MPI.COMM_SELF, **kw)
+    out, _ = capfd.readouterr()
+    assert out == ""
+    (line,) = [m for m in caplog.messages if m.startswith("[bench] ")]
+    assert line.startswith(
+        f"[bench] patch2d L0 segment lumped: dofs={row['dofs']}, "
+        f"slave nodes={row['slave_nodes']}, L2={row['l2_rel_error']:.3e}, "
+        f"max={row['max_rel_error']:.3e}, newton={row['newton_iterations']}, "
+    )
+    assert row["dofs"] == 112 and row["slave_nodes"] == 8 and row["max_rel_error"] < 1e-8
+    caplog.clear()
+    lines = []
+    run_bench("patch2d", 1, tmp_path / "b", comm=MPI.COMM_SELF, progress=lines.append, **kw)
+    assert capfd.readouterr().out == "" and caplog.messages == []
+    assert len(lines) == 1 and lines[0].startswith("[bench] patch2d L0 segment lumped: dofs=112,")
+    with pytest.raises(TypeError, match="comm"):
+        run_bench("patch2d", 1, tmp_path / "c", **kw)
+
+
+def test_bench_all_says_which_levels_it_caps(tmp_path, monkeypatch):
+    """``bench all`` says, once per capped benchmark, how many levels it runs
+    (ALL_LEVEL_CAPS: hertz3d and ironing2d 2 of 3), before any run."""
+    from dolfinx_mortar import bench
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench, "run_one", interrupted)
+    monkeypatch.setattr(bench, "_import_demos", lambda: None)
+    lines = []
+    with pytest.raises(KeyboardInterrupt):
+        run_bench("all", 3, tmp_path, comm=MPI.COMM_SELF, progress=lines.append)
+    assert lines == [
+        "[bench] hertz3d: 2 levels in `bench all` (ALL_LEVEL_CAPS)",
+        "[bench] ironing2d: 2 levels in `bench all` (ALL_LEVEL_CAPS)",
+    ]
 
 
 def test_a_new_sweep_removes_the_earlier_csv_and_plots(tmp_path, monkeypatch):
