@@ -109,14 +109,18 @@ def first_piola(model: str, E: float, nu: float, u):
     return ufl.diff(strain_energy(model, E, nu, F), F)
 
 
-def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
+def check_law(
+    model: str, E: float, nu: float, gdim: int, key: str, region: str | None = None
+) -> None:
     """Raise SceneError(``key``) unless the registered law ``model`` with the material's
     ``E`` and ``nu`` gives a UFL scalar for a d × d deformation gradient (d = ``gdim``)
     that UFL can differentiate twice, and whose stiffness ∂²ψ/∂F² is not identically
     zero (a ψ at most linear in F left the Jacobian form empty: an IndexError traceback
     from dolfinx's sparsity pattern) (local and deterministic: every rank raises the same
     error); then warns where the law is not stress-free at F = I or its small-strain
-    moduli there are not ``E`` and ``nu`` (:func:`_check_reference_state`). Built-in laws
+    moduli there are not ``E`` and ``nu`` (:func:`_check_reference_state`). Each warning
+    names the law and ``region``, the ``[[material]] region`` that uses it (a scene whose
+    regions share a law gets one warning per region, each saying which). Built-in laws
     pass unchecked."""
     psi = registered_law(model)
     if psi is None:
@@ -146,15 +150,19 @@ def check_law(model: str, E: float, nu: float, gdim: int, key: str) -> None:
             f"law {model!r}: psi(F, E, nu) is at most linear in F (its stiffness "
             "d2psi/dF2 is zero for every F): the bodies of this material resist nothing",
         )
-    _check_reference_state(model, P, A, F, u, E, nu, gdim)
+    _check_reference_state(model, P, A, F, u, E, nu, gdim, region)
 
 
-def _check_reference_state(model: str, P, A, F, u, E: float, nu: float, gdim: int) -> None:
+def _check_reference_state(
+    model: str, P, A, F, u, E: float, nu: float, gdim: int, region: str | None = None
+) -> None:
     """Warn where a law with first Piola stress ``P`` = ∂ψ/∂F and stiffness ``A`` =
     ∂P/∂F (UFL, of the variable F = I + ∇u) is not stress-free at F = I, or where its small-strain Lamé constants
     λ = ∂²ψ/∂F₁₁∂F₂₂ and μ = ∂²ψ/∂F₁₂∂F₁₂ at F = I give another E or ν than the
-    material's (by MODULI_TOL). A law whose derivatives UFL cannot evaluate there is not
+    material's (by MODULI_TOL). The warnings name the law and ``region`` (the material's
+    region, left out where None). A law whose derivatives UFL cannot evaluate there is not
     checked."""
+    what = f"law {model!r}" if region is None else f"law {model!r} (region {region!r})"
     zero = ufl.as_vector([0.0] * gdim)
     try:
         P0 = ufl.replace(P, {u: zero})
@@ -162,27 +170,27 @@ def _check_reference_state(model: str, P, A, F, u, E: float, nu: float, gdim: in
         stress = max(abs(float(P0[i, j])) for i in range(gdim) for j in range(gdim))
         lam, mu = float(A0[0, 0, 1, 1]), float(A0[0, 1, 0, 1])
     except Exception as exc:  # a law UFL cannot evaluate at a constant F
-        log.debug("law %r: reference state not checked (%s)", model, exc)
+        log.debug("%s: reference state not checked (%s)", what, exc)
         return
     if stress > 1e-9 * E:
         log.warning(
-            "law %r is not stress-free at F = I (largest |P_ij| = %.3g): the unloaded "
+            "%s is not stress-free at F = I (largest |P_ij| = %.3g): the unloaded "
             "bodies of this material are prestressed",
-            model,
+            what,
             stress,
         )
     if mu <= 0.0 or lam + mu <= 0.0:
         log.warning(
-            "law %r: no positive small-strain moduli at F = I (λ = %.4g, μ = %.4g)", model, lam, mu
+            "%s: no positive small-strain moduli at F = I (λ = %.4g, μ = %.4g)", what, lam, mu
         )
         return
     E_law, nu_law = mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu))
     if abs(E_law / E - 1.0) > MODULI_TOL or abs(nu_law - nu) > MODULI_TOL:
         log.warning(
-            "law %r: its small-strain moduli at F = I are E = %.6g, nu = %.4g, the "
+            "%s: its small-strain moduli at F = I are E = %.6g, nu = %.4g, the "
             "material gives E = %.6g, nu = %.4g; the contact pairs read E* (penalty "
             '"auto") from the material\'s values',
-            model,
+            what,
             E_law,
             nu_law,
             E,

@@ -102,7 +102,7 @@ def prepare(scene: Scene, comm, setup=None):
     from .problem import ContactProblem
 
     for i, mat in enumerate(scene.materials):
-        check_law(mat.model, mat.E, mat.nu, mesh_data.gdim, f"material[{i}].model")
+        check_law(mat.model, mat.E, mat.nu, mesh_data.gdim, f"material[{i}].model", mat.region)
     check_regions_covered(
         [mat.region for mat in scene.materials],
         mesh_data.cell_groups,

@@ -480,6 +480,46 @@ def test_a_law_is_checked_at_the_reference_state(no_laws, caplog):
         check_law("pre", E, NU, 2, "k")
         (rec,) = caplog.records
         assert "'pre' is not stress-free at F = I (largest |P_ij| = 3)" in rec.message
+        caplog.clear()
+        check_law("pre", E, NU, 2, "k", "upper")
+        (rec,) = caplog.records
+        assert "law 'pre' (region 'upper') is not stress-free at F = I" in rec.message
+
+
+@pytest.mark.mpi
+def test_a_law_warning_names_its_region(no_laws, caplog, tmp_path):
+    """Two regions (patch2d's lower and upper blocks) of one registered law whose moduli
+    are not the materials' (neo-Hooke with E = 100, ν = 0.25; the materials say E = 200,
+    ν = 0.3 and E = 50, ν = 0.3): prepare() logs one warning per region, each naming its
+    region and the material's own E; the warnings named only the law, twice alike.
+    Serial and on every rank of 2–3."""
+    import logging
+
+    from dolfinx_mortar import register_law
+    from dolfinx_mortar.runner import prepare
+
+    register_law("fixed", lambda F, E_, nu_: _hand_neo_hooke(F, 100.0, 0.25))
+    scene = parse_scene(
+        {
+            "kinematics": "finite",
+            "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+            "material": [
+                {"region": "lower", "model": "fixed", "E": 200.0, "nu": NU},
+                {"region": "upper", "model": "fixed", "E": 50.0, "nu": NU},
+            ],
+            "steps": {"n": 1},
+        },
+        tmp_path,
+    )
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.bulk"):
+        problem, _ = prepare(scene, MPI.COMM_WORLD)
+    problem.destroy()
+    messages = [r.message for r in caplog.records]
+    assert len(messages) == 2
+    lower, upper = messages
+    head = "law 'fixed' (region '{}'): its small-strain moduli at F = I are E = 100, nu = 0.25"
+    assert lower.startswith(head.format("lower")) and "material gives E = 200, nu" in lower
+    assert upper.startswith(head.format("upper")) and "material gives E = 50, nu" in upper
 
 
 @pytest.mark.mpi
