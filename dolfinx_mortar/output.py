@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 from dolfinx import fem, io
+from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from . import compat
@@ -43,6 +44,62 @@ log = logging.getLogger(__name__)
 
 CSV_FIELDS_2D = ["x", "y", "X", "Y", "p_N", "p_T0", "gap", "slip", "state"]
 CSV_FIELDS_3D = ["x", "y", "z", "X", "Y", "Z", "p_N", "p_T0", "p_T1", "gap", "slip", "state"]
+
+
+#: The bound on the bytes a write adds (:meth:`OutputWriter._check_room`): this many times
+#: the larger of the estimate (:meth:`OutputWriter._estimate`) and what the step before
+#: added.
+ROOM_FACTOR = 2.0
+
+#: Bytes an HDF5 dataset takes beyond its values (its object header, the group entry
+#: and index that name it), per dataset, and a text file beyond its text (a page), in
+#: :meth:`OutputWriter._estimate`.
+DATASET_OVERHEAD = 2048
+FILE_OVERHEAD = 4096
+
+
+def check_room(comm, out_dir: Path, need: float, what: str = "the next write") -> None:
+    """Raise OutputError on every rank where the file system of ``out_dir`` has less room
+    than ``need`` bytes, the bound on what the write ``what`` adds (collective: one allreduce
+    on ``comm``, every rank's ``shutil.disk_usage``, whose ``free`` is what an unprivileged
+    user may write; the smallest free space and the largest need are compared).
+
+    A parallel HDF5 write that runs out of room fails on some ranks only; the others
+    wait in the collective for good (a 3-rank run on a full disk hung), so the room is
+    checked before it. A quota is not seen (``disk_usage`` reads the file system)."""
+    try:
+        free = float(shutil.disk_usage(out_dir).free)
+    except OSError:  # the directory gone: the write would fail
+        free = -1.0
+    both = np.array([-free, float(need)])
+    comm.Allreduce(MPI.IN_PLACE, both, op=MPI.MAX)
+    free, need = -both[0], both[1]
+    if free < 0:
+        raise OutputError(
+            f"the output could not be written to {out_dir}: its free space "
+            "cannot be read (the directory is gone?)"
+        )
+    if free < need:
+        raise OutputError(
+            f"the output could not be written to {out_dir}: not enough room, "
+            f"{free:.0f} bytes free, {need:.0f} needed for {what}"
+        )
+
+
+def _allocated(paths) -> int:
+    """The bytes the files ``paths`` take on disk (local; each inode once: a hard link
+    counts once; missing files count 0)."""
+    seen, total = set(), 0
+    for path in paths:
+        try:
+            st = os.lstat(path)
+        except OSError:
+            continue
+        if (st.st_dev, st.st_ino) not in seen:
+            seen.add((st.st_dev, st.st_ino))
+            blocks = getattr(st, "st_blocks", None)  # not on Windows
+            total += st.st_size if blocks is None else 512 * blocks
+    return total
 
 
 def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
@@ -404,6 +461,11 @@ class OutputWriter:
         self._write_error: OSError | None = None
         self._contact_functions = {}
         self._surfaces: list[SurfaceFields] = []
+        #: the bytes the last step's write added to the run's files (rank 0; 0 on the
+        #: other ranks and before the first step: :meth:`_check_room`), and the CSVs
+        #: it wrote
+        self._growth = 0
+        self._csv_written: list[Path] = []
 
     def start(self) -> None:
         """Create the directory, remove the contact files an earlier run left there, and
@@ -431,29 +493,32 @@ class OutputWriter:
                         log.warning("could not remove the earlier run's %s: %s", f, exc)
         self.comm.barrier()
         p = self.problem
+        self._check_room("the meshes and step 0", mesh=True)  # before the first HDF5 write
         with self._collective_io():
             self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
             if p.contacts:
                 Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
-                names = {
-                    "contact_pressure": "contact_pressure",
-                    "gap": "gap",
-                    "contact_state": "contact_state",
-                }
-                if any(getattr(c, "frictional", False) for c in p.contacts):
-                    names.update(
-                        {"tangential_traction": "tangential_traction_norm", "slip": "slip"}
-                    )
-                # slip goes with the tangential traction (it was written whatever the
-                # scene's fields, and output.fields cannot name it)
-                wanted = set(self.fields) | (
-                    {"slip"} if "tangential_traction" in self.fields else set()
-                )
-                for key, name in names.items():
-                    if key in wanted:
-                        self._contact_functions[key] = fem.Function(Q, name=name)
+                for key, name in self._contact_names().items():
+                    self._contact_functions[key] = fem.Function(Q, name=name)
                 self._start_surfaces(Q)
         self.write_step(0, 0.0, None)
+
+    def _contact_names(self) -> dict[str, str]:
+        """The contact fields written ({output.fields key: function name}; local)."""
+        p = self.problem
+        if not p.contacts:
+            return {}
+        names = {
+            "contact_pressure": "contact_pressure",
+            "gap": "gap",
+            "contact_state": "contact_state",
+        }
+        if any(getattr(c, "frictional", False) for c in p.contacts):
+            names.update({"tangential_traction": "tangential_traction_norm", "slip": "slip"})
+        # slip goes with the tangential traction (it was written whatever the scene's
+        # fields, and output.fields cannot name it)
+        wanted = set(self.fields) | ({"slip"} if "tangential_traction" in self.fields else set())
+        return {key: name for key, name in names.items() if key in wanted}
 
     @contextlib.contextmanager
     def _collective_io(self):
@@ -489,7 +554,14 @@ class OutputWriter:
         no flush, and a file left open had an empty superblock until it was closed (a run
         killed by a batch job's time limit lost all its fields). Their indices are then
         replaced atomically (:class:`XDMFSeries`). A Ctrl-C meanwhile waits until the
-        step's record is in summary.json (:func:`interrupts_after`)."""
+        step's record is in summary.json (:func:`interrupts_after`).
+
+        Before the files are opened, the room on the file system is checked
+        (:meth:`_check_room`; collective): where it is short, OutputError on every rank
+        and nothing of the step is written."""
+        self._check_room(f"step {step}")
+        self._csv_written = []  # the step's CSVs are new files: none before
+        before = self._allocated() if self.comm.rank == 0 else 0
         with interrupts_after():
             with self._collective_io():
                 self._xdmf.open()
@@ -503,7 +575,73 @@ class OutputWriter:
             if record is not None and self._first_write_error() is None:
                 self.summary["steps"].append(record)
             self._flush()
+        if self.comm.rank == 0:
+            self._growth = max(self._allocated() - before, 0)
         self._raise_write_error()
+
+    def _run_files(self) -> list[Path]:
+        """The files whose size the step's writes change (rank 0): summary.json, each
+        XDMF series (index, data, published index) and the last step's contact CSVs."""
+        files = [self.out_dir / "summary.json", *self._csv_written]
+        for series in [self._xdmf] + [s.series for s in self._surfaces]:
+            if series is not None:
+                files += [series.live, series.path, series._live_h5, series.h5]
+        return files
+
+    def _allocated(self) -> int:
+        """The bytes the run's files take on disk (rank 0: :meth:`_run_files`)."""
+        return _allocated(self._run_files())
+
+    def _estimate(self, mesh: bool) -> float:
+        """A bound on the bytes one step's write adds, from the problem's sizes (the same
+        on every rank, no communication): 8 bytes per value of each field on the volume
+        mesh's nodes (a vector as 3 values, as dolfinx writes it) and, where the slave
+        surfaces are written, on their nodes; a CSV row of 25 characters per column for
+        each slave node; an HDF5 dataset's overhead per field and a page per file. With
+        ``mesh``: also the meshes (the coordinates, 3 values per node, and the cells'
+        node lists, 8 bytes each), which the series write first."""
+        p = self.problem
+        nodes = p.V.dofmap.index_map.size_global
+        slaves = [int(term.n_global_nodes) for term in p.contacts]
+        surfaces = p.mesh.geometry.cmap.degree == 1  # :meth:`_start_surfaces`
+        per_node = 3 * ("displacement" in self.fields) + len(self._contact_names())
+        datasets = int("displacement" in self.fields) + len(self._contact_names())
+        values = per_node * (nodes + (sum(slaves) if surfaces else 0))
+        columns = len(CSV_FIELDS_2D if p.gdim == 2 else CSV_FIELDS_3D)
+        files = len(slaves) * (2 if surfaces else 1) + 2  # the CSVs, .h5, summary.json
+        size = 8 * values + 25 * columns * sum(slaves)
+        size += DATASET_OVERHEAD * datasets * (1 + len(slaves)) + FILE_OVERHEAD * files
+        if mesh:
+            tdim = p.mesh.topology.dim
+            cells = p.mesh.topology.index_map(tdim).size_global
+            per_cell = p.mesh.geometry.cmap.create_dof_layout().num_dofs
+            geometry = p.mesh.geometry.index_map().size_global
+            size += 8 * (3 * geometry + per_cell * cells) + 4 * DATASET_OVERHEAD
+            if surfaces:  # a surface facet has at most 4 nodes, about as many as nodes
+                size += 8 * (3 + 4) * sum(slaves) + 4 * DATASET_OVERHEAD * len(slaves)
+        return size
+
+    def _check_room(self, what: str, mesh: bool = False) -> None:
+        """Raise OutputError on every rank where the file system lacks room for the next
+        write (collective: :func:`check_room`, one allreduce). The bound: ROOM_FACTOR
+        times the larger of :meth:`_estimate` and what the last step's write added (rank
+        0 measures it: the blocks of the run's files), plus the summary.json and the
+        XDMF indices that rank 0 writes through temporary copies (:func:`replace_text`).
+        A parallel HDF5 write that ran out of room failed on some ranks and left the
+        others waiting in it (a 3-rank run hung); a rank's own OSError (a CSV) is
+        caught after the write, as before (:meth:`_raise_write_error`)."""
+        need = ROOM_FACTOR * max(self._estimate(mesh), self._growth)
+        if self.comm.rank == 0:
+            copies = [self.out_dir / "summary.json"]
+            copies += [s.path for s in [self._xdmf] + [f.series for f in self._surfaces] if s]
+            need += _allocated(copies)
+        log.debug(
+            "room check: %d bytes needed (estimate %d, the last step added %d)",
+            need,
+            self._estimate(mesh),
+            self._growth,
+        )
+        check_room(self.comm, self.out_dir, need, what)
 
     def _first_write_error(self) -> str | None:
         """The first failed write of any rank (rank order), or None (collective)."""
@@ -539,12 +677,9 @@ class OutputWriter:
         for term in p.contacts:
             table = term.node_table()  # gathered on rank 0
             if self.comm.rank == 0:
-                self._guarded(
-                    write_contact_csv,
-                    self.out_dir / f"{contact_stem(term.slave_name)}_{step}.csv",
-                    table,
-                    p.gdim,
-                )
+                path = self.out_dir / f"{contact_stem(term.slave_name)}_{step}.csv"
+                self._csv_written.append(path)
+                self._guarded(write_contact_csv, path, table, p.gdim)
         if self._contact_functions:
             for f in self._contact_functions.values():
                 f.x.array[:] = 0.0

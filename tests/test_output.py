@@ -580,3 +580,173 @@ def test_a_rank_that_waits_alone_is_told_so():
         assert every_rank_arrives(dup, 0.2)
     comm.Barrier()
     dup.Free()
+
+
+def _disk_usage_running_out(monkeypatch, calls_with_room: int, ranks=None):
+    """Make ``shutil.disk_usage`` report 1 GB free for its first ``calls_with_room`` calls
+    on this rank, then 1000 bytes (on the ranks ``ranks``, default all; elsewhere always
+    1 GB). Returns the list of calls' paths."""
+    import shutil
+    from collections import namedtuple
+
+    usage = namedtuple("usage", "total used free")
+    calls = []
+    low = ranks is None or MPI.COMM_WORLD.rank in ranks
+
+    def disk_usage(path):
+        calls.append(str(path))
+        free = 1000 if low and len(calls) > calls_with_room else 10**9
+        return usage(2 * 10**9, 2 * 10**9 - free, free)
+
+    monkeypatch.setattr(shutil, "disk_usage", disk_usage)
+    return calls
+
+
+def test_a_full_disk_stops_the_run_before_the_mesh_is_written(tmp_path, monkeypatch):
+    """With 1000 bytes free the run stops before its first HDF5 write (the meshes and
+    step 0): OutputError, one line naming the directory and the bytes, nothing written.
+    Before, the HDF5 write itself failed (a 3-rank run hung in it)."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import OutputError
+
+    out = tmp_path / "out"
+    _disk_usage_running_out(monkeypatch, 0)
+    with pytest.raises(OutputError) as info:
+        run(parse_scene(_small_press(steps=2), tmp_path), MPI.COMM_SELF, out_dir=out)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"the output could not be written to {out}: not enough room, ")
+    need = int(re.search(r"1000 bytes free, (\d+) needed for the meshes and step 0", message)[1])
+    assert need > 1000
+    assert sorted(f.name for f in out.iterdir()) == []
+
+
+def test_a_full_disk_stops_the_run_with_the_finished_steps(tmp_path, monkeypatch):
+    """The room runs out before step 2's write (the 4th check: meshes, steps 0, 1, 2):
+    the run stops with status "failed", the message, and steps 0 and 1 in summary.json,
+    the CSVs and the published field index; no file of step 2."""
+    from dolfinx_mortar import parse_scene, run
+
+    calls = _disk_usage_running_out(monkeypatch, 3)
+    summary = run(parse_scene(_small_press(steps=3), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert len(calls) == 4 and set(calls) == {str(tmp_path)}
+    assert summary["status"] == "failed"
+    assert re.fullmatch(
+        rf"the output could not be written to {re.escape(str(tmp_path))}: not enough room, "
+        r"1000 bytes free, \d+ needed for step 2",
+        summary["error"],
+    ), summary["error"]
+    kept = json.loads((tmp_path / "summary.json").read_text())
+    assert kept["status"] == "failed" and kept["error"] == summary["error"]
+    assert len(kept["steps"]) == 1  # step 1 (step 0 is the initial state: no record)
+    names = sorted(f.name for f in tmp_path.iterdir())
+    assert names == [
+        "contact_upper_bottom.h5",
+        "contact_upper_bottom.xdmf",
+        "contact_upper_bottom_0.csv",
+        "contact_upper_bottom_1.csv",
+        "fields.h5",
+        "fields.xdmf",
+        "summary.json",
+    ], names
+    times = re.findall(r'<Time Value="([^"]+)"', (tmp_path / "fields.xdmf").read_text())
+    assert sorted(set(float(t) for t in times)) == [0.0, 1 / 3]
+
+
+def test_the_room_checked_bounds_what_each_write_adds(tmp_path, monkeypatch):
+    """The bytes each check asks for (output.check_room's ``need``) are at least what the
+    write then adds to the directory (its files' blocks, each inode once), and at most 4
+    times that plus 64 KiB (ROOM_FACTOR = 2 times an estimate that counts a page per file
+    and 2 KiB per HDF5 dataset, and the summary and indices copied): the meshes with step
+    0, then each step. Measured: 103272 bytes asked for 57344 added (the meshes and
+    step 0), 77256–89544 for 12288–24576 (each step)."""
+    from dolfinx_mortar import output, parse_scene, run
+
+    def used():  # each inode once: fields.h5 is a hard link of the hidden series
+        return output._allocated(list(tmp_path.iterdir()))
+
+    checks = []  # (what, need, bytes used at the check)
+    check = output.check_room
+
+    def spy(comm, out_dir, need, what="the next write"):
+        checks.append((what, need, used()))
+        check(comm, out_dir, need, what)
+
+    monkeypatch.setattr(output, "check_room", spy)
+    after = []  # bytes used after each step's write (progress: after write_step)
+    data = _small_press(steps=3)
+    summary = run(
+        parse_scene(data, tmp_path),
+        MPI.COMM_SELF,
+        out_dir=tmp_path,
+        progress=lambda step, record: after.append(used()),
+    )
+    assert summary["status"] == "ok"
+    whats = [what for what, _, _ in checks]
+    assert whats == ["the meshes and step 0", "step 0", "step 1", "step 2", "step 3"]
+    ends = [c[2] for c in checks[1:]] + [after[-1]]  # the usage after each check's write
+    ends[0] = checks[2][2]  # the meshes' check covers step 0 too
+    for (what, need, before), end in zip(checks, ends, strict=True):
+        added = end - before
+        assert 0 < added <= need <= 4 * added + 65536, (what, need, added)
+
+
+@pytest.mark.mpi
+def test_a_full_disk_on_one_rank_stops_every_rank(shared_tmp, monkeypatch):
+    """The last rank alone sees too little room before step 2: every rank raises the same
+    OutputError (one allreduce of the free space), the run stops with steps 0 and 1
+    kept, and no rank is left in a collective HDF5 write. 1–3 ranks."""
+    from dolfinx_mortar import parse_scene, run
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / "room"
+    _disk_usage_running_out(monkeypatch, 3, ranks={comm.size - 1})
+    summary = run(parse_scene(_small_press(steps=3), out), comm, out_dir=out)
+    assert summary["status"] == "failed"
+    assert re.fullmatch(
+        rf"the output could not be written to {re.escape(str(out))}: not enough room, "
+        r"1000 bytes free, \d+ needed for step 2",
+        summary["error"],
+    ), summary["error"]
+    assert comm.allgather(summary["error"]) == [summary["error"]] * comm.size
+    assert len(summary["steps"]) == 1
+    if comm.rank == 0:
+        kept = json.loads((out / "summary.json").read_text())
+        assert kept["status"] == "failed" and len(kept["steps"]) == 1
+        assert not (out / "contact_upper_bottom_2.csv").exists()
+        assert (out / "contact_upper_bottom_1.csv").is_file()
+
+
+def test_a_text_write_on_a_full_disk_keeps_the_old_file(tmp_path, monkeypatch):
+    """replace_text (summary.json, the CSVs, the published XDMF indices): a write that
+    runs out of room after part of the text (ENOSPC, as on a full file system) raises
+    the OSError and leaves the old file whole and no temporary file. (Checked as root on
+    a 16 KiB tmpfs too: a 20000-byte summary over a 4000-byte one.)"""
+    import builtins
+    import errno
+
+    from dolfinx_mortar import output
+
+    path = tmp_path / "summary.json"
+    output.replace_text(path, "old " * 1000)
+
+    class Full:
+        def __init__(self, f):
+            self.f = f
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.f.close()
+
+        def write(self, text):
+            self.f.write(text[: len(text) // 2])
+            self.f.flush()
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(output, "open", lambda *a, **k: Full(builtins.open(*a, **k)), False)
+    with pytest.raises(OSError, match="No space left"):
+        output.replace_text(path, "new " * 5000)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["summary.json"]
+    assert path.read_text() == "old " * 1000
