@@ -201,11 +201,14 @@ FREEZE_AFTER = 8
 #: at their entry put transient iterates' slip into the Cattaneo tests (a 35-iteration
 #: solve, a 26-iteration step; docs/method-notes.md, "Friction", chattering control).
 REENTRY_FREE_SLIP = 0.5
-#: ... or (lumped normal recovery) whose trial traction |λ_T + ε_T γ^I| exceeds this many
-#: μ p^I. On the ironing2d path (t = 1.27) a node at the leading edge of the contact zone
-#: re-closed with p = 0.011 and stuck with 16 μ p: the round converged with it wrong, and
-#: the step took five Uzawa rounds (12 + 11 + 9 + 2 + 1), now 15 + 4 + 2 + 1. With the
-#: constrained normal recovery the Cattaneo press test then took a 31-iteration solve.
+#: ... or whose trial traction |λ_T + ε_T γ^I| exceeds this many μ p^I. On the ironing2d
+#: path (t = 1.27) a node at the leading edge of the contact zone re-closed with p = 0.011
+#: and stuck with 16 μ p: the round converged with it wrong, and the step took five Uzawa
+#: rounds (12 + 11 + 9 + 2 + 1), now 15 + 4 + 2 + 1. Lumped normal recovery only until
+#: session 47 (in session 20 the Cattaneo press test then took a 31-iteration solve). With
+#: the constrained recovery a node in tension (p < 0, session 46) has no cone, so an
+#: imposed stick made τ jump from 0 to the trial traction where p crossed 0: in a 3D slide
+#: two such nodes 2-cycled around p = 0 until max_it (docs/method-notes.md, "Friction").
 REENTRY_TRIAL_CONE = 3.0
 FROZEN_DIRECTION_TOL = 1e-6
 #: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
@@ -1783,10 +1786,11 @@ class MortarContact:
         frozen OPEN that is in contact follows the free law (state −1) instead of the
         stick that a frozen open node gets when it closes, where its lumped slip since
         t_n, |γ^I| = |σ^I|/A_T^I (``gamma`` (n, m)), exceeds REENTRY_FREE_SLIP × h_I or
-        (lumped normal recovery) its trial traction |λ_T + ε_T γ^I| exceeds
-        REENTRY_TRIAL_CONE × μ p^I. ``imposed``: None or (states (n,), directions (n, m)
-        or None); with directions None (the exact update's differences) it is returned
-        as is."""
+        its trial traction |λ_T + ε_T γ^I| exceeds REENTRY_TRIAL_CONE × μ max(p^I, 0)
+        (every normal recovery; at p^I ≤ 0 any nonzero trial traction does: an imposed
+        stick would jump from τ = 0 in tension to the trial traction where p^I crosses
+        0). ``imposed``: None or (states (n,), directions (n, m) or None); with directions
+        None (the exact update's differences) it is returned as is."""
         if imposed is None or imposed[1] is None:
             return imposed
         states, dirs = imposed
@@ -1795,9 +1799,8 @@ class MortarContact:
             return imposed
         g = gamma[open_]
         far = np.linalg.norm(g, axis=1) > REENTRY_FREE_SLIP * self.h_node[open_]
-        if self.recovery == "lumped":
-            trial = np.linalg.norm(self.lmbda_t[open_] + self.eps_t[open_, None] * g, axis=1)
-            far |= trial > REENTRY_TRIAL_CONE * self.mu * np.maximum(self.p[open_], 0.0)
+        trial = np.linalg.norm(self.lmbda_t[open_] + self.eps_t[open_, None] * g, axis=1)
+        far |= trial > REENTRY_TRIAL_CONE * self.mu * np.maximum(self.p[open_], 0.0)
         if not far.any():
             return imposed
         states = states.copy()

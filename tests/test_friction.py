@@ -824,15 +824,17 @@ def test_uzawa_update_after_frozen_states_takes_the_free_law():
 
 
 @pytest.mark.mpi
-def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch):
+@pytest.mark.parametrize("recovery", ["lumped", "constrained"])
+def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch, recovery):
     """Chattering control: a node frozen OPEN that is in contact sticks (τ = λ_T + ε_T γ)
-    while its slip since t_n is at most REENTRY_FREE_SLIP × h_I and (lumped normal
-    recovery) its trial traction at most REENTRY_TRIAL_CONE × μ p, and follows the free
-    law beyond (the ironing2d corner that springs back 3 h along the die; a leading-edge
-    node that re-closes with 16 μ p)."""
+    while its slip since t_n is at most REENTRY_FREE_SLIP × h_I and its trial traction at
+    most REENTRY_TRIAL_CONE × μ p, and follows the free law beyond (the ironing2d corner
+    that springs back 3 h along the die; a leading-edge node that re-closes with 16 μ p).
+    The trial-traction criterion holds with the constrained normal recovery too (since
+    session 47: test_a_3d_slide_with_the_constrained_normal_recovery)."""
     from dolfinx_mortar import contact as contact_module
 
-    problem = _problem("hertz2d-P1", penalty_t=1e3)
+    problem = _problem("hertz2d-P1", penalty_t=1e3, recovery=recovery)
     term = _frictional_state(problem, "hertz2d-P1")
     comm = MPI.COMM_WORLD
     free_state, free_tau = term._recover_tangential(frozen=None)
@@ -849,8 +851,8 @@ def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch
     term._recover_tangential()
     assert np.array_equal(term.fstate, free_state)
     assert np.allclose(term.tau, free_tau, rtol=0, atol=1e-12)
-    # the trial-traction criterion alone (lumped normal recovery): a cone factor below
-    # every active node's |trial|/(μ p) frees all of them
+    # the trial-traction criterion alone: a cone factor below every active node's
+    # |trial|/(μ p) frees all of them
     monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
     monkeypatch.setattr(contact_module, "REENTRY_TRIAL_CONE", 0.0)
     moving = active & (np.linalg.norm(trial, axis=1) > 0.0)
@@ -1137,6 +1139,61 @@ def test_a_3d_press_with_the_constrained_tangential_recovery(tmp_path):
     assert [st["newton_iterations"] for st in summary["steps"]] == [[3], [2], [7]]
     fx, fy, fz = summary["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
     assert 0.40 < np.hypot(fx, fy) / abs(fz) < 0.5
+
+
+def test_a_3d_slide_with_the_constrained_normal_recovery(tmp_path):
+    """A hexahedral block (n_upper = 6) pressed by 0.02 onto a larger one (n_lower = 4,
+    master surface held; finite strain, μ = 0.3, element integration) in 2 steps, then
+    slid by (0.1, 0.05) in 2, with the constrained normal recovery and the lumped
+    tangential one. In the first slide step two slave nodes entered contact after the
+    chattering control froze the states (open) and were imposed stick with their trial
+    traction; the recovered p of the frozen QP set took them into tension, where the
+    nodal law has no cone (τ = 0), and back: τ jumped by the trial traction at p = 0 and
+    Newton 2-cycled until max_it; the cutbacks then ran out of Uzawa rounds (the run
+    stopped at t = 1.0078). Since session 47 such a node follows the free law where its
+    trial traction exceeds REENTRY_TRIAL_CONE μ p, as with the lumped recovery: no
+    cutback, 12 + 4 + 1 + 1 + 1 Newton iterations in that step. At the end the block
+    slides: |F_T| = μ F_N (gross slip) within 1 %."""
+    from dolfinx_mortar.runner import run
+
+    block = {"model": "neo-hookean", "E": 100.0, "nu": 0.3}
+    held = [[0.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0]]
+    data = {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch3d",
+            "params": {"n_lower": 4, "n_upper": 6, "n_y": 2, "margin": 0.5, "quads": True},
+        },
+        "material": [{"region": "lower", **block}, {"region": "upper", **block}],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "integration": "element",
+                "recovery": "constrained",
+                "friction": 0.3,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": held},
+            {"boundary": "lower_top", "path": held},
+            {
+                "boundary": "upper_top",
+                "path": [
+                    [0.0, 0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0, -0.02],
+                    [2.0, 0.1, 0.05, -0.02],
+                ],
+            },
+        ],
+        "steps": {"t_end": 2.0, "n": 4, "max_cutbacks": 0},
+    }
+    summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert summary["status"] == "ok", summary.get("error")
+    assert [st["cutbacks"] for st in summary["steps"]] == [0, 0, 0, 0]
+    assert max(max(st["newton_iterations"]) for st in summary["steps"]) <= 15
+    fx, fy, fz = summary["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
+    assert abs(np.hypot(fx, fy) / (0.3 * abs(fz)) - 1.0) < 0.01
 
 
 # ---------------------------------------------------------------- a held load
