@@ -497,6 +497,21 @@ def test_open_point_in_the_blind_spot_of_a_convex_vertex_is_paired(g):
     assert _pair_one(INTERVAL1, xs_end, [0.5], INTERVAL1, xm[1:], msign[1:])[0] == -1
 
 
+def test_a_facet_containing_the_point_wins_in_any_candidate_order():
+    """2D: a slave point 5e-4 (in ζ) beyond the end of master facet A, at gap 0.05 to A's
+    extension, and inside facet B, 0.06 away. B wins (a facet that contains the projection
+    comes first), whichever candidate comes first. Before, with A first, B's bounding box
+    (0.06 away) was pruned by A's distance, and A won: the pairing depended on the
+    candidates' order, which depends on the partition."""
+    xm = np.array([[[-1.0, 0.0], [0.0, 0.0]], [[0.0, 0.01], [1.0, 0.01]]])
+    msign = _down(INTERVAL1, xm)
+    xs = np.array([[-0.4995, -0.05], [0.5005, -0.05]])
+    for order in ([0, 1], [1, 0]):
+        m, gap = _pair_one(INTERVAL1, xs, [0.5], INTERVAL1, xm[order], msign[order])
+        assert order[m] == 1
+        assert gap == pytest.approx(0.06, rel=1e-12)
+
+
 def test_open_point_above_a_convex_ridge_is_paired_3d():
     """3D: two triangles meeting along a convex ridge (the x axis, 2.9° each way), a slave
     point g = 0.05 below the ridge: paired, gap ≈ g."""

@@ -262,8 +262,13 @@ def pair_points(
                             hi = max(hi, xm[m, a, c])
                         e = max(lo - x1[c], x1[c] - hi, 0.0)
                         dbox += e * e
+                    # a facet farther than the best one cannot win while the best contains
+                    # the point (``_better`` ranks "less outside" first); while the best
+                    # lies outside its facet, a farther facet that contains the point must
+                    # still be projected, or the winner depends on the candidates' order
                     tie = PAIR_TIE_TOL * reach[f]
-                    if dbox > min(best_dist + tie, reach[f]) ** 2:
+                    limit = best_dist + tie if best_out <= INSIDE_TOL else np.inf
+                    if dbox > min(limit, reach[f]) ** 2:
                         continue
                     project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
