@@ -623,6 +623,10 @@ class MortarContact:
         self.name = f"{slave}:{master}"
         self.degenerate = False  # see update()
         self.recovery, self.integration = recovery, integration
+        # ζ-distance outside a master facet accepted when none contains a point's projection
+        self.outside_tol = float(
+            kmortar.NODE_OUTSIDE_TOL if integration == "node" else kmortar.OUTSIDE_TOL
+        )
         self.uzawa_tol, self.uzawa_max = float(uzawa_tol), int(uzawa_max)
         self.bs = problem.V.dofmap.index_map_bs
         self.gdim = problem.gdim
@@ -1261,6 +1265,7 @@ class MortarContact:
                 self.qp_m,
                 self.qp_zeta,
                 self.qp_g,
+                self.outside_tol,
             )
             if self.qp_pinned is not None and self._pin_exchange == self._exchanges:
                 self._apply_pins()
@@ -1399,6 +1404,7 @@ class MortarContact:
                     self.qp_mn,
                     self.qp_zn,
                     gn,
+                    self.outside_tol,
                 )
             # nodes still open at t_n (mixed gap γ_n > 0) have no material point to stick to:
             # their closing motion seen from the t_n projection would be a spurious slip of
@@ -1497,6 +1503,7 @@ class MortarContact:
             kmortar.pair_points(
                 self.ftype, self.master.ftype, xs_n, self.slave.sign, xi, w, xm_n,
                 self.master.sign, self.master_key, off, idx, reach, reach, pm, pz, pg,
+                self.outside_tol,
             )  # fmt: skip
             f, i = np.nonzero((self.node_of >= 0) & (pm >= 0))
             order = np.lexsort((np.abs(pg[f, i]), self.node_of[f, i]))

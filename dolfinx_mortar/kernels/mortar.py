@@ -116,6 +116,16 @@ OUTSIDE_TOL = 1e-3
 #: Penetrating points (g ≤ 0) keep OUTSIDE_TOL: with |g| in place of g the hertz2d bench
 #: at level 2 (element) took 54 Newton iterations instead of 45.
 BLIND_SPOT_SLOPE = 0.1
+#: OUTSIDE_TOL of node integration, whose points are the slave facets' vertices: a slave
+#: node on the edge of the master surface (same-size blocks, matching sides) moves off
+#: the master's edge chord by the difference of the two bodies' deformations, on a
+#: patch3d slide (n = 4, μ = 0.3, slide 0.1–0.2) by 0.01–0.02 in ζ while it presses
+#: into the master. With OUTSIDE_TOL such nodes left the pairing and came back at
+#: γ = −0.009 (p = 145) from iterate to iterate, and the slide failed; at 0.01 it failed
+#: at t = 1.76, at 0.02 and 0.05 it completes. A node that slides off the master's end
+#: stays paired until it is this far beyond it (h/20 on a [0, 1] facet). Element
+#: integration keeps OUTSIDE_TOL: its points lie inside the slave facets.
+NODE_OUTSIDE_TOL = 5e-2
 #: Ties of the pairing (relative to the ``reach`` of :func:`pair_points`: the slave facet
 #: size h in the current pairing, 2 h in the t_n pairings of friction): two valid projections whose ζ-distances outside their facets
 #: differ by at most INSIDE_TOL and whose |g| differ by at most PAIR_TIE_TOL × h are a
@@ -200,6 +210,7 @@ def pair_points(
     qp_m,
     qp_zeta,
     qp_g,
+    outside_tol,
 ):
     """Pair every slave quadrature point with its closest valid master facet (or none: -1).
 
@@ -209,7 +220,9 @@ def pair_points(
     partition; see PAIR_TIE_TOL), max_depth (nsf,)
     deepest accepted penetration and reach (nsf,) largest accepted distance per slave
     facet, candidates of
-    facet f in cand[cand_off[f]:cand_off[f+1]]. Outputs qp_m (nsf, nq), qp_zeta
+    facet f in cand[cand_off[f]:cand_off[f+1]], and outside_tol the largest ζ-distance
+    outside a facet accepted when no candidate contains the projection (OUTSIDE_TOL;
+    NODE_OUTSIDE_TOL for node integration). Outputs qp_m (nsf, nq), qp_zeta
     (nsf, nq, km), qp_g (nsf, nq).
     """
     nsf, ns, d = xs.shape
@@ -239,7 +252,7 @@ def pair_points(
             _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
             unit_normal_in(xs[f], ftype_s, ssign[f], xi, nus, ws)
             # prefer facets containing the projection (closest |g|); failing that, the facet
-            # whose projection lies least outside it (≤ OUTSIDE_TOL in ζ): a point near a
+            # whose projection lies least outside it (≤ outside_tol in ζ): a point near a
             # concave kink of the deformed master projects just outside both neighbours;
             # only for a point left unpaired, a second sweep: the blind spot of a convex
             # vertex (g > 0, the extended projection within BLIND_SPOT_SLOPE g of the facet)
@@ -272,7 +285,7 @@ def pair_points(
                         continue
                     project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
-                    if out > best_out + INSIDE_TOL or (sweep == 0 and out > OUTSIDE_TOL):
+                    if out > best_out + INSIDE_TOL or (sweep == 0 and out > outside_tol):
                         continue
                     unit_normal_in(xm[m], ftype_m, msign[m], zeta, num, wm)
                     facing = 0.0
@@ -283,7 +296,7 @@ def pair_points(
                     g = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
                     if g < -max_depth[f]:
                         continue
-                    if out > OUTSIDE_TOL and (
+                    if out > outside_tol and (
                         g <= 0.0
                         or _distance_outside(ftype_m, xm[m], zeta, Nm, dNm, ddNm, zc, xa, xb)
                         > BLIND_SPOT_SLOPE * g
