@@ -68,7 +68,8 @@ peak error against Hertz with the measured load and the pressure oscillation ind
 largest penetration of the last step (summary ``max_penetration``). ``--recovery`` sets the recovery of every contact pair (the scenes are rewritten under
 ``OUT/scenes``); friction refuses ``unconstrained``, which then shows as a clean failure.
 ``--uzawa-acceleration`` sets the multiplier update of every pair (``newton``, the exact
-update, only of the pairs with lumped recoveries).
+update, only of the pairs where it applies: with friction the lumped tangential recovery,
+``scene.exact_update_applies``).
 Writes ``OUT/hard_cases.csv`` and ``OUT/hard_cases.md``::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_hard_cases.py --out bench/out/hard_cases
@@ -298,7 +299,7 @@ def run_case(
     acceleration: str | None = None,
 ) -> dict:
     """Run one case (``recovery``: set on every contact pair; ``acceleration``: the
-    ``uzawa_acceleration`` of every pair, "newton" only of those with lumped recoveries;
+    ``uzawa_acceleration`` of every pair, "newton" only of those where it applies;
     either rewrites the scene under OUT)."""
     import tomllib
 
@@ -430,8 +431,8 @@ def main(argv=None) -> list[dict]:
         "--uzawa-acceleration",
         choices=("auto", "aitken", "anderson", "none", "newton"),
         default=None,
-        help="set uzawa_acceleration on every contact pair (newton: on those with lumped "
-        "recoveries) [the scenes' own: auto, i.e. newton on those, aitken elsewhere]",
+        help="set uzawa_acceleration on every contact pair (newton: on those where it "
+        "applies) [the scenes' own: auto, i.e. newton with lumped recoveries, else aitken]",
     )
     args = ap.parse_args(argv)
     if not args.timeout > 0.0:

@@ -2,7 +2,7 @@
 
 For each penalty factor k (``penalty = "auto"`` gives ε^I = k E*/h_I) and each
 acceleration of the Uzawa update (the scene key ``uzawa_acceleration``: auto, Anderson,
-Irons–Tuck Aitken, none; newton on request, pairs with lumped recoveries only), the scene is run once and the Newton iterations and Uzawa rounds per
+Irons–Tuck Aitken, none; newton on request; with friction, pairs with the lumped tangential recovery only), the scene is run once and the Newton iterations and Uzawa rounds per
 step, cutbacks, wall time and the multiplier change per round of the last step (the
 larger of the normal and tangential change) are printed. Run from the repository root, e.g. on the peers' problem A:
 
@@ -68,8 +68,8 @@ def main(argv=None):
         nargs="+",
         choices=contact.ACCELERATIONS,
         default=[a for a in contact.ACCELERATIONS if a != "newton"],
-        help="multiplier updates to compare [all but newton, which only pairs with lumped "
-        "recoveries take: auto resolves to it there]",
+        help="multiplier updates to compare [all but newton, which a frictional pair takes "
+        "with the lumped tangential recovery only: auto resolves to it on lumped pairs]",
     )
     args = ap.parse_args(argv)
     rows = []

@@ -76,8 +76,8 @@ def parser(
             choices=("auto", "aitken", "anderson", "none", "newton"),
             default=default,
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
-            "pairs with lumped recoveries; auto: newton where it applies, else aitken) "
-            f"[{default}]",
+            "with friction pairs with the lumped tangential recovery only; auto: newton on "
+            f"pairs with the lumped recoveries, else aitken) [{default}]",
         )
     if frame:
         ap.add_argument(

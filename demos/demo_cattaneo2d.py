@@ -160,6 +160,7 @@ def main(argv=None) -> dict:
         "Cattaneo–Mindlin 2D (two cylinders, partial slip)",
         "results/demo_cattaneo2d",
         recovery=True,
+        acceleration=True,
         frame=True,
     )
     ap.add_argument("--plot", action="store_true", help="write q(x) against the analytic curve")
@@ -188,6 +189,7 @@ def main(argv=None) -> dict:
     )
     if args.step_depth_limit > 0.0:
         sc.setdefault("solver", {})["step_depth_limit"] = args.step_depth_limit
+    cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(cm.set_frame(sc, args.frame), args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall

@@ -71,7 +71,7 @@ from .scene import (
     TANGENTIAL_WEIGHTS,
     UZAWA_ACCELERATIONS,
     contact_numbers,
-    exact_update_applies,
+    exact_update_default,
     quadrature_degree_choice,
     uzawa_acceleration_choice,
 )
@@ -383,8 +383,10 @@ def resolve_acceleration(
     becomes "newton" (the exact update: :meth:`MortarContact._exact_multipliers` without
     friction, :meth:`MortarContact._exact_multipliers_fd` with it) on a pair with the
     lumped recovery and, with friction, the lumped tangential recovery
-    (:func:`~dolfinx_mortar.scene.exact_update_applies`); "aitken" on any other, in 2D
-    and 3D alike (local).
+    (:func:`~dolfinx_mortar.scene.exact_update_default`); "aitken" on any other, in 2D
+    and 3D alike (local). The unconstrained and constrained normal recoveries take
+    "newton" on request only (the finite-difference update; session 47: docs/method-notes.md,
+    "The exact update with the mixed normal recoveries").
 
     Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
@@ -400,7 +402,7 @@ def resolve_acceleration(
     took 15–19 rounds), the 3D frictional stick patch 5 + 5 iterations against 13 + 13."""
     if method != "auto":
         return method
-    if not exact_update_applies(friction, recovery, tangential_recovery):
+    if not exact_update_default(friction, recovery, tangential_recovery):
         return "aitken"
     return "newton"
 
@@ -539,11 +541,12 @@ class MortarContact:
     recovery, integration: see METHOD.md §3 and §7 ("node" = node-to-segment baseline).
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
     uzawa_acceleration: update of the multipliers between rounds (:class:`UzawaAcceleration`;
-        "newton": the exact update of :meth:`_exact_multipliers` (frictionless) or
-        :meth:`_exact_multipliers_fd` (friction), pairs with the lumped recovery (and
-        lumped tangential recovery) only, otherwise SceneError; "auto", the default:
-        "newton" where it applies (2D and 3D, with or without friction), "aitken"
-        elsewhere, :func:`resolve_acceleration`).
+        "newton": the exact update of :meth:`_exact_multipliers` (frictionless, lumped)
+        or :meth:`_exact_multipliers_fd` (friction, or the unconstrained and constrained
+        recoveries), with friction pairs with the lumped tangential recovery only,
+        otherwise SceneError; "auto", the default: "newton" on the pairs with the lumped
+        recoveries (2D and 3D, with or without friction), "aitken" elsewhere,
+        :func:`resolve_acceleration`).
     quadrature_degree: of the slave facet rule, an integer >= 1, or None (the default:
         :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type).
     key: scene key used in error messages.
@@ -2947,7 +2950,7 @@ class MortarContact:
         if done:
             self._clear_unloaded(pmax, tau_law if self.frictional else None, info, True)
             return changed == 0, info
-        if self.uzawa_acceleration.method == "newton":  # lumped (exact_update_applies)
+        if self.uzawa_acceleration.method == "newton":  # exact_update_applies
             if changed:
                 # the solve ended with frozen states, a frozen QP set or a held contact
                 # set that the free law contradicts: the round's map at fixed states,
@@ -2959,9 +2962,15 @@ class MortarContact:
                 self.lmbda = np.maximum(self.p_hat, 0.0)
                 if self.frictional:
                     self.lmbda_t = tau_law.copy()
-            elif self.frictional:
+            elif self.frictional or self.recovery != "lumped":
+                # the finite-difference update: friction, or the mixed normal recoveries
+                # (p̂ = ⟨λ − ε M⁻¹G⟩ and p from the recovery's own solve)
                 rtol = self._forcing(EXACT_FD_RTOL, max(rel, rel_t))
-                self.lmbda, self.lmbda_t = self._exact_multipliers_fd(fstate, tau_law, info, rtol)
+                law_now = (fstate, tau_law) if self.frictional else (None, None)
+                lam, lam_t = self._exact_multipliers_fd(*law_now, info, rtol)
+                self.lmbda = lam
+                if self.frictional:
+                    self.lmbda_t = lam_t
             else:
                 self.lmbda = self._exact_multipliers(d, info, self._forcing(EXACT_UPDATE_RTOL, rel))
             self._clear_unloaded(pmax, None, info, False)
@@ -3038,9 +3047,22 @@ class MortarContact:
         nodes included) and the stick/slip states (:meth:`_current_factorization`)."""
         states = getattr(self, "fstate", None) if self.frictional else None
         self._factored_states = (
-            np.asarray(self.kcoef) > 0.0,
+            self._normal_tangent_set(),
             None if states is None else states.copy(),
         )
+
+    def _normal_tangent_set(self) -> np.ndarray:
+        """The nodal states the normal tangent depends on (local): the nodes with a
+        lumped tangent coefficient (kcoef > 0: the lumped contact set, held nodes
+        included; the contact predictor's); with a mixed recovery also the nodes whose
+        law pressure p̂ is positive and the QP's free set 𝒫 (constrained; ``has_area``
+        when unconstrained; over all N nodes of the gathered system), stacked (2 n + N,)."""
+        kc = np.asarray(self.kcoef) > 0.0
+        if self.recovery == "lumped":
+            return kc
+        rec = self._recovered
+        free = np.zeros_like(kc) if rec is None else np.asarray(rec.free, bool)
+        return np.concatenate([kc, np.asarray(self.active, bool), free])
 
     def _current_factorization(self, fstate, info: dict) -> None:
         """Make the solver's last factorization (``problem.linear_inverse``) that of the
@@ -3061,7 +3083,7 @@ class MortarContact:
         noted = self._factored_states
         if refactor is None or noted is None:
             return
-        stale = not np.array_equal(noted[0], np.asarray(self.kcoef) > 0.0)
+        stale = not np.array_equal(noted[0], self._normal_tangent_set())
         if fstate is not None and noted[1] is not None:
             stale = stale or not np.array_equal(noted[1], fstate)
         if not self.comm.allreduce(bool(stale), op=MPI.LOR):
@@ -3193,10 +3215,12 @@ class MortarContact:
         return out
 
     def _exact_multipliers_fd(
-        self, fstate: np.ndarray, tau_law: np.ndarray, info: dict, rtol: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, fstate: np.ndarray | None, tau_law: np.ndarray | None, info: dict, rtol: float
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """The exact (Newton) update of the normal and tangential multipliers of a
-        frictional pair (collective; ``uzawa_acceleration = "newton"``, lumped recoveries).
+        frictional pair, or of the normal ones of a pair with the unconstrained or
+        constrained recovery (collective; ``uzawa_acceleration = "newton"``; with friction
+        the lumped tangential recovery).
 
         A round is the fixed-point map x ↦ T(u(x), x) of the stacked multipliers
         x = [λ, λ_T] (n_nodes + n_nodes·(gdim − 1),), T = [p̂, τ̂] the nodal law at the
@@ -3220,31 +3244,53 @@ class MortarContact:
         state, and the displacement it implies, δu = −K⁻¹ ∂R/∂x δx, is left in
         :attr:`displacement_update`. λ ← max(λ + δλ, 0).
 
+        The mixed normal recoveries (session 47) enter through the recovery's own
+        evaluation in each difference: p̂ = ⟨λ − ε γ⟩ with γ = M⁻¹G, and the residual's
+        p = M⁻¹F (unconstrained) or the QP's (constrained, F = A p̂), so ∂R/∂λ =
+        −Bᵀ W diag(A H) with W = M⁻¹ or M_𝒫𝒫⁻¹ on the QP's free set 𝒫. The map is
+        smooth only at a fixed free set, so the constrained recovery keeps the converged
+        round's 𝒫 during the differences (``qp_frozen``; a kept node leaves it only
+        where its law is open and its p < 0, :func:`.recovery.recover`). Without friction
+        x = λ and T = p̂.
+
         Where no factorization exists or GMRES fails, the update is the plain one
         (λ ← p̂, λ_T ← τ̂) and ``info["exact_update"]`` says so.
 
         fstate: (n_nodes,) the free law's states; tau_law: (n_nodes, gdim − 1) its
-        traction τ̂; rtol: GMRES's relative tolerance. Returns (λ (n_nodes,), λ_T
-        (n_nodes, gdim − 1)).
+        traction τ̂ (both None without friction); rtol: GMRES's relative tolerance.
+        Returns (λ (n_nodes,), λ_T (n_nodes, gdim − 1), None without friction).
         """
         comm, prob = self.comm, self.problem
         self.displacement_update = None
-        n, m = self.lmbda_t.shape
-        plain = (np.maximum(self.p_hat, 0.0), tau_law.copy())
+        fric = self.frictional
+        n, m = self.lmbda_t.shape if fric else (self.lmbda.size, 0)
+        plain = (np.maximum(self.p_hat, 0.0), tau_law.copy() if fric else None)
         solve = getattr(prob, "linear_inverse", None)
         if solve is None:
             info["exact_update"] = "plain (no factorization)"
             return plain
         self._current_factorization(fstate, info)
         x0 = prob.u.vector.copy()
-        lam0 = np.concatenate([self.lmbda, self.lmbda_t.ravel()])
-        saved = (self.lmbda.copy(), self.lmbda_t.copy(), self.frozen)
-        self.frozen = (fstate.copy(), None)  # the states; the slip directions stay free
+        lam0 = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if fric else self.lmbda.copy()
+        saved = (
+            self.lmbda.copy(),
+            self.lmbda_t.copy() if fric else None,
+            getattr(self, "frozen", None),
+            self.qp_frozen,
+        )
+        if fric:
+            self.frozen = (fstate.copy(), None)  # the states; the slip directions stay free
+        if self.recovery == "constrained" and self._recovered is not None:
+            self.qp_frozen = self._recovered.free.copy()  # the QP's free set 𝒫, held
         xt, r0, r1, w = (x0.duplicate() for _ in range(4))
 
         def law(x: PETSc.Vec, lam: np.ndarray) -> np.ndarray:
-            self.lmbda, self.lmbda_t = lam[:n].copy(), lam[n:].reshape(n, m).copy()
+            self.lmbda = lam[:n].copy()
+            if fric:
+                self.lmbda_t = lam[n:].reshape(n, m).copy()
             prob.update_contact(x)  # the state at x of every term (u ← x)
+            if not fric:
+                return self.p_hat.copy()
             return np.concatenate([self.p_hat, self.tau_law.ravel()])
 
         def contact_residual(b: PETSc.Vec) -> None:
@@ -3307,14 +3353,16 @@ class MortarContact:
                 du = -w.getArray(readonly=True).copy() if h > 0.0 else None
         finally:
             # back to the converged state (u, x and the states of the solve)
-            self.lmbda, self.lmbda_t, self.frozen = saved
+            self.lmbda, lam_t, frozen, self.qp_frozen = saved
+            if fric:
+                self.lmbda_t, self.frozen = lam_t, frozen
             prob.update_contact(x0)
             for vec in (xt, r0, r1, w, x0):
                 vec.destroy()
         if not self._exact_outcome(ok, its, du, info):
             return plain
         lam = lam0 + step
-        return np.maximum(lam[:n], 0.0), lam[n:].reshape(n, m)
+        return np.maximum(lam[:n], 0.0), lam[n:].reshape(n, m) if fric else None
 
     def round_state(self) -> dict:
         """What the next Uzawa round starts from, after :meth:`uzawa_update` (local): the

@@ -46,9 +46,9 @@ Schema (``*`` = required; defaults in brackets)::
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
       uzawa_max  int >= 1                                     [20]
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
-                 ("newton": recovery = "lumped" and, with friction,
-                 tangential_recovery = "lumped" only; "auto": "newton" where it
-                 applies, "aitken" elsewhere)
+                 ("newton": with friction tangential_recovery = "lumped"
+                 only; "auto": "newton" on the pairs with recovery = "lumped"
+                 where it applies, "aitken" elsewhere)
 
     [[dirichlet]]    zero or more
       boundary * string, physical group of facets
@@ -195,10 +195,20 @@ UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
 
 def exact_update_applies(friction: float, recovery: str, tangential_recovery: str) -> bool:
     """Whether ``uzawa_acceleration = "newton"`` (the exact multiplier update) is
-    available for a pair: the lumped normal recovery, and with friction (μ > 0) also the
-    lumped tangential one. "auto" resolves to "newton" exactly there
-    (:func:`dolfinx_mortar.contact.resolve_acceleration`)."""
-    return recovery == "lumped" and (friction == 0.0 or tangential_recovery == "lumped")
+    available for a pair: any normal recovery (the unconstrained and constrained ones
+    since session 47, with the finite-difference update), and with friction (μ > 0) the
+    lumped tangential one. "auto" resolves to "newton" only on the pairs with the lumped
+    normal recovery among them (:func:`exact_update_default`)."""
+    return recovery in RECOVERIES and (friction == 0.0 or tangential_recovery == "lumped")
+
+
+def exact_update_default(friction: float, recovery: str, tangential_recovery: str) -> bool:
+    """Whether ``uzawa_acceleration = "auto"`` is the exact update on a pair: where it
+    applies (:func:`exact_update_applies`) and the normal recovery is lumped (the mixed
+    recoveries take it on request only: docs/method-notes.md, "The exact update with the
+    mixed normal recoveries";
+    :func:`dolfinx_mortar.contact.resolve_acceleration`)."""
+    return recovery == "lumped" and exact_update_applies(friction, recovery, tangential_recovery)
 
 
 #: Allowed values of ``solver.linear``.
@@ -310,9 +320,9 @@ class ContactPair:
     uzawa_acceleration:
         Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
         relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
-        ``"newton"`` (the exact update of the multipliers; pairs with the lumped
-        recovery, and with friction the lumped tangential recovery, only) or ``"auto"``
-        (default: ``"newton"`` where it applies, ``"aitken"`` on the other pairs;
+        ``"newton"`` (the exact update of the multipliers; with friction, pairs with the
+        lumped tangential recovery only) or ``"auto"`` (default: ``"newton"`` on the
+        pairs with the lumped recovery where it applies, ``"aitken"`` on the other pairs;
         :func:`dolfinx_mortar.contact.resolve_acceleration`).
     """
 
@@ -991,9 +1001,9 @@ def uzawa_acceleration_choice(
     ):
         raise SceneError(
             key,
-            '"newton" (the exact multiplier update) needs recovery = "lumped", and with '
-            f'friction tangential_recovery = "lumped", got recovery = {recovery!r} and '
-            f"tangential_recovery = {tangential_recovery!r} (friction = {friction:g})",
+            '"newton" (the exact multiplier update) needs, with friction, '
+            f'tangential_recovery = "lumped", got tangential_recovery = '
+            f"{tangential_recovery!r} (friction = {friction:g})",
         )
     return acceleration
 
