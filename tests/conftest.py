@@ -99,7 +99,10 @@ def exact_contact_tangent(monkeypatch):
     """The exact contact tangent at every Jacobian: the finite-difference configurations
     press the bodies up to 0.125 h_I into each other (a few active nodes on coarse meshes),
     where contact.DEEP_PENETRATION_TOL would leave the geometric part of the tangent out
-    (tested on its own in test_contact_jacobian.py)."""
+    (tested on its own in test_contact_jacobian.py). Only for tests that compare the
+    tangent with finite differences, marked one by one: it changes the Newton tangent, so
+    a scene run under it does not test the shipped solver (never a module-wide
+    ``pytestmark``)."""
     import numpy as np
 
     from dolfinx_mortar import contact

@@ -19,8 +19,17 @@ from dolfinx_mortar import contact
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 
-pytestmark = pytest.mark.usefixtures("exact_contact_tangent")
-#: the library's value, before the fixture above raises it for the FD tests
+#: the finite-difference checks of the tangent: the exact tangent at every Jacobian (the
+#: fixture raises contact.DEEP_PENETRATION_TOL to inf). Per test, never module-wide: the
+#: other tests, and any test that runs a scene, see the shipped settings.
+exact_tangent = pytest.mark.usefixtures("exact_contact_tangent")
+#: the pattern tests compare Jacobians assembled one after the other at one state (or
+#: with a direct insertion). With the shipped DEEP_PENETRATION_TOL the first Jacobian of a
+#: solve at these pressed states leaves the geometric part out and the next one keeps it,
+#: so the values differ by that rule, not by the assembly under test (measured without
+#: the fixture: by 0.3 % to 9 % of ‖J‖). They take the exact tangent too.
+same_tangent_twice = exact_tangent
+#: the library's value
 DEEP_PENETRATION_TOL = contact.DEEP_PENETRATION_TOL
 
 CASES = {
@@ -206,6 +215,7 @@ PARAMS = (
 )
 
 
+@exact_tangent
 @pytest.mark.mpi
 @pytest.mark.parametrize("case, integration, recovery", PARAMS)
 def test_contact_tangent_matches_finite_differences(case, integration, recovery):
@@ -278,6 +288,7 @@ def _shifted_segment_fd_errors(case, shift):
     return fd_errors(problem, term, A, u0, n=2)
 
 
+@exact_tangent
 @pytest.mark.mpi
 @pytest.mark.parametrize("shift", [(0.0, 0.0), (1e-3, 0.0)])
 def test_segment_tangent_where_triangle_edges_coincide(shift):
@@ -302,6 +313,7 @@ EQUAL_TET_PATCH = (
 )
 
 
+@exact_tangent
 @pytest.mark.mpi
 def test_segment_tangent_where_master_boundary_vertices_lie_on_slave_edges():
     """Footprints equal, slave translated by (1e-3, -1e-3): the master boundary y = 0 and
@@ -357,6 +369,7 @@ def test_the_whole_jacobian_is_symmetric_with_conditions_on_slave_dofs():
             assert newton.snes.getKSP().getPC().getType() == want
 
 
+@same_tangent_twice
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
 def test_pattern_grows_before_the_values_go_in(case):
@@ -392,6 +405,7 @@ def test_pattern_grows_before_the_values_go_in(case):
         mat.destroy()
 
 
+@same_tangent_twice
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
 def test_a_growing_contact_zone_does_not_reallocate_inside_setvalues(case):
@@ -433,6 +447,7 @@ def test_a_growing_contact_zone_does_not_reallocate_inside_setvalues(case):
         mat.destroy()
 
 
+@same_tangent_twice
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
 def test_a_jacobian_with_the_last_indices_reuses_their_couplings(case):
@@ -519,7 +534,6 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
     Element integration: what is left is the penalty part (ε/A) B⊗B alone, symmetric and
     positive semi-definite. Segment integration: the p-proportional terms of the moving
     segment ends are left out too (the first Jacobian differs from one that keeps them)."""
-    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", DEEP_PENETRATION_TOL)
     comm = MPI.COMM_WORLD
     problem = _problem("hertz2d-P1", integration, "lumped")
     term = problem.contacts[0]
@@ -606,6 +620,7 @@ def _pin_neighbours(term, max_pins=6):
     return pins
 
 
+@exact_tangent
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
 def test_pinned_points_keep_their_facet_and_an_exact_tangent(case):
@@ -1011,7 +1026,7 @@ FRICTIONAL_PATCH = {
 }
 
 
-def test_residual_and_jacobian_are_evaluated_at_x(tmp_path):
+def test_residual_and_jacobian_are_evaluated_at_x(tmp_path, monkeypatch):
     """ContactProblem.residual(x) and jacobian(x) evaluate at x, whatever state the
     contact terms were last updated at (they were evaluated at the last update: the
     Jacobian differed by 41 % from J(x) on a slide), and the Jacobian is the derivative
@@ -1028,6 +1043,9 @@ def test_residual_and_jacobian_are_evaluated_at_x(tmp_path):
     summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, setup=held.append)
     assert summary["status"] == "ok", summary["error"]
     problem = held[0]
+    # the press above ran with the shipped settings; the comparisons below take the
+    # exact tangent (the fixture exact_contact_tangent, from here on)
+    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
     try:
         term = problem.contacts[0]
         md, V = problem.mesh_data, problem.V
