@@ -621,6 +621,15 @@ def test_a_full_disk_stops_the_run_before_the_mesh_is_written(tmp_path, monkeypa
     assert sorted(f.name for f in out.iterdir()) == []
 
 
+def _assert_no_room_for_step_2(error: str, out) -> None:
+    """``error`` is the one-line OutputError of a disk with 1000 bytes free at step 2."""
+    assert re.fullmatch(
+        rf"the output could not be written to {re.escape(str(out))}: not enough room, "
+        r"1000 bytes free, \d+ needed for step 2",
+        error,
+    ), error
+
+
 def test_a_full_disk_stops_the_run_with_the_finished_steps(tmp_path, monkeypatch):
     """The room runs out before step 2's write (the 4th check: meshes, steps 0, 1, 2):
     the run stops with status "failed", the message, and steps 0 and 1 in summary.json,
@@ -631,11 +640,7 @@ def test_a_full_disk_stops_the_run_with_the_finished_steps(tmp_path, monkeypatch
     summary = run(parse_scene(_small_press(steps=3), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     assert len(calls) == 4 and set(calls) == {str(tmp_path)}
     assert summary["status"] == "failed"
-    assert re.fullmatch(
-        rf"the output could not be written to {re.escape(str(tmp_path))}: not enough room, "
-        r"1000 bytes free, \d+ needed for step 2",
-        summary["error"],
-    ), summary["error"]
+    _assert_no_room_for_step_2(summary["error"], tmp_path)
     kept = json.loads((tmp_path / "summary.json").read_text())
     assert kept["status"] == "failed" and kept["error"] == summary["error"]
     assert len(kept["steps"]) == 1  # step 1 (step 0 is the initial state: no record)
@@ -703,11 +708,7 @@ def test_a_full_disk_on_one_rank_stops_every_rank(shared_tmp, monkeypatch):
     _disk_usage_running_out(monkeypatch, 3, ranks={comm.size - 1})
     summary = run(parse_scene(_small_press(steps=3), out), comm, out_dir=out)
     assert summary["status"] == "failed"
-    assert re.fullmatch(
-        rf"the output could not be written to {re.escape(str(out))}: not enough room, "
-        r"1000 bytes free, \d+ needed for step 2",
-        summary["error"],
-    ), summary["error"]
+    _assert_no_room_for_step_2(summary["error"], out)
     assert comm.allgather(summary["error"]) == [summary["error"]] * comm.size
     assert len(summary["steps"]) == 1
     if comm.rank == 0:
