@@ -823,3 +823,54 @@ def test_the_chattering_control_counts_each_jacobian_once(tmp_path_factory, monk
             assert jac[first - 1][2], (first, len(jac))  # frozen early: a slip reversal
         if len(jac) >= FREEZE_AFTER:
             assert first is not None and first <= FREEZE_AFTER
+
+
+def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory):
+    """(Serial only.) A soft block (E = 10, ν = 0.45) pressed by 0.05 and slid by 0.5 over
+    a same-size block with element integration and μ = 0.3: the slave's leading corner
+    node slides off the master's edge, paired over 0.24 or 0.024 of its weight as one
+    Gauss point enters or leaves the master. With λ per unit paired area the rounds
+    2-cycled (multiplier changes 0.43 ↔ 6.8, the exact update's λ 21 → 451 → 15) and the
+    run stopped at t ≈ 1.48; the sliver node now stays pure penalty (contact.SLIVER_FRACTION)
+    and every step converges without a cutback. Checked against statics: the two blocks'
+    reactions balance, and the sliding block's friction force is within the Coulomb bound
+    |F_x| ≤ μ |F_y|."""
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("serial scene")
+    data = {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"n_lower": 4, "n_upper": 4, "n_y": 2, "quads": True, "order": 1},
+        },
+        "material": [
+            {"region": "lower", "model": "neo-hookean", "E": 100.0, "nu": 0.45},
+            {"region": "upper", "model": "neo-hookean", "E": 10.0, "nu": 0.45},
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "integration": "element",
+                "friction": 0.3,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {
+                "boundary": "upper_top",
+                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.05], [2.0, 0.5, -0.05]],
+            },
+        ],
+        "steps": {"t_end": 2.0, "n": 4},
+    }
+    summary = _run_scene(data, tmp_path_factory, "sliver")
+    steps = summary["steps"]
+    assert steps[-1]["t"] == pytest.approx(2.0)
+    assert [s["cutbacks"] for s in steps] == [0] * 4
+    assert max(s["uzawa_rounds"] for s in steps) <= 4
+    # the corner node was a sliver node in the sliding steps
+    assert any("sliver_nodes" in r["upper_bottom:lower_top"] for r in steps[-1]["uzawa"])
+    up, low = (np.array(steps[-1]["reactions"][k]) for k in ("upper_top", "lower_bottom"))
+    assert np.allclose(up + low, 0.0, atol=1e-9)
+    assert low[1] > 0.5 and abs(low[0]) <= 0.3 * low[1] * (1 + 1e-9)
