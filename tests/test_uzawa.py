@@ -827,8 +827,9 @@ def test_the_chattering_control_counts_each_jacobian_once(tmp_path_factory, monk
             assert first is not None and first <= FREEZE_AFTER
 
 
+@pytest.mark.mpi
 def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory):
-    """(Serial only.) A soft block (E = 10, ν = 0.45) pressed by 0.05 and slid by 0.5 over
+    """1–3 ranks. A soft block (E = 10, ν = 0.45) pressed by 0.05 and slid by 0.5 over
     a same-size block with element integration and μ = 0.3: the slave's leading corner
     node slides off the master's edge, paired over 0.24 or 0.024 of its weight as one
     Gauss point enters or leaves the master. With λ per unit paired area the rounds
@@ -837,8 +838,6 @@ def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory)
     and every step converges without a cutback. Checked against statics: the two blocks'
     reactions balance, and the sliding block's friction force is within the Coulomb bound
     |F_x| ≤ μ |F_y|."""
-    if MPI.COMM_WORLD.size > 1:
-        pytest.skip("serial scene")
     data = {
         "kinematics": "finite",
         "mesh": {
