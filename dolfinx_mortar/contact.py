@@ -3337,7 +3337,7 @@ class MortarContact:
         saved = (
             self.lmbda.copy(),
             self.lmbda_t.copy() if fric else None,
-            getattr(self, "frozen", None),
+            self.frozen if fric else None,  # set for frictional pairs only
             self.qp_frozen,
         )
         if fric:
