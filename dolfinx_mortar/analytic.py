@@ -15,6 +15,7 @@ effective_modulus, effective_radius
 hertz2d, hertz2d_pressure                    line contact (plane strain)
 hertz3d, hertz3d_pressure                    point contact
 cattaneo_mindlin2d_stick, cattaneo_mindlin2d partial slip, line contact
+mindlin_deresiewicz2d                        unloading and reloading, line contact
 cattaneo_mindlin3d, cattaneo_mindlin3d_traction   partial slip, point contact
 torsion_full_slip                            torque of a fully sliding Hertz contact
 wedge_slip_ratio                             gross-slip force ratio of a block on a wedge
@@ -40,6 +41,7 @@ __all__ = [
     "hertz2d_pressure",
     "hertz3d",
     "hertz3d_pressure",
+    "mindlin_deresiewicz2d",
     "torsion_full_slip",
     "wedge_slip_ratio",
 ]
@@ -155,6 +157,72 @@ def cattaneo_mindlin2d(x, P: float, Q: float, mu: float, R_star: float, E_star: 
     """
     s = cattaneo_mindlin2d_stick(P, Q, mu, R_star, E_star)
     return _cm_traction(x, s["a"], s["c"], mu * s["p0"], Q)
+
+
+def mindlin_deresiewicz2d(
+    x,
+    P: float,
+    Q_star: float,
+    Q: float,
+    mu: float,
+    R_star: float,
+    E_star: float,
+    Q_min: float | None = None,
+):
+    """Tangential traction ``q(x)`` of a 2D (line) contact unloaded after Cattaneo-Mindlin
+    loading, and reloaded (Mindlin & Deresiewicz 1953; Johnson, Contact Mechanics, 1985,
+    section 7.2).
+
+    Same material on both sides (no normal-tangential coupling), constant ``P``; the
+    tangential force rose monotonically from 0 to ``Q_star`` (``|Q_star| <= mu P``), then
+    went back monotonically to ``Q`` (unloading, ``Q_min = None``), or back to ``Q_min``
+    and up again to ``Q`` (reloading). Signs: ``Q``, ``Q_min`` as ``Q_star``'s with
+    ``-|Q_star| <= Q <= |Q_star|``; reloading needs ``Q`` between ``Q_min`` and
+    ``Q_star``. Every change of the force direction is superposed on the state before it
+    as a Cattaneo solution with twice the friction coefficient (the traction changes by
+    up to 2 mu p where the slip reverses), for the force change ``dQ``::
+
+        q_2mu(x; dQ) = 2 mu (p0/a) [sqrt(a^2 - x^2) - sqrt(c_d^2 - x^2) 1{|x| < c_d}] sign(dQ),
+        (c_d/a)^2 = 1 - |dQ|/(2 mu P)
+
+    so that unloading gives ``q = q*(x) + q_2mu(x; Q - Q_star)``, with ``q*`` of
+    :func:`cattaneo_mindlin2d` at ``Q_star`` and the new stick zone ``|x| < c'``,
+    ``(c'/a)^2 = 1 - (Q_star - Q)/(2 mu P)`` (reverse slip, ``q = -mu p`` for the load's
+    sign, between ``c'`` and ``a``); reloading adds ``q_2mu(x; Q - Q_min)`` to the state
+    at ``Q_min``. Each term integrates to its force change, so ``∫ q dx = Q``; ``Q = Q_star``
+    gives ``q*``, ``Q = -Q_star`` gives ``-q*``. ``x``: distance from the contact centre
+    (array or scalar); ``a``, ``p0`` of :func:`hertz2d`. Returns q with x's shape (force
+    per unit area, the sign of the force).
+
+    Raises ValueError where the history leaves that range (gross slip, or a reload past
+    ``Q_star``, where the memory of the loop is erased and the virgin curve holds).
+    """
+    h = hertz2d(P, R_star, E_star)
+    a, q0 = h["a"], mu * h["p0"]
+    _slip_fraction(P, Q_star, mu)
+    tol = 1e-12 * mu * P
+    sgn = 1.0 if Q_star >= 0 else -1.0
+    # in the loading direction's frame: Q_star >= 0
+    qs, qq = sgn * Q_star, sgn * Q
+    qm = None if Q_min is None else sgn * Q_min
+    low = -qs if qm is None else qm
+    if qm is not None and not (-qs - tol <= qm <= qs + tol):
+        raise ValueError(f"Q_min = {Q_min} lies outside [-|Q_star|, |Q_star|] = [{-qs}, {qs}]")
+    if not (low - tol <= qq <= qs + tol):
+        raise ValueError(f"Q = {Q} lies outside the loop [{sgn * low}, {Q_star}]")
+
+    def step(dq):  # q_2mu(x; dq): the Cattaneo solution of dq with 2 mu
+        f = min(abs(dq) / (2.0 * mu * P), 1.0)
+        c = a * math.sqrt(1.0 - f)
+        return 2.0 * _cm_traction(x, a, c, q0, dq)
+
+    q = _cm_traction(x, a, a * math.sqrt(1.0 - min(qs / (mu * P), 1.0)), q0, qs)
+    if qm is None:
+        q = q + step(qq - qs)
+    else:
+        q = q + step(qm - qs) + step(qq - qm)
+    q = sgn * np.asarray(q)
+    return q[()] if q.ndim == 0 else q
 
 
 def cattaneo_mindlin3d(P: float, Q: float, mu: float) -> float:

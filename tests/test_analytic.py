@@ -114,3 +114,86 @@ def test_wedge_slip_ratio():
     assert A.wedge_slip_ratio(0.1, 0.5) == pytest.approx(0.63158, abs=5e-6)
     assert A.wedge_slip_ratio(0.0, 0.3) == pytest.approx(0.3)
     assert A.wedge_slip_ratio(2.0, 0.5) == math.inf
+
+
+@pytest.mark.parametrize("ratio", [0.3, 0.5, 1.0])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_mindlin_deresiewicz2d_unloading(ratio, sign):
+    """Unloading from Q* = ±ratio μP: the limits Q = Q* (Cattaneo–Mindlin's q*) and
+    Q = −Q* (−q*), ∫ q dx = Q, the reverse-slip band q = −μ p sign(Q*) outside the new
+    stick zone c' = a √(1 − (Q* − Q)/(2μP)), the stick zone's traction change
+    q* − q = 2 (μ p0/a)(√(a² − x²) − √(c'² − x²)) (Johnson §7.2, eq. 7.48's 2D form)."""
+    mu, Rs = 0.2, 4.0
+    Es = A.effective_modulus(E, NU)
+    Qs = sign * ratio * mu * P
+    h = A.hertz2d(P, Rs, Es)
+    a, p0 = h["a"], h["p0"]
+    xs = np.linspace(-1.1 * a, 1.1 * a, 221)
+    qstar = A.cattaneo_mindlin2d(xs, P, Qs, mu, Rs, Es)
+    md = A.mindlin_deresiewicz2d
+    assert np.allclose(md(xs, P, Qs, Qs, mu, Rs, Es), qstar, rtol=0, atol=1e-13)
+    assert np.allclose(md(xs, P, Qs, -Qs, mu, Rs, Es), -qstar, rtol=0, atol=1e-13)
+    for frac in (0.8, 0.5, 0.0, -0.25, -0.9):
+        Q = frac * Qs
+        dQ = abs(Qs - Q)
+        c1 = a * math.sqrt(1 - dQ / (2 * mu * P))
+        c0 = a * math.sqrt(1 - ratio)
+        assert c1 >= c0 - 1e-12
+
+        def q(x, Q=Q):
+            return md(x, P, Qs, Q, mu, Rs, Es)
+
+        pts = sorted({-c1, -c0, c0, c1})
+        total = quad(q, -a, a, points=pts, epsabs=1e-13, limit=400)[0]
+        assert total == pytest.approx(Q, rel=1e-8, abs=1e-12)
+        band = np.linspace(c1, a, 9)[1:-1]
+        assert np.allclose(q(band), -sign * mu * A.hertz2d_pressure(band, P, Rs, Es), atol=1e-13)
+        assert np.allclose(q(-band), q(band), atol=1e-13)  # even in x
+        inner = np.linspace(-c1, c1, 21)[1:-1]
+        change = 2 * mu * p0 / a * (np.sqrt(a**2 - inner**2) - np.sqrt(c1**2 - inner**2))
+        qs_in = A.cattaneo_mindlin2d(inner, P, Qs, mu, Rs, Es)
+        assert np.allclose(qs_in - q(inner), sign * change, atol=1e-12)
+        # the traction stays within the cone, and reaches it only outside c'
+        assert np.all(np.abs(q(xs)) <= mu * A.hertz2d_pressure(xs, P, Rs, Es) + 1e-12)
+        assert q(1.01 * a) == 0.0
+
+
+def test_mindlin_deresiewicz2d_reloading():
+    """Loaded to Q*, unloaded to Q_min, reloaded to Q: Q = Q_min continues the unloading
+    state; Q = Q* closes the loop on q* (Masing's memory); ∫ q dx = Q; with Q_min = −Q*
+    the reloading branch is the unloading one mirrored: q(Q) = −q_unloading(−Q)."""
+    mu, Rs = 0.2, 4.0
+    Es = A.effective_modulus(E, NU)
+    Qs, Qm = 0.5 * mu * P, -0.25 * mu * P
+    a = A.hertz2d(P, Rs, Es)["a"]
+    xs = np.linspace(-1.1 * a, 1.1 * a, 221)
+    md = A.mindlin_deresiewicz2d
+    unl = md(xs, P, Qs, Qm, mu, Rs, Es)
+    assert np.allclose(md(xs, P, Qs, Qm, mu, Rs, Es, Q_min=Qm), unl, atol=1e-13)
+    qstar = A.cattaneo_mindlin2d(xs, P, Qs, mu, Rs, Es)
+    assert np.allclose(md(xs, P, Qs, Qs, mu, Rs, Es, Q_min=Qm), qstar, atol=1e-13)
+    for Q in (-0.1 * mu * P, 0.0, 0.3 * mu * P):
+        # the square-root cusps: c*, c' of the unloading, c'' of the reloading
+        cs = [a * math.sqrt(1 - f) for f in (0.5, 0.375, (Q - Qm) / (2 * mu * P))]
+        pts = sorted({s * c for c in cs for s in (-1, 1)})
+        total = quad(
+            lambda x, Q=Q: md(x, P, Qs, Q, mu, Rs, Es, Q_min=Qm),
+            -a,
+            a,
+            points=pts,
+            epsabs=1e-13,
+            limit=400,
+        )[0]
+        assert total == pytest.approx(Q, rel=1e-8, abs=1e-12)
+    Q = 0.2 * mu * P
+    assert np.allclose(
+        md(xs, P, Qs, Q, mu, Rs, Es, Q_min=-Qs), -md(xs, P, Qs, -Q, mu, Rs, Es), atol=1e-13
+    )
+    with pytest.raises(ValueError):
+        md(0.0, P, Qs, 1.1 * Qs, mu, Rs, Es)  # past the reversal point: virgin curve
+    with pytest.raises(ValueError):
+        md(0.0, P, Qs, -1.1 * Qs, mu, Rs, Es)  # beyond the loop
+    with pytest.raises(ValueError):
+        md(0.0, P, Qs, 1.1 * Qs, mu, Rs, Es, Q_min=Qm)
+    with pytest.raises(ValueError):
+        md(0.0, P, 1.01 * mu * P, 0.0, mu, Rs, Es)  # gross slip
