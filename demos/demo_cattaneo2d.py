@@ -17,11 +17,20 @@ same with their outer neighbours], as the peers' harness), its error against c i
 slave-element sizes, the L2 error of the nodal tangential traction against q(x), the L2
 error of the pressure, Newton iterations.
 
+``--unload`` (Mindlin–Deresiewicz): the shift goes to SHIFT in one step (Q* ≈ 0.47 μP),
+then back through SHIFT/4 (t = 2.5, Q ≈ 0.11 μP) to −SHIFT/2 (t = 3, Q ≈ −0.24 μP); each
+unloaded state against ``analytic.mindlin_deresiewicz2d`` with the measured P, Q*, Q: the
+new stick zone |x| ≤ c', (c'/a)² = 1 − (Q* − Q)/(2μP), reverse slip q = −μp outside it.
+Its metrics add the L2 error of the nodal interpolant of the exact q (what the mesh can
+represent: the unloaded q has square-root cusps at c* and c') and the L2 distance to the
+Cattaneo–Mindlin q of the same Q without the history (what a friction law without memory
+would give).
+
 Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
 lets Open MPI run as root and on fewer cores than ranks)::
 
     . scripts/env.sh
-    mpirun -n 2 $PY demos/demo_cattaneo2d.py [--refine K] [--integration segment]
+    mpirun -n 2 $PY demos/demo_cattaneo2d.py [--refine K] [--integration segment] [--unload]
 """
 
 from __future__ import annotations
@@ -36,6 +45,7 @@ import _common as cm  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
+from dolfinx_mortar import analytic  # noqa: E402
 from dolfinx_mortar.scene import TANGENTIAL_WEIGHTS  # noqa: E402
 
 R, E, NU, MU = 8.0, 200.0, 0.3, 0.2
@@ -45,6 +55,7 @@ DEPTH = 0.1774  # platen approach giving P ≈ 9.6 (measured: 9.59 at h_contact 
 SHIFT = 0.029  # tangential platen displacement giving Q/(μP) ≈ 0.5
 H_CONTACT = 0.05
 SLAVE, MASTER = "upper_surface", "lower_surface"
+UNLOAD_BACK = 0.5  # --unload: the shift ends at -UNLOAD_BACK * SHIFT
 
 
 def scene(
@@ -86,6 +97,113 @@ def scene(
         "steps": steps,
         "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
     }
+
+
+def unloading_scene(refine: int = 0, back: float = UNLOAD_BACK, **kwargs) -> dict:
+    """The scene of ``--unload``: :func:`scene` (``kwargs``: its options) with the shift
+    to SHIFT in one step (t = 2), then back to −``back`` SHIFT over t ∈ [2, 3] in two steps."""
+    sc = scene(refine, n_shear=1, **kwargs)
+    for b in sc["dirichlet"]:
+        b["path"] = (
+            [
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, -DEPTH],
+                [2.0, SHIFT, -DEPTH],
+                [3.0, -back * SHIFT, -DEPTH],
+            ]
+            if b["boundary"] == "upper_top"
+            else [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]
+        )
+    sc["steps"] = {"t_end": 3.0, "n": 3, "output_times": [0.5, 2.5]}
+    sc["title"] += ", unloaded"
+    return sc
+
+
+def _l2(x: np.ndarray, q: np.ndarray, q_exact, a: float) -> float:
+    """‖q_h − q‖/‖q‖ over [−1.25a, 1.25a]: q_h the piecewise-linear interpolant of the nodal
+    values q at the sorted x (0 outside), ``q_exact`` a function of x."""
+    L = 1.25 * a
+    xs = np.unique(np.concatenate([np.linspace(-L, L, 40 * len(x) + 1), x[np.abs(x) <= L]]))
+    qh = np.interp(xs, x, q, left=0.0, right=0.0)
+    qe = q_exact(xs)
+    return math.sqrt(cm._trapz((qh - qe) ** 2, xs) / cm._trapz(qe**2, xs))
+
+
+def _profile(out_dir, step: int):
+    """(x, p, q, state) of ``contact_<SLAVE>_<step>.csv``, sorted by the reference x and
+    centred on the pressure centroid; q = −p_T0 (the platen's +x shift gives q > 0)."""
+    d = np.genfromtxt(
+        Path(out_dir) / f"{cm.contact_stem(SLAVE)}_{step}.csv", delimiter=",", names=True
+    )
+    o = np.argsort(d["x"])
+    x, p, q, state = d["x"][o], d["p_N"][o], -d["p_T0"][o], d["state"][o]
+    return x - float(np.sum(x * p) / np.sum(p)), p, q, state
+
+
+def evaluate_unloading(summary: dict, out_dir, h: float) -> dict:
+    """Metrics of the ``--unload`` run (rank 0: reads the CSVs): ``loading`` (the state at
+    t = 2: Q*, its L2(q) against Cattaneo–Mindlin) and ``unloaded``, one dict per later
+    step: t, P, Q, Q/(μP), c' (analytic) and the measured stick half-width (as
+    :func:`stick_bracket`) and its error in slave elements, L2(q) against
+    Mindlin–Deresiewicz, ``l2_interp`` (the nodal interpolant of the exact q against it),
+    ``l2_virgin`` (q against the Cattaneo–Mindlin q of the same Q, no history), ``q_force``
+    (∫ q_h dx / Q − 1), the stick and slip node counts, and q/(μ p_N) and x of the slip
+    nodes."""
+    steps = summary["steps"]
+    k_star = 1 + next(i for i, s in enumerate(steps) if abs(s["t"] - 2.0) < 1e-12)
+
+    def forces(k):
+        reac = np.asarray(steps[k - 1]["reactions"]["upper_top"], float)
+        return -reac[1], reac[0]
+
+    P_star, Q_star = forces(k_star)
+    x, p, q, _ = _profile(out_dir, k_star)
+    a = analytic.hertz2d(P_star, R_STAR, E_STAR)["a"]
+    loading = {
+        "P": P_star,
+        "Q": Q_star,
+        "Q_ratio": Q_star / (MU * P_star),
+        "l2_q": _l2(
+            x, q, lambda s: analytic.cattaneo_mindlin2d(s, P_star, Q_star, MU, R_STAR, E_STAR), a
+        ),
+    }
+    states = []
+    for k in range(k_star + 1, len(steps) + 1):
+        P, Q = forces(k)
+        x, p, q, state = _profile(out_dir, k)
+        a = analytic.hertz2d(P, R_STAR, E_STAR)["a"]
+        c = a * math.sqrt(1.0 - (Q_star - Q) / (2.0 * MU * P))
+
+        def exact(s, P=P, Q=Q):
+            return analytic.mindlin_deresiewicz2d(s, P, Q_star, Q, MU, R_STAR, E_STAR)
+
+        c_lo, c_hi = stick_bracket(x, state)
+        c_h = 0.5 * (c_lo + c_hi)
+        states.append(
+            {
+                "t": float(steps[k - 1]["t"]),
+                "P": P,
+                "Q": Q,
+                "Q_ratio": Q / (MU * P),
+                "c": c,
+                "c_measured": c_h,
+                "c_err_elements": (c_h - c) / h,
+                "l2_q": _l2(x, q, exact, a),
+                "l2_interp": _l2(x, exact(x), exact, a),
+                "l2_virgin": _l2(
+                    x,
+                    q,
+                    lambda s, P=P, Q=Q: analytic.cattaneo_mindlin2d(s, P, Q, MU, R_STAR, E_STAR),
+                    a,
+                ),
+                "q_force": cm._trapz(q, x) / Q - 1.0,
+                "slip_q_ratio": (q[state == 2] / (MU * p[state == 2])).tolist(),
+                "slip_x": x[state == 2].tolist(),
+                "stick_nodes": int(np.sum(state == 1)),
+                "slip_nodes": int(np.sum(state == 2)),
+            }
+        )
+    return {"loading": loading, "unloaded": states, **cm.solver_stats(summary)}
 
 
 def stick_bracket(x: np.ndarray, state: np.ndarray) -> tuple[float, float]:
@@ -176,13 +294,18 @@ def main(argv=None) -> dict:
         default="lumped",
         help="recovery of the tangential traction [lumped]",
     )
+    ap.add_argument(
+        "--unload",
+        action="store_true",
+        help="shift to SHIFT, then back to -SHIFT/2: Mindlin-Deresiewicz unloading",
+    )
     cm.add_step_depth_limit(ap, 0.0)
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
-    sc = scene(
+    sc = (unloading_scene if args.unload else scene)(
         args.refine,
-        args.integration,
+        integration=args.integration,
         recovery=args.recovery,
         tangential_weights=args.tangential_weights,
         tangential_recovery=args.tangential_recovery,
@@ -191,6 +314,8 @@ def main(argv=None) -> dict:
         sc.setdefault("solver", {})["step_depth_limit"] = args.step_depth_limit
     cm.set_acceleration(sc, args.uzawa_acceleration)
     summary, wall = cm.run_scene(cm.set_frame(sc, args.frame), args.out, comm)
+    if args.unload:
+        return _report_unloading(summary, args, h, wall, comm)
     m = cm.on_root(evaluate, summary, args.out, h, comm=comm)
     m["wall_time"] = wall
     if args.plot and comm.rank == 0:
@@ -212,6 +337,35 @@ def main(argv=None) -> dict:
             ("stick / slip nodes", f"{m['stick_nodes']} / {m['slip_nodes']}"),
             *cm.solver_rows(m, wall),
         ],
+        comm,
+    )
+    return m
+
+
+def _report_unloading(summary: dict, args, h: float, wall: float, comm) -> dict:
+    """Evaluate and print the ``--unload`` run (collective); returns the metrics."""
+    m = cm.on_root(evaluate_unloading, summary, args.out, h, comm=comm)
+    m["wall_time"], m["ranks"], m["dofs"] = wall, summary.get("ranks"), summary.get("dofs")
+    ld = m["loading"]
+    rows = [("loaded (t = 2): Q*/(μP), L2(q)", f"{ld['Q_ratio']:.4f}, {100 * ld['l2_q']:.2f} %")]
+    for st in m["unloaded"]:
+        rows += [
+            (
+                f"t = {st['t']:g}: Q/(μP), c', stick half-width",
+                f"{st['Q_ratio']:+.4f}, {st['c']:.4f}, {st['c_measured']:.4f} "
+                f"({st['c_err_elements']:+.2f} elements)",
+            ),
+            (
+                f"t = {st['t']:g}: L2(q) (interpolant; no history)",
+                f"{100 * st['l2_q']:.2f} % ({100 * st['l2_interp']:.2f} %; "
+                f"{100 * st['l2_virgin']:.1f} %)",
+            ),
+        ]
+    cm.report(
+        f"cattaneo2d unloaded (Mindlin–Deresiewicz): {args.integration}, {args.recovery}, "
+        f"{args.tangential_weights} weights, {args.tangential_recovery} tangential recovery, "
+        f"h = {h:g}, {m['ranks']} rank(s), {m['dofs']} dofs",
+        rows + cm.solver_rows(m, wall),
         comm,
     )
     return m
