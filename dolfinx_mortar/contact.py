@@ -830,6 +830,11 @@ class MortarContact:
         self.kcoef = np.zeros(n)
         self.predictor_nodes = 0
         self._no_contact = True
+        #: whether some contact update since the last :meth:`begin_step` (the current or
+        #: last attempt of a load step) had a slave node in contact, on any rank (the same
+        #: on every rank): the stop message tells a failed attempt that lost the contact
+        #: it had found from one that never found any
+        self.touched_in_attempt = False
         #: (γ_min, spring factor) at the last predictor Jacobian of the solve, or None
         self._predictor_track = None
         self._recovered = None
@@ -1666,6 +1671,7 @@ class MortarContact:
         self.active = active
         self.predictor_nodes = 0
         self._no_contact = self.comm.allreduce(int(active.sum())) == 0
+        self.touched_in_attempt |= not self._no_contact
         if self._no_contact and self._predictor_wanted():
             # Nothing in contact: a body held only by contact would have a singular Jacobian.
             # The nodes closest to contact (rc.near_contact) get the penalty stiffness in the
@@ -3511,12 +3517,14 @@ class MortarContact:
         self.uzawa_acceleration.reset()
 
     def begin_step(self) -> None:
-        """Reset the Uzawa acceleration's history (multipliers carry over from the last step); with
-        friction, the last committed state becomes the slip reference t_n."""
+        """Reset the Uzawa acceleration's history (multipliers carry over from the last step)
+        and :attr:`touched_in_attempt`; with friction, the last committed state becomes the
+        slip reference t_n."""
         self._reset_acceleration()
         self._carried = None
         self._carried_pins = None
         self._solves = 0
+        self.touched_in_attempt = False
         if self.frictional:
             if self._pending is not None:
                 u_n, tau, t_n = self._pending

@@ -1628,7 +1628,10 @@ def _open_contact_hint(problem) -> str:
     is not a free body's). Collective; called only when the run stops, so two allreduces
     per run, not per failed attempt. A body that only contact holds is then free, and
     Newton cannot reduce its load: the usual cause is a load pointing away from the
-    contact (a pulled cylinder: every cutback failed with ‖R‖ = the load), or, where no
+    contact (a pulled cylinder: every cutback failed with ‖R‖ = the load), unless the
+    pair had a node in contact at an earlier iterate of the attempt
+    (``touched_in_attempt``: Newton lost the contact it had found, and the clause says
+    so instead of blaming the loads), or, where no
     slave point of the pair projects onto its master surface at all
     (``problem.unpaired_pairs``), surfaces that are apart or do not face each other (a
     body placed beside the other: the hint had blamed the loads)."""
@@ -1641,7 +1644,13 @@ def _open_contact_hint(problem) -> str:
     if not free:
         return ""
     apart = [name for name in problem.unpaired_pairs() if name in free]
-    near = [name for name in free if name not in apart]
+    # pairs that had a slave node in contact at an earlier iterate of the failed attempt:
+    # Newton found the contact and lost it again, which says nothing of the loads (a
+    # traction-loaded full 2D Hertz model, whose cylinder turns freely about its centre
+    # with frictionless contact, had been told to check them)
+    touched = {t.name for t in problem.contacts if getattr(t, "touched_in_attempt", False)}
+    lost = [name for name in free if name not in apart and name in touched]
+    near = [name for name in free if name not in apart and name not in touched]
     clauses = []
     if apart:
         clauses.append(
@@ -1653,6 +1662,15 @@ def _open_contact_hint(problem) -> str:
         clauses.append(
             f"no slave node of {', '.join(near)} was in contact: a body held only by "
             "contact is free there (check the direction of the loads)"
+        )
+    if lost:
+        clauses.append(
+            f"no slave node of {', '.join(lost)} was in contact at the failed attempt's last "
+            "iterate, though some were at earlier ones: Newton did not settle the contact "
+            "of a body held only by contact there (a rigid motion that contact holds weakly "
+            "or not at all, such as a cylinder free to turn about its centre with "
+            "frictionless contact, lets the iterates wander: hold it with a [[dirichlet]] "
+            "condition)"
         )
     return "; " + "; ".join(clauses)
 

@@ -1741,3 +1741,58 @@ def test_destroy_is_idempotent(patch2d_api, caplog):
         for term in p.contacts:
             term.destroy()
         p.destroy()
+
+
+def test_the_open_contact_hint_does_not_blame_the_loads_after_contact_was_lost():
+    """A pair open at the failed attempt's last iterate that had a node in contact at an
+    earlier one (``touched_in_attempt``) is told apart from one that never touched: Newton
+    lost the contact it had found, which says nothing of the loads. A traction-loaded full
+    2D Hertz model with node integration (its cylinder free to turn about its centre:
+    frictionless contact cannot hold that rotation) had been told to check the direction
+    of the loads, which were right."""
+
+    class Term:
+        name = "a:b"
+        free_body = True
+        touched_in_attempt = True
+
+    class P:
+        contacts = [Term()]
+
+        def open_pairs(self):
+            return ["a:b"]
+
+        def unpaired_pairs(self):
+            return []
+
+    text = solver_module._open_contact_hint(P())
+    assert "no slave node of a:b was in contact at the failed attempt's last iterate" in text
+    assert "though some were at earlier ones" in text
+    assert "direction of the loads" not in text
+    Term.touched_in_attempt = False
+    text = solver_module._open_contact_hint(P())
+    assert "no slave node of a:b was in contact: a body held only by contact" in text
+    assert "check the direction of the loads" in text
+    assert "earlier ones" not in text
+
+
+def test_a_contact_term_records_whether_an_attempt_touched(tmp_path):
+    """``touched_in_attempt``: set by a contact update with a node in contact, reset by
+    ``begin_step`` (the start of every attempt). The coarse hertz2d scene, one step."""
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    held = []
+    data = {**HERTZ2D, "steps": {"n": 1}}
+    s = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path, setup=held.append)
+    problem = held[0]
+    try:
+        assert s["status"] == "ok", s.get("error")
+        (term,) = problem.contacts
+        assert term.touching and term.touched_in_attempt
+        problem.begin_step()
+        assert not term.touched_in_attempt
+    finally:
+        problem.destroy()
