@@ -1709,6 +1709,26 @@ class MortarContact:
         the last contact update (the same on every rank)."""
         return not self._no_contact
 
+    def master_normals(self) -> tuple[np.ndarray, np.ndarray]:
+        """The reference positions (npts, gdim) of this rank's master facet nodes, each
+        facet's nodes apart, and the facet's unit normal there (npts, gdim), of either
+        sign (local; :meth:`~dolfinx_mortar.problem.ContactProblem.unheld_motions`)."""
+        from .kernels.gap import unit_normal
+
+        ml = self.master_local
+        nf, nn, d = ml.X.shape
+        normals = np.zeros((nf, nn, d))
+        for f in range(nf):
+            xf = np.ascontiguousarray(ml.X[f])
+            for i, zeta in enumerate(REFERENCE_NODES[ml.ftype]):
+                unit_normal(xf, ml.ftype, 1.0, np.ascontiguousarray(zeta), normals[f, i])
+        return ml.X.reshape(-1, d), normals.reshape(-1, d)
+
+    @property
+    def body_cells(self) -> np.ndarray:
+        """The local cells of the pair's slave and master facets (local indices)."""
+        return self._body_cells
+
     def paired_points(self) -> int:
         """Local count of this rank's slave integration points that project onto a master
         facet at the last pairing (0 before the first)."""

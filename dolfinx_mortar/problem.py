@@ -228,6 +228,53 @@ def rigid_modes(r: np.ndarray, comps: np.ndarray, gdim: int) -> np.ndarray:
     return np.concatenate([trans, rot], axis=1)
 
 
+#: The rigid motions' names, in :func:`rigid_modes`' order, by dimension.
+RIGID_MODE_NAMES = {
+    2: ("translation along x", "translation along y", "rotation in the plane"),
+    3: (
+        "translation along x",
+        "translation along y",
+        "translation along z",
+        "rotation about x",
+        "rotation about y",
+        "rotation about z",
+    ),
+}
+
+
+@dataclass
+class UnheldBody:
+    """A body with rigid motions that nothing holds (:meth:`ContactProblem.unheld_motions`).
+
+    ``name``: its material regions ("'block'"); ``modes``: (k, nmodes) orthonormal
+    coefficients over :func:`rigid_modes`' basis; ``pairs``: the names of its contact
+    pairs ("SLAVE:MASTER"), all frictionless."""
+
+    name: str
+    modes: np.ndarray
+    pairs: list[str]
+
+    def motions(self, gdim: int) -> list[str]:
+        """The motions in words: the axis-aligned ones (translations, rotations about the
+        axes through the mesh's centre) that lie in the span of ``modes``, then, for
+        what they leave, "k other rigid motion(s)"."""
+        names = RIGID_MODE_NAMES[gdim]
+        basis = self.modes
+        inside = [j for j in range(len(names)) if np.linalg.norm(basis[:, j]) ** 2 > 1 - 1e-6]
+        words = [names[j] for j in inside]
+        rest = basis.shape[0] - len(inside)
+        if rest > 0:
+            words.append(f"{rest} other rigid motion{'s' if rest > 1 else ''}")
+        return words
+
+    def describe(self, gdim: int) -> str:
+        """The body and its motions in words: "body 'block' is free in translation along x,
+        ... and rotation about z"."""
+        words = self.motions(gdim)
+        text = words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+        return f"body {self.name} is free in {text}"
+
+
 #: A body counts as held by its Dirichlet conditions when the smallest eigenvalue of the
 #: Gram matrix of its rigid motions at the constrained dofs (positions scaled by the mesh
 #: extent) exceeds this times the largest: a body held at a single node (free to rotate
@@ -406,7 +453,8 @@ class ContactProblem:
         # boundary's value, its reaction the earlier one's)
         self.bcs = [bc for d in reversed(self._dirichlet) for bc in d.bcs]
         self._dirichlet_rows = None  # dirichlet_scale(): the constrained rows changed
-        self._bodies = None  # (cell_body, held) of bodies_held(): the conditions changed
+        self._bodies = None  # (cell_body, held, gram) of bodies_held(): the conditions changed
+        self._unheld = None  # unheld_motions(): the conditions changed
         if self.linear_bulk is not None:
             self.linear_bulk.set_bcs(self.bcs)
         # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
@@ -494,10 +542,80 @@ class ContactProblem:
             self.comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
             eig = np.linalg.eigvalsh(gram) if nbodies else np.zeros((0, 1))
             held = eig[:, 0] > RIGID_MODE_TOL * eig[:, -1]
-            self._bodies = (cell_body, held)
-        cell_body, held = self._bodies
+            self._bodies = (cell_body, held, gram)
+        cell_body, held, _ = self._bodies
         free = bool(np.any(~held[cell_body[np.asarray(cells, np.int64)]]))
         return not self.comm.allreduce(free, op=MPI.LOR)
+
+    def unheld_motions(self) -> list[UnheldBody]:
+        """The bodies with a rigid motion that neither the Dirichlet conditions nor their
+        contact pairs can hold (collective: a few reductions at the first call, then
+        cached; empty where there is none). The motions the Dirichlet conditions leave
+        free are those of :meth:`bodies_held`. A frictionless pair holds a motion of either
+        of its bodies only where the motion moves a node of its master surface along the
+        surface's normal: a rigid motion with m·n = 0 over the whole master surface (a
+        translation along a flat or cylindrical surface, a rotation about the axis of a
+        surface of revolution) maps the surface onto itself and leaves every gap of the
+        pair unchanged, so the pair's forces do no work along it and the Jacobian is
+        singular there. A frictional pair can hold any motion of its bodies by stick: they
+        are left out, as are the motions that a frictionless pair's normal holds (a body
+        pressed by a force onto another, held by contact alone, is a sound scene). Each
+        :class:`UnheldBody` names the body by its material regions and gives the motions
+        as an orthonormal basis over :func:`rigid_modes`' (positions about the mesh's
+        bounding-box centre over its extent)."""
+        if self._unheld is not None:
+            return self._unheld
+        self.bodies_held(np.empty(0, np.int64))  # the Dirichlet Gram matrices, cached
+        cell_body, _, gram = self._bodies
+        nbodies, nm = gram.shape[0], gram.shape[1] if gram.ndim == 3 else 0
+        gdim, scale = self.gdim, max(self.extent, 1e-300)
+        # the bodies each pair touches, and the normal Gram matrix of its master surface
+        touches = np.zeros((len(self.contacts), nbodies), np.int64)
+        normal = np.zeros((len(self.contacts), nm, nm))
+        points = np.zeros(len(self.contacts))
+        for k, term in enumerate(self.contacts):
+            touches[k, cell_body[np.asarray(term.body_cells, np.int64)]] = 1
+            x, n = term.master_normals()
+            r = (x - self._centre) / scale
+            mn = sum(
+                rigid_modes(r, np.full(len(r), c), gdim) * n[:, c : c + 1] for c in range(gdim)
+            )
+            normal[k] = mn.T @ mn if len(r) else 0.0
+            points[k] = len(r)
+        for a in (touches, normal, points):
+            self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
+        # the material regions of each body
+        md = self.mesh_data
+        regions = [m[0] for m in self.materials]
+        in_body = np.zeros((len(regions), nbodies), np.int64)
+        for j, name in enumerate(regions):
+            cells = compat.tagged_entities(md.cell_tags, md.cell_groups[name])
+            in_body[j, cell_body[np.asarray(cells, np.int64)]] = 1
+        self.comm.Allreduce(MPI.IN_PLACE, in_body, op=MPI.SUM)
+        unheld = []
+        for b in range(nbodies):
+            w, v = np.linalg.eigh(gram[b])
+            free = v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)]
+            pairs = [k for k in range(len(self.contacts)) if touches[k, b]]
+            if not free.shape[1] or any(self.contacts[k].frictional for k in pairs):
+                continue
+            held = sum((normal[k] / max(points[k], 1.0) for k in pairs), np.zeros((nm, nm)))
+            w, v = np.linalg.eigh(free.T @ held @ free)
+            modes = free @ v[:, w <= RIGID_MODE_TOL]
+            if not modes.shape[1]:
+                continue
+            names = [regions[j] for j in range(len(regions)) if in_body[j, b]]
+            part = any(np.count_nonzero(in_body[regions.index(r)]) > 1 for r in names)
+            name = " + ".join(repr(r) for r in names)
+            unheld.append(
+                UnheldBody(
+                    f"a connected part of {name}" if part else name,
+                    modes.T,
+                    [self.contacts[k].name for k in pairs],
+                )
+            )
+        self._unheld = unheld
+        return unheld
 
     def _set_fields(self, t: float) -> None:
         for gc, field, c in self._fields:
@@ -535,6 +653,7 @@ class ContactProblem:
         if slave is not None and any(t.slave_name == slave for t in self.contacts):
             raise ValueError(f"{slave!r} is already the slave surface of a contact term")
         self.contacts.append(term)
+        self._unheld = None  # unheld_motions(): the pairs changed
 
     @property
     def num_dofs(self) -> int:

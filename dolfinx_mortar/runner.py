@@ -121,7 +121,35 @@ def prepare(scene: Scene, comm, setup=None):
 
         for i, pair in enumerate(scene.contacts):
             problem.add_contact(MortarContact.from_pair(problem, pair, key=f"contact[{i}]"))
+    warn_unheld_bodies(problem)
     return problem, mesh_data
+
+
+def warn_unheld_bodies(problem) -> None:
+    """Log one warning per body with rigid motions that neither its Dirichlet conditions
+    nor its contact pairs can hold (:meth:`ContactProblem.unheld_motions`; collective at
+    the first call). Not an error: where no load acts along such a motion the direct
+    solver may still find one of the many solutions (docs/scenes.md), but a body that a
+    load or a contact force pushes along it drifts, and the run stops."""
+    for body in problem.unheld_motions():
+        log.warning("%s", unheld_text(body, problem.gdim))
+
+
+def unheld_text(body, gdim: int) -> str:
+    """The one line that names an :class:`~dolfinx_mortar.problem.UnheldBody` and why
+    nothing holds it (local)."""
+    if body.pairs:
+        contact = (
+            f"and its frictionless contact ({', '.join(body.pairs)}) cannot: they keep "
+            "every gap of the pair"
+        )
+    else:
+        contact = "and it is in no contact pair"
+    return (
+        f"{body.describe(gdim)}: no [[dirichlet]] condition holds these motions, {contact}; "
+        "the Jacobian is singular along them, and the run may fail (it does where a load "
+        "pushes the body along them): hold them with [[dirichlet]] components"
+    )
 
 
 def solver_settings(scene: Scene):

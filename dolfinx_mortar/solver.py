@@ -1651,8 +1651,16 @@ def _open_contact_hint(problem) -> str:
     touched = {t.name for t in problem.contacts if getattr(t, "touched_in_attempt", False)}
     lost = [name for name in free if name not in apart and name in touched]
     near = [name for name in free if name not in apart and name not in touched]
+    find = getattr(problem, "unheld_motions", None)
+    drifted = {p for b in find() for p in b.pairs} if find is not None else set()
     clauses = []
-    if apart:
+    if apart and set(apart) <= drifted:
+        # the free body named before (_unheld_hint) drifted off: not a question of positions
+        clauses.append(
+            f"no slave point of {', '.join(apart)} faces its master surface at the last "
+            "attempt: the free body drifted along those motions"
+        )
+    elif apart:
         clauses.append(
             f"no slave point of {', '.join(apart)} faces its master surface (none projects "
             "onto it within the search distance): a body held only by contact is free "
@@ -1673,6 +1681,24 @@ def _open_contact_hint(problem) -> str:
             "condition)"
         )
     return "; " + "; ".join(clauses)
+
+
+def _unheld_hint(problem) -> str:
+    """A clause for the error of a run that stops, naming each body with rigid motions that
+    neither its Dirichlet conditions nor its (frictionless) contact can hold
+    (``problem.unheld_motions``; "" where there is none, or the problem cannot tell).
+    Collective; cached by the problem (computed when the run set up). A probe's block held
+    in z only, its symmetry faces in unnamed physical groups, drifted sideways off the
+    sphere above it, and the error blamed the surfaces' positions."""
+    find = getattr(problem, "unheld_motions", None)
+    if find is None or not getattr(problem, "contacts", None):
+        return ""
+    bodies = find()
+    return "".join(
+        f"; {b.describe(problem.gdim)}, held there by no [[dirichlet]] condition nor by its "
+        f"frictionless contact ({', '.join(b.pairs)})"
+        for b in bodies
+    )
 
 
 def _edge_hint(problem) -> str:
@@ -1726,7 +1752,7 @@ def _stop_hints(problem, inverted=None, exc: ConvergenceError | None = None) -> 
     0.2 wider than the slave on each side); "" where ``exc`` (an InvertedElementsError)
     already says so (local then)."""
     if inverted is None:
-        return _open_contact_hint(problem) + _edge_hint(problem)
+        return _unheld_hint(problem) + _open_contact_hint(problem) + _edge_hint(problem)
     if isinstance(exc, InvertedElementsError):
         return ""
     return f"; the last attempt ended with inverted elements ({inverted.describe()})"

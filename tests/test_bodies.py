@@ -178,3 +178,97 @@ def test_a_light_first_load_brings_a_curved_body_into_contact(shared_tmp):
     assert max(sum(st["newton_iterations"]) for st in s["steps"]) <= 8, s["steps"]
     (fy,) = [st["contact_force"]["cylinder_surface:block_top"][1] for st in s["steps"][-1:]]
     assert abs(fy - 0.05) <= 1e-6 * 0.05, fy
+
+
+def _patch_press(lower_bottom, friction=0.0):
+    """The coarse patch2d press of the CLI test: the upper top pressed 0.01, the lower
+    bottom held in ``lower_bottom``'s components."""
+    return {
+        "title": "press",
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top", "friction": friction}],
+        "dirichlet": [
+            {
+                "boundary": "lower_bottom",
+                "components": list(lower_bottom),
+                "path": [[0.0] * (1 + len(lower_bottom)), [1.0] + [0.0] * len(lower_bottom)],
+            },
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
+        ],
+        "steps": {"n": 1},
+    }
+
+
+def _hertz3d_press(block_symmetry: bool):
+    """The coarse hertz3d quarter model pressed by a traction on the sphere's top: the
+    block held in u_z at its bottom, and on the generator's symmetry planes
+    (``block_symmetry``, which hold both bodies) or, as in the probe's scene whose block
+    symmetry faces were in unnamed groups, not (the sphere's top held in u_x, u_y then)."""
+    path1 = [[0.0, 0.0], [1.0, 0.0]]
+    dirichlet = [{"boundary": "block_bottom", "components": [2], "path": path1}]
+    if block_symmetry:
+        dirichlet += [
+            {"boundary": name, "components": [c], "path": path1}
+            for c, name in enumerate(("symmetry_x", "symmetry_y"))
+        ]
+    else:
+        top = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+        dirichlet.append({"boundary": "sphere_top", "components": [0, 1], "path": top})
+    return {
+        "title": "hertz3d",
+        "kinematics": "small",
+        "mesh": {"generator": "hertz3d", "params": {"h_contact": 1.0, "h_far": 5.0}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
+            for r in ("sphere", "block")
+        ],
+        "contact": [{"slave": "sphere_surface", "master": "block_top"}],
+        "dirichlet": dirichlet,
+        "traction": [
+            {"boundary": "sphere_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.1]]}
+        ],
+    }
+
+
+@pytest.mark.parametrize(
+    ("scene", "name", "expected"),
+    [
+        # u_y only, frictionless: free along x
+        (_patch_press((1,)), "'lower'", ["translation along x"]),
+        (_patch_press((1,), friction=0.3), None, []),  # friction can hold it (stick)
+        (_patch_press((0, 1)), None, []),  # clamped
+        (
+            _hertz3d_press(False),
+            "'block'",
+            ["translation along x", "translation along y", "rotation about z"],
+        ),
+        (_hertz3d_press(True), None, []),
+    ],
+)
+def test_unheld_motions(scene, name, expected):
+    """``ContactProblem.unheld_motions``: the rigid motions that the Dirichlet conditions
+    leave free and a frictionless pair cannot hold (tangential to its whole master
+    surface). patch2d's lower block held in u_y only slides along its flat top; with
+    friction nothing is claimed. hertz3d's block held in u_z at its bottom only (the
+    probe's scene) is free in x, y and the rotation about z; the sphere, held by contact
+    alone along z (the normal), is not named (a sound scene: Hertz loaded by a force).
+    The same answer on every rank (1–3)."""
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    problem, _ = prepare(parse_scene(scene, Path(".")), MPI.COMM_WORLD)
+    found = problem.unheld_motions()
+    if not expected:
+        assert found == []
+        return
+    (body,) = found
+    assert body.name == name and body.motions(problem.gdim) == expected
+    assert body.pairs == [problem.contacts[0].name]
+    assert body.describe(problem.gdim).startswith(f"body {name} is free in translation along x")

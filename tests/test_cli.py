@@ -1396,3 +1396,57 @@ def test_bench_locking_takes_the_study_options(tmp_path):
     res = cli(tmp_path, "bench", "locking", "--help")
     assert res.returncode == 0, res.stderr
     assert "--kappas" in res.stdout and "--uzawa-ratios" in res.stdout, res.stdout
+
+
+def test_a_body_free_along_its_frictionless_contact_is_named(workdir):
+    """patch2d's lower block held in u_y only, under a frictionless press: nothing holds
+    it along x (frictionless contact gives no tangential support). `check` and `run` say
+    so up front in one warning naming the body and the motion, and the scene is not
+    refused: without a load along x the run completes. Pushed along x by a traction on
+    its left face, the run stops (exit 1, no traceback) and the one error line names the
+    body and its free motion; it blamed "the pair's surfaces and the bodies' positions"
+    (a probe's 3D Hertz scene whose block symmetry faces were in unnamed groups)."""
+    scene = {
+        "title": "lower block free in x",
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
+        ],
+        "steps": {"n": 1, "max_cutbacks": 1},
+    }
+    warning = (
+        "[WARNING dolfinx_mortar.runner] body 'lower' is free in translation along x: no "
+        "[[dirichlet]] condition holds these motions, and its frictionless contact "
+        "(upper_bottom:lower_top) cannot"
+    )
+    (workdir / "free.toml").write_text(to_toml(scene))
+    scene["traction"] = [{"boundary": "lower_left", "path": [[0.0, 0.0, 0.0], [1.0, 0.5, 0.0]]}]
+    (workdir / "pushed.toml").write_text(to_toml(scene))
+    for ranks in (0, 2):
+        res = cli(workdir, "check", "free.toml", ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
+        assert res.stderr.count(warning) == 1 and len(res.stderr.splitlines()) == 1, where
+        res = cli(workdir, "run", "free.toml", "--out", f"free{ranks}", ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 0 and res.stderr.count(warning) == 1, where
+        res = cli(workdir, "run", "pushed.toml", "--out", f"pushed{ranks}", ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 1 and "Traceback" not in res.stderr, where
+        assert res.stderr.count(warning) == 1, where
+        errors = [ln for ln in res.stderr.splitlines() if ln.startswith("dolfinx-mortar:")]
+        assert len(errors) == 1 and errors[0].startswith("dolfinx-mortar: run failed: "), where
+        assert (
+            "body 'lower' is free in translation along x, held there by no [[dirichlet]] "
+            "condition nor by its frictionless contact (upper_bottom:lower_top)" in errors[0]
+        ), where
+        assert "the bodies' positions" not in errors[0], where
+        summary = json.loads((workdir / f"pushed{ranks}" / "summary.json").read_text())
+        assert summary["status"] == "failed" and summary["error"] in errors[0], summary
