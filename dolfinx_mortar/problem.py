@@ -54,6 +54,31 @@ def interpolate_path(path, t: float) -> np.ndarray:
     return np.array([np.interp(t, arr[:, 0], arr[:, j]) for j in range(1, arr.shape[1])])
 
 
+def warn_dropped_tractions(tractions, dirichlet, gdim: int) -> None:
+    """Log a warning for each component of a traction that a Dirichlet condition of the
+    same boundary prescribes, where the traction's path is not zero in it (local; every
+    rank logs it, the command line shows rank 0's). The prescribed displacement holds
+    those dofs: the traction there moves nothing, and the boundary's reaction takes it
+    (``reactions``). ``tractions`` (name, path) and ``dirichlet`` (name, components or
+    None, path) as :class:`ContactProblem` takes them."""
+    for name, path in tractions:
+        values = np.asarray(path, float)[:, 1:]
+        for dname, comps, _ in dirichlet:
+            if dname != name:
+                continue
+            held = range(gdim) if comps is None else comps
+            dropped = [int(c) for c in held if np.any(values[:, c] != 0.0)]
+            if dropped:
+                which = ", ".join(f"{c} ({'xyz'[c]})" for c in dropped)
+                log.warning(
+                    "[[traction]] on %r: a [[dirichlet]] condition prescribes component(s) "
+                    "%s of the same boundary, so the traction's part in them moves nothing "
+                    "(it goes into the boundary's reaction, not into the body)",
+                    name,
+                    which,
+                )
+
+
 @dataclass
 class _Dirichlet:
     name: str
@@ -343,6 +368,7 @@ class ContactProblem:
             c = fem.Constant(mesh, np.zeros(gdim, dtype=PETSc.ScalarType))
             loads -= ufl.inner(c, v) * ds(mesh_data.facet_groups[name])
             self._tractions.append((name, np.asarray(path, float), c))
+        warn_dropped_tractions(tractions, dirichlet, gdim)
         self.F_form = compat.create_form(F + loads)
         self.J_form = compat.create_form(ufl.derivative(F, self.u, du))
         self._dirichlet_rows = None  # see dirichlet_scale()

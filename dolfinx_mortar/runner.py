@@ -122,7 +122,31 @@ def prepare(scene: Scene, comm, setup=None):
         for i, pair in enumerate(scene.contacts):
             problem.add_contact(MortarContact.from_pair(problem, pair, key=f"contact[{i}]"))
     warn_unheld_bodies(problem)
+    warn_unwritten_fields(scene, problem)
     return problem, mesh_data
+
+
+def warn_unwritten_fields(scene: Scene, problem) -> None:
+    """Log a warning for each field that ``[output] fields`` names and the run does not
+    write (local): the contact fields without a ``[[contact]]`` pair, and
+    ``"tangential_traction"`` (with ``slip``) where every pair is frictionless. Not where
+    the list is the default, all of :data:`~dolfinx_mortar.scene.OUTPUT_FIELDS` (the
+    fields that apply)."""
+    from .scene import OUTPUT_FIELDS
+
+    fields = scene.output.fields
+    if tuple(fields) == OUTPUT_FIELDS:
+        return
+    for name in fields:
+        if name != "displacement" and not problem.contacts:
+            log.warning("output.fields: %r is not written: the scene has no [[contact]] pair", name)
+        elif name == "tangential_traction" and not any(
+            getattr(c, "frictional", False) for c in problem.contacts
+        ):
+            log.warning(
+                "output.fields: 'tangential_traction' is not written: every [[contact]] pair "
+                "is frictionless (friction = 0 models no tangential traction, nor slip)"
+            )
 
 
 def warn_unheld_bodies(problem) -> None:

@@ -1450,3 +1450,58 @@ def test_a_body_free_along_its_frictionless_contact_is_named(workdir):
         assert "the bodies' positions" not in errors[0], where
         summary = json.loads((workdir / f"pushed{ranks}" / "summary.json").read_text())
         assert summary["status"] == "failed" and summary["error"] in errors[0], summary
+
+
+def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(workdir):
+    """A [[traction]] on a boundary whose [[dirichlet]] prescribes the same component
+    moves nothing there: one warning names the boundary and the component, and the
+    boundary's reaction takes the traction (its y reaction differs from the run without
+    it by −t_y × L = 0.5, L = 1 the face's length). `output.fields` naming
+    "tangential_traction" in a frictionless run writes no such field: one warning says
+    why. Both said nothing before. `check` and `run`, 1 and 2 ranks: exit 0, each warning
+    once (rank 0's), no traceback."""
+    scene = {
+        "title": "traction on a prescribed face",
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
+        ],
+        "steps": {"n": 1},
+        "output": {"fields": ["displacement", "tangential_traction"]},
+    }
+    (workdir / "plain.toml").write_text(to_toml(scene))
+    scene["traction"] = [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.5]]}]
+    (workdir / "both.toml").write_text(to_toml(scene))
+    dropped = (
+        "[WARNING dolfinx_mortar.problem] [[traction]] on 'upper_top': a [[dirichlet]] "
+        "condition prescribes component(s) 1 (y) of the same boundary, so the traction's "
+        "part in them moves nothing (it goes into the boundary's reaction, not into the body)"
+    )
+    unwritten = (
+        "[WARNING dolfinx_mortar.runner] output.fields: 'tangential_traction' is not "
+        "written: every [[contact]] pair is frictionless"
+    )
+    reactions = {}
+    for ranks in (0, 2):
+        for name in ("plain", "both"):
+            for command in ("check", "run"):
+                out = ("--out", f"{name}{ranks}") if command == "run" else ()
+                res = cli(workdir, command, f"{name}.toml", *out, ranks=ranks)
+                where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+                assert res.returncode == 0 and "Traceback" not in res.stderr, where
+                assert res.stderr.count(dropped) == (name == "both"), where
+                assert res.stderr.count(unwritten) == 1, where
+                assert len(res.stderr.splitlines()) == 1 + (name == "both"), where
+            summary = json.loads((workdir / f"{name}{ranks}" / "summary.json").read_text())
+            reactions[name, ranks] = summary["steps"][-1]["reactions"]["upper_top"]
+            h5 = (workdir / f"{name}{ranks}" / "fields.xdmf").read_text()
+            assert "tangential_traction" not in h5 and "slip" not in h5
+        (x1, y1), (x0, y0) = reactions["both", ranks], reactions["plain", ranks]
+        assert abs(x1 - x0) < 1e-9 and abs(y1 - y0 - 0.5) < 1e-9, (ranks, reactions)
