@@ -193,7 +193,7 @@ EXACT_FD_MAX_IT = 40
 EXACT_FORCING = 0.1
 EXACT_FD_STEP = 1e-7
 #: Chattering control: after this many Jacobians in one Newton solve, or at the first
-#: slip reversal (lumped tangential recovery; ``_add_tangential_jacobian``), the stick/slip
+#: slip reversal (``_add_tangential_jacobian``; every tangential recovery), the stick/slip
 #: states and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
 #: free, if a state changed or a slip direction moved by more than FROZEN_DIRECTION_TOL.
@@ -2402,33 +2402,31 @@ class MortarContact:
             norm = np.linalg.norm(self.tau_law, axis=1)
             dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
             slip = self.fstate == fr.SLIP
-            lumped = self.tangential_recovery == "lumped"
             # Slip reversal: a node that slipped in opposite directions at two consecutive
             # Jacobians of the solve (s·s_prev < 0) is frozen in STICK (between slip in the
             # old direction and slip in the new one lies stick), and the states freeze at
-            # that Jacobian rather than after FREEZE_AFTER. Lumped tangential recovery only
-            # (with the constrained one the rule stopped the parallel-test Cattaneo press
-            # after 6 cutbacks). docs/method-notes.md, "Chattering control": the hard-case
-            # sweep's stick–slip reversal, and why no condition on λ_T since session 25.
+            # that Jacobian rather than after FREEZE_AFTER. Every tangential recovery since
+            # session 48 (lumped only before: with the constrained one the QP's cone still
+            # applied at a node frozen in stick, and the Cattaneo press of the parallel test
+            # stopped after 6 cutbacks; recovery.recover_tangential now drops it there).
+            # docs/method-notes.md, "Chattering control": the hard-case sweep's stick–slip
+            # reversal, and why no condition on λ_T since session 25.
             # The first Jacobian of a step's first solve sits at the predictor's state,
             # which carries the last step's slip on: it is not compared (session 41: a
             # press followed by a slide turned half the slave nodes there, which froze
             # them in stick far outside the cone and the solve 2-cycled until max_it).
-            reversal = False
-            if lumped:
-                if self._slip_prev is None:
-                    self._reversed = np.zeros(slip.shape, bool)
-                elif self._jacobians > 2 or not self._from_predictor:
-                    # the slip states and directions of the last Jacobian of this solve
-                    was, prev = self._slip_prev
-                    self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
-                self._slip_prev = (slip, dirs)
-                local = bool(np.any(self._reversed & slip))
-                reversal = self.comm.allreduce(local, op=MPI.LOR)
+            if self._slip_prev is None:
+                self._reversed = np.zeros(slip.shape, bool)
+            elif self._jacobians > 2 or not self._from_predictor:
+                # the slip states and directions of the last Jacobian of this solve
+                was, prev = self._slip_prev
+                self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
+            self._slip_prev = (slip, dirs)
+            local = bool(np.any(self._reversed & slip))
+            reversal = self.comm.allreduce(local, op=MPI.LOR)
             if self._jacobians >= self.freeze_after or reversal:
                 states = self.fstate.copy()
-                if lumped:
-                    states[self._reversed & slip] = fr.STICK
+                states[self._reversed & slip] = fr.STICK
                 self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None

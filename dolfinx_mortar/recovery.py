@@ -407,7 +407,7 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray, tol=0.0):
     """min ½ Σ_α τ_αᵀ M τ_α − Σ_α τ_αᵀ F_α subject to |τ_i| ≤ c_i for every node i.
 
     M (n, n) symmetric positive definite (dense), F (n, m), c (n,) ≥ 0: the Coulomb cone
-    radii μ p_i. The solution is the fixed point τ = P(z), z = τ − R(Mτ − F), with P the
+    radii μ p_i (``inf``: no cone at that node). The solution is the fixed point τ = P(z), z = τ − R(Mτ − F), with P the
     nodewise projection onto the discs (intervals when m = 1) and R = diag(1/M_ii) > 0
     (for a separable convex set the fixed point is the KKT system, whatever R). It is
     found by semismooth Newton on G(τ) = τ − P(z(τ)), started from the projection of
@@ -432,7 +432,8 @@ def cone_qp(M: np.ndarray, F: np.ndarray, c: np.ndarray, tol=0.0):
     open_ = c >= tol  # where the radius is c (∂radius/∂c = 1), not tol
     c = np.maximum(c, tol)
     tau, _, _ = _project_discs(np.linalg.solve(M, F), c)
-    scale = max(float(np.abs(F).max()) * float(r.max()), float(c.max()), 1e-300)
+    finite = c[np.isfinite(c)]
+    scale = max(float(np.abs(F).max()) * float(r.max()), float(finite.max(initial=0.0)), 1e-300)
     for it in range(1, CONE_QP_MAX_ITERATIONS + 1):
         z = tau - r[:, None] * (M @ tau - F)
         P, dPz, dPc = _project_discs(z, c)
@@ -472,7 +473,11 @@ def recover_tangential(
     * ``lumped``: M → diag(A): γ = σ/A, τ = τ̂ (the nodal return mapping);
     * ``unconstrained``: M τ_α = F_α (τ may leave the Coulomb cone);
     * ``constrained``: τ = argmin_{|τ^I| ≤ μ p^I} ½ Σ_α τ_αᵀMτ_α − τ_αᵀF_α
-      (:func:`cone_qp`): the projection of M⁻¹F onto the cone in the M-norm.
+      (:func:`cone_qp`): the projection of M⁻¹F onto the cone in the M-norm. A node that
+      ``frozen`` imposes in STICK (the chattering control) has no cone there, as its
+      lumped law's τ̂ = λ_T + ε_T γ has none (session 48: with the cone the QP's
+      projection switched at such a node from iterate to iterate, and a Newton solve
+      with the states frozen 4-cycled until max_it).
 
     The frame components of neighbouring nodes are identified (M acts on each component
     α); exact for a flat surface, an O(h κ) approximation on a curved one.
@@ -482,7 +487,7 @@ def recover_tangential(
     coefficient; frozen, tol as :func:`~dolfinx_mortar.friction.return_mapping`.
     Serial, deterministic.
     """
-    from .friction import return_mapping
+    from .friction import STICK, return_mapping
 
     n, m = sigma.shape
     idx = np.flatnonzero(has)
@@ -534,6 +539,12 @@ def recover_tangential(
 
         return TangentialRecovered(gamma, tau_hat, tau, state, D, Pd, unconstrained_tangent)
     c = mu * np.maximum(p[idx], 0.0)
+    if frozen is not None:
+        # a node imposed STICK by the chattering control has no cone in the QP either: its
+        # τ̂ = λ_T + ε_T γ is linear in u, and the projection onto |τ| ≤ μp would bring the
+        # stick/slip kink back (docs/method-notes.md, "Tangential recoveries")
+        stuck = (frozen[0][idx] >= 0) & (state[idx] == STICK)
+        c = np.where(stuck, np.inf, c)
     t_k, J, dPz, dPc, its = cone_qp(Mh, F[idx], c, 0.0 if tol is None else tol[idx])
     tau[idx] = t_k
 

@@ -334,6 +334,56 @@ def test_constrained_tangent_at_first_contact_sticks_like_the_nodal_law(m):
     np.testing.assert_allclose(rc.tau, ru.tau, atol=1e-14)
 
 
+@pytest.mark.parametrize("m", [1, 2])
+def test_constrained_recovery_has_no_cone_at_a_node_frozen_in_stick(m):
+    """A node that the chattering control imposes in STICK (``frozen``) keeps τ̂ = λ_T +
+    ε_T γ outside the Coulomb cone, as the lumped law does, and the constrained recovery
+    puts no cone on it either: its τ is the unconstrained M⁻¹F there (smooth in σ), the
+    other nodes keep theirs (the QP's gradient Mτ − F vanishes at the frozen nodes). Before session 48 the QP projected such a node onto its cone,
+    and a Newton solve with the states frozen (the unloading step of
+    ``demo_cattaneo2d.py --unload`` with this recovery) 4-cycled until max_it."""
+    n = 21
+    M, A, sigma, lam, p, has, active, eps = _tangential_state(n, m, np.random.default_rng(1))
+    free = recover_tangential("constrained", M, A, sigma, lam, p, has, active, MU_T, eps)
+    slipping = np.flatnonzero(free.state == 2)
+    assert slipping.size >= 2
+    states = np.full(n, -1)
+    states[slipping] = 1  # imposed stick where the free law slips: outside the cone
+    frozen = (states, np.zeros((n, m)))
+
+    def rec(method, s=sigma):
+        return recover_tangential(method, M, A, s, lam, p, has, active, MU_T, eps, frozen)
+
+    rc, ru = rec("constrained"), rec("unconstrained")
+    assert np.all(rc.state[slipping] == 1)
+    trial = lam + eps[:, None] * rc.gamma
+    np.testing.assert_allclose(rc.tau_hat[slipping], trial[slipping])
+    assert np.all(np.linalg.norm(trial[slipping], axis=1) > MU_T * p[slipping])
+    # KKT of the QP: the gradient Mτ − F vanishes at the frozen nodes (no constraint there)
+    idx = np.flatnonzero(has)
+    g = np.zeros((n, m))
+    g[idx] = M[idx][:, idx].toarray() @ rc.tau[idx] - A[idx, None] * rc.tau_hat[idx]
+    np.testing.assert_allclose(g[slipping], 0.0, atol=1e-12)
+    norm = np.linalg.norm(rc.tau, axis=1)
+    assert np.any(norm[slipping] > MU_T * p[slipping] * (1 + 1e-6))  # outside the cone
+    others = np.flatnonzero(has & (states < 0))
+    assert np.all(norm[others] <= MU_T * p[others] * (1 + 1e-12) + 1e-15)
+    # where no other cone is active either, it is the unconstrained recovery
+    if np.all(norm[others] < MU_T * p[others] * (1 - 1e-9)):
+        np.testing.assert_allclose(rc.tau, ru.tau, atol=1e-13)
+    # smooth: its tangent matches finite differences
+    h = 1e-7
+    fd = np.stack(
+        [
+            (rec("constrained", sigma + h * e).tau - rec("constrained", sigma - h * e).tau).ravel()
+            / (2 * h)
+            for e in np.eye(n * m).reshape(n * m, n, m)
+        ],
+        axis=1,
+    )
+    np.testing.assert_allclose(rc.Tsig, fd, atol=1e-7 * np.abs(fd).max())
+
+
 def test_cone_qp_converges_with_z_just_outside_a_cone():
     """The slip tolerance enlarges a disc only below it (radius max(c, tol)): a first
     version counted |z| ≤ c + tol as inside, the projection then jumped at c + tol and
