@@ -158,32 +158,50 @@ def _residual(problem, term, vec_u):
     return b
 
 
+#: seed of the directions of fd_errors (each call draws its own, reproducibly)
+FD_SEED = 20261205
+
+
 def fd_errors(problem, term, A, u0, n=3, h=1e-6, check=None, fixed=None):
     """Relative errors ‖K v − (R(u0 + h v) − R(u0 − h v))/2h‖ / ‖FD‖ for ``n`` random v
     (collective); ``check(term)`` runs after each perturbed residual; ``fixed``: owned
-    local dofs where v is zero (Dirichlet dofs, whose columns K leaves out)."""
+    local dofs where v is zero (Dirichlet dofs, whose columns K leaves out).
+
+    The n directions are n successive draws of one generator made for this call on
+    ``u0``'s communicator and seeded FD_SEED + rank (so they differ from each other, the
+    ranks' parts differ from each other, and a run repeats its directions); it is
+    destroyed at the end, as are the work vectors."""
+    rng = PETSc.Random().create(u0.comm)
+    rng.setSeed(FD_SEED + u0.comm.rank)
     errs = []
-    for _ in range(n):
-        v = u0.copy()
-        v.setRandom(PETSc.Random().create(MPI.COMM_WORLD))
-        v.scale(1e-2)
-        if fixed is not None:
-            v.array[fixed] = 0.0
-        up = u0.copy()
-        up.axpy(h, v)
-        um = u0.copy()
-        um.axpy(-h, v)
-        fd = _residual(problem, term, up)
-        if check is not None:
-            check(term)
-        fd.axpy(-1.0, _residual(problem, term, um))
-        fd.scale(0.5 / h)
-        assert fd.norm() > 0.0
-        Jv = u0.copy()
-        A.mult(v, Jv)
-        diff = Jv.copy()
-        diff.axpy(-1.0, fd)
-        errs.append(diff.norm() / max(fd.norm(), 1e-300))
+    try:
+        for _ in range(n):
+            v = u0.duplicate()
+            v.setRandom(rng)
+            v.scale(1e-2)
+            if fixed is not None:
+                v.array[fixed] = 0.0
+            up = u0.copy()
+            up.axpy(h, v)
+            um = u0.copy()
+            um.axpy(-h, v)
+            fd = _residual(problem, term, up)
+            if check is not None:
+                check(term)
+            rm = _residual(problem, term, um)
+            if check is not None:
+                check(term)
+            fd.axpy(-1.0, rm)
+            fd.scale(0.5 / h)
+            assert fd.norm() > 0.0
+            Jv = u0.duplicate()
+            A.mult(v, Jv)
+            Jv.axpy(-1.0, fd)
+            errs.append(Jv.norm() / max(fd.norm(), 1e-300))
+            for w in (v, up, um, fd, rm, Jv):
+                w.destroy()
+    finally:
+        rng.destroy()
     return errs
 
 
@@ -324,6 +342,50 @@ def test_segment_tangent_where_master_boundary_vertices_lie_on_slave_edges():
     boundary edge crossing the line obliquely the covered region moved (error 3.1e-2)."""
     errs = _shifted_segment_fd_errors(EQUAL_TET_PATCH, (1e-3, -1e-3))
     assert max(errs) < 1e-6, errs
+
+
+@pytest.mark.mpi
+def test_fd_errors_takes_n_different_directions():
+    """fd_errors on a mock residual R(u) = u² (componentwise, K = diag(2 u0)): its n
+    directions are different (each call made a fresh generator with PETSc's default seed
+    in every pass, so all n were one vector: three equal errors), the ranks' parts of a
+    direction differ, and a second call repeats the first's errors (seeded)."""
+    from types import SimpleNamespace
+
+    comm = MPI.COMM_WORLD
+    u0 = PETSc.Vec().createMPI((5, PETSc.DECIDE), comm=comm)
+    u0.array[:] = 1.0 + np.arange(5) + 5 * comm.rank
+    seen = []
+
+    def add_residual(b):
+        b.array[:] += problem.u.vector.array**2
+
+    problem = SimpleNamespace(
+        u=SimpleNamespace(vector=u0.duplicate(), x=SimpleNamespace(scatter_forward=lambda: None))
+    )
+    term = SimpleNamespace(
+        update=lambda u: seen.append(u.vector.array.copy()), add_residual=add_residual
+    )
+    K = PETSc.Mat().createAIJ(((5, None), (5, None)), nnz=(1, 0), comm=comm)
+    lo = K.getOwnershipRange()[0]
+    for i, ui in enumerate(u0.array):
+        # a wrong entry on rank 0 makes the error depend on the direction
+        K.setValue(lo + i, lo + i, 2.0 * ui + (1.0 if lo + i == 0 else 0.0))
+    K.assemble()
+    h = 1e-6
+    errs = fd_errors(problem, term, K, u0, n=3, h=h)
+    dirs = [(seen[k] - u0.array) / h for k in (0, 2, 4)]  # u0 + h v_k, then u0 − h v_k
+    for k in range(3):
+        assert np.allclose((u0.array - seen[2 * k + 1]) / h, dirs[k])
+        for j in range(k):
+            a = np.array(comm.allgather([dirs[k] @ dirs[j], dirs[k] @ dirs[k], dirs[j] @ dirs[j]]))
+            assert a[:, 0].sum() < 0.99 * np.sqrt(a[:, 1].sum() * a[:, 2].sum())
+    assert min(abs(errs[k] - errs[j]) for k in range(3) for j in range(k)) > 1e-3 * max(errs)
+    parts = comm.allgather(dirs[0])
+    assert all(not np.allclose(parts[r], parts[0]) for r in range(1, comm.size))
+    assert fd_errors(problem, term, K, u0, n=3, h=h) == errs
+    for obj in (u0, problem.u.vector, K):
+        obj.destroy()
 
 
 def asymmetry(A) -> float:
@@ -571,13 +633,19 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
     assert max(fd_errors(problem, term, jacobian(), u0, n=2)) < 1e-5
     # the penalty part: symmetric, and v·K v >= 0
     assert first.isSymmetric(tol=1e-10 * first.norm())
-    rng = PETSc.Random().create(comm)
+    # five successive draws of one generator: five directions (on u0's communicator,
+    # seeded per rank like fd_errors's)
+    rng = PETSc.Random().create(u0.comm)
+    rng.setSeed(FD_SEED + u0.comm.rank)
     for _ in range(5):
-        v = u0.copy()
+        v = u0.duplicate()
         v.setRandom(rng)
         Kv = v.duplicate()
         first.mult(v, Kv)
         assert v.dot(Kv) >= -1e-12 * first.norm() * v.norm() ** 2
+        v.destroy()
+        Kv.destroy()
+    rng.destroy()
 
 
 def _pin_neighbours(term, max_pins=6):
