@@ -18,7 +18,9 @@ sides x = 0 and x = L.
   sliding state. Every node must slip with p_N = p0 and p_T0 = −μ p0.
 
 Both to round-off with ``--integration segment``, to the quadrature error of the
-element rule (≤ 2 %) with ``element``.
+element rule with ``element``: ≤ 2 % on quadrilaterals, triangles and hexahedra, 6.9 %
+(p_N) and 3.3 % (p_T) in 3D stick with ``--tri`` (tetrahedra; BENCHMARKS.md §4). The
+slide mode's master is rigid: round-off there with either.
 
 Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
 lets Open MPI run as root and on fewer cores than ranks)::

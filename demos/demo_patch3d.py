@@ -2,8 +2,10 @@
 
 See ``_patch.py`` for the set-up. The interface pressure must equal p0 at every
 slave node: to round-off with ``--integration segment``, within the quadrature
-error (<= 2 %) with ``--integration element`` (the default). ``--swap`` makes the
-coarser side the slave; ``--tri`` uses tetrahedra.
+error with ``--integration element`` (the default): <= 2 % on these hexahedra (1.2 %
+with the finer side as the slave, 1.9 % with ``--swap``), 7.0 % and 5.0 % with
+``--tri`` (tetrahedra: the default rule on a triangle has 6 points; BENCHMARKS.md §4).
+``--swap`` makes the coarser side the slave; ``--tri`` uses tetrahedra.
 
 Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and
 lets Open MPI run as root and on fewer cores than ranks)::

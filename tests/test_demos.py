@@ -165,6 +165,20 @@ def test_patch3d(shared_tmp, integration, tol, swap, recovery):
     assert m["open_nodes"] == 0
 
 
+@pytest.mark.parametrize("swap,tol", [(False, 0.075), (True, 0.055)], ids=["finer", "coarser"])
+def test_patch3d_on_tetrahedra(shared_tmp, swap, tol):
+    """``--tri``: segment integration to round-off, element integration NOT within 2 %
+    (the default 6-point rule on a triangle): 7.0e-2 slave finer, 5.0e-2 coarser
+    (docs/method-notes.md, "Default quadrature"; BENCHMARKS.md §4, session 48)."""
+    base = ["--tri", "--out", str(shared_tmp / "patch3d_tri")] + (["--swap"] if swap else [])
+    m = demo_patch3d.main(base + ["--integration", "segment"])
+    assert m["p_err"] <= 1e-8, m["p_err"]
+    m = demo_patch3d.main(base)
+    assert 0.02 < m["p_err"] <= tol, m["p_err"]
+    assert m["force_err"] <= 1e-8, m["force_err"]
+    assert m["open_nodes"] == 0
+
+
 def test_hertz3d(shared_tmp):
     m = demo_hertz3d.main(["--out", str(shared_tmp / "hertz3d")])
     assert abs(m["P_measured"] / demo_hertz3d.P - 1.0) <= 0.02  # faceted top: slightly less
