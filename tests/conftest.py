@@ -68,6 +68,33 @@ def write_block_msh(
     gmsh.finalize()
 
 
+def patch_press_scene(steps: int = 1, lower_bottom=(0, 1), friction: float = 0.0) -> dict:
+    """A coarse patch2d press scene (small strain, linear elastic, E = 100, ν = 0.3):
+    the upper top pressed down 0.01 over t ∈ [0, 1] in ``steps`` steps, the lower bottom
+    held in the components ``lower_bottom``, one pair upper_bottom:lower_top with
+    coefficient ``friction`` (0: frictionless)."""
+    held = list(lower_bottom)
+    return {
+        "title": "press",
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top", "friction": friction}],
+        "dirichlet": [
+            {
+                "boundary": "lower_bottom",
+                "components": held,
+                "path": [[0.0] * (1 + len(held)), [1.0] + [0.0] * len(held)],
+            },
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
+        ],
+        "steps": {"n": steps},
+    }
+
+
 @pytest.fixture
 def shared_tmp(tmp_path_factory):
     """A temporary directory with the same path on every rank (collective)."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import patch_press_scene
 from mpi4py import MPI
 
 from dolfinx_mortar.mesh import load_mesh
@@ -180,30 +181,6 @@ def test_a_light_first_load_brings_a_curved_body_into_contact(shared_tmp):
     assert abs(fy - 0.05) <= 1e-6 * 0.05, fy
 
 
-def _patch_press(lower_bottom, friction=0.0):
-    """The coarse patch2d press of the CLI test: the upper top pressed 0.01, the lower
-    bottom held in ``lower_bottom``'s components."""
-    return {
-        "title": "press",
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [{"slave": "upper_bottom", "master": "lower_top", "friction": friction}],
-        "dirichlet": [
-            {
-                "boundary": "lower_bottom",
-                "components": list(lower_bottom),
-                "path": [[0.0] * (1 + len(lower_bottom)), [1.0] + [0.0] * len(lower_bottom)],
-            },
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
-        ],
-        "steps": {"n": 1},
-    }
-
-
 def _hertz3d_press(block_symmetry: bool):
     """The coarse hertz3d quarter model pressed by a traction on the sphere's top: the
     block held in u_z at its bottom, and on the generator's symmetry planes
@@ -239,9 +216,13 @@ def _hertz3d_press(block_symmetry: bool):
     ("scene", "name", "expected"),
     [
         # u_y only, frictionless: free along x
-        (_patch_press((1,)), "'lower'", ["translation along x"]),
-        (_patch_press((1,), friction=0.3), None, []),  # friction can hold it (stick)
-        (_patch_press((0, 1)), None, []),  # clamped
+        (patch_press_scene(lower_bottom=(1,)), "'lower'", ["translation along x"]),
+        (
+            patch_press_scene(lower_bottom=(1,), friction=0.3),
+            None,
+            [],
+        ),  # friction can hold it (stick)
+        (patch_press_scene(lower_bottom=(0, 1)), None, []),  # clamped
         (
             _hertz3d_press(False),
             "'block'",

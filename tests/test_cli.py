@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import write_block_msh
+from conftest import patch_press_scene, write_block_msh
 
 from dolfinx_mortar.scene import dump_scene
 
@@ -1406,21 +1406,8 @@ def test_a_body_free_along_its_frictionless_contact_is_named(workdir):
     its left face, the run stops (exit 1, no traceback) and the one error line names the
     body and its free motion; it blamed "the pair's surfaces and the bodies' positions"
     (a probe's 3D Hertz scene whose block symmetry faces were in unnamed groups)."""
-    scene = {
-        "title": "lower block free in x",
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "components": [1], "path": [[0.0, 0.0], [1.0, 0.0]]},
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
-        ],
-        "steps": {"n": 1, "max_cutbacks": 1},
-    }
+    scene = patch_press_scene(lower_bottom=(1,))
+    scene["steps"]["max_cutbacks"] = 1
     warning = (
         "[WARNING dolfinx_mortar.runner] body 'lower' is free in translation along x: no "
         "[[dirichlet]] condition holds these motions, and its frictionless contact "
@@ -1460,22 +1447,8 @@ def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(w
     "tangential_traction" in a frictionless run writes no such field: one warning says
     why. Both said nothing before. `check` and `run`, 1 and 2 ranks: exit 0, each warning
     once (rank 0's), no traceback."""
-    scene = {
-        "title": "traction on a prescribed face",
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
-        ],
-        "steps": {"n": 1},
-        "output": {"fields": ["displacement", "tangential_traction"]},
-    }
+    scene = patch_press_scene()
+    scene["output"] = {"fields": ["displacement", "tangential_traction"]}
     (workdir / "plain.toml").write_text(to_toml(scene))
     scene["traction"] = [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.5]]}]
     (workdir / "both.toml").write_text(to_toml(scene))

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import patch_press_scene
 from mpi4py import MPI
 
 from dolfinx_mortar import compat
@@ -225,24 +226,6 @@ def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
         run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "afile")
 
 
-def _small_press(steps: int) -> dict:
-    """A coarse patch2d press (small strain, linear elastic, frictionless) in ``steps``."""
-    return {
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 3, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.01]]},
-        ],
-        "steps": {"n": steps},
-    }
-
-
 def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
     """An exception from ``progress`` (or Ctrl-C) in the steps goes on to the caller, and
     summary.json says "failed" with its type and message and keeps the finished step (it
@@ -251,7 +234,7 @@ def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
 
     from dolfinx_mortar import parse_scene, run
 
-    data = _small_press(steps=3)
+    data = patch_press_scene(steps=3)
 
     def progress(step, record):
         raise RuntimeError(f"the host stops after step {step}")
@@ -286,7 +269,7 @@ def test_a_callback_that_raises_on_one_rank_stops_every_rank(shared_tmp, error):
         if step == 2 and comm.rank == last:
             raise error("only this rank stops")
 
-    scene = parse_scene(_small_press(steps=3), shared_tmp)
+    scene = parse_scene(patch_press_scene(steps=3), shared_tmp)
     if comm.rank == last:
         with pytest.raises(error, match="only this rank stops"):
             run(scene, comm, out_dir=out, progress=progress)
@@ -321,7 +304,7 @@ def test_a_run_frees_the_problem_it_built(shared_tmp, monkeypatch, hand_over):
         assert self.linear_bulk._K0 is None
 
     monkeypatch.setattr(ContactProblem, "destroy", watched)
-    data = _small_press(steps=1)
+    data = patch_press_scene(steps=1)
     box = {}
     s = run(
         parse_scene(data, shared_tmp),
@@ -349,7 +332,7 @@ def test_the_frictional_fields_follow_output_fields(tmp_path, fields, written):
     written whatever ``output.fields`` said, which cannot name it)."""
     from dolfinx_mortar import parse_scene, run
 
-    data = _small_press(steps=1)
+    data = patch_press_scene(steps=1)
     data["contact"][0]["friction"] = 0.3
     if fields is not None:
         data["output"] = {"fields": ["displacement", *fields]}
@@ -369,7 +352,7 @@ def test_a_destroyed_problem_refuses_to_evaluate(tmp_path):
 
     held = []
     summary = run(
-        parse_scene(_small_press(steps=1), tmp_path),
+        parse_scene(patch_press_scene(steps=1), tmp_path),
         MPI.COMM_SELF,
         out_dir=tmp_path,
         setup=held.append,
@@ -394,14 +377,14 @@ def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
     slave's files stayed before)."""
     from dolfinx_mortar import parse_scene, run
 
-    first = _small_press(steps=3)
+    first = patch_press_scene(steps=3)
     run(parse_scene(first, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     assert {f"contact_upper_bottom_{k}.csv" for k in range(4)} <= {
         f.name for f in tmp_path.iterdir()
     }
     (tmp_path / "notes.txt").write_text("mine")
     (tmp_path / "contact_elsewhere_1.csv").write_text("mine too")
-    second = _small_press(steps=2)
+    second = patch_press_scene(steps=2)
     second["contact"] = [{"slave": "lower_top", "master": "upper_bottom"}]
     run(parse_scene(second, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     names = sorted(f.name for f in tmp_path.iterdir())
@@ -416,7 +399,7 @@ def test_a_run_removes_the_contact_files_of_the_run_before_it(tmp_path):
     assert "notes.txt" in names and "contact_elsewhere_1.csv" in names
     # the temporary file of a CSV write that a kill interrupted goes too
     (tmp_path / "contact_lower_top_2.csv.tmp").write_text("x,y\n0.1")
-    shorter = _small_press(steps=1)
+    shorter = patch_press_scene(steps=1)
     shorter["contact"] = second["contact"]
     run(parse_scene(shorter, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     names = sorted(f.name for f in tmp_path.iterdir())
@@ -443,7 +426,7 @@ def test_the_earlier_runs_files_are_checked_and_odd_summaries_ignored(tmp_path):
     assert previous_slaves(tmp_path) == {"old"}
     (tmp_path / "contact_old_3.csv").mkdir()
     with pytest.raises(SceneError, match=r"contact_old_3.csv' is a directory"):
-        run(parse_scene(_small_press(steps=1), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+        run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     for text in ("{", '{"steps": []}', "[" * 100000 + "]" * 100000, '{"modelled": 3}'):
         (tmp_path / "summary.json").write_text(text)
         assert previous_slaves(tmp_path) == set()
@@ -466,7 +449,7 @@ def test_links_left_at_the_temporary_names_are_not_followed(tmp_path):
         "contact_upper_bottom_1.csv",
     ):
         (out / name).symlink_to(precious)
-    run(parse_scene(_small_press(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
+    run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
     assert precious.read_text() == "keep me"
     assert json.loads((out / "summary.json").read_text())["status"] == "ok"
     assert not [f for f in out.iterdir() if f.is_symlink()]
@@ -503,7 +486,7 @@ def test_ctrl_c_while_a_step_is_written_waits_for_its_summary_record(tmp_path, m
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # xdist ignores it
     try:
         with pytest.raises(KeyboardInterrupt):
-            run(parse_scene(_small_press(steps=4), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+            run(parse_scene(patch_press_scene(steps=4), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     finally:
         signal.signal(signal.SIGINT, previous)
     summary = json.loads((tmp_path / "summary.json").read_text())
@@ -552,7 +535,7 @@ def test_a_full_disk_stops_the_run_with_the_steps_written(shared_tmp, monkeypatc
     monkeypatch.setattr(output, "write_contact_csv", full_at_step_2)
     out = shared_tmp / "full_disk"
     comm = MPI.COMM_WORLD
-    summary = run(parse_scene(_small_press(steps=4), out), comm, out_dir=out)
+    summary = run(parse_scene(patch_press_scene(steps=4), out), comm, out_dir=out)
     assert summary["status"] == "failed", summary["status"]
     assert "No space left on device" in summary["error"], summary["error"]
     assert len(summary["steps"]) == 1
@@ -612,7 +595,7 @@ def test_a_full_disk_stops_the_run_before_the_mesh_is_written(tmp_path, monkeypa
     out = tmp_path / "out"
     _disk_usage_running_out(monkeypatch, 0)
     with pytest.raises(OutputError) as info:
-        run(parse_scene(_small_press(steps=2), tmp_path), MPI.COMM_SELF, out_dir=out)
+        run(parse_scene(patch_press_scene(steps=2), tmp_path), MPI.COMM_SELF, out_dir=out)
     message = str(info.value)
     assert "\n" not in message
     assert message.startswith(f"the output could not be written to {out}: not enough room, ")
@@ -637,7 +620,9 @@ def test_a_full_disk_stops_the_run_with_the_finished_steps(tmp_path, monkeypatch
     from dolfinx_mortar import parse_scene, run
 
     calls = _disk_usage_running_out(monkeypatch, 3)
-    summary = run(parse_scene(_small_press(steps=3), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    summary = run(
+        parse_scene(patch_press_scene(steps=3), tmp_path), MPI.COMM_SELF, out_dir=tmp_path
+    )
     assert len(calls) == 4 and set(calls) == {str(tmp_path)}
     assert summary["status"] == "failed"
     _assert_no_room_for_step_2(summary["error"], tmp_path)
@@ -679,7 +664,7 @@ def test_the_room_checked_bounds_what_each_write_adds(tmp_path, monkeypatch):
 
     monkeypatch.setattr(output, "check_room", spy)
     after = []  # bytes used after each step's write (progress: after write_step)
-    data = _small_press(steps=3)
+    data = patch_press_scene(steps=3)
     summary = run(
         parse_scene(data, tmp_path),
         MPI.COMM_SELF,
@@ -706,7 +691,7 @@ def test_a_full_disk_on_one_rank_stops_every_rank(shared_tmp, monkeypatch):
     comm = MPI.COMM_WORLD
     out = shared_tmp / "room"
     _disk_usage_running_out(monkeypatch, 3, ranks={comm.size - 1})
-    summary = run(parse_scene(_small_press(steps=3), out), comm, out_dir=out)
+    summary = run(parse_scene(patch_press_scene(steps=3), out), comm, out_dir=out)
     assert summary["status"] == "failed"
     _assert_no_room_for_step_2(summary["error"], out)
     assert comm.allgather(summary["error"]) == [summary["error"]] * comm.size
