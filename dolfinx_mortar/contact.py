@@ -194,8 +194,12 @@ EXACT_FD_MAX_IT = 40
 #: level 2: a change of 8.3e-8 updated by 6 products to 2.3e-13, uzawa_tol = 1e-8).
 EXACT_FORCING = 0.1
 EXACT_FD_STEP = 1e-7
+#: The tangential recoveries whose nodes the chattering control freezes in STICK at a slip
+#: reversal (``_add_tangential_jacobian``); the unconstrained one freezes after
+#: FREEZE_AFTER Jacobians only.
+REVERSAL_RECOVERIES = ("lumped", "constrained")
 #: Chattering control: after this many Jacobians in one Newton solve, or at the first
-#: slip reversal (``_add_tangential_jacobian``; every tangential recovery), the stick/slip
+#: slip reversal (``_add_tangential_jacobian``; REVERSAL_RECOVERIES), the stick/slip
 #: states and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
 #: they are re-checked when the solve has converged: another solve follows, with the states
 #: free, if a state changed or a slip direction moved by more than FROZEN_DIRECTION_TOL.
@@ -2407,28 +2411,34 @@ class MortarContact:
             # Slip reversal: a node that slipped in opposite directions at two consecutive
             # Jacobians of the solve (s·s_prev < 0) is frozen in STICK (between slip in the
             # old direction and slip in the new one lies stick), and the states freeze at
-            # that Jacobian rather than after FREEZE_AFTER. Every tangential recovery since
-            # session 48 (lumped only before: with the constrained one the QP's cone still
-            # applied at a node frozen in stick, and the Cattaneo press of the parallel test
-            # stopped after 6 cutbacks; recovery.recover_tangential now drops it there).
+            # that Jacobian rather than after FREEZE_AFTER. The lumped and, since session
+            # 48, the constrained tangential recovery (before, the constrained QP's cone
+            # still applied at a node frozen in stick, and the Cattaneo press of the
+            # parallel test stopped after 6 cutbacks; recovery.recover_tangential now drops
+            # it there). Not the unconstrained one (REVERSAL_RECOVERIES): with the rule, the
+            # one-step slide of bench/scenes/slide_one_step2d.toml took a cutback (42 → 91
+            # Newton iterations) and friction3d_reversal.toml 574 → 884.
             # docs/method-notes.md, "Chattering control": the hard-case sweep's stick–slip
             # reversal, and why no condition on λ_T since session 25.
             # The first Jacobian of a step's first solve sits at the predictor's state,
             # which carries the last step's slip on: it is not compared (session 41: a
             # press followed by a slide turned half the slave nodes there, which froze
             # them in stick far outside the cone and the solve 2-cycled until max_it).
-            if self._slip_prev is None:
-                self._reversed = np.zeros(slip.shape, bool)
-            elif self._jacobians > 2 or not self._from_predictor:
-                # the slip states and directions of the last Jacobian of this solve
-                was, prev = self._slip_prev
-                self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
-            self._slip_prev = (slip, dirs)
-            local = bool(np.any(self._reversed & slip))
-            reversal = self.comm.allreduce(local, op=MPI.LOR)
+            reversal = False
+            if self.tangential_recovery in REVERSAL_RECOVERIES:
+                if self._slip_prev is None:
+                    self._reversed = np.zeros(slip.shape, bool)
+                elif self._jacobians > 2 or not self._from_predictor:
+                    # the slip states and directions of the last Jacobian of this solve
+                    was, prev = self._slip_prev
+                    self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
+                self._slip_prev = (slip, dirs)
+                local = bool(np.any(self._reversed & slip))
+                reversal = self.comm.allreduce(local, op=MPI.LOR)
             if self._jacobians >= self.freeze_after or reversal:
                 states = self.fstate.copy()
-                states[self._reversed & slip] = fr.STICK
+                if reversal:
+                    states[self._reversed & slip] = fr.STICK
                 self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None

@@ -1150,6 +1150,32 @@ def test_a_3d_press_with_the_constrained_tangential_recovery(tmp_path):
     assert 0.40 < np.hypot(fx, fy) / abs(fz) < 0.5
 
 
+def test_the_unconstrained_tangential_recovery_has_no_reversal_rule(tmp_path):
+    """``bench/scenes/slide_one_step2d.toml`` (a press, then a slide of 1.3 in one step)
+    with the unconstrained tangential recovery: the chattering control's slip-reversal
+    rule (``contact.REVERSAL_RECOVERIES``: lumped and constrained) froze a node in stick
+    at the 5th Jacobian of the slide, which then failed and was cut back (3 steps, 60 + 31
+    Newton iterations, the force 0.46 % off). Without the rule: 2 steps, the slide in 27
+    + 2 + 1 + 1 + 1, no cutback."""
+    import tomllib
+
+    from dolfinx_mortar.contact import REVERSAL_RECOVERIES
+    from dolfinx_mortar.runner import run
+
+    assert "unconstrained" not in REVERSAL_RECOVERIES
+    scene = pathlib.Path(__file__).resolve().parents[1] / "bench" / "scenes"
+    data = tomllib.loads((scene / "slide_one_step2d.toml").read_text())
+    data["contact"][0]["tangential_recovery"] = "unconstrained"
+    data["steps"]["max_cutbacks"] = 0
+    data.pop("output", None)
+    summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert summary["status"] == "ok", summary.get("error")
+    its = [st["newton_iterations"] for st in summary["steps"]]
+    assert len(its) == 2 and max(its[1]) <= 30, its
+    fx, fy = summary["steps"][-1]["contact_force"]["upper_bottom:lower_top"]
+    assert abs(fx / fy + 0.2986) < 2e-3, (fx, fy)  # (−0.808589, 2.707635): slip, below μ
+
+
 def test_a_3d_slide_with_the_constrained_normal_recovery(tmp_path):
     """A hexahedral block (n_upper = 6) pressed by 0.02 onto a larger one (n_lower = 4,
     master surface held; finite strain, μ = 0.3, element integration) in 2 steps, then
