@@ -481,6 +481,7 @@ class ContactProblem:
         self._dirichlet_rows = None  # dirichlet_scale(): the constrained rows changed
         self._bodies = None  # (cell_body, held, gram) of bodies_held(): the conditions changed
         self._unheld = None  # unheld_motions(): the conditions changed
+        self._free_fit = None  # free_rigid_motion(): the conditions changed
         if self.linear_bulk is not None:
             self.linear_bulk.set_bcs(self.bcs)
         # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
@@ -584,13 +585,29 @@ class ContactProblem:
         surface of revolution) maps the surface onto itself and leaves every gap of the
         pair unchanged, so the pair's forces do no work along it and the Jacobian is
         singular there. A frictional pair can hold any motion of its bodies by stick: they
-        are left out, as are the motions that a frictionless pair's normal holds (a body
+        are left out (:meth:`stick_only_motions` lists them), as are the motions that a frictionless pair's normal holds (a body
         pressed by a force onto another, held by contact alone, is a sound scene). Each
         :class:`UnheldBody` names the body by its material regions and gives the motions
         as an orthonormal basis over :func:`rigid_modes`' (positions about the mesh's
         bounding-box centre over its extent)."""
-        if self._unheld is not None:
-            return self._unheld
+        if self._unheld is None:
+            self._motions()
+        return self._unheld[0]
+
+    def stick_only_motions(self) -> list[UnheldBody]:
+        """The bodies of frictional pairs with rigid motions that only stick can hold
+        (collective at the first call, then cached with :meth:`unheld_motions`): those
+        that neither the Dirichlet conditions nor the normal part of their contact pairs
+        hold (the motions that :meth:`unheld_motions` names for frictionless pairs). Stick
+        holds nothing at a node that closes within a step (it enters frictionless,
+        docs/method-notes.md), so in the step where the contact forms such a body is free
+        along them. ``pairs``: the body's frictional pairs."""
+        if self._unheld is None:
+            self._motions()
+        return self._unheld[1]
+
+    def _motions(self) -> None:
+        """Compute :meth:`unheld_motions` and :meth:`stick_only_motions` (collective)."""
         self.bodies_held(np.empty(0, np.int64))  # the Dirichlet Gram matrices, cached
         cell_body, _, gram = self._bodies
         nbodies, nm = gram.shape[0], gram.shape[1] if gram.ndim == 3 else 0
@@ -618,30 +635,97 @@ class ContactProblem:
             cells = compat.tagged_entities(md.cell_tags, md.cell_groups[name])
             in_body[j, cell_body[np.asarray(cells, np.int64)]] = 1
         self.comm.Allreduce(MPI.IN_PLACE, in_body, op=MPI.SUM)
-        unheld = []
+        unheld, stick = [], []
+        self._tangential = {}  # body -> the motions of unheld or stick (modes.T)
         for b in range(nbodies):
             w, v = np.linalg.eigh(gram[b])
             free = v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)]
             pairs = [k for k in range(len(self.contacts)) if touches[k, b]]
-            if not free.shape[1] or any(self.contacts[k].frictional for k in pairs):
+            if not free.shape[1]:
                 continue
+            frictional = [k for k in pairs if self.contacts[k].frictional]
             held = sum((normal[k] / max(points[k], 1.0) for k in pairs), np.zeros((nm, nm)))
             w, v = np.linalg.eigh(free.T @ held @ free)
             modes = free @ v[:, w <= RIGID_MODE_TOL]
             if not modes.shape[1]:
                 continue
+            self._tangential[b] = modes
             names = [regions[j] for j in range(len(regions)) if in_body[j, b]]
             part = any(np.count_nonzero(in_body[regions.index(r)]) > 1 for r in names)
             name = " + ".join(repr(r) for r in names)
-            unheld.append(
+            (stick if frictional else unheld).append(
                 UnheldBody(
                     f"a connected part of {name}" if part else name,
                     modes.T,
-                    [self.contacts[k].name for k in pairs],
+                    [self.contacts[k].name for k in frictional or pairs],
                 )
             )
-        self._unheld = unheld
-        return unheld
+        self._unheld = (unheld, stick)
+
+    def free_rigid_motion(self, du: np.ndarray, tangential: bool = False) -> np.ndarray:
+        """Per contact term, how far ``du`` moves the bodies of its pair along the rigid
+        motions that their Dirichlet conditions leave free (:meth:`bodies_held`): per body,
+        the least-squares fit of ``du`` over the body's owned dofs by those motions, and the
+        largest nodal length of the fitted rigid motion over the body's nodes; per term, the
+        largest over the bodies its surfaces belong to (length; 0 where the conditions hold
+        them). ``du`` is the owned part of a displacement increment (the solve's step,
+        x − x_start), (n_owned_dofs,). A motion that the conditions prescribe (a pushed
+        face's approach) is no free motion and counts nothing; a deformation's fit is of
+        the order of its own asymmetry. With ``tangential``, only the fitted motion's part
+        along the motions that the normal of the bodies' contact cannot hold either (those
+        of :meth:`unheld_motions` and :meth:`stick_only_motions`) counts: a force-driven
+        approach along the normal counts nothing then. Collective (a few reductions; the
+        body matrices are computed at the first call, then cached)."""
+        if tangential and self._unheld is None:
+            self._motions()
+        self.bodies_held(np.empty(0, np.int64))
+        cell_body, held, gram = self._bodies
+        nbodies = gram.shape[0]
+        out = np.zeros(len(self.contacts))
+        if np.all(held) or not self.contacts:
+            return out
+        if self._free_fit is None:
+            bs = self.V.dofmap.index_map_bs
+            n_own = self.V.dofmap.index_map.size_local * bs
+            _, block_body = body_labels(self.V)
+            blocks, comps = np.divmod(np.arange(n_own), bs)
+            x = self.V.tabulate_dof_coordinates()[blocks, : self.gdim]
+            scale = max(self.extent, 1e-300)
+            m = rigid_modes((x - self._centre) / scale, comps, self.gdim)
+            body = block_body[blocks]
+            full = np.zeros_like(gram)
+            np.add.at(full, body, m[:, :, None] * m[:, None, :])
+            self.comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)
+            free = []
+            for b in range(nbodies):
+                w, v = np.linalg.eigh(gram[b])
+                free.append(v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)])
+            touches = np.zeros((len(self.contacts), nbodies), np.int64)
+            for k, term in enumerate(self.contacts):
+                touches[k, cell_body[np.asarray(term.body_cells, np.int64)]] = 1
+            self.comm.Allreduce(MPI.IN_PLACE, touches, op=MPI.SUM)
+            self._free_fit = (m, body, full, free, touches > 0)
+        m, body, full, free, touches = self._free_fit
+        mdu = np.zeros((nbodies, m.shape[1]))
+        np.add.at(mdu, body, m * np.asarray(du)[: len(body), None])
+        self.comm.Allreduce(MPI.IN_PLACE, mdu, op=MPI.SUM)
+        amp = np.zeros(nbodies)
+        gdim = self.gdim
+        for b in range(nbodies):
+            F = free[b]
+            if not F.shape[1]:
+                continue
+            a = F @ np.linalg.lstsq(F.T @ full[b] @ F, F.T @ mdu[b], rcond=None)[0]
+            if tangential:  # its part along the motions that no normal holds
+                T = self._tangential.get(b, np.zeros((len(a), 0)))
+                a = T @ (T.T @ a)
+            mine = body == b
+            fit = (m[mine] @ a).reshape(-1, gdim)  # owned blocks of body b, whole
+            amp[b] = np.sqrt((fit**2).sum(axis=1)).max(initial=0.0)
+        self.comm.Allreduce(MPI.IN_PLACE, amp, op=MPI.MAX)
+        for k in range(len(self.contacts)):
+            out[k] = amp[touches[k]].max(initial=0.0)
+        return out
 
     def _set_fields(self, t: float) -> None:
         for gc, field, c in self._fields:
@@ -680,6 +764,7 @@ class ContactProblem:
             raise ValueError(f"{slave!r} is already the slave surface of a contact term")
         self.contacts.append(term)
         self._unheld = None  # unheld_motions(): the pairs changed
+        self._free_fit = None  # free_rigid_motion(): the pairs changed
 
     @property
     def num_dofs(self) -> int:

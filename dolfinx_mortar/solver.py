@@ -1047,31 +1047,76 @@ class NewtonSolver:
         )
 
     def _check_escape(self, x: PETSc.Vec, touching: list[bool], its: int) -> None:
-        """Raise ConvergenceError (x destroyed, ``its`` counted) where a pair in contact at
-        the solve's start (``touching``, per contact term) has no node in contact at its
-        end x, a body of the pair is free (held by contact alone), and the solve moved a dof
-        by more than ESCAPE_FACETS of the pair's mean facet sizes (collective)."""
+        """Raise ConvergenceError (x destroyed, ``its`` counted) where a body held by
+        contact alone has escaped in the solve (collective), for a pair with a free body:
+        in contact at the solve's start (``touching``, per contact term) and with no node
+        in contact at its end x, where the solve moved a dof by more than ESCAPE_FACETS of
+        the pair's mean facet sizes; not in contact at the start, where the solve moved the
+        pair's bodies by more than ESCAPE_FACETS facet sizes along rigid motions that
+        nothing holds in the solve (``problem.free_rigid_motion``): those that their
+        Dirichlet conditions leave free where the pair is still open at the end, those
+        that neither these nor the contact's normal holds where it closed (stick holds
+        nothing at nodes that close within a step). A prescribed or force-driven approach
+        counts nothing."""
         p = self.problem
-        if not any(touching):
+        terms = list(getattr(p, "contacts", ()))
+        # a term that does not say whether its body is free is not checked
+        if not terms or not (any(touching) or any(getattr(t, "free_body", False) for t in terms)):
             return
         p.ensure_contact_at(x)
-        lost = [t for t, was in zip(p.contacts, touching, strict=True) if was and not t.touching]
-        if not lost or not any(t.free_body for t in lost):
+        lost = [t for t, was in zip(terms, touching, strict=True) if was and not t.touching]
+        lost = [t for t in lost if t.free_body]
+        fresh = [k for k, (t, was) in enumerate(zip(terms, touching, strict=True)) if not was]
+        fresh = [k for k in fresh if getattr(terms[k], "free_body", False)]
+        find = getattr(p, "free_rigid_motion", None)
+        if not lost and not (fresh and find is not None):
             return
         step = x.copy()
         step.axpy(-1.0, self._start)
         moved = step.norm(PETSc.NormType.NORM_INFINITY)
+        along = np.zeros(len(terms))
+        if fresh and find is not None:
+            open_ = [k for k in fresh if not terms[k].touching]
+            closed = [k for k in fresh if terms[k].touching]
+            if open_:
+                along[open_] = find(step.array_r)[open_]
+            if closed:
+                along[closed] = find(step.array_r, tangential=True)[closed]
         step.destroy()
-        escaped = [t for t in lost if t.free_body and moved > ESCAPE_FACETS * t.h_mean]
-        if not escaped:
+        escaped = [t for t in lost if moved > ESCAPE_FACETS * t.h_mean]
+        drifted = [k for k in fresh if along[k] > ESCAPE_FACETS * terms[k].h_mean]
+        if not escaped and not drifted:
             return
         self.all_iterations += its
         x.destroy()
-        names = ", ".join(t.name for t in escaped)
+        if escaped:
+            names = ", ".join(t.name for t in escaped)
+            raise ConvergenceError(
+                f"the solve lost every contact of {names}, whose body is held by contact "
+                f"alone, and moved a node by {moved:.3g} ({moved / escaped[0].h_mean:.3g} "
+                "facet sizes): the body escaped; not an equilibrium of the load path"
+            )
+        k = max(drifted, key=lambda k: along[k] / terms[k].h_mean)
+        names = ", ".join(terms[k].name for k in drifted)
+        by = f"{along[k]:.3g} ({along[k] / terms[k].h_mean:.3g} facet sizes)"
+        stick = (
+            " (a frictional pair holds such motions by stick alone, and stick holds "
+            "nothing at the nodes that close within a step)"
+            if any(terms[k].frictional for k in drifted)
+            else ""
+        )
+        if terms[k].touching:
+            raise ConvergenceError(
+                f"the solve closed the contact of {names} and moved a body held by contact "
+                f"alone by {by} along rigid motions that neither a [[dirichlet]] condition "
+                f"nor the contact's normal holds: the body slid unresisted{stick}; not the "
+                "answer of the load path"
+            )
         raise ConvergenceError(
-            f"the solve lost every contact of {names}, whose body is held by contact alone, "
-            f"and moved a node by {moved:.3g} ({moved / escaped[0].h_mean:.3g} facet sizes): "
-            "the body escaped; not an equilibrium of the load path"
+            f"the solve ended with no node of {names} in contact and moved a body held by "
+            f"contact alone by {by} along rigid motions that no [[dirichlet]] condition "
+            f"holds: the body escaped{stick}; not an equilibrium of the load path that "
+            "anything selects"
         )
 
     def _history(self) -> tuple[int, list[float]]:

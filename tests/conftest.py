@@ -135,3 +135,35 @@ def exact_contact_tangent(monkeypatch):
     from dolfinx_mortar import contact
 
     monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
+
+
+def stick_only_scene(gap0: float = 0.005) -> dict:
+    """hertz2d (h_contact 0.2) without its symmetry condition, frictional (μ = 0.3): the
+    block clamped at its bottom, the cylinder's top pushed down 0.1 in u_y only over
+    t ∈ [0, 1], its u_x free, in 2 steps to t = 2, the cylinder ``gap0`` above the block at
+    t = 0. Only stick can hold the cylinder along x, and with gap0 = 0.005 (25 × the
+    0.01 h of HISTORY_GAP_TOL) no slave node touches at t = 0: the step where the
+    contact forms has no friction, and the cylinder slid 3.0 along x off the contact
+    (the run ended "ok" with no node in contact)."""
+    return {
+        "title": "hertz2d free in x, held by stick only",
+        "kinematics": "small",
+        "mesh": {
+            "generator": "hertz2d",
+            "params": {"h_contact": 0.2, "gap0": gap0, "h_far": 4.0},
+        },
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 200.0, "nu": 0.3}
+            for r in ("cylinder", "block")
+        ],
+        "contact": [{"slave": "cylinder_surface", "master": "block_top", "friction": 0.3}],
+        "dirichlet": [
+            {"boundary": "block_bottom", "path": [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]},
+            {
+                "boundary": "cylinder_top",
+                "components": [1],
+                "path": [[0.0, 0.0], [1.0, -0.1], [2.0, -0.1]],
+            },
+        ],
+        "steps": {"t_end": 2.0, "n": 2},
+    }

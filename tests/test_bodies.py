@@ -253,3 +253,57 @@ def test_unheld_motions(scene, name, expected):
     assert body.name == name and body.motions(problem.gdim) == expected
     assert body.pairs == [problem.contacts[0].name]
     assert body.describe(problem.gdim).startswith(f"body {name} is free in translation along x")
+
+
+def test_free_rigid_motion():
+    """``ContactProblem.free_rigid_motion``: the cylinder of :func:`stick_only_scene` is
+    held in u_y along its top (which holds its y translation and its rotation) and free
+    along x; the block is clamped. A step that translates the cylinder by 0.3 along x
+    and bends the block moves the pair's bodies 0.3 along their free motions (the fit is
+    exact for a rigid motion); a translation along y (the prescribed approach) and the
+    block's deformation count nothing. The same on every rank (1–3)."""
+    from pathlib import Path
+
+    from conftest import stick_only_scene
+
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    problem, _ = prepare(parse_scene(stick_only_scene(), Path(".")), MPI.COMM_WORLD)
+    cell_body, block_body = body_labels(problem.V)
+    n_own = problem.V.dofmap.index_map.size_local
+    x = problem.V.tabulate_dof_coordinates()[:n_own]
+    cyl = _cells(problem.mesh_data, "cylinder")
+    label = problem.comm.allreduce(int(cell_body[cyl].max(initial=-1)), MPI.MAX)
+    on_cyl = block_body[:n_own] == label
+    du = np.zeros((n_own, 2))
+    du[~on_cyl, 0] = 0.01 * x[~on_cyl, 1] ** 2  # the block bends
+    du[on_cyl, 0] = 0.3
+    assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.3], rtol=1e-12)
+    du[on_cyl] = [0.0, -0.2]
+    assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.0], atol=1e-12)
+
+
+def test_free_rigid_motion_along_the_surface():
+    """``free_rigid_motion(..., tangential=True)`` counts only the motions that the
+    contact's normal cannot hold either: in :func:`_hertz3d_press` (frictionless, the
+    block held in u_z at its bottom only, the sphere by contact alone along z), a step
+    that moves the sphere 0.4 down (the force-driven approach, along the normal) and the
+    block 0.1 along x moves the pair's bodies 0.4 along their free motions, and 0.1
+    along those that nothing holds (the block's x). The same on every rank (1–3)."""
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    problem, _ = prepare(parse_scene(_hertz3d_press(False), Path(".")), MPI.COMM_WORLD)
+    cell_body, block_body = body_labels(problem.V)
+    n_own = problem.V.dofmap.index_map.size_local
+    sphere = _cells(problem.mesh_data, "sphere")
+    label = problem.comm.allreduce(int(cell_body[sphere].max(initial=-1)), MPI.MAX)
+    on_sphere = block_body[:n_own] == label
+    du = np.zeros((n_own, 3))
+    du[on_sphere, 2] = -0.4
+    du[~on_sphere, 0] = 0.1
+    assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.4], rtol=1e-12)
+    assert np.allclose(problem.free_rigid_motion(du.ravel(), tangential=True), [0.1], rtol=1e-12)

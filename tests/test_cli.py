@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import patch_press_scene, write_block_msh
+from conftest import patch_press_scene, stick_only_scene, write_block_msh
 
 from dolfinx_mortar.scene import dump_scene
 
@@ -1478,3 +1478,21 @@ def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(w
             assert "tangential_traction" not in h5 and "slip" not in h5
         (x1, y1), (x0, y0) = reactions["both", ranks], reactions["plain", ranks]
         assert abs(x1 - x0) < 1e-9 and abs(y1 - y0 - 0.5) < 1e-9, (ranks, reactions)
+
+
+@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
+def test_a_body_held_by_stick_alone_that_escapes_stops_the_run(workdir, ranks):
+    """A body held along x by stick alone, not in contact at t = 0
+    (``conftest.stick_only_scene``): ``run`` stops with one error line (exit 1) that says
+    the body escaped, instead of ending "ok" with the cylinder slid 3.0 along x and no
+    node in contact. Serial and under ``mpirun -n 2``."""
+    (workdir / "stick.toml").write_text(to_toml(stick_only_scene()))
+    res = cli(workdir, "run", "stick.toml", "--out", "out", ranks=ranks)
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert "Traceback" not in res.stderr, where
+    assert res.returncode == 1, where
+    (line,) = [x for x in res.stderr.splitlines() if x.startswith("dolfinx-mortar:")]
+    assert line.startswith("dolfinx-mortar: run failed: step to t = "), where
+    assert "failed after 6 cutbacks" in line and "the body escaped" in line, where
+    moved = float(re.search(r"moved a body held by contact alone by (\S+) ", line).group(1))
+    assert moved > 0.2, where  # more than one facet size (h_mean 0.52)
