@@ -444,6 +444,8 @@ class ContactProblem:
         #: block couplings they fill: the next Jacobian with the same indices reuses them
         self._recorded_last = None
         self.t = 0.0
+        #: the answer of :meth:`stick_only_at_start` (None before it is asked)
+        self.stick_free_at_start = None
         self.timings = {"search": 0.0, "contact_assembly": 0.0, "bulk_assembly": 0.0}
         #: per region, (name, det F compiled at its points X, X, its owned cells); built
         #: at the first :meth:`min_det_F` (:meth:`_inversion_checks`)
@@ -605,6 +607,25 @@ class ContactProblem:
         if self._unheld is None:
             self._motions()
         return self._unheld[1]
+
+    def stick_only_at_start(self) -> list[UnheldBody]:
+        """The bodies of :meth:`stick_only_motions` none of whose frictional pairs has a
+        slave node in contact at the current state (mixed gap γ ≤ HISTORY_GAP_TOL h:
+        ``MortarContact.node_touching``), asked before the first step: there the first
+        step has no friction at all, and nothing holds the body along those motions
+        (collective: one contact update at u, where there is such a body). The answer is
+        kept (:attr:`stick_free_at_start`) for the error of a run that stops."""
+        bodies = self.stick_only_motions()
+        if bodies:
+            self.ensure_contact_at(self.u.vector)
+            closed = {
+                t.name: self.comm.allreduce(bool(np.any(t.node_touching)), op=MPI.LOR)
+                for t in self.contacts
+                if t.frictional
+            }
+            bodies = [b for b in bodies if not any(closed[name] for name in b.pairs)]
+        self.stick_free_at_start = bodies
+        return bodies
 
     def _motions(self) -> None:
         """Compute :meth:`unheld_motions` and :meth:`stick_only_motions` (collective)."""

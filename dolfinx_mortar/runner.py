@@ -157,6 +157,23 @@ def warn_unheld_bodies(problem) -> None:
     load or a contact force pushes along it drifts, and the run stops."""
     for body in problem.unheld_motions():
         log.warning("%s", unheld_text(body, problem.gdim))
+    for body in problem.stick_only_at_start():
+        log.warning("%s", stick_only_text(body, problem.gdim))
+
+
+def stick_only_text(body, gdim: int) -> str:
+    """The one line that names a body of :meth:`ContactProblem.stick_only_motions` whose
+    frictional pairs have no slave node in contact at t = 0 (local)."""
+    from .contact import HISTORY_GAP_TOL
+
+    return (
+        f"{body.describe(gdim)} but for stick: no [[dirichlet]] condition holds these "
+        f"motions, nor the normal of its contact ({', '.join(body.pairs)}), and no slave "
+        f"node of the pair is in contact at t = 0 (mixed gap <= {HISTORY_GAP_TOL:g} h); "
+        "stick holds nothing at nodes that close within a step, so the step where the "
+        "contact forms leaves the body free along them (it escapes, and the run stops): "
+        "prescribe these components with [[dirichlet]], or start the bodies in contact"
+    )
 
 
 def unheld_text(body, gdim: int) -> str:

@@ -1698,6 +1698,8 @@ def _open_contact_hint(problem) -> str:
     near = [name for name in free if name not in apart and name not in touched]
     find = getattr(problem, "unheld_motions", None)
     drifted = {p for b in find() for p in b.pairs} if find is not None else set()
+    stick = getattr(problem, "stick_only_motions", None)
+    drifted |= {p for b in stick() for p in b.pairs} if stick is not None else set()
     clauses = []
     if apart and set(apart) <= drifted:
         # the free body named before (_unheld_hint) drifted off: not a question of positions
@@ -1739,10 +1741,16 @@ def _unheld_hint(problem) -> str:
     if find is None or not getattr(problem, "contacts", None):
         return ""
     bodies = find()
+    stick = getattr(problem, "stick_free_at_start", None) or ()
     return "".join(
         f"; {b.describe(problem.gdim)}, held there by no [[dirichlet]] condition nor by its "
         f"frictionless contact ({', '.join(b.pairs)})"
         for b in bodies
+    ) + "".join(
+        f"; {b.describe(problem.gdim)} but for stick ({', '.join(b.pairs)}), which holds "
+        "nothing at the nodes that close within a step: prescribe these components with "
+        "[[dirichlet]], or start the bodies in contact"
+        for b in stick
     )
 
 

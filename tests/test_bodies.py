@@ -284,6 +284,35 @@ def test_free_rigid_motion():
     assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.0], atol=1e-12)
 
 
+@pytest.mark.parametrize(("gap0", "at_start"), [(0.005, True), (0.0, False)])
+def test_stick_only_motions(gap0, at_start):
+    """``ContactProblem.stick_only_motions``: the cylinder of :func:`stick_only_scene`,
+    free along x but for stick (its pair is frictional; the normal of the flat block top
+    holds no translation along it); ``stick_only_at_start``: named where no slave node is
+    in contact at t = 0 (gap0 = 0.005), not where the cylinder's lowest node touches the
+    block (gap0 = 0). patch2d's lower block held in u_y only, pressed by a frictional
+    upper block it touches at t = 0, is free along x but for stick, and not named at the
+    start. The same answer on every rank (1–3)."""
+    from pathlib import Path
+
+    from conftest import stick_only_scene
+
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    problem, _ = prepare(parse_scene(stick_only_scene(gap0), Path(".")), MPI.COMM_WORLD)
+    assert problem.unheld_motions() == []
+    (body,) = problem.stick_only_motions()
+    assert body.name == "'cylinder'" and body.motions(2) == ["translation along x"]
+    assert body.pairs == ["cylinder_surface:block_top"]
+    assert [b.name for b in problem.stick_only_at_start()] == (["'cylinder'"] if at_start else [])
+    scene = patch_press_scene(lower_bottom=(1,), friction=0.3)
+    problem, _ = prepare(parse_scene(scene, Path(".")), MPI.COMM_WORLD)
+    (body,) = problem.stick_only_motions()
+    assert body.name == "'lower'" and body.motions(2) == ["translation along x"]
+    assert problem.stick_only_at_start() == []
+
+
 def test_free_rigid_motion_along_the_surface():
     """``free_rigid_motion(..., tangential=True)`` counts only the motions that the
     contact's normal cannot hold either: in :func:`_hertz3d_press` (frictionless, the

@@ -1483,10 +1483,18 @@ def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(w
 @pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
 def test_a_body_held_by_stick_alone_that_escapes_stops_the_run(workdir, ranks):
     """A body held along x by stick alone, not in contact at t = 0
-    (``conftest.stick_only_scene``): ``run`` stops with one error line (exit 1) that says
-    the body escaped, instead of ending "ok" with the cylinder slid 3.0 along x and no
-    node in contact. Serial and under ``mpirun -n 2``."""
+    (``conftest.stick_only_scene``): ``check`` warns at set-up, naming the body, the
+    motion and the fix; ``run`` stops with one error line (exit 1) that says the body
+    escaped, instead of ending "ok" with the cylinder slid 3.0 along x and no node in
+    contact. Serial and under ``mpirun -n 2``."""
     (workdir / "stick.toml").write_text(to_toml(stick_only_scene()))
+    res = cli(workdir, "check", "stick.toml", ranks=ranks)
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 0, where
+    warned = [line for line in res.stderr.splitlines() if "but for stick" in line]
+    assert len(warned) == 1, where
+    assert "body 'cylinder' is free in translation along x but for stick" in warned[0], where
+    assert "prescribe these components with [[dirichlet]], or start the bodies" in warned[0]
     res = cli(workdir, "run", "stick.toml", "--out", "out", ranks=ranks)
     where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     assert "Traceback" not in res.stderr, where
@@ -1494,5 +1502,8 @@ def test_a_body_held_by_stick_alone_that_escapes_stops_the_run(workdir, ranks):
     (line,) = [x for x in res.stderr.splitlines() if x.startswith("dolfinx-mortar:")]
     assert line.startswith("dolfinx-mortar: run failed: step to t = "), where
     assert "failed after 6 cutbacks" in line and "the body escaped" in line, where
+    # the stop names the body and the fix, and blames no surfaces' positions
+    assert "body 'cylinder' is free in translation along x but for stick" in line, where
+    assert "the bodies' positions" not in line, where
     moved = float(re.search(r"moved a body held by contact alone by (\S+) ", line).group(1))
     assert moved > 0.2, where  # more than one facet size (h_mean 0.52)
