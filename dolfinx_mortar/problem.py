@@ -587,8 +587,9 @@ class ContactProblem:
         surface of revolution) maps the surface onto itself and leaves every gap of the
         pair unchanged, so the pair's forces do no work along it and the Jacobian is
         singular there. A frictional pair can hold any motion of its bodies by stick: they
-        are left out (:meth:`stick_only_motions` lists them), as are the motions that a frictionless pair's normal holds (a body
-        pressed by a force onto another, held by contact alone, is a sound scene). Each
+        are left out (:meth:`stick_only_motions` lists them), as are the motions that a
+        frictionless pair's normal holds (a body pressed by a force onto another, held by
+        contact alone, is a sound scene). Each
         :class:`UnheldBody` names the body by its material regions and gives the motions
         as an orthonormal basis over :func:`rigid_modes`' (positions about the mesh's
         bounding-box centre over its extent)."""
