@@ -25,7 +25,13 @@ import traceback
 from pathlib import Path
 
 from .bench import BENCH_SCRIPTS
-from .errors import OutputError, SceneError, every_rank_arrives, raise_on_every_rank
+from .errors import (
+    OutputError,
+    SceneError,
+    Terminated,
+    every_rank_arrives,
+    raise_on_every_rank,
+)
 
 
 class _Versions(argparse.Action):
@@ -451,6 +457,10 @@ def main(argv=None) -> int:
         if comm.rank == 0:
             _error_line(f"dolfinx-mortar: {_interrupted(args, exc)}")
         return 130
+    except Terminated as exc:  # SIGTERM, on every rank; summary.json says so
+        if comm.rank == 0:
+            _error_line(f"dolfinx-mortar: {exc.message}")
+        return _failed(comm, exc.code)
     except Exception:
         traceback.print_exc()
         sys.stderr.flush()
@@ -469,15 +479,15 @@ def main(argv=None) -> int:
 FAILED_RUN_WAIT = 30.0
 
 
-def _failed(comm) -> int:
-    """Exit status 1 of a failed run, once every rank has got here; where some rank has
-    not within FAILED_RUN_WAIT seconds (left in a collective: a parallel HDF5 write that
-    failed differently on each rank, on a full disk), abort the job, which otherwise
-    hung with its error line printed."""
+def _failed(comm, status: int = 1) -> int:
+    """Exit status ``status`` (1; 143 after SIGTERM) of a failed run, once every rank has
+    got here; where some rank has not within FAILED_RUN_WAIT seconds (left in a
+    collective: a parallel HDF5 write that failed differently on each rank, on a full
+    disk), abort the job, which otherwise hung with its error line printed."""
     if comm.size > 1 and not every_rank_arrives(comm, FAILED_RUN_WAIT):
         sys.stderr.flush()
-        comm.Abort(1)
-    return 1
+        comm.Abort(status)
+    return status
 
 
 if __name__ == "__main__":

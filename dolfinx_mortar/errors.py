@@ -9,7 +9,13 @@ arguments with the scene's rules, raises the exceptions Python callers expect.
 augmentation loop, fails; the load-stepping driver catches it and cuts the step.
 ``OutputError`` is raised on every rank when a run's files cannot be written (a full
 disk, a quota); the run stops with the steps written so far.
+``Terminated`` (a SystemExit, status 128 + the signal's number) ends a run that SIGTERM
+stopped (:func:`stops_on_signals`, :func:`check_stop`), after its summary was written.
 """
+
+import contextlib
+import signal
+import threading
 
 
 class DolfinxMortarError(Exception):
@@ -111,3 +117,73 @@ def every_rank_arrives(comm, seconds: float) -> bool:
             return False
         sleep(0.005)
     return True
+
+
+class Terminated(SystemExit):
+    """A run stopped by a signal (SIGTERM: a batch scheduler's time limit, ``docker
+    stop``, mpirun passing on Ctrl-C), raised on every rank at the same point
+    (:func:`check_stop`). A SystemExit with ``code`` 128 + ``signum`` (143 for SIGTERM),
+    so that a program that does not catch it ends quietly with a signal's exit status;
+    ``message`` says what was kept (set by :func:`~dolfinx_mortar.runner.run` once
+    summary.json says so)."""
+
+    def __init__(self, signum: int, message: str = ""):
+        super().__init__(128 + signum)
+        self.signum = signum
+        self.message = message or f"terminated by {signal.Signals(signum).name}"
+
+
+#: The signals that stop a run cleanly within :func:`stops_on_signals` (SIGTERM: what a
+#: batch scheduler sends at its time limit, ``docker stop`` sends, and Open MPI's mpirun
+#: sends each rank when it is itself sent SIGINT or SIGTERM).
+STOP_SIGNALS = (signal.SIGTERM,)
+
+# The signal caught within :func:`stops_on_signals` (0: none) and whether a handler is
+# in force (the same on every rank: :func:`check_stop` is collective only then).
+_stop = {"signum": 0, "active": False}
+
+
+@contextlib.contextmanager
+def stops_on_signals(comm):
+    """Within the block, a signal of :data:`STOP_SIGNALS` only records itself; the next
+    :func:`check_stop` (each Newton iteration) raises :class:`Terminated` on every rank
+    (collective: one allreduce at entry). A handler that raised at once could leave the
+    other ranks waiting in a collective, and a step's write half done. Installed only
+    where every rank runs the block in its main thread with the signal at its default
+    (SIG_DFL: the process would die): a host program's own handler, or SIG_IGN, stays in
+    force. The previous handlers are put back at the end."""
+    from mpi4py import MPI
+
+    names = [s for s in STOP_SIGNALS if hasattr(signal, s.name)]
+    local = threading.current_thread() is threading.main_thread() and all(
+        signal.getsignal(s) == signal.SIG_DFL for s in names
+    )
+    if not comm.allreduce(int(local), op=MPI.MIN) or _stop["active"]:
+        yield
+        return
+
+    def record(signum, frame):
+        _stop["signum"] = signum
+
+    previous = {s: signal.signal(s, record) for s in names}
+    _stop.update(signum=0, active=True)
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        _stop.update(signum=0, active=False)
+
+
+def check_stop(comm) -> None:
+    """Raise :class:`Terminated` on every rank where a rank has caught a stop signal
+    within :func:`stops_on_signals` (collective there: one allreduce of an int; nothing,
+    and no communication, outside it). Called at each Newton iteration (the SNES
+    monitor), where every rank of the solve is."""
+    if not _stop["active"]:
+        return
+    from mpi4py import MPI
+
+    signum = comm.allreduce(_stop["signum"], op=MPI.MAX)
+    if signum:
+        raise Terminated(signum)

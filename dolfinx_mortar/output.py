@@ -129,8 +129,9 @@ def interrupts_after():
     main thread only, elsewhere nothing changes; where the block raises, its exception
     goes on and the Ctrl-C is dropped). A step's files and its summary.json record are
     written within one: an interrupt between them left fields.xdmf and the CSVs one step
-    ahead of summary.json. (Under mpirun, Open MPI passes Ctrl-C on as SIGTERM, then
-    SIGKILL: the ranks end as after a kill.)"""
+    ahead of summary.json. (Under mpirun, Open MPI passes Ctrl-C on as SIGTERM, which
+    stops a run at its next Newton iteration: :func:`~dolfinx_mortar.errors.stops_on_signals`;
+    a write goes on to its end meanwhile.)"""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -21,8 +21,10 @@ from .errors import (
     ConvergenceError,
     OutputError,
     SceneError,
+    Terminated,
     every_rank_arrives,
     first_on_any_rank,
+    stops_on_signals,
 )
 from .laws import registered_law
 from .mesh import load_mesh
@@ -288,7 +290,12 @@ def run(
     (one that ``progress`` raises, KeyboardInterrupt) goes on to the caller after
     summary.json has said "failed" and "interrupted by …" (:meth:`OutputWriter.abandon`);
     where ``progress`` raises on some ranks only, the others raise a RuntimeError that
-    names the rank and the exception (:func:`_progress_on_every_rank`).
+    names the rank and the exception (:func:`_progress_on_every_rank`). SIGTERM from the
+    first write on (where its handler is the default, SIG_DFL: the host's own stays in
+    force) stops the run at the next Newton iteration on every rank; the unfinished step
+    is abandoned, the finished ones kept, summary.json says "failed" and
+    :func:`terminated_text`, and :class:`~dolfinx_mortar.errors.Terminated` (a
+    SystemExit, code 143) goes on to the caller (the handler put back first).
     """
     from .output import OutputWriter, check_out_dir
     from .solver import LoadStepper, NewtonSolver
@@ -320,78 +327,100 @@ def run(
     }
     problem.set_time(0.0)
     problem.warm_up()
-    try:
-        writer.start()
-    except OutputError:  # on every rank: the caller gets it (the CLI: one line, exit 1)
-        newton.destroy()
-        if setup is None:
-            problem.destroy()
-        raise
-    totals["setup"] = perf_counter() - t_setup
-
-    mark = [0.0]  # when the set-up or the last converged step ended
-
-    def on_step(step, res):
-        record = step_record(problem, res)
-        if round_off:
-            record["residual_round_off"] = problem.residual_round_off()
-        for k in ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total"):
-            totals[k] += res.timings.get(k, 0.0)
-        writer.write_step(step, res.t, record)
-        if progress is not None:
-            _progress_on_every_rank(comm, progress, step, record)
-        mark[0] = perf_counter()
-
-    stepper = LoadStepper(
-        problem,
-        newton,
-        scene.steps.t_end,
-        scene.steps.n,
-        scene.steps.max_cutbacks,
-        scene.steps.output_times,
-        on_step=on_step,
-    )
-    status, error = "ok", None
-    mark[0] = perf_counter()
-    try:
-        stepper.run()
-    except ConvergenceError as exc:
-        status, error = "failed", str(exc)
-        # the step that stopped the run (its failed attempts and cutbacks): not in a step
-        totals["unfinished"] = perf_counter() - mark[0]
-        log.info("run stopped: %s", exc)
-    except PETSc.Error as exc:
-        # an option PETSc accepted when the solver was set up but refuses in the solve
-        # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
-        # failed alike, otherwise the exception (the command line then aborts every rank)
-        if not every_rank_arrives(comm, PETSC_ERROR_WAIT):
+    # from the first write on, SIGTERM stops the run at the next Newton iteration on
+    # every rank (errors.stops_on_signals); the handler in force before is put back
+    with stops_on_signals(comm):
+        try:
+            writer.start()
+        except OutputError:  # on every rank: the caller gets it (the CLI: one line, exit 1)
+            newton.destroy()
+            if setup is None:
+                problem.destroy()
             raise
-        lines = compat.petsc_error_lines(exc)
-        status = "failed"
-        totals["unfinished"] = perf_counter() - mark[0]
-        error = (
-            f"PETSc failed in the solve ({lines[0]}: {lines[-1]}); check the PETSc "
-            "options of [solver.petsc] and the command line"
+        totals["setup"] = perf_counter() - t_setup
+
+        mark = [0.0]  # when the set-up or the last converged step ended
+
+        def on_step(step, res):
+            record = step_record(problem, res)
+            if round_off:
+                record["residual_round_off"] = problem.residual_round_off()
+            for k in ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total"):
+                totals[k] += res.timings.get(k, 0.0)
+            writer.write_step(step, res.t, record)
+            if progress is not None:
+                _progress_on_every_rank(comm, progress, step, record)
+            mark[0] = perf_counter()
+
+        stepper = LoadStepper(
+            problem,
+            newton,
+            scene.steps.t_end,
+            scene.steps.n,
+            scene.steps.max_cutbacks,
+            scene.steps.output_times,
+            on_step=on_step,
         )
-        log.info("run stopped: %s", error)
-    except OutputError as exc:  # on every rank: a full disk, a quota
-        status, error = "failed", str(exc)
-        totals["unfinished"] = perf_counter() - mark[0]
-        log.info("run stopped: %s", exc)
-    except BaseException as exc:  # a progress callback's exception, KeyboardInterrupt
-        writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
-        exc.summary_kept = True  # for the command line's message
-        raise
-    finally:
-        newton.destroy()
-        if setup is None:  # otherwise the caller holds the problem (and frees it)
-            problem.destroy()
-    try:
-        writer.finish(status, error, totals)
-    except OutputError as exc:  # summary.json could not say so: the caller is told
-        if status == "ok":
-            writer.summary["status"], writer.summary["error"] = "failed", str(exc)
-    return writer.summary
+        status, error, terminated = "ok", None, None
+        mark[0] = perf_counter()
+        try:
+            stepper.run()
+        except ConvergenceError as exc:
+            status, error = "failed", str(exc)
+            # the step that stopped the run (its failed attempts and cutbacks): not in a step
+            totals["unfinished"] = perf_counter() - mark[0]
+            log.info("run stopped: %s", exc)
+        except PETSc.Error as exc:
+            # an option PETSc accepted when the solver was set up but refuses in the solve
+            # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
+            # failed alike, otherwise the exception (the command line then aborts every rank)
+            if not every_rank_arrives(comm, PETSC_ERROR_WAIT):
+                raise
+            lines = compat.petsc_error_lines(exc)
+            status = "failed"
+            totals["unfinished"] = perf_counter() - mark[0]
+            error = (
+                f"PETSc failed in the solve ({lines[0]}: {lines[-1]}); check the PETSc "
+                "options of [solver.petsc] and the command line"
+            )
+            log.info("run stopped: %s", error)
+        except OutputError as exc:  # on every rank: a full disk, a quota
+            status, error = "failed", str(exc)
+            totals["unfinished"] = perf_counter() - mark[0]
+            log.info("run stopped: %s", exc)
+        except Terminated as exc:  # SIGTERM, on every rank at the same Newton iteration
+            status, terminated = "failed", exc
+            error = exc.message = terminated_text(exc.signum, writer.summary["steps"])
+            totals["unfinished"] = perf_counter() - mark[0]
+            log.info("run stopped: %s", error)
+        except BaseException as exc:  # a progress callback's exception, KeyboardInterrupt
+            writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
+            exc.summary_kept = True  # for the command line's message
+            raise
+        finally:
+            newton.destroy()
+            if setup is None:  # otherwise the caller holds the problem (and frees it)
+                problem.destroy()
+        try:
+            writer.finish(status, error, totals)
+        except OutputError as exc:  # summary.json could not say so: the caller is told
+            if status == "ok":
+                writer.summary["status"], writer.summary["error"] = "failed", str(exc)
+        if terminated is not None:  # summary.json says so: the caller ends (exit status 143)
+            terminated.summary_kept = True
+            raise terminated
+        return writer.summary
+
+
+def terminated_text(signum: int, steps: list) -> str:
+    """summary.json's ``error`` of a run that the signal ``signum`` stopped, given the
+    records of its finished steps (local)."""
+    import signal
+
+    name = signal.Signals(signum).name
+    k = len(steps) + 1
+    kept = f"steps 1..{k - 1} kept (to t = {steps[-1]['t']:g})" if steps else "no step finished"
+    return f"terminated by {name} during step {k}; {kept}"
 
 
 def _progress_on_every_rank(comm, callback, *args) -> None:

@@ -36,6 +36,7 @@ from .errors import (
     InvertedElementsError,
     SceneError,
     SceneTypeError,
+    check_stop,
     raise_on_every_rank,
 )
 from .scene import solver_options
@@ -671,6 +672,9 @@ class NewtonSolver:
             log.debug("Newton step shortened to %.3g of its length (step_depth_limit)", lam)
 
     def _remember_finite(self, snes, its, fnorm):
+        # a run stopped by SIGTERM: Terminated on every rank here, at the same iteration
+        # (collective within errors.stops_on_signals; the exception leaves SNESSolve)
+        check_stop(self.problem.comm)
         if np.isfinite(fnorm):
             snes.getSolution().copy(self._finite_x)
             self._has_finite = True

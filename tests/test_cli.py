@@ -812,6 +812,88 @@ def test_ctrl_c_stops_a_run_in_one_line(workdir):
     assert len(times) >= len(summary["steps"]) + 1, times
 
 
+def _terminate_a_long_run(workdir: Path, ranks: int, target: str):
+    """Run the patch press in 300 steps (CSVs and displacement fields) from the command
+    line in ``workdir`` (out/), serially or under ``mpirun -q -n RANKS``, send SIGTERM
+    once summary.json holds a step: to the python processes (``target = "ranks"``, as
+    SLURM does at a time limit) or to mpirun (``"mpirun"``: Open MPI passes it on to the
+    ranks as SIGTERM a second later, and SIGKILL a second after that). Returns the exit
+    status and stderr."""
+    import signal
+    import time
+
+    scene = patch_press_scene(steps=300)
+    scene["output"] = {"dir": "out", "fields": ["displacement", "contact_pressure"]}
+    (workdir / "long.toml").write_text(to_toml(scene))
+    cmd = [sys.executable, "-m", "dolfinx_mortar", "run", "long.toml"]
+    if ranks:
+        cmd = [shutil.which("mpirun"), "-q", "-n", str(ranks), *cmd]
+    proc = subprocess.Popen(
+        cmd,
+        cwd=workdir,
+        env=_env(),
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+        # a run keeps an ignored SIGTERM ignored: the child starts with the default
+        preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL),
+    )
+    try:
+        summary, deadline = workdir / "out" / "summary.json", time.monotonic() + TIMEOUT
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                if json.loads(summary.read_text())["steps"]:
+                    break
+            except (OSError, ValueError):  # not there yet, or replaced meanwhile
+                pass
+            time.sleep(0.01)
+        pids = [proc.pid]
+        if ranks and target == "ranks":
+            found = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True)
+            pids = [int(p) for p in found.stdout.split()]
+            assert len(pids) == ranks, found
+        for pid in pids:
+            os.kill(pid, signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT)
+        return proc.returncode, err
+    finally:
+        proc.kill()
+
+
+@pytest.mark.parametrize(
+    "ranks,target",
+    [(0, "ranks"), (2, "ranks"), (2, "mpirun")],
+    ids=["serial", "mpirun2", "to-mpirun"],
+)
+def test_sigterm_stops_a_run_cleanly(workdir, ranks, target):
+    """SIGTERM (a batch scheduler's time limit, docker stop, Ctrl-C under mpirun) killed
+    the run at once: exit status 143 (serial; mpirun: 1), summary.json left "running",
+    and under mpirun the CSV of the step being written could be there without its record.
+    Now the ranks stop together at the next Newton iteration: exit status 143 (mpirun's own
+    is 1 when it was signalled), one line, summary.json "failed" with the step, and every
+    file of the finished steps (none of the abandoned one), the series closed."""
+    # to mpirun: its SIGKILL follows its SIGTERM to the ranks by 1 s; a summary that says
+    # "failed" shows that they stopped before
+    returncode, err = _terminate_a_long_run(workdir, ranks, target)
+    out = workdir / "out"
+    summary = json.loads((out / "summary.json").read_text())
+    steps = summary["steps"]
+    k = len(steps) + 1
+    expected = (
+        f"terminated by SIGTERM during step {k}; steps 1..{k - 1} kept (to t = {steps[-1]['t']:g})"
+    )
+    assert summary["status"] == "failed" and summary["error"] == expected, summary["error"]
+    assert 1 <= len(steps) < 300
+    assert [s["t"] for s in steps] == pytest.approx([i / 300 for i in range(1, k)], rel=1e-12)
+    assert returncode == (1 if target == "mpirun" else 143), err
+    assert err.splitlines() == [f"dolfinx-mortar: {expected}"], err
+    csv = sorted(int(f.stem.rsplit("_", 1)[1]) for f in out.glob("contact_*.csv"))
+    assert csv == list(range(k)), csv  # step 0 and the finished steps, not step k
+    times = re.findall(r'<Time Value="([^"]+)"', (out / "fields.xdmf").read_text())
+    assert sorted({float(t) for t in times}) == pytest.approx([0.0] + [s["t"] for s in steps])
+    assert not list(out.glob(".*")), list(out.glob(".*"))  # finished: no hidden series
+
+
 def test_ctrl_c_before_the_first_step_says_so(workdir):
     """A Ctrl-C before the steps began (here: raised by a --laws file) said that
     summary.json keeps the finished steps, where there was no summary.json of this run."""

@@ -151,6 +151,52 @@ def test_a_run_that_stops_with_every_contact_open_says_so(shared_tmp):
 
 
 @pytest.mark.mpi
+def test_sigterm_on_one_rank_stops_every_rank_at_the_same_iteration(shared_tmp):
+    """SIGTERM that reaches rank 0 only (sent from its progress callback after step 1)
+    stops the run on every rank at the next Newton iteration (errors.check_stop: one
+    allreduce in the SNES monitor; an exception raised in the handler would have left the
+    other ranks in a collective): Terminated (SystemExit 143) on every rank, summary.json
+    "failed" with step 2 named and step 1 kept, the default handler back afterwards. A
+    host's own SIGTERM handler stays in force during a run (it is called; the run ends
+    "ok")."""
+    import json
+    import os
+    import signal
+
+    from test_contact_parallel import HERTZ2D
+
+    from dolfinx_mortar.errors import Terminated
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    comm = MPI.COMM_WORLD
+    scene = parse_scene({**HERTZ2D, "steps": {"n": 4}}, shared_tmp)
+
+    def progress(step, record):
+        if step == 1 and comm.rank == 0:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    previous = signal.signal(signal.SIGTERM, signal.SIG_DFL)  # whatever the test runner set
+    try:
+        with pytest.raises(Terminated) as info:
+            run(scene, comm, out_dir=shared_tmp / "term", progress=progress)
+        assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+        caught = []
+        signal.signal(signal.SIGTERM, lambda signum, frame: caught.append(signum))
+        s = run(scene, comm, out_dir=shared_tmp / "host", progress=progress)
+        assert s["status"] == "ok" and len(s["steps"]) == 4
+        assert caught == ([signal.SIGTERM] if comm.rank == 0 else [])
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    expected = "terminated by SIGTERM during step 2; steps 1..1 kept (to t = 0.25)"
+    assert info.value.code == 143 and info.value.message == expected
+    summary = json.loads((shared_tmp / "term" / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["error"] == expected
+    assert [r["t"] for r in summary["steps"]] == [0.25]
+    assert "unfinished" in summary["timings"]
+
+
+@pytest.mark.mpi
 def test_a_run_whose_surfaces_never_face_says_so(shared_tmp):
     """The coarse hertz2d scene with the cylinder 5 (20 facets) above the block: no
     slave point projects onto the master within the search distance, the cylinder falls
