@@ -26,8 +26,11 @@ import os
 import re
 import shutil
 import signal
+import socket
+import stat
 import tempfile
 import threading
+import time
 from io import StringIO
 from pathlib import Path
 
@@ -204,7 +207,9 @@ def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=()) -> None:
     the run goes (:func:`output_names` of the slave surfaces ``slaves``, and their
     ``contact_<SLAVE>_<k>.csv``, and the names ``files`` of a caller's own: the bench's
     CSV and plots) or where it removes an earlier run's contact files (those of the
-    slaves its summary.json names: :meth:`OutputWriter.start`)."""
+    slaves its summary.json names: :meth:`OutputWriter.start`), and no live run may hold
+    it (:func:`lock_problem`; :class:`OutputLock` takes the lock later, when the run
+    starts to write)."""
     reason = None
     if comm.rank == 0:
         reason = _out_dir_problem(str(out), tuple(slaves), tuple(files))
@@ -242,13 +247,16 @@ def _out_dir_problem(out: str, slaves=(), files=()) -> str | None:
 def _existing_dir_problem(p: Path, out: str, slaves=(), files=()) -> str | None:
     """Why the existing directory ``p`` (named ``out``) cannot take the run's files, or
     None (local): a file cannot be created in it (tried: ``os.access`` says yes to root
-    on a read-only file system or in /proc), or a directory or a read-only file is where
-    one of the run's files goes."""
+    on a read-only file system or in /proc), another run holds it (:func:`lock_problem`),
+    or a directory or a read-only file is where one of the run's files goes."""
     try:
         with tempfile.TemporaryFile(dir=p):
             pass
     except OSError:
         return "not writable (a file cannot be created in it)"
+    held = lock_problem(p)
+    if held is not None:
+        return held
     slaves = tuple(slaves) + tuple(sorted(previous_slaves(p) - set(slaves)))
     csv = contact_csv_names(slaves)
     names = output_names(slaves) + list(files)
@@ -261,6 +269,220 @@ def _existing_dir_problem(p: Path, out: str, slaves=(), files=()) -> str | None:
         if f.exists() and not os.access(f, os.W_OK):
             return f"{shown!r} is not writable"
     return None
+
+
+#: The lock file of the run that writes in an output directory (:class:`OutputLock`).
+LOCK_NAME = ".dolfinx_mortar.lock"
+#: Seconds after its last change during which an unreadable lock file counts as one whose
+#: record is still being written (:func:`_lock_holder`).
+LOCK_WRITE_SECONDS = 10.0
+
+
+def _process_start(pid: int) -> str | None:
+    """The start time of process ``pid`` in clock ticks after boot (field 22 of
+    ``/proc/<pid>/stat``), which tells a process from a later one with the same pid; None
+    where it cannot be read (no /proc: macOS)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
+            stat = fh.read()
+        return stat[stat.rindex(")") + 2 :].split()[19]
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _this_process() -> dict:
+    """The lock file's record of this process: host name, pid, process start, time."""
+    pid = os.getpid()
+    return {
+        "host": socket.gethostname(),
+        "pid": pid,
+        "process_start": _process_start(pid),
+        "since": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+    }
+
+
+def _read_lock(path: Path):
+    """(record, stat) of the lock file ``path``: its JSON record (None where it does not
+    parse as one) and its ``os.lstat``; (None, None) where there is none (local)."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return None, None
+    try:
+        with open(path, encoding="utf-8") as fh:
+            record = json.loads(fh.read(4096))
+        if not (isinstance(record, dict) and isinstance(record.get("host"), str)):
+            return None, st
+        pid = record.get("pid")
+        if not (isinstance(pid, int) and 0 < pid < 2**31):
+            return None, st
+        return record, st
+    except (OSError, ValueError, RecursionError):
+        return None, st
+
+
+def _lock_holder(record, st=None) -> tuple[str, str]:
+    """Whether the run of the lock file's ``record`` (its ``os.lstat``: ``st``) still
+    writes: ("live" | "other host" | "stale", a description of it) (local). On this host
+    the pid tells (no such process, or one started at another time than the record says:
+    the run is gone); a run on another host (a file system that several nodes share)
+    cannot be checked. An unreadable record is stale, but for LOCK_WRITE_SECONDS after
+    the file's last change (a file system without hard links: the record may be on its
+    way, :class:`OutputLock`)."""
+    if record is None:
+        if st is not None and abs(time.time() - st.st_mtime) < LOCK_WRITE_SECONDS:
+            return "live", "a lock file being written"
+        return "stale", "an unreadable lock file"
+    host, pid = record["host"], record["pid"]
+    since = record.get("since", "?")
+    who = f"host {host}, pid {pid}, since {since}"
+    if host != socket.gethostname():
+        return "other host", who
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return "stale", f"{who}: no such process"
+    except PermissionError:  # a process of another user
+        pass
+    except OSError as exc:
+        return "stale", f"{who}: {exc.strerror or exc}"
+    start = record.get("process_start")
+    now = _process_start(pid)
+    if start is not None and now is not None and now != start:
+        return "stale", f"{who}: that pid is another process now"
+    return "live", who
+
+
+def lock_problem(out_dir: Path) -> str | None:
+    """Why another run holds the output directory ``out_dir``, or None (local): its lock
+    file names a live process on this host, or a process on another host
+    (:func:`_lock_holder`). A stale or unreadable lock file is no problem: the run takes
+    it over (:class:`OutputLock`)."""
+    path = Path(out_dir) / LOCK_NAME
+    record, st = _read_lock(path)
+    if st is None:
+        return None
+    if not stat.S_ISREG(st.st_mode):
+        return f"{os.path.join(str(out_dir), LOCK_NAME)!r} is not a regular file (remove it)"
+    state, who = _lock_holder(record, st)
+    if state == "live":
+        return (
+            f"another run is writing there ({who}; lock file {LOCK_NAME}): "
+            "give each run that runs at the same time an output directory of its own"
+        )
+    if state == "other host":
+        return (
+            f"another run, on another host, holds its lock file {LOCK_NAME} ({who}); "
+            "whether it still runs cannot be checked from here: if no run writes there, "
+            f"remove {os.path.join(str(out_dir), LOCK_NAME)!r}"
+        )
+    return None
+
+
+class OutputLock:
+    """The lock of a run on its output directory (construction collective; rank 0 holds
+    it): rank 0 creates ``<out_dir>/.dolfinx_mortar.lock`` atomically and the other ranks
+    are told whether it could (one broadcast). Where another run holds it (a live process
+    on this host, or a process on another host, which cannot be checked:
+    :func:`lock_problem`), every rank raises SceneError(``key``, "cannot use ... as output
+    directory: another run is writing there ..."). Two runs in one directory deleted each
+    other's contact files and failed in HDF5's file lock, and the first one ended "ok".
+
+    The file holds the host name, the pid, the process's start and the time (JSON). It is
+    created under a temporary name with its record, then hard-linked to its name (fails
+    where the name exists, also on NFS): a run never reads a lock file that another run
+    has not finished writing. A stale one (this host, its process gone; or unreadable) is
+    taken over with a warning: renamed aside, and removed where it is still the file that
+    was judged stale. :meth:`release` (rank 0; local) removes it, where it is still this
+    run's; call it in a ``finally``. Creates the directory (and its parents) where
+    missing."""
+
+    def __init__(self, comm, out_dir: Path, key: str):
+        self.out_dir = Path(out_dir)
+        self.path = self.out_dir / LOCK_NAME
+        self._inode = None
+        reason = None
+        if comm.rank == 0:
+            try:
+                reason = self._take()
+            except OSError as exc:
+                reason = f"the lock file {LOCK_NAME} cannot be created: {exc}"
+        reason = comm.bcast(reason, root=0)
+        if reason is not None:
+            raise SceneError(key, f"cannot use {str(out_dir)!r} as output directory: {reason}")
+
+    def _take(self) -> str | None:
+        """Create the lock file (rank 0; local); why not, or None."""
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        me = _this_process()
+        tmp = self.path.with_name(f"{LOCK_NAME}.{me['host']}.{me['pid']}.tmp")
+        tmp.unlink(missing_ok=True)
+        with open(tmp, "x", encoding="utf-8") as fh:
+            json.dump(me, fh)
+        try:
+            inode = os.lstat(tmp).st_ino
+            for _ in range(3):  # a stale lock is taken over, then the link tried again
+                try:
+                    try:
+                        os.link(tmp, self.path)
+                    except FileExistsError:
+                        raise
+                    except OSError as exc:  # no hard links here: create it exclusively
+                        log.info("lock file created in place (no hard link: %s)", exc)
+                        with open(self.path, "x", encoding="utf-8") as fh:
+                            json.dump(me, fh)
+                        inode = os.lstat(self.path).st_ino
+                except FileExistsError:
+                    reason = lock_problem(self.out_dir)
+                    if reason is not None:
+                        return reason
+                    self._take_over(tmp)
+                    continue
+                self._inode = inode
+                return None
+            return f"its lock file {LOCK_NAME} keeps changing (other runs start there)"
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def _take_over(self, tmp: Path) -> None:
+        """Remove a stale lock file (rank 0; local): renamed aside, then removed where it is
+        still the file judged stale; where another run's new lock file was renamed
+        instead (it took the stale one over meanwhile), it is put back."""
+        record, st = _read_lock(self.path)
+        if st is None:
+            return
+        if lock_problem(self.out_dir) is not None:  # replaced by a live one meanwhile
+            return
+        _, who = _lock_holder(record, st)
+        aside = tmp.with_suffix(".stale")
+        try:
+            os.rename(self.path, aside)
+        except FileNotFoundError:
+            return
+        if os.lstat(aside).st_ino != st.st_ino:  # another run's new lock: put it back
+            with contextlib.suppress(OSError):
+                os.link(aside, self.path)
+        else:
+            log.warning(
+                "%s: taking over the lock file of a run that is gone (%s)", self.out_dir, who
+            )
+        aside.unlink(missing_ok=True)
+
+    def release(self) -> None:
+        """Remove the lock file where this rank created it and it is still this run's
+        (local; nothing on the other ranks). An OSError is logged."""
+        if self._inode is None:
+            return
+        try:
+            if os.lstat(self.path).st_ino == self._inode:
+                self.path.unlink()
+            else:
+                log.warning("%s is no longer this run's lock: left there", self.path)
+        except FileNotFoundError:
+            log.warning("%s was removed before the run ended", self.path)
+        except OSError as exc:
+            log.warning("could not remove the lock file %s: %s", self.path, exc)
+        self._inode = None
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:

@@ -296,9 +296,17 @@ def run(
     is abandoned, the finished ones kept, summary.json says "failed" and
     :func:`terminated_text`, and :class:`~dolfinx_mortar.errors.Terminated` (a
     SystemExit, code 143) goes on to the caller (the handler put back first).
+
+    While it runs, the run holds ``<out_dir>/.dolfinx_mortar.lock``
+    (:class:`~dolfinx_mortar.output.OutputLock`; removed when ``run`` returns or raises):
+    a run into a directory that another live run holds raises SceneError on every rank,
+    before it writes anything ("another run is writing there"). Runs at the same time,
+    a parameter sweep on ``MPI.COMM_SELF`` too, each need an output directory of their
+    own (a dict scene's default is ``<base_dir>/results/scene`` for every one); the lock
+    is removed also when SIGTERM stops the run.
     """
-    from .output import OutputWriter, check_out_dir
-    from .solver import LoadStepper, NewtonSolver
+    from .output import OutputLock, OutputWriter, check_out_dir
+    from .solver import NewtonSolver
 
     _check_scene(scene, "run")
     t_setup = perf_counter()
@@ -318,6 +326,25 @@ def run(
     }
     writer = OutputWriter(out_dir, problem, summary, scene.output.fields)
     newton = NewtonSolver(problem, settings)
+    # the lock once the set-up has found no error: a refused run touches nothing there
+    try:  # SceneError on every rank where another run writes there (it started meanwhile)
+        lock = OutputLock(comm, out_dir, key)
+    except SceneError:
+        newton.destroy()
+        if setup is None:
+            problem.destroy()
+        raise
+    try:
+        return _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off, t_setup)
+    finally:  # also after an exception, Ctrl-C (rank 0 removes the lock file; local)
+        lock.release()
+
+
+def _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off, t_setup):
+    """:func:`run` from its writer and solver on (collective), the output directory held;
+    returns the summary."""
+    from .solver import LoadStepper
+
     totals = {
         "search": 0.0,
         "contact_assembly": 0.0,

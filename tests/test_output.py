@@ -736,3 +736,181 @@ def test_a_text_write_on_a_full_disk_keeps_the_old_file(tmp_path, monkeypatch):
         output.replace_text(path, "new " * 5000)
     assert sorted(f.name for f in tmp_path.iterdir()) == ["summary.json"]
     assert path.read_text() == "old " * 1000
+
+
+def _lock_record(path: Path, pid: int, host: str | None = None, start=None) -> None:
+    """Write an output directory's lock file as a run of process ``pid`` on ``host`` (this
+    host by default) would, ``start`` its process start (read from /proc by default)."""
+    import socket
+
+    from dolfinx_mortar.output import LOCK_NAME, _process_start
+
+    path.mkdir(parents=True, exist_ok=True)
+    record = {
+        "host": socket.gethostname() if host is None else host,
+        "pid": pid,
+        "process_start": _process_start(pid) if start is None else start,
+        "since": "2026-01-01 00:00:00 UTC",
+    }
+    (path / LOCK_NAME).write_text(json.dumps(record))
+
+
+def test_a_second_run_into_a_live_runs_directory_is_refused(tmp_path):
+    """A run started into the directory of a run that is writing there (here from the
+    first one's progress callback, after its step 1) is the one-line SceneError before
+    it writes anything, and the first run ends "ok" with all its files. Three runs of a
+    parameter sweep on MPI.COMM_SELF into one default directory deleted each other's
+    contact CSVs and failed in HDF5's file lock, the first ending "ok" without its CSVs.
+    Where the second run started before the first took the lock (it passed the early
+    check), taking the lock refuses it (OutputLock); the lock file goes when the run
+    ends."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+    from dolfinx_mortar.output import LOCK_NAME, OutputLock
+
+    out = tmp_path / "out"
+    scene = parse_scene(patch_press_scene(steps=3), tmp_path)
+    refused = []
+
+    def second(step, record):
+        assert (out / LOCK_NAME).is_file()
+        if step == 1:
+            with pytest.raises(SceneError) as info:
+                run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
+            refused.append(str(info.value))
+            with pytest.raises(SceneError) as info:  # the lock itself, after the check
+                OutputLock(MPI.COMM_SELF, out, "out_dir")
+            refused.append(str(info.value))
+
+    summary = run(scene, MPI.COMM_SELF, out_dir=out, progress=second)
+    import os
+    import socket
+
+    expected = (
+        f"out_dir: cannot use {str(out)!r} as output directory: another run is writing "
+        f"there (host {socket.gethostname()}, pid {os.getpid()}, since "
+    )
+    assert len(refused) == 2 and all(r.startswith(expected) for r in refused), refused
+    assert refused[0].endswith(
+        "; lock file .dolfinx_mortar.lock): give each run that runs at the same time an "
+        "output directory of its own"
+    ), refused[0]
+    assert summary["status"] == "ok" and len(summary["steps"]) == 3
+    names = {f.name for f in out.iterdir()}
+    assert {f"contact_upper_bottom_{k}.csv" for k in range(4)} <= names, names
+    assert LOCK_NAME not in names and not [n for n in names if "lock" in n], names
+    kept = json.loads((out / "summary.json").read_text())
+    assert kept["status"] == "ok" and len(kept["steps"]) == 3
+
+
+def test_a_lock_of_a_live_process_or_another_host_is_refused(tmp_path):
+    """A lock file that names a live process of this host (another program's: a `sleep`)
+    refuses the run; one that names another host too, since its process cannot be
+    checked from here, and the message says how to clear it. A lock file removed while
+    the run ran is left alone (a warning)."""
+    import subprocess
+
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+    from dolfinx_mortar.output import LOCK_NAME
+
+    scene = parse_scene(patch_press_scene(steps=1), tmp_path)
+    holder = subprocess.Popen(["sleep", "60"])
+    try:
+        _lock_record(tmp_path / "live", holder.pid)
+        with pytest.raises(
+            SceneError,
+            match=rf"another run is writing there \(host .*, pid {holder.pid}, since 2026-01-01",
+        ):
+            run(scene, MPI.COMM_SELF, out_dir=tmp_path / "live")
+    finally:
+        holder.kill()
+        holder.wait()
+    assert sorted(f.name for f in (tmp_path / "live").iterdir()) == [LOCK_NAME]
+    _lock_record(tmp_path / "far", 4242, host="node-elsewhere-17")
+    with pytest.raises(SceneError) as info:
+        run(scene, MPI.COMM_SELF, out_dir=tmp_path / "far")
+    lock = str(tmp_path / "far" / LOCK_NAME)
+    assert str(info.value).endswith(
+        f"as output directory: another run, on another host, holds its lock file {LOCK_NAME} "
+        "(host node-elsewhere-17, pid 4242, since 2026-01-01 00:00:00 UTC); whether it still "
+        f"runs cannot be checked from here: if no run writes there, remove {lock!r}"
+    ), str(info.value)
+
+
+@pytest.mark.parametrize("kind", ["dead", "reused", "unreadable"])
+def test_a_stale_lock_is_taken_over(tmp_path, caplog, kind):
+    """The lock file of a run that is gone (this host, its pid no process; or that pid now
+    another process, started at another time; or a file that is not a lock record, older
+    than LOCK_WRITE_SECONDS) is taken over with a warning, and the run ends "ok" and
+    removes it."""
+    import logging
+    import os
+    import subprocess
+
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.output import LOCK_NAME
+
+    out = tmp_path / "out"
+    if kind == "dead":
+        gone = subprocess.Popen(["true"])
+        gone.wait()
+        _lock_record(out, gone.pid)
+        why = f"pid {gone.pid}, since 2026-01-01 00:00:00 UTC: no such process"
+    elif kind == "reused":
+        _lock_record(out, os.getpid(), start="1")
+        why = "that pid is another process now"
+    else:
+        out.mkdir()
+        (out / LOCK_NAME).write_text("{half a rec")
+        os.utime(out / LOCK_NAME, (1e9, 1e9))
+        why = "(an unreadable lock file)"
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.output"):
+        summary = run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
+    assert summary["status"] == "ok"
+    taken = [r.getMessage() for r in caplog.records if "taking over" in r.getMessage()]
+    assert len(taken) == 1 and why in taken[0], taken
+    assert taken[0].startswith(f"{out}: taking over the lock file of a run that is gone")
+    assert not [f.name for f in out.iterdir() if "lock" in f.name]
+
+
+@pytest.mark.mpi
+def test_the_lock_decision_is_collective(shared_tmp):
+    """On every rank of the run: the same SceneError where a live process holds the lock
+    (rank 0 decides, even where another rank would have judged otherwise: here rank 1
+    takes it for stale), nothing written; once the holder is gone, the lock is taken
+    over and the run ends "ok" on every rank, the lock file removed."""
+    import subprocess
+
+    from dolfinx_mortar import output, parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / "locked"
+    holder = subprocess.Popen(["sleep", "60"]) if comm.rank == 0 else None
+    pid = comm.bcast(holder.pid if holder else None, root=0)
+    if comm.rank == 0:
+        _lock_record(out, pid)
+    comm.barrier()
+    judge = output._lock_holder
+    if comm.rank == 1:  # a rank that would go on alone, were it asked
+        output._lock_holder = lambda record, st=None: ("stale", "?")
+    scene = parse_scene(patch_press_scene(steps=1), shared_tmp)
+    try:
+        with pytest.raises(
+            SceneError, match=rf"another run is writing there \(host .*, pid {pid},"
+        ):
+            run(scene, comm, out_dir=out)
+        with pytest.raises(SceneError, match=rf"pid {pid},"):
+            output.OutputLock(comm, out, "out_dir")
+    finally:
+        output._lock_holder = judge
+        if holder is not None:
+            holder.kill()
+            holder.wait()
+    comm.barrier()
+    assert sorted(f.name for f in out.iterdir()) == [output.LOCK_NAME]
+    summary = run(scene, comm, out_dir=out)
+    assert summary["status"] == "ok" and len(summary["steps"]) == 1
+    comm.barrier()
+    assert not [f.name for f in out.iterdir() if "lock" in f.name]
