@@ -236,11 +236,38 @@ def _out_dir_problem(out: str, slaves=(), files=()) -> str | None:
         top = top.parent
     if not top.parent.is_dir():
         return f"{top.parent} is not a directory"
+    return _try_to_create(p, top)
+
+
+def _try_to_create(p: Path, top: Path) -> str | None:
+    """Create the directory ``p`` and its missing parents from ``top`` down, then remove
+    those that this call created, innermost first, each with ``rmdir`` (local): why one
+    could not be created, or None. A directory that another process created meanwhile is
+    used and not removed, and one that another process has written into (not empty) or
+    removed is left as it is: the check of a concurrent run into a sibling directory of
+    the same new parent removed that parent with the other run's files in it
+    (``shutil.rmtree``)."""
+    chain = [p, *p.parents]
+    chain = chain[: chain.index(top) + 1][::-1]  # top, ..., p
+    created = []
     try:
-        p.mkdir(parents=True)
+        for d in chain:
+            try:
+                d.mkdir()
+            except FileExistsError:  # made by another process meanwhile: not ours
+                st = os.stat(d)  # a looping link: OSError (ELOOP), the reason
+                if not stat.S_ISDIR(st.st_mode):
+                    return f"{d} is not a directory"
+                continue
+            created.append(d)
     except OSError as exc:
         return (exc.strerror or type(exc).__name__).lower()
-    shutil.rmtree(top, ignore_errors=True)
+    finally:
+        for d in reversed(created):
+            try:
+                d.rmdir()
+            except OSError:  # not empty (another run writes there) or gone: left
+                break
     return None
 
 

@@ -874,6 +874,34 @@ def test_a_stale_lock_is_taken_over(tmp_path, caplog, kind):
     assert not [f.name for f in out.iterdir() if "lock" in f.name]
 
 
+def test_the_check_of_a_new_directory_leaves_a_sibling_runs_files(tmp_path, monkeypatch):
+    """The check of a missing output directory creates it (and its parents) and removes
+    them again: where another run created a sibling directory under the same new parent
+    meanwhile and wrote into it, the parent went with its files (``shutil.rmtree``). Now
+    only the directories this check created are removed, each with ``rmdir``."""
+    from dolfinx_mortar.output import _out_dir_problem
+
+    parent = tmp_path / "new"
+    mkdir = Path.mkdir
+    raced = []
+
+    def other_run_first(self, *args, **kwargs):
+        if not raced:  # the sibling run creates its directory and writes, just before
+            raced.append(self)
+            mkdir(parent / "b", parents=True)
+            (parent / "b" / "summary.json").write_text("{}")
+        return mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "mkdir", other_run_first)
+    assert _out_dir_problem(str(parent / "a" / "deep")) is None
+    monkeypatch.undo()
+    assert (parent / "b" / "summary.json").read_text() == "{}"
+    assert sorted(f.name for f in parent.iterdir()) == ["b"]
+    # without a race everything created goes again
+    assert _out_dir_problem(str(tmp_path / "x" / "y" / "z")) is None
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.mpi
 def test_the_lock_decision_is_collective(shared_tmp):
     """On every rank of the run: the same SceneError where a live process holds the lock
