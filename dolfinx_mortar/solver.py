@@ -866,10 +866,15 @@ class NewtonSolver:
             target = (s.rtol if rtol is None else max(rtol, s.rtol)) * norms[0]
             budget = min(FULL_STEP_ITERATIONS, s.max_it)
             stalled = reason in _STALLED and self._line_search != "basic"
+            # the iterations of each part of the solve, for the error of a failed one
+            parts = [(its, f"with line search {self._line_search}")]
+            if tried[0]:
+                parts.insert(0, (tried[0], "with full Newton steps (then started again)"))
             if stalled and np.all(np.isfinite(norms)):
                 self.full_step_solves += 1
                 reason, more = self._continue(x, "basic", target / norms[-1], budget)
                 its, norms = its + len(more), norms + more
+                parts.append((len(more), "with full Newton steps from where it stalled"))
             if reason in _NONFINITE and self._has_finite and self._line_search != "bt" and rescue:
                 # restart from the last finite iterate: drop the norms after it
                 norms = [r for r in norms if np.isfinite(r)]
@@ -877,7 +882,10 @@ class NewtonSolver:
                 self._finite_x.copy(x)
                 self.backtracked_solves += 1
                 reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
+                parts = parts[:1] if tried[0] else []
+                parts.append((its, "to the last finite residual"))
                 its, norms = its + len(more), norms + more
+                parts.append((len(more), "with line search bt from there"))
             if (
                 reason <= 0
                 and np.all(np.isfinite(norms))
@@ -900,8 +908,9 @@ class NewtonSolver:
                     ksp = self.snes.getKSP().getConvergedReason()
                     why += f" (KSP reason {_reason_name(PETSc.KSP.ConvergedReason, ksp)})"
                 raise ConvergenceError(
-                    f"Newton did not converge (SNES reason {why}, {tried[0] + its} "
-                    f"iterations, residual {norms[-1] if norms else float('nan'):.3e})"
+                    f"Newton did not converge (SNES reason {why}, "
+                    f"{_iterations_text(parts, s.max_it)}, "
+                    f"residual {norms[-1] if norms else float('nan'):.3e})"
                 )
             if tried[0]:  # the restart's first norm is the attempt's first
                 its, norms = tried[0] + its, tried[1] + norms[1:]
@@ -1446,6 +1455,18 @@ def _create_vector(problem):
 _TOLERANCE_OPTIONS = {"snes_rtol": "rtol", "snes_atol": "atol"}
 #: SNES types that do one linear solve instead of Newton's method
 _LINEAR_SNES_TYPES = ("ksponly", "ksptransposeonly")
+
+
+def _iterations_text(parts: list[tuple[int, str]], max_it: int) -> str:
+    """ "N iterations" of a failed solve, made of ``parts`` ((iterations, how) each); where
+    there are several (a full-step attempt started again, a stalled solve continued with
+    full steps, a non-finite one with "bt": :meth:`NewtonSolver.solve`), each is named,
+    with ``max_it``, the limit of each: a solve with ``max_it = 1`` said "2 iterations"."""
+    total = sum(n for n, _ in parts)
+    if len(parts) < 2:
+        return f"{total} iterations"
+    each = ", then ".join(f"{n} {how}" for n, how in parts)
+    return f"{total} iterations: {each}, max_it = {max_it} each"
 
 
 def _reason_name(enum, reason: int) -> str:

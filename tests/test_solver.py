@@ -882,6 +882,24 @@ def test_full_steps_at_most_max_it(cubic_vectors):
             newton.solve()
 
 
+def test_a_failed_solve_names_the_iterations_of_each_part(cubic_vectors):
+    """max_it = 1: 1 l2 iteration, then 1 full step from where it stalled, and the error
+    says so (it said "2 iterations" with max_it = 1, as if the limit were not kept); a
+    solve in one part says "N iterations" alone."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, max_it=1, prefix="test_parts_")
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        with pytest.raises(ConvergenceError) as info:
+            newton.solve()
+    assert (
+        "DIVERGED_MAX_IT, 2 iterations: 1 with line search l2, then 1 with full Newton "
+        "steps from where it stalled, max_it = 1 each, residual "
+    ) in str(info.value)
+    settings = SolverSettings(max_it=2, line_search="basic", prefix="test_one_part_")
+    with NewtonSolver(_Cubic(10.0), settings) as newton:
+        with pytest.raises(ConvergenceError, match=r"DIVERGED_MAX_IT, 2 iterations, residual"):
+            newton.solve()
+
+
 class _Shifted(_Cubic):
     """R(x) = x³ + s x − 8, J = diag(3x² + s): ``s`` (per entry) plays the multipliers that
     an Uzawa round changes between two solves."""
