@@ -20,6 +20,8 @@ into a subdirectory, and "../x" outside the output directory.
 from __future__ import annotations
 
 import contextlib
+import errno
+import fcntl
 import json
 import logging
 import os
@@ -207,9 +209,9 @@ def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=()) -> None:
     the run goes (:func:`output_names` of the slave surfaces ``slaves``, and their
     ``contact_<SLAVE>_<k>.csv``, and the names ``files`` of a caller's own: the bench's
     CSV and plots) or where it removes an earlier run's contact files (those of the
-    slaves its summary.json names: :meth:`OutputWriter.start`), and no live run may hold
-    it (:func:`lock_problem`; :class:`OutputLock` takes the lock later, when the run
-    starts to write)."""
+    slaves its summary.json names: :meth:`OutputWriter.start`), and no other run may hold
+    its lock (:func:`lock_problem`; :class:`OutputLock` takes the lock later, when the
+    run starts to write)."""
     reason = None
     if comm.rank == 0:
         reason = _out_dir_problem(str(out), tuple(slaves), tuple(files))
@@ -300,134 +302,78 @@ def _existing_dir_problem(p: Path, out: str, slaves=(), files=()) -> str | None:
 
 #: The lock file of the run that writes in an output directory (:class:`OutputLock`).
 LOCK_NAME = ".dolfinx_mortar.lock"
-#: Seconds after its last change during which an unreadable lock file counts as one whose
-#: record is still being written (:func:`_lock_holder`).
-LOCK_WRITE_SECONDS = 10.0
+#: The errors with which a file system refuses flock (some Lustre mounts): the run goes on
+#: without the lock, with a warning.
+NO_FLOCK = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS, errno.EINVAL)
 
 
-def _process_start(pid: int) -> str | None:
-    """The start time of process ``pid`` in clock ticks after boot (field 22 of
-    ``/proc/<pid>/stat``), which tells a process from a later one with the same pid; None
-    where it cannot be read (no /proc: macOS)."""
+def _holder(fd: int) -> str:
+    """Who holds the lock file open as ``fd``, from its record (host, pid, since; for the
+    refusal message only)."""
     try:
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
-            stat = fh.read()
-        return stat[stat.rindex(")") + 2 :].split()[19]
-    except (OSError, ValueError, IndexError):
-        return None
+        record = json.loads(os.pread(fd, 4096, 0))
+        return f"host {record['host']}, pid {record['pid']}, since {record['since']}"
+    except (OSError, ValueError, TypeError, KeyError):
+        return "a run that has not yet written its host and pid"
 
 
-def _this_process() -> dict:
-    """The lock file's record of this process: host name, pid, process start, time."""
-    pid = os.getpid()
-    return {
-        "host": socket.gethostname(),
-        "pid": pid,
-        "process_start": _process_start(pid),
-        "since": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-    }
-
-
-def _read_lock(path: Path):
-    """(record, stat) of the lock file ``path``: its JSON record (None where it does not
-    parse as one) and its ``os.lstat``; (None, None) where there is none (local)."""
-    try:
-        st = os.lstat(path)
-    except FileNotFoundError:
-        return None, None
-    try:
-        with open(path, encoding="utf-8") as fh:
-            record = json.loads(fh.read(4096))
-        if not (isinstance(record, dict) and isinstance(record.get("host"), str)):
-            return None, st
-        pid = record.get("pid")
-        if not (isinstance(pid, int) and 0 < pid < 2**31):
-            return None, st
-        return record, st
-    except (OSError, ValueError, RecursionError):
-        return None, st
-
-
-def _lock_holder(record, st=None) -> tuple[str, str]:
-    """Whether the run of the lock file's ``record`` (its ``os.lstat``: ``st``) still
-    writes: ("live" | "other host" | "stale", a description of it) (local). On this host
-    the pid tells (no such process, or one started at another time than the record says:
-    the run is gone); a run on another host (a file system that several nodes share)
-    cannot be checked. An unreadable record is stale, but for LOCK_WRITE_SECONDS after
-    the file's last change (a file system without hard links: the record may be on its
-    way, :class:`OutputLock`)."""
-    if record is None:
-        if st is not None and abs(time.time() - st.st_mtime) < LOCK_WRITE_SECONDS:
-            return "live", "a lock file being written"
-        return "stale", "an unreadable lock file"
-    host, pid = record["host"], record["pid"]
-    since = record.get("since", "?")
-    who = f"host {host}, pid {pid}, since {since}"
-    if host != socket.gethostname():
-        return "other host", who
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return "stale", f"{who}: no such process"
-    except PermissionError:  # a process of another user
-        pass
-    except OSError as exc:
-        return "stale", f"{who}: {exc.strerror or exc}"
-    start = record.get("process_start")
-    now = _process_start(pid)
-    if start is not None and now is not None and now != start:
-        return "stale", f"{who}: that pid is another process now"
-    return "live", who
+def _held(who: str) -> str:
+    """The refusal message where another open file description holds the lock file."""
+    return (
+        f"another run is writing there ({who}; lock file {LOCK_NAME}): "
+        "give each run that runs at the same time an output directory of its own"
+    )
 
 
 def lock_problem(out_dir: Path) -> str | None:
     """Why another run holds the output directory ``out_dir``, or None (local): its lock
-    file names a live process on this host, or a process on another host
-    (:func:`_lock_holder`). A stale or unreadable lock file is no problem: the run takes
-    it over (:class:`OutputLock`)."""
-    path = Path(out_dir) / LOCK_NAME
-    record, st = _read_lock(path)
-    if st is None:
+    file is locked (``flock``, tried and released at once). No lock file, one that no
+    process holds (left by a killed run) or a file system without flock: no problem."""
+    path = os.path.join(str(out_dir), LOCK_NAME)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except FileNotFoundError:
         return None
-    if not stat.S_ISREG(st.st_mode):
-        return f"{os.path.join(str(out_dir), LOCK_NAME)!r} is not a regular file (remove it)"
-    state, who = _lock_holder(record, st)
-    if state == "live":
-        return (
-            f"another run is writing there ({who}; lock file {LOCK_NAME}): "
-            "give each run that runs at the same time an output directory of its own"
-        )
-    if state == "other host":
-        return (
-            f"another run, on another host, holds its lock file {LOCK_NAME} ({who}); "
-            "whether it still runs cannot be checked from here: if no run writes there, "
-            f"remove {os.path.join(str(out_dir), LOCK_NAME)!r}"
-        )
-    return None
+    except OSError as exc:  # a link (ELOOP), unreadable
+        return f"{path!r} cannot be opened as a lock file: {exc.strerror or exc} (remove it)"
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return f"{path!r} is not a regular file (remove it)"
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return _held(_holder(fd))
+        except OSError as exc:
+            if exc.errno in NO_FLOCK:
+                return None
+            raise
+        return None  # closing fd releases it
+    finally:
+        os.close(fd)
 
 
 class OutputLock:
     """The lock of a run on its output directory (construction collective; rank 0 holds
-    it): rank 0 creates ``<out_dir>/.dolfinx_mortar.lock`` atomically and the other ranks
-    are told whether it could (one broadcast). Where another run holds it (a live process
-    on this host, or a process on another host, which cannot be checked:
-    :func:`lock_problem`), every rank raises SceneError(``key``, "cannot use ... as output
-    directory: another run is writing there ..."). Two runs in one directory deleted each
-    other's contact files and failed in HDF5's file lock, and the first one ended "ok".
+    it): an advisory ``flock`` on ``<out_dir>/.dolfinx_mortar.lock``, which the kernel
+    releases when the process ends, however it ends (no stale locks). Rank 0 tries it and
+    broadcasts the outcome; where another open file description holds it (another run,
+    also of this process; on Linux NFS between hosts too), every rank raises
+    SceneError(``key``, "cannot use ... as output directory: another run is writing
+    there (host H, pid P, since T; ...)"). Two runs in one directory deleted each other's
+    contact files and failed in HDF5's file lock, and the first one ended "ok".
 
-    The file holds the host name, the pid, the process's start and the time (JSON). It is
-    created under a temporary name with its record, then hard-linked to its name (fails
-    where the name exists, also on NFS): a run never reads a lock file that another run
-    has not finished writing. A stale one (this host, its process gone; or unreadable) is
-    taken over with a warning: renamed aside, and removed where it is still the file that
-    was judged stale. :meth:`release` (rank 0; local) removes it, where it is still this
-    run's; call it in a ``finally``. Creates the directory (and its parents) where
-    missing."""
+    Rank 0 opens the file (created where missing: a leftover of a killed run is simply
+    taken), locks it (LOCK_EX | LOCK_NB), checks that the path still names the file it
+    locked (a run that released it meanwhile unlinked it: opened again), then writes host,
+    pid and time into it for the refusal message. :meth:`release` (rank 0; local) unlinks
+    the file, then closes it; call it in a ``finally``. Where the file system refuses
+    flock (ENOLCK, EOPNOTSUPP, ENOSYS, EINVAL: some Lustre mounts), one warning, and the
+    run goes on without the lock. Creates the directory (and its parents) where missing."""
 
     def __init__(self, comm, out_dir: Path, key: str):
         self.out_dir = Path(out_dir)
         self.path = self.out_dir / LOCK_NAME
-        self._inode = None
+        self._fd = None
         reason = None
         if comm.rank == 0:
             try:
@@ -439,77 +385,75 @@ class OutputLock:
             raise SceneError(key, f"cannot use {str(out_dir)!r} as output directory: {reason}")
 
     def _take(self) -> str | None:
-        """Create the lock file (rank 0; local); why not, or None."""
+        """Lock the lock file (rank 0; local); why not, or None."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
-        me = _this_process()
-        tmp = self.path.with_name(f"{LOCK_NAME}.{me['host']}.{me['pid']}.tmp")
-        tmp.unlink(missing_ok=True)
-        with open(tmp, "x", encoding="utf-8") as fh:
-            json.dump(me, fh)
-        try:
-            inode = os.lstat(tmp).st_ino
-            for _ in range(3):  # a stale lock is taken over, then the link tried again
+        for _ in range(10):  # the file unlinked by its holder between open and lock: again
+            created = True
+            flags = os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC
+            try:
+                fd = os.open(self.path, flags | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                created = False
                 try:
-                    try:
-                        os.link(tmp, self.path)
-                    except FileExistsError:
-                        raise
-                    except OSError as exc:  # no hard links here: create it exclusively
-                        log.info("lock file created in place (no hard link: %s)", exc)
-                        with open(self.path, "x", encoding="utf-8") as fh:
-                            json.dump(me, fh)
-                        inode = os.lstat(self.path).st_ino
-                except FileExistsError:
-                    reason = lock_problem(self.out_dir)
-                    if reason is not None:
-                        return reason
-                    self._take_over(tmp)
+                    fd = os.open(self.path, flags)
+                except FileNotFoundError:
                     continue
-                self._inode = inode
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                st = os.fstat(fd)
+                try:
+                    now = os.stat(self.path)
+                except FileNotFoundError:
+                    now = None
+                if now is None or (now.st_dev, now.st_ino) != (st.st_dev, st.st_ino):
+                    os.close(fd)
+                    continue
+                record = {
+                    "host": socket.gethostname(),
+                    "pid": os.getpid(),
+                    "since": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+                }
+                data = json.dumps(record).encode()
+                # written, then cut to its length (a leftover record may be longer): a
+                # truncation to 0 before the write made ext4 flush it (auto_da_alloc), 1 ms
+                os.pwrite(fd, data, 0)
+                os.ftruncate(fd, len(data))
+            except BlockingIOError:
+                who = _holder(fd)
+                os.close(fd)
+                return _held(who)
+            except OSError as exc:
+                os.close(fd)
+                if exc.errno not in NO_FLOCK:
+                    raise
+                if created:
+                    self.path.unlink(missing_ok=True)
+                log.warning(
+                    "%s: the file system refuses flock (%s): the run goes on without the "
+                    "lock of its output directory",
+                    self.out_dir,
+                    exc.strerror or exc,
+                )
                 return None
-            return f"its lock file {LOCK_NAME} keeps changing (other runs start there)"
-        finally:
-            tmp.unlink(missing_ok=True)
-
-    def _take_over(self, tmp: Path) -> None:
-        """Remove a stale lock file (rank 0; local): renamed aside, then removed where it is
-        still the file judged stale; where another run's new lock file was renamed
-        instead (it took the stale one over meanwhile), it is put back."""
-        record, st = _read_lock(self.path)
-        if st is None:
-            return
-        if lock_problem(self.out_dir) is not None:  # replaced by a live one meanwhile
-            return
-        _, who = _lock_holder(record, st)
-        aside = tmp.with_suffix(".stale")
-        try:
-            os.rename(self.path, aside)
-        except FileNotFoundError:
-            return
-        if os.lstat(aside).st_ino != st.st_ino:  # another run's new lock: put it back
-            with contextlib.suppress(OSError):
-                os.link(aside, self.path)
-        else:
-            log.warning(
-                "%s: taking over the lock file of a run that is gone (%s)", self.out_dir, who
-            )
-        aside.unlink(missing_ok=True)
+            except BaseException:
+                os.close(fd)
+                raise
+            self._fd = fd
+            return None
+        return f"its lock file {LOCK_NAME} keeps changing (other runs start there)"
 
     def release(self) -> None:
-        """Remove the lock file where this rank created it and it is still this run's
-        (local; nothing on the other ranks). An OSError is logged."""
-        if self._inode is None:
+        """Unlink the lock file, then close it, which releases the lock, where this rank
+        holds it (local; nothing on the other ranks). An OSError is logged."""
+        if self._fd is None:
             return
+        fd, self._fd = self._fd, None
         try:
-            if os.lstat(self.path).st_ino == self._inode:
-                self.path.unlink()
-            else:
-                log.warning("%s is no longer this run's lock: left there", self.path)
-        except FileNotFoundError:
-            log.warning("%s was removed before the run ended", self.path)
+            self.path.unlink()
         except OSError as exc:
             log.warning("could not remove the lock file %s: %s", self.path, exc)
-        self._inode = None
+        finally:
+            os.close(fd)
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:

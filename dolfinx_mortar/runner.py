@@ -336,7 +336,7 @@ def run(
         raise
     try:
         return _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off, t_setup)
-    finally:  # also after an exception, Ctrl-C (rank 0 removes the lock file; local)
+    finally:  # also after an exception, Ctrl-C, SIGTERM (Terminated): rank 0 releases it
         lock.release()
 
 

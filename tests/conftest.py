@@ -167,3 +167,35 @@ def stick_only_scene(gap0: float = 0.005) -> dict:
         ],
         "steps": {"t_end": 2.0, "n": 2},
     }
+
+
+#: A process that holds an output directory's lock as a run does (flock on the lock file,
+#: its record written), prints "locked" and sleeps; argv: the lock file's path.
+_LOCK_HOLDER = """
+import fcntl, json, os, socket, sys, time
+fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT, 0o644)
+fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+record = {"host": socket.gethostname(), "pid": os.getpid(), "since": "2026-01-01 00:00:00 UTC"}
+os.write(fd, json.dumps(record).encode())
+print("locked", flush=True)
+time.sleep(120)
+"""
+
+
+def hold_lock(out_dir: Path):
+    """Start a process that holds the lock of ``out_dir`` (created where missing) as
+    another run would; returns its Popen once it holds it (kill it when done: the kernel
+    then releases the lock and leaves the file, as after a killed run)."""
+    import subprocess
+    import sys
+
+    from dolfinx_mortar.output import LOCK_NAME
+
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _LOCK_HOLDER, str(Path(out_dir) / LOCK_NAME)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert holder.stdout.readline() == "locked\n"
+    return holder

@@ -607,36 +607,34 @@ def test_output_dir_that_cannot_take_the_files(workdir, where, reason, ranks):
 
 @pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
 def test_output_dir_that_another_run_holds(workdir, ranks):
-    """An output directory whose lock file names a live process of this host (a run
-    writing there; here a `sleep`) is one error line per rank naming ``--out``, exit 2,
-    before the mesh is read, and the lock file is left as it was."""
-    import json
+    """An output directory whose lock another process holds (flock, as a run writing
+    there does: conftest.hold_lock) is one error line per rank naming ``--out``, with the
+    holder's host, pid and time, exit 2, before the mesh is read, and the lock file is
+    left as it was."""
     import socket
-    import subprocess
 
-    from dolfinx_mortar.output import LOCK_NAME, _process_start
+    from conftest import hold_lock
+
+    from dolfinx_mortar.output import LOCK_NAME
 
     scene = base_scene()
     scene["mesh"]["file"] = "absent.msh"  # the mesh is never read
     (workdir / "good.toml").write_text(to_toml(scene))
     out = workdir / "out"
-    out.mkdir(exist_ok=True)
-    holder = subprocess.Popen(["sleep", "60"])
+    holder = hold_lock(out)
     try:
-        record = {"host": socket.gethostname(), "pid": holder.pid, "since": "noon"}
-        record["process_start"] = _process_start(holder.pid)
-        (out / LOCK_NAME).write_text(json.dumps(record))
+        record = (out / LOCK_NAME).read_text()
         res = cli(workdir, "run", "good.toml", "--out", "out", ranks=ranks)
     finally:
         holder.kill()
         holder.wait()
     reason = (
         f"cannot use 'out' as output directory: another run is writing there (host "
-        f"{socket.gethostname()}, pid {holder.pid}, since noon; lock file {LOCK_NAME}): give "
-        "each run that runs at the same time an output directory of its own"
+        f"{socket.gethostname()}, pid {holder.pid}, since 2026-01-01 00:00:00 UTC; lock file "
+        f"{LOCK_NAME}): give each run that runs at the same time an output directory of its own"
     )
     _one_error_line(res, max(ranks, 1), "--out", reason)
-    assert json.loads((out / LOCK_NAME).read_text()) == record
+    assert (out / LOCK_NAME).read_text() == record
 
 
 def test_usage_errors_are_one_line(workdir):

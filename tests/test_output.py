@@ -5,6 +5,7 @@ volume field's value at its place."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import sys
 from pathlib import Path
@@ -738,32 +739,17 @@ def test_a_text_write_on_a_full_disk_keeps_the_old_file(tmp_path, monkeypatch):
     assert path.read_text() == "old " * 1000
 
 
-def _lock_record(path: Path, pid: int, host: str | None = None, start=None) -> None:
-    """Write an output directory's lock file as a run of process ``pid`` on ``host`` (this
-    host by default) would, ``start`` its process start (read from /proc by default)."""
+def test_a_second_run_into_a_live_runs_directory_is_refused(tmp_path):
+    """A run started into the directory of a run that is writing there (here in the same
+    process, from the first one's progress callback, after its step 1) is the one-line
+    SceneError before it writes anything, and the first run ends "ok" with all its files.
+    Three runs of a parameter sweep on MPI.COMM_SELF into one default directory deleted
+    each other's contact CSVs and failed in HDF5's file lock, the first ending "ok"
+    without its CSVs. Where the second run started before the first took the lock (it
+    passed the early check), taking the lock refuses it (OutputLock: flock conflicts
+    between two open files of one process too); the lock file goes when the run ends."""
     import socket
 
-    from dolfinx_mortar.output import LOCK_NAME, _process_start
-
-    path.mkdir(parents=True, exist_ok=True)
-    record = {
-        "host": socket.gethostname() if host is None else host,
-        "pid": pid,
-        "process_start": _process_start(pid) if start is None else start,
-        "since": "2026-01-01 00:00:00 UTC",
-    }
-    (path / LOCK_NAME).write_text(json.dumps(record))
-
-
-def test_a_second_run_into_a_live_runs_directory_is_refused(tmp_path):
-    """A run started into the directory of a run that is writing there (here from the
-    first one's progress callback, after its step 1) is the one-line SceneError before
-    it writes anything, and the first run ends "ok" with all its files. Three runs of a
-    parameter sweep on MPI.COMM_SELF into one default directory deleted each other's
-    contact CSVs and failed in HDF5's file lock, the first ending "ok" without its CSVs.
-    Where the second run started before the first took the lock (it passed the early
-    check), taking the lock refuses it (OutputLock); the lock file goes when the run
-    ends."""
     from dolfinx_mortar import parse_scene, run
     from dolfinx_mortar.errors import SceneError
     from dolfinx_mortar.output import LOCK_NAME, OutputLock
@@ -783,18 +769,14 @@ def test_a_second_run_into_a_live_runs_directory_is_refused(tmp_path):
             refused.append(str(info.value))
 
     summary = run(scene, MPI.COMM_SELF, out_dir=out, progress=second)
-    import os
-    import socket
-
+    since = r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d \S+"
     expected = (
-        f"out_dir: cannot use {str(out)!r} as output directory: another run is writing "
-        f"there (host {socket.gethostname()}, pid {os.getpid()}, since "
+        rf"out_dir: cannot use {re.escape(repr(str(out)))} as output directory: another run "
+        rf"is writing there \(host {re.escape(socket.gethostname())}, pid {os.getpid()}, "
+        rf"since {since}; lock file \.dolfinx_mortar\.lock\): give each run that runs at the "
+        "same time an output directory of its own"
     )
-    assert len(refused) == 2 and all(r.startswith(expected) for r in refused), refused
-    assert refused[0].endswith(
-        "; lock file .dolfinx_mortar.lock): give each run that runs at the same time an "
-        "output directory of its own"
-    ), refused[0]
+    assert len(refused) == 2 and all(re.fullmatch(expected, r) for r in refused), refused
     assert summary["status"] == "ok" and len(summary["steps"]) == 3
     names = {f.name for f in out.iterdir()}
     assert {f"contact_upper_bottom_{k}.csv" for k in range(4)} <= names, names
@@ -803,74 +785,108 @@ def test_a_second_run_into_a_live_runs_directory_is_refused(tmp_path):
     assert kept["status"] == "ok" and len(kept["steps"]) == 3
 
 
-def test_a_lock_of_a_live_process_or_another_host_is_refused(tmp_path):
-    """A lock file that names a live process of this host (another program's: a `sleep`)
-    refuses the run; one that names another host too, since its process cannot be
-    checked from here, and the message says how to clear it. A lock file removed while
-    the run ran is left alone (a warning)."""
-    import subprocess
+def test_a_lock_held_by_another_process_is_refused(tmp_path, caplog):
+    """A lock file that another process holds (flock; here a small program that takes it
+    as a run does and sleeps) refuses the run with its host, pid and time, before
+    anything is written, and the early check (check_out_dir) refuses it alike; the lock
+    file is left as it was. Once that process is killed (SIGKILL: nothing removed the
+    file), the lock file it left is no one's: the run takes it without a warning, ends
+    "ok" and removes it."""
+    import logging
+    import socket
+
+    from conftest import hold_lock
 
     from dolfinx_mortar import parse_scene, run
     from dolfinx_mortar.errors import SceneError
-    from dolfinx_mortar.output import LOCK_NAME
+    from dolfinx_mortar.output import LOCK_NAME, OutputLock, check_out_dir
 
+    out = tmp_path / "out"
     scene = parse_scene(patch_press_scene(steps=1), tmp_path)
-    holder = subprocess.Popen(["sleep", "60"])
+    holder = hold_lock(out)
     try:
-        _lock_record(tmp_path / "live", holder.pid)
-        with pytest.raises(
-            SceneError,
-            match=rf"another run is writing there \(host .*, pid {holder.pid}, since 2026-01-01",
-        ):
-            run(scene, MPI.COMM_SELF, out_dir=tmp_path / "live")
+        record = (out / LOCK_NAME).read_text()
+        reason = (
+            f"another run is writing there (host {socket.gethostname()}, pid {holder.pid}, "
+            f"since 2026-01-01 00:00:00 UTC; lock file {LOCK_NAME}): give each run that "
+            "runs at the same time an output directory of its own"
+        )
+        with pytest.raises(SceneError) as info:
+            run(scene, MPI.COMM_SELF, out_dir=out)
+        assert str(info.value) == f"out_dir: cannot use {str(out)!r} as output directory: {reason}"
+        with pytest.raises(SceneError) as early:
+            check_out_dir(out, "out_dir", MPI.COMM_SELF)
+        with pytest.raises(SceneError) as late:
+            OutputLock(MPI.COMM_SELF, out, "out_dir")
+        assert str(early.value) == str(late.value) == str(info.value)
+        assert sorted(f.name for f in out.iterdir()) == [LOCK_NAME]
+        assert (out / LOCK_NAME).read_text() == record
     finally:
         holder.kill()
         holder.wait()
-    assert sorted(f.name for f in (tmp_path / "live").iterdir()) == [LOCK_NAME]
-    _lock_record(tmp_path / "far", 4242, host="node-elsewhere-17")
-    with pytest.raises(SceneError) as info:
-        run(scene, MPI.COMM_SELF, out_dir=tmp_path / "far")
-    lock = str(tmp_path / "far" / LOCK_NAME)
-    assert str(info.value).endswith(
-        f"as output directory: another run, on another host, holds its lock file {LOCK_NAME} "
-        "(host node-elsewhere-17, pid 4242, since 2026-01-01 00:00:00 UTC); whether it still "
-        f"runs cannot be checked from here: if no run writes there, remove {lock!r}"
-    ), str(info.value)
+    assert holder.returncode == -9 and (out / LOCK_NAME).read_text() == record
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.output"):
+        summary = run(scene, MPI.COMM_SELF, out_dir=out)
+    assert summary["status"] == "ok" and len(summary["steps"]) == 1
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING], caplog.text
+    assert not [f.name for f in out.iterdir() if "lock" in f.name]
 
 
-@pytest.mark.parametrize("kind", ["dead", "reused", "unreadable"])
-def test_a_stale_lock_is_taken_over(tmp_path, caplog, kind):
-    """The lock file of a run that is gone (this host, its pid no process; or that pid now
-    another process, started at another time; or a file that is not a lock record, older
-    than LOCK_WRITE_SECONDS) is taken over with a warning, and the run ends "ok" and
-    removes it."""
-    import logging
-    import os
-    import subprocess
+def test_the_lock_follows_the_file_at_its_path(tmp_path, monkeypatch):
+    """A run that locked the file its holder unlinked meanwhile (the holder's release:
+    unlink, then close) locks a file that no other run can find: it opens the path again
+    and locks the new file. Release removes the lock file and frees the lock: the next
+    run takes it."""
+    import fcntl
 
-    from dolfinx_mortar import parse_scene, run
-    from dolfinx_mortar.output import LOCK_NAME
+    from dolfinx_mortar import output
 
     out = tmp_path / "out"
-    if kind == "dead":
-        gone = subprocess.Popen(["true"])
-        gone.wait()
-        _lock_record(out, gone.pid)
-        why = f"pid {gone.pid}, since 2026-01-01 00:00:00 UTC: no such process"
-    elif kind == "reused":
-        _lock_record(out, os.getpid(), start="1")
-        why = "that pid is another process now"
-    else:
-        out.mkdir()
-        (out / LOCK_NAME).write_text("{half a rec")
-        os.utime(out / LOCK_NAME, (1e9, 1e9))
-        why = "(an unreadable lock file)"
+    out.mkdir()
+    calls = []
+    flock = fcntl.flock
+
+    def released_meanwhile(fd, op):
+        flock(fd, op)
+        calls.append(os.fstat(fd).st_ino)
+        if len(calls) == 1:  # the previous holder unlinks the file it held
+            os.unlink(out / output.LOCK_NAME)
+
+    monkeypatch.setattr(output.fcntl, "flock", released_meanwhile)
+    lock = output.OutputLock(MPI.COMM_SELF, out, "out_dir")
+    monkeypatch.undo()
+    assert len(calls) == 2  # (the new file may reuse the old one's inode number)
+    assert os.stat(out / output.LOCK_NAME).st_ino == calls[1] == os.fstat(lock._fd).st_ino
+    assert json.loads((out / output.LOCK_NAME).read_text())["pid"] == os.getpid()
+    lock.release()
+    assert not (out / output.LOCK_NAME).exists() and lock._fd is None
+    again = output.OutputLock(MPI.COMM_SELF, out, "out_dir")
+    again.release()
+    assert sorted(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("code", ["ENOLCK", "EOPNOTSUPP", "ENOSYS", "EINVAL"])
+def test_a_file_system_without_flock_runs_without_the_lock(tmp_path, monkeypatch, caplog, code):
+    """Where the file system refuses flock (some Lustre mounts), the early check passes and
+    the run goes on without the lock, with one warning, and leaves no lock file."""
+    import errno
+    import logging
+
+    from dolfinx_mortar import output, parse_scene, run
+
+    def refused(fd, op):
+        raise OSError(getattr(errno, code), os.strerror(getattr(errno, code)))
+
+    monkeypatch.setattr(output.fcntl, "flock", refused)
+    out = tmp_path / "out"
     with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.output"):
         summary = run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=out)
     assert summary["status"] == "ok"
-    taken = [r.getMessage() for r in caplog.records if "taking over" in r.getMessage()]
-    assert len(taken) == 1 and why in taken[0], taken
-    assert taken[0].startswith(f"{out}: taking over the lock file of a run that is gone")
+    said = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert said == [
+        f"{out}: the file system refuses flock ({os.strerror(getattr(errno, code))}): the "
+        "run goes on without the lock of its output directory"
+    ], said
     assert not [f.name for f in out.iterdir() if "lock" in f.name]
 
 
@@ -903,36 +919,39 @@ def test_the_check_of_a_new_directory_leaves_a_sibling_runs_files(tmp_path, monk
 
 
 @pytest.mark.mpi
-def test_the_lock_decision_is_collective(shared_tmp):
-    """On every rank of the run: the same SceneError where a live process holds the lock
-    (rank 0 decides, even where another rank would have judged otherwise: here rank 1
-    takes it for stale), nothing written; once the holder is gone, the lock is taken
-    over and the run ends "ok" on every rank, the lock file removed."""
-    import subprocess
+def test_the_lock_decision_is_collective(shared_tmp, monkeypatch):
+    """On every rank of the run: the same SceneError where another process holds the lock
+    (rank 0 alone tries it and broadcasts: the other ranks never call flock), nothing
+    written; once the holder is killed, the run takes its leftover file and ends "ok" on
+    every rank, the lock file removed."""
+    import fcntl
+
+    from conftest import hold_lock
 
     from dolfinx_mortar import output, parse_scene, run
     from dolfinx_mortar.errors import SceneError
 
     comm = MPI.COMM_WORLD
     out = shared_tmp / "locked"
-    holder = subprocess.Popen(["sleep", "60"]) if comm.rank == 0 else None
+    holder = hold_lock(out) if comm.rank == 0 else None
     pid = comm.bcast(holder.pid if holder else None, root=0)
-    if comm.rank == 0:
-        _lock_record(out, pid)
-    comm.barrier()
-    judge = output._lock_holder
-    if comm.rank == 1:  # a rank that would go on alone, were it asked
-        output._lock_holder = lambda record, st=None: ("stale", "?")
+    calls = []
+    flock = fcntl.flock
+
+    def counted(fd, op):
+        calls.append(op)
+        return flock(fd, op)
+
+    monkeypatch.setattr(output.fcntl, "flock", counted)
     scene = parse_scene(patch_press_scene(steps=1), shared_tmp)
     try:
         with pytest.raises(
-            SceneError, match=rf"another run is writing there \(host .*, pid {pid},"
+            SceneError, match=rf"another run is writing there \(host .*, pid {pid}, since 2026"
         ):
             run(scene, comm, out_dir=out)
         with pytest.raises(SceneError, match=rf"pid {pid},"):
             output.OutputLock(comm, out, "out_dir")
     finally:
-        output._lock_holder = judge
         if holder is not None:
             holder.kill()
             holder.wait()
@@ -942,3 +961,5 @@ def test_the_lock_decision_is_collective(shared_tmp):
     assert summary["status"] == "ok" and len(summary["steps"]) == 1
     comm.barrier()
     assert not [f.name for f in out.iterdir() if "lock" in f.name]
+    # rank 0: the early check (refused), OutputLock (refused); the early check, the lock
+    assert len(calls) == (4 if comm.rank == 0 else 0), calls
