@@ -198,6 +198,18 @@ EXACT_FD_STEP = 1e-7
 #: reversal (``_add_tangential_jacobian``); the unconstrained one freezes after
 #: FREEZE_AFTER Jacobians only.
 REVERSAL_RECOVERIES = ("lumped", "constrained")
+#: The state predictor of a load step's first Jacobian (:meth:`MortarContact.guess_slip`):
+#: a node sticking at the step's start gets the slip tangent there where the trial
+#: traction at the end of the stick Newton step, |λ_T + ε_T γ|, exceeds (1 + this) × μ p_N
+#: (its pressure at the start). Lumped tangential recovery only.
+SLIP_GUESS_MARGIN = 0.1
+#: The state predictor's load floor: it applies only where the pair's trial pressure
+#: Σ A_T p_N at the end of the stick Newton step is at least this times that at its start
+SLIP_GUESS_LOAD_FLOOR = 0.5
+#: ... and only where the pair's trial shear |Σ A_T τ^tr| exceeds this times μ Σ A_T p_N^tr
+#: (measured: 2.07 to 4.97 in the slides it helps, 237 in s16's reversals; 1.18 at the one
+#: node of demo_ironing2d where it fired and changed the run's figures)
+SLIP_GUESS_PAIR_RATIO = 1.5
 #: Chattering control: after this many Jacobians in one Newton solve, or at the first
 #: slip reversal (``_add_tangential_jacobian``; REVERSAL_RECOVERIES), the stick/slip
 #: states and the slip directions are frozen (a frozen slip node keeps τ = μ p_N s with its s);
@@ -1015,6 +1027,9 @@ class MortarContact:
         # the states the last Uzawa round hands to the next solve (used with carry_states)
         self._carried = None
         self._jacobians = 0
+        #: (mask (n,), D (n, m, m), Pd (n, m)): the slip tangent guessed for the next
+        #: Jacobian only (:meth:`guess_slip`), or None
+        self._slip_guess = None
         self._u_n = self.problem.u.vector.copy()  # displacements of the last converged step
         self._u_n_version = 0
         self._u_n_local = None  # (version, u_n at the local slave and master facets)
@@ -2459,8 +2474,14 @@ class MortarContact:
         D_stick = self.eps_t[:, None, None] * np.eye(m)
         nodes = np.flatnonzero((self.fstate > 0) | predictor)
         pred = predictor[nodes]
-        D = np.where(pred[:, None, None], D_stick[nodes], self._D[nodes])
-        Pd = np.where(pred[:, None], 0.0, self._Pd[nodes])
+        D0, Pd0 = self._D, self._Pd
+        if self._slip_guess is not None:  # the state predictor: this Jacobian only
+            guess, Dg, Pdg = self._slip_guess
+            self._slip_guess = None
+            D0 = np.where(guess[:, None, None], Dg, D0)
+            Pd0 = np.where(guess[:, None], Pdg, Pd0)
+        D = np.where(pred[:, None, None], D_stick[nodes], D0[nodes])
+        Pd = np.where(pred[:, None], 0.0, Pd0[nodes])
         # ∂p_N/∂u = −kN × row: the lumped kcoef B^I, or the row of Lᵀ diag(d) R B of the
         # constrained recovery (kN = 1)
         constrained = ~pred if self._dp_rows is not None else np.zeros(nodes.size, bool)
@@ -3212,6 +3233,83 @@ class MortarContact:
         """Put back a :meth:`_jacobian_watch` (local)."""
         for k, v in watch.items():
             setattr(self, k, v)
+
+    def state_prediction_wanted(self) -> bool:
+        """Whether the next Jacobian is a load step's first (that of its first Newton solve)
+        and may get the state predictor (:meth:`guess_slip`; local): friction with the
+        lumped tangential recovery, no states frozen, and a node sticking under pressure."""
+        if not (self.frictional and self.tangential_recovery == "lumped"):
+            return False
+        if self._solves != 1 or self._jacobians != 0 or self.frozen is not None:
+            return False
+        return bool(np.any((self.fstate == fr.STICK) & (self.p > 0.0)))
+
+    def trial_traction(self) -> tuple[np.ndarray, np.ndarray]:
+        """The trial traction λ_T + ε_T γ (n, m) and the pressure p_N (n,) of the last
+        update (local)."""
+        return self.lmbda_t + self.eps_t[:, None] * self.gamma_t, self.p.copy()
+
+    def guess_slip(self, pred: tuple[np.ndarray, np.ndarray]) -> bool:
+        """The state predictor of a load step's first Jacobian (collective: every rank
+        calls it, with the same answer). ``pred``: the trial tractions λ_T + ε_T γ (n, m)
+        and pressures p_N (n,) at the end of the Newton step from this state (u_n) with
+        its stick tangent (:meth:`trial_traction`, read there). The pair is judged to go
+        into gross slip where, over the nodes that stick under pressure here,
+
+        - every trial traction leaves the cone of its pressure here:
+          |τ^tr| > (1 + SLIP_GUESS_MARGIN) μ p_N(u_n);
+        - the pair's trial shear leaves the cone of its trial pressure:
+          |Σ A_T τ^tr| > SLIP_GUESS_PAIR_RATIO μ Σ A_T p_N^tr (a trial step that
+          overshoots the cone by little is a good enough first step);
+        - the trial step keeps the load: Σ A_T p_N^tr ≥ SLIP_GUESS_LOAD_FLOOR Σ A_T p_N(u_n)
+          (a pair that the trial step unloads, e.g. a node the ironing punch leaves,
+          has p_N^tr ≈ 0 and a meaningless ratio).
+
+        Then those nodes get, in the next Jacobian only, the slip tangent of the return
+        map at their trial traction, D = μ p_N ε_T/|τ^tr| (I − s⊗s) (m, m) and
+        ∂τ/∂p_N = μ s (m,), s = τ^tr/|τ^tr|; the residual and the states stay those of
+        this state. Returns whether a node here got it (local).
+
+        At the start of a step that slides every node sticks (its slip since t_n is 0),
+        and the stick tangent's Newton step loads the interface with ε_T times the whole
+        step's slip: on the 2D block of docs/method-notes.md (Friction, "Session 49:
+        the state predictor")
+        trial tractions of 17.6 to 24 times μ p_N (median 20.9), whose moment lifts the
+        block's trailing nodes."""
+        self._slip_guess = None
+        trial, p_trial = pred
+        norm = np.linalg.norm(trial, axis=1)
+        p = np.maximum(self.p, 0.0)
+        stick = (self.fstate == fr.STICK) & (p > 0.0)
+        if not self.state_prediction_wanted():
+            stick[:] = False
+        out = stick & (norm > (1.0 + SLIP_GUESS_MARGIN) * self.mu * p)
+        At = np.where(stick, self.AT, 0.0)
+        loc = np.concatenate(
+            [
+                [stick.sum(), out.sum(), (At * p).sum(), (At * np.maximum(p_trial, 0.0)).sum()],
+                (At[:, None] * trial).sum(axis=0),
+            ]
+        )
+        tot = self.comm.allreduce(loc)
+        n_stick, n_out, load, load_trial = tot[:4]
+        shear = np.linalg.norm(tot[4:])
+        if n_stick == 0 or n_out < n_stick or not load_trial >= SLIP_GUESS_LOAD_FLOOR * load:
+            return False
+        ratio = shear / (self.mu * load_trial)
+        log.debug(
+            "state predictor: %d sticking node(s), trial shear %.3g μ F_N^tr, F_N^tr/F_N %.3g",
+            n_stick, ratio, load_trial / load,
+        )  # fmt: skip
+        if not ratio > SLIP_GUESS_PAIR_RATIO:
+            return False
+        m = trial.shape[1]
+        s = trial / np.maximum(norm, 1e-300)[:, None]
+        D = (self.mu * p * self.eps_t / np.maximum(norm, 1e-300))[:, None, None] * (
+            np.eye(m) - np.einsum("ni,nj->nij", s, s)
+        )
+        self._slip_guess = (out, D, self.mu * s)
+        return bool(out.any())
 
     def _exact_outcome(self, ok: bool, its: int, du, info: dict) -> bool:
         """Record how an exact update ended (local; ``ok`` is collective): with GMRES

@@ -1243,6 +1243,53 @@ class ContactProblem:
             if note is not None:
                 note()
 
+    def state_prediction_wanted(self) -> bool:
+        """Whether the next Jacobian is a load step's first and a frictional contact term
+        may get the state predictor there (collective: the same answer on every rank;
+        ``MortarContact.state_prediction_wanted``)."""
+        if not self.contacts:
+            return False
+        local = any(getattr(t, "state_prediction_wanted", lambda: False)() for t in self.contacts)
+        return bool(self.comm.allreduce(local, op=MPI.LOR))
+
+    def predict_states(self, x: PETSc.Vec, trial: PETSc.Vec, before: list, after: list) -> bool:
+        """The state predictor of a load step's first Jacobian (collective): the contact
+        terms are updated at ``trial`` (the end of the Newton step from ``x`` with the
+        Jacobian just assembled there), their trial tractions read, and updated at ``x``
+        again; every term whose sticking nodes go into gross slip at ``trial`` gets their
+        slip tangent in the next Jacobian (``MortarContact.guess_slip``). ``before`` and
+        ``after``: the :meth:`jacobian_watch` from before and after that Jacobian. Returns
+        whether any term got it (the same on every rank): the per-solve state is then
+        ``before`` and the caller assembles the Jacobian at x again; else it is ``after``,
+        as though no trial had been made."""
+        self.update_contact(trial)
+        trials = [
+            t.trial_traction() if getattr(t, "frictional", False) else None for t in self.contacts
+        ]
+        self.update_contact(x)
+        self.restore_jacobian_watch(before)
+        local = False
+        for term, tr in zip(self.contacts, trials, strict=True):
+            if tr is not None:
+                local = term.guess_slip(tr) or local
+        guessed = bool(self.comm.allreduce(local, op=MPI.LOR))
+        if not guessed:
+            self.restore_jacobian_watch(after)
+        return guessed
+
+    def jacobian_watch(self) -> list:
+        """The per-solve state that a Jacobian changes in each contact term (local;
+        ``MortarContact._jacobian_watch``)."""
+        return [
+            t._jacobian_watch() if hasattr(t, "_jacobian_watch") else None for t in self.contacts
+        ]
+
+    def restore_jacobian_watch(self, watch: list) -> None:
+        """Put back a :meth:`jacobian_watch` (local)."""
+        for term, w in zip(self.contacts, watch, strict=True):
+            if w is not None:
+                term._restore_jacobian_watch(w)
+
     @property
     def exact_multiplier_update(self) -> bool:
         """Whether a contact term updates its multipliers exactly (``uzawa_acceleration =

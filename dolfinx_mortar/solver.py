@@ -555,6 +555,9 @@ class NewtonSolver:
         self.snes.setMonitor(self._remember_finite)
         #: Newton steps shortened by the penetration limit (settings.step_depth_limit)
         self.limited_steps = 0
+        #: load steps' first Jacobians that the state predictor assembled again with slip
+        #: tangents (_predict_states)
+        self.state_predictions = 0
         #: the limit of first-contact solves (FIRST_CONTACT_DEPTH_LIMIT; 0 = off), used
         #: where ``settings.step_depth_limit`` is 0
         self.first_contact_depth_limit = FIRST_CONTACT_DEPTH_LIMIT
@@ -697,8 +700,16 @@ class NewtonSolver:
         # The line search may have evaluated F last at a trial point other than x: the
         # contact pairing and nodal state must be those of x for a consistent tangent;
         # problem.jacobian brings them there (re-computed only when they are not).
-        self.problem.jacobian(x, A)
         first_iteration = snes.getIterationNumber() == 0
+        predict = (
+            first_iteration
+            and not self._reusing
+            and getattr(self.problem, "state_prediction_wanted", lambda: False)()
+        )
+        watch = self.problem.jacobian_watch() if predict else None
+        self.problem.jacobian(x, A)
+        if predict:
+            self._predict_states(snes, x, A, watch)
         if self._line_search_type() != "l2":  # the scene's, or a continuation's
             self._energy = False
             if first_iteration:
@@ -735,6 +746,32 @@ class NewtonSolver:
             note = getattr(self.problem, "note_factorization", None)
             if note is not None:
                 note()
+
+    def _predict_states(self, snes, x, A, watch: list) -> None:
+        """The state predictor of a load step's first Jacobian (collective; docs/method-
+        notes.md, Friction, "Session 49: the state predictor"): the Newton step from x
+        with the Jacobian ``A`` just assembled (stick at every node that sticks at the
+        step's start) is solved, not taken; where a pair goes into gross slip at its end
+        (``MortarContact.guess_slip``), A is assembled at x again with the slip tangent
+        there (``problem.predict_states``). Costs one linear solve on the factorization that
+        the SNES then reuses for its own first step (the operator is unchanged) or, where
+        the tangent changed, one more factorization. ``_b`` holds R(x); ``watch``: the
+        contact terms' per-solve state from before A (``problem.jacobian_watch``)."""
+        ksp = snes.getKSP()
+        ksp.setOperators(A, A)
+        dx = self._trial.duplicate()
+        try:
+            ksp.solve(self._b, dx)
+            if ksp.getConvergedReason() <= 0 or not np.isfinite(dx.norm()):
+                return
+            x.copy(self._trial)
+            self._trial.axpy(-1.0, dx)
+            after = self.problem.jacobian_watch()
+            if self.problem.predict_states(x, self._trial, watch, after):
+                self.state_predictions += 1
+                self.problem.jacobian(x, A)
+        finally:
+            dx.destroy()
 
     def _use_l2(self, secant_steps: int) -> None:
         """The SNES's line search becomes "l2" with ``secant_steps`` secant steps and

@@ -1379,3 +1379,95 @@ def test_incremental_objectivity_on_a_held_step(dim, frame, shared_tmp):
         assert np.allclose(term.t_vec, t @ Q.T, rtol=1e-8, atol=1e-9)
     finally:
         problem.destroy()
+
+
+_BLOCK_SLIDE_2D = """
+title = "2D block slide in one step"
+kinematics = "small"
+[mesh]
+generator = "patch2d"
+[mesh.params]
+L = 1.0
+H = 0.5
+n_lower = 7
+n_upper = 4
+n_y = 2
+margin = 0.4
+quads = true
+[[material]]
+region = "upper"
+model = "linear-elastic"
+E = 100.0
+nu = 0.0
+[[material]]
+region = "lower"
+model = "linear-elastic"
+E = 100.0
+nu = 0.0
+[[contact]]
+slave = "upper_bottom"
+master = "lower_top"
+friction = 0.3
+integration = "element"
+penalty = "auto"
+uzawa_tol = 1e-9
+uzawa_max = 40
+[[dirichlet]]
+boundary = "lower_bottom"
+path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+[[dirichlet]]
+boundary = "lower_top"
+path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+[[dirichlet]]
+boundary = "lower_left"
+path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+[[dirichlet]]
+boundary = "lower_right"
+path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+[[dirichlet]]
+boundary = "upper_top"
+components = [0]
+path = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.2]]
+[[traction]]
+boundary = "upper_top"
+path = [[0.0, 0, 0.0], [1.0, 0, -2.0]]
+[[traction]]
+boundary = "upper_left"
+path = [[0.0, 0, 0.0], [1.0, 0, 0.0], [2.0, 0, -0.6]]
+[[traction]]
+boundary = "upper_right"
+path = [[0.0, 0, 0.0], [1.0, 0, 0.0], [2.0, 0, 0.6]]
+[steps]
+t_end = 2.0
+n = 2
+max_cutbacks = 0
+[solver]
+rtol = 1e-10
+atol = 1e-12
+max_it = 25
+"""
+
+
+def test_a_slide_from_stick_gets_the_slip_tangent_first(tmp_path):
+    """A block (1 × 0.5, E = 100, ν = 0) pressed by 2 onto a larger one, then its top
+    moved 0.2 in one step (μ = 0.3; a couple on its sides holds its moment): every node
+    sticks at the slide step's start, the stick tangent's Newton step loads the
+    interface with trial tractions 17.6 to 24 times μ p_N and tilts the block: the step
+    failed after 35 Newton iterations and was cut back (then 11 + 1 + 1 and 2 + 1 + 1,
+    session 41's probe l2d_0.2). The state predictor
+    (``MortarContact.guess_slip``) assembles that first Jacobian with the return map's
+    slip tangent: the slide in 6 + 0 iterations, no cutback. The block slides as a
+    whole: F = (−μ F_N, F_N) = (−0.6, 2.0)."""
+    import tomllib
+
+    from dolfinx_mortar.runner import run
+
+    data = tomllib.loads(_BLOCK_SLIDE_2D)
+    summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert summary["status"] == "ok", summary.get("error")
+    last = summary["steps"][-1]
+    assert [st["cutbacks"] for st in summary["steps"]] == [0, 0]
+    assert sum(last["newton_iterations"]) <= 8, last["newton_iterations"]
+    assert last["slip_nodes"] == 5
+    f = last["contact_force"]["upper_bottom:lower_top"]
+    assert np.allclose(f, [-0.6, 2.0], rtol=0, atol=1e-8), f
