@@ -3206,14 +3206,12 @@ class MortarContact:
             stale = stale or not np.array_equal(noted[1], fstate)
         if not self.comm.allreduce(bool(stale), op=MPI.LOR):
             return
-        terms = list(getattr(self.problem, "contacts", [self]))
-        saved = [t._jacobian_watch() if hasattr(t, "_jacobian_watch") else None for t in terms]
+        # every term's per-solve state, through the problem (ContactProblem.jacobian_watch)
+        saved = self.problem.jacobian_watch()
         try:
             ok = refactor()
         finally:
-            for t, w in zip(terms, saved, strict=True):
-                if w is not None:
-                    t._restore_jacobian_watch(w)
+            self.problem.restore_jacobian_watch(saved)
         info["refactorized"] = bool(ok)
 
     #: the per-solve state that a Jacobian changes (the chattering controls' counters,
