@@ -1413,18 +1413,6 @@ penalty = "auto"
 uzawa_tol = 1e-9
 uzawa_max = 40
 [[dirichlet]]
-boundary = "lower_bottom"
-path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
-[[dirichlet]]
-boundary = "lower_top"
-path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
-[[dirichlet]]
-boundary = "lower_left"
-path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
-[[dirichlet]]
-boundary = "lower_right"
-path = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
-[[dirichlet]]
 boundary = "upper_top"
 components = [0]
 path = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.2]]
@@ -1454,7 +1442,7 @@ def test_a_slide_from_stick_gets_the_slip_tangent_first(tmp_path):
     sticks at the slide step's start, the stick tangent's Newton step loads the
     interface with trial tractions 17.6 to 24 times μ p_N and tilts the block: the step
     failed after 35 Newton iterations and was cut back (then 11 + 1 + 1 and 2 + 1 + 1,
-    session 41's probe l2d_0.2). The state predictor
+    a session-49 probe's l2d_0.2). The state predictor
     (``MortarContact.guess_slip``) assembles that first Jacobian with the return map's
     slip tangent: the slide in 6 + 0 iterations, no cutback. The block slides as a
     whole: F = (−μ F_N, F_N) = (−0.6, 2.0)."""
@@ -1463,6 +1451,9 @@ def test_a_slide_from_stick_gets_the_slip_tangent_first(tmp_path):
     from dolfinx_mortar.runner import run
 
     data = tomllib.loads(_BLOCK_SLIDE_2D)
+    clamp = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]  # the lower block: rigid
+    sides = ("bottom", "top", "left", "right")
+    data["dirichlet"] += [{"boundary": f"lower_{b}", "path": clamp} for b in sides]
     summary = run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
     assert summary["status"] == "ok", summary.get("error")
     last = summary["steps"][-1]
