@@ -491,6 +491,7 @@ def step_record(problem, res) -> dict:
         "failed_reuses": res.failed_reuses,
         "ldlt_fallbacks": res.ldlt_fallbacks,
         "limited_steps": res.limited_steps,
+        "state_predictions": res.state_predictions,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -380,6 +380,7 @@ _SOLVE_COUNTERS = (
     "reused_factorizations",
     "failed_reuses",
     "ldlt_fallbacks",
+    "state_predictions",
 )
 #: Direct linear solvers (``linear`` = "mumps", "lu", "superlu_dist", with no
 #: ``ksp_type``/``pc_type`` of the user's): the first Newton iteration of an Uzawa round
@@ -1556,6 +1557,9 @@ class StepResult:
     #: Newton steps of this step shortened by the penetration limit
     #: (SolverSettings.step_depth_limit; failed attempts included)
     limited_steps: int = 0
+    #: first Jacobians of this step's solves (failed attempts included) that the state
+    #: predictor assembled again with slip tangents (NewtonSolver._predict_states)
+    state_predictions: int = 0
     #: attempts of this step that failed with wrong frozen stick/slip states and were
     #: retried with the states carried between Uzawa rounds (see FROZEN_RETRY_ROUNDS)
     carried_retries: int = 0

@@ -1458,6 +1458,8 @@ def test_a_slide_from_stick_gets_the_slip_tangent_first(tmp_path):
     assert summary["status"] == "ok", summary.get("error")
     last = summary["steps"][-1]
     assert [st["cutbacks"] for st in summary["steps"]] == [0, 0]
+    # the press starts with no node in contact, the slide from stick: predicted once
+    assert [st["state_predictions"] for st in summary["steps"]] == [0, 1]
     assert sum(last["newton_iterations"]) <= 8, last["newton_iterations"]
     assert last["slip_nodes"] == 5
     f = last["contact_force"]["upper_bottom:lower_top"]

@@ -67,6 +67,7 @@ class _Newton:
         self.failed_reuses = 0
         self.ldlt_fallbacks = 0
         self.limited_steps = 0
+        self.state_predictions = 0
         self.all_iterations = 0
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
