@@ -92,7 +92,9 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
 
     Returns ``(facets, cells, interior)``: the packed facets, the local index of each
     facet's cell (for material look-ups) and the number of facets of the group that are
-    not on the boundary (shared by two cells; the caller rejects them collectively).
+    not on the boundary (shared by two cells) and that this rank owns, so that the sum
+    over the ranks counts each such facet once whatever the partition (the caller
+    rejects them collectively).
     """
     mesh = problem.mesh
     md = problem.mesh_data
@@ -112,6 +114,9 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
     f2c = mesh.topology.connectivity(fdim, tdim)
     c2f = mesh.topology.connectivity(tdim, fdim)
     n_owned_cells = mesh.topology.index_map(tdim).size_local
+    # an interior facet on a partition boundary is on both ranks (as owned or ghost, with
+    # both its cells under the shared-facet ghost mode): count it on its owner only
+    n_owned_facets = mesh.topology.index_map(fdim).size_local
     geo_nodes = compat.cell_geometry_nodes(mesh)
     x = mesh.geometry.x[:, :d]
     dofmap = problem.V.dofmap
@@ -128,7 +133,7 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
         cs = f2c.links(f)
         c = int(cs[0])
         if len(cs) != 1:
-            interior += 1
+            interior += int(f < n_owned_facets)
             continue
         if c >= n_owned_cells:
             continue
