@@ -566,7 +566,8 @@ class MortarContact:
     Parameters
     ----------
     problem: the :class:`~dolfinx_mortar.problem.ContactProblem`.
-    slave, master: facet group names.
+    slave, master: facet group names: boundary facets, two groups that share no mesh node
+        (on two bodies, or on one body: self-contact), otherwise SceneError.
     penalty: ε_N (stress per length) or "auto" (see :data:`AUTO_PENALTY_FACTOR`).
     recovery, integration: see METHOD.md §3 and §7 ("node" = node-to-segment baseline).
     uzawa_tol, uzawa_max: augmentation stop (relative multiplier change) and bound.
@@ -688,8 +689,10 @@ class MortarContact:
             raise SceneError(
                 f"{key}.master",
                 f"contact surfaces {slave!r} and {master!r} share {n_shared} mesh node(s): a "
-                "slave and its master must lie on bodies with nodes of their own (not two "
-                "surfaces of one body that meet at an edge, nor bodies fused at some nodes)",
+                "slave and its master may be surfaces of one body (self-contact) but must "
+                "not share a node; leave the facets at the shared node(s) out of one of the "
+                "groups (where two surfaces of one body meet, e.g. at a slit's tip), or give "
+                "bodies fused there nodes of their own",
             )
         self.ftype = slave_local.ftype
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
