@@ -497,6 +497,53 @@ def test_open_point_in_the_blind_spot_of_a_convex_vertex_is_paired(g):
     assert _pair_one(INTERVAL1, xs_end, [0.5], INTERVAL1, xm[1:], msign[1:])[0] == -1
 
 
+@pytest.mark.parametrize("angle", [0.0, 30.0, 55.0, 65.0, 89.0])
+def test_a_master_facet_faces_the_point_within_the_largest_facing_angle(angle):
+    """2D: a master facet through (0.5, 0) turned by ``angle`` from facing the slave point
+    0.01 below it (n_s·ν = −cos angle): paired below θ_max = 60° (gap 0.01 cos angle, the
+    distance to the facet's line), not beyond (kernels.gap.MAX_FACING_ANGLE)."""
+    from dolfinx_mortar.kernels.gap import MAX_FACING_ANGLE
+
+    a = np.deg2rad(angle)
+    t = np.array([np.cos(a), np.sin(a)])
+    xm = np.array([[[0.5, 0.0] - 0.3 * t, [0.5, 0.0] + 0.3 * t]])
+    msign = _down(INTERVAL1, xm)
+    xs = np.array([[0.0, -0.01], [1.0, -0.01]])
+    m, gap = _pair_one(INTERVAL1, xs, [0.5], INTERVAL1, xm, msign)
+    if angle < MAX_FACING_ANGLE:
+        assert m == 0
+        assert gap == pytest.approx(0.01 * np.cos(a), rel=1e-12)
+    else:
+        assert m == -1
+
+
+def test_a_master_side_beside_the_point_is_not_paired():
+    """2D overhang (session 50): the master body occupies y > 0, x > 0 (its face y = 0
+    towards the slave, its side x = 0 tilted by 1° towards the slave, as a load leaves
+    it). A slave point beyond the master's edge, beside the side (x = −0.05, y = 0.01,
+    its normal +y) projects inside the side with n_s·ν = −sin 1°: the rule n_s·ν < 0
+    paired it with its horizontal distance 0.05 as the gap; under n_s·ν < −cos 60° it
+    stays unpaired, as it is without the side (its projection onto the face lies 0.05
+    beyond the face's end and it penetrates: neither tolerance applies). A point under
+    the face pairs with the face."""
+    tilt = np.deg2rad(1.0)
+    face = [[1.0, 0.0], [0.0, 0.0]]
+    side = [[0.0, 0.0], [-0.5 * np.sin(tilt), 0.5 * np.cos(tilt)]]
+    xm = np.array([face, side])
+    msign = np.empty(2)
+    nu = np.empty(2)
+    for i, outward in enumerate(([0.0, -1.0], [-1.0, 0.0])):
+        unit_normal(xm[i], INTERVAL1, 1.0, np.array([0.5]), nu)
+        msign[i] = 1.0 if nu @ outward > 0.0 else -1.0
+    unit_normal(xm[1], INTERVAL1, msign[1], np.array([0.5]), nu)
+    assert -0.02 < nu[1] < 0.0  # the side turned towards the slave (n_s = +y)
+    xs = np.array([[-0.55, 0.01], [0.45, 0.01]])
+    assert _pair_one(INTERVAL1, xs, [0.5], INTERVAL1, xm, msign)[0] == -1
+    assert _pair_one(INTERVAL1, xs, [0.5], INTERVAL1, xm[:1], msign[:1])[0] == -1
+    m, gap = _pair_one(INTERVAL1, xs + [0.6, -0.02], [0.5], INTERVAL1, xm, msign)
+    assert (m, gap) == (0, pytest.approx(0.01, rel=1e-12))
+
+
 def test_a_facet_containing_the_point_wins_in_any_candidate_order():
     """2D: a slave point 5e-4 (in ζ) beyond the end of master facet A, at gap 0.05 to A's
     extension, and inside facet B, 0.06 away. B wins (a facet that contains the projection

@@ -176,6 +176,38 @@ def test_2d_flat_p1():
     check_in_master(INTERVAL1, xs, INTERVAL1, xm, count, qp_xi, qp_m)
 
 
+def test_2d_master_side_at_right_angles_is_not_counted():
+    """2D overhang (session 50): slave [0, 1] (normal +y), master face y = 0.001 over
+    x ∈ [0.3, 1.3] (normal −y) and the master body's side x = 0.3 up to y = 0.5, turned
+    by 1° towards the slave (n_s·ν = −sin 1°). The side projects onto the slave facet as a
+    sliver 0.5 sin 1° = 0.0087 long; under the rule n_s·ν < 0 it was counted, now
+    (n_s·ν < −cos 60°, kernels.gap.faces) only the face: the weights sum to its overlap
+    0.7, in the kernel and its NumPy reference alike."""
+    tilt = np.deg2rad(1.0)
+    xs = np.array([[[0.0, 0.0], [1.0, 0.0]]])
+    ss = [outward_sign(INTERVAL1, xs[0], np.array([0.0, 1.0]))]
+    face = np.array([[1.3, 0.001], [0.3, 0.001]])
+    side = np.array([[0.3, 0.001], [0.3 - 0.5 * np.sin(tilt), 0.001 + 0.5 * np.cos(tilt)]])
+    xm = np.array([face, side])
+    ms = np.array(
+        [
+            outward_sign(INTERVAL1, face, np.array([0.0, -1.0])),
+            outward_sign(INTERVAL1, side, np.array([-1.0, 0.0])),
+        ]
+    )
+    nu = np.empty(2)
+    unit_normal(side, INTERVAL1, ms[1], np.array([0.5]), nu)
+    assert -0.02 < nu[1] < 0.0  # the side turned towards the slave
+    for impl in (segment_points, segment_points_reference):
+        count, qp_xi, qp_w, qp_m = run(
+            INTERVAL1, xs, ss, INTERVAL1, xm, ms, interval_rule(3), impl=impl
+        )
+        c = count[0]
+        assert c == 3
+        assert np.all(qp_m[0, :c] == 0)
+        assert abs(qp_w[0, :c].sum() - 0.7) < TOL
+
+
 def test_2d_flat_p2_slave_nonuniform_parametrisation():
     # straight P2 slave with its middle node off-centre: x(xi) is quadratic, J0 linear
     xs = np.array([[[0.0, 0.0], [1.0, 0.0], [0.45, 0.0]]])

@@ -13,7 +13,8 @@ it with one master facet. A projection is valid when ζ lies in the master
 reference facet (or, when no candidate contains it, at most ``OUTSIDE_TOL`` in ζ, or
 ``BLIND_SPOT_SLOPE`` g in distance for a point outside the master, outside the nearest
 one: the neighbourhood of a concave kink, and the blind spot of a convex vertex), the
-slave and master normals face each other (n_s·ν < 0) and
+slave and master normals face each other (n_s·ν < −cos θ_max, θ_max = 60°: the one
+facing rule of every pairing, :func:`.gap.faces`, :data:`.gap.MAX_FACING_ANGLE`) and
 the penetration is not deeper than ``max_depth``. Unpaired points contribute to
 nothing (neither A^I nor G^I), in residual and tangent alike. Segment points
 come paired (:func:`forced_points`).
@@ -40,7 +41,15 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .gap import gap_and_derivatives, gap_only_in, project_in, unit_normal, unit_normal_in, work
+from .gap import (
+    faces,
+    gap_and_derivatives,
+    gap_only_in,
+    project_in,
+    unit_normal,
+    unit_normal_in,
+    work,
+)
 from .shape import TRIANGLE1, TRIANGLE2, clamp_to_reference, shape, tdim
 
 #: Newton iterations of the closest-point projection of a slave point
@@ -288,10 +297,7 @@ def pair_points(
                     if out > best_out + INSIDE_TOL or (sweep == 0 and out > outside_tol):
                         continue
                     unit_normal_in(xm[m], ftype_m, msign[m], zeta, num, wm)
-                    facing = 0.0
-                    for c in range(d):
-                        facing += nus[c] * num[c]
-                    if facing >= 0.0:
+                    if not faces(nus, num):
                         continue
                     g = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
                     if g < -max_depth[f]:

@@ -60,10 +60,14 @@ Geometry (current configuration ``xs`` / ``xm``)
     depends only on the clipped region and not on how the clipping was computed, which
     lets :mod:`.segment_reference` reproduce the points.
 
-Facing test (both dimensions): a segment is kept only when n_s·ν_m < 0, with n_s the
-slave unit normal (``ssign``) at the segment's midpoint / the polygon's vertex mean ξ̄,
-and ν_m the master unit normal (``msign``) at the closest-point projection of x_s(ξ̄)
-onto the master facet, clamped to the master reference facet.
+Facing test (both dimensions): a segment is kept only when n_s·ν_m < −cos θ_max
+(:func:`.gap.faces`, θ_max = :data:`.gap.MAX_FACING_ANGLE` = 60°, the rule of element
+integration's pairing too), with n_s the slave unit normal (``ssign``) at the segment's
+midpoint / the polygon's vertex mean ξ̄, and ν_m the master unit normal (``msign``) at
+the closest-point projection of x_s(ξ̄) onto the master facet, clamped to the master
+reference facet. A master facet at right angles to the slave (a side of the master
+body) projects onto a thin sliver of the slave facet and, tilted towards the slave by
+the load, was counted there as well as the master's top above it.
 
 Weights: ``qp_w = rule weight × |det ∂ξ/∂r| × J₀(ξ)`` with r the rule's reference cell
 coordinates and J₀ the surface Jacobian of the slave facet in the REFERENCE configuration
@@ -118,7 +122,7 @@ import math
 import numba
 import numpy as np
 
-from .gap import project, unit_normal
+from .gap import faces, project, unit_normal
 from .shape import (
     QUAD1,
     TRIANGLE1,
@@ -164,7 +168,8 @@ def _emit(f, cnt, k, xi, w, m, qp_xi, qp_w, qp_m):
 
 @numba.njit(cache=True)
 def _faces(ftype_s, xsf, ss, ftype_m, xmm, ms, xi):
-    """Facing test n_s(xi)·nu_m(zeta) < 0, zeta = clamped projection of x_s(xi) on the master."""
+    """Facing test n_s(xi)·nu_m(zeta) < −cos θ_max (:func:`.gap.faces`), zeta = clamped projection
+    of x_s(xi) on the master."""
     ns = xsf.shape[0]
     d = xsf.shape[1]
     ks = tdim(ftype_s)
@@ -189,10 +194,7 @@ def _faces(ftype_s, xsf, ss, ftype_m, xmm, ms, xi):
     clamp_to_reference(ftype_m, z)
     num = np.empty(d)
     unit_normal(xmm, ftype_m, ms, z, num)
-    dot = 0.0
-    for c in range(d):
-        dot += nus[c] * num[c]
-    return dot < 0.0
+    return faces(nus, num)
 
 
 @numba.njit(cache=True)

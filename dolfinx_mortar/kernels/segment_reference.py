@@ -14,7 +14,8 @@ along an independent route:
   not clipped edge by edge: it is the convex hull of the vertices of either polygon lying
   inside the other and all edge-edge intersection points, ordered by angle about their
   mean;
-* the facing test projects with the SciPy-based :func:`.reference.project`.
+* the facing test projects with the SciPy-based :func:`.reference.project` (its threshold is
+  the kernels' one, :data:`.gap.FACING_COS`).
 
 The canonical polygon form and the fan triangulation are the same as in :mod:`.segment`
 (they define which points are produced), so the results agree point by point.
@@ -23,6 +24,7 @@ The canonical polygon form and the fan triangulation are the same as in :mod:`.s
 import numpy as np
 
 from . import reference as ref
+from .gap import FACING_COS
 from .segment import COLLINEAR_TOL, KEY, MIN_AREA, MIN_LENGTH
 from .shape import (
     INTERVAL1,
@@ -57,7 +59,7 @@ def _faces(ftype_s, xsf, ss, ftype_m, xmm, ms, xi):
         z = _centre(ftype_m)
     z = np.array(z, dtype=float)
     clamp_to_reference(ftype_m, z)
-    return float(ns @ ref.normal(xmm, ftype_m, ms, z)) < 0.0
+    return float(ns @ ref.normal(xmm, ftype_m, ms, z)) < -FACING_COS
 
 
 def _interval_parameter(p, xsf, ftype):
