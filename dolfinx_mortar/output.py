@@ -1,7 +1,8 @@
 """Everything a run writes (SCENES.md, "What a run writes"); the library writes nowhere else.
 
 - ``summary.json`` (rank 0), rewritten atomically after every converged step, so
-  a run that fails or is killed keeps every finished step and says where it stopped;
+  a run that fails or is killed keeps every finished step and says where it stopped
+  (one line per step record, the finished records' lines cached: :class:`SummaryText`);
 - ``contact_<SLAVE>_<step>.csv`` (rank 0), one row per slave node, ordered by
   reference coordinates, identical for any number of ranks;
 - ``fields.xdmf`` (+ ``.h5``): displacement and the contact fields (pressure,
@@ -124,8 +125,62 @@ def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
     os.replace(tmp, path)
 
 
-def _atomic_write_json(path: Path, data) -> None:
-    replace_text(path, json.dumps(data, indent=1, default=_json_default))
+class SummaryText:
+    """The text of summary.json, assembled from cached pieces (local; rank 0 keeps one).
+
+    Layout: the summary's keys one per line, each value as ``json.dumps(indent=1)`` nests
+    it, except ``steps``: one line per step record, compact JSON from the C encoder
+    (``json.dumps`` without ``indent``). ``json.load`` of the text equals the summary (as
+    ``json.dumps(summary, indent=1)`` wrote it before session 50). Rewriting the whole
+    file with ``indent=1`` after each step, which runs Python's pure encoder, took 64 ms a
+    step at step 1100 of a 1200-step run (summary.json grew 1.76 kB a step: BENCHMARKS.md
+    §58).
+
+    A step record's line is kept once a later record follows it in ``steps`` (its
+    step's ``progress`` callback has returned: :func:`~dolfinx_mortar.runner.run`
+    calls it after the step's write, and a callback that changes its record gets the
+    change into the next write, as before) and used while the same record object stays at
+    the same place (checked by identity at each write: a list changed in any other way is
+    encoded again from the first difference on). The last record and every key but
+    ``steps`` (``status``, ``error``, ``timings``: they change until the end) are
+    encoded at each write. A record is final once the next one is written: a change made
+    to an earlier record after that would not reach the file (nothing in the package
+    makes one)."""
+
+    def __init__(self):
+        self._records: list = []  # the step records whose lines are kept, in order
+        self._lines: list[str] = []
+
+    @staticmethod
+    def _line(record) -> str:
+        return json.dumps(record, separators=(",", ":"), default=_json_default)
+
+    def _steps(self, records: list) -> str:
+        """The value of ``steps``: ``[`` + one line per record + `` ]``."""
+        if not records:
+            return "[]"
+        final = len(records) - 1  # the records that a later one follows
+        same = 0
+        for kept, record in zip(self._records[:final], records, strict=False):
+            if kept is not record:
+                break
+            same += 1
+        del self._records[same:], self._lines[same:]
+        for record in records[same:final]:
+            self._records.append(record)
+            self._lines.append(self._line(record))
+        lines = self._lines + [self._line(records[-1])]
+        return "[\n  " + ",\n  ".join(lines) + "\n ]"
+
+    def text(self, summary: dict) -> str:
+        """summary.json's text of ``summary`` (its ``steps`` a list of records)."""
+        items = []
+        for key, value in summary.items():
+            if key == "steps" and isinstance(value, list):
+                items.append(f' "steps": {self._steps(value)}')
+            else:  # '{\n "key": value\n}' without the braces: nested as indent=1 nests it
+                items.append(json.dumps({key: value}, indent=1, default=_json_default)[2:-2])
+        return "{\n" + ",\n".join(items) + "\n}" if items else "{}"
 
 
 @contextlib.contextmanager
@@ -660,6 +715,7 @@ class OutputWriter:
         #: it wrote
         self._growth = 0
         self._csv_written: list[Path] = []
+        self._summary_text = SummaryText()
 
     def start(self) -> None:
         """Create the directory, remove the contact files an earlier run left there, and
@@ -918,8 +974,13 @@ class OutputWriter:
         self._flush()  # an OSError is logged (not collective here: nothing raised)
 
     def _flush(self) -> None:
+        """Rewrite summary.json (rank 0; atomically: :func:`replace_text`), from the
+        cached lines of the finished step records (:class:`SummaryText`)."""
         if self.comm.rank == 0:
-            self._guarded(_atomic_write_json, self.out_dir / "summary.json", self.summary)
+            self._guarded(self._write_summary)
+
+    def _write_summary(self) -> None:
+        replace_text(self.out_dir / "summary.json", self._summary_text.text(self.summary))
 
     def _guarded(self, write, *args) -> None:
         """``write(*args)``, a write of this rank's own; an OSError is kept (the first)

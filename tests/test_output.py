@@ -963,3 +963,119 @@ def test_the_lock_decision_is_collective(shared_tmp, monkeypatch):
     assert not [f.name for f in out.iterdir() if "lock" in f.name]
     # rank 0: the early check (refused), OutputLock (refused); the early check, the lock
     assert len(calls) == (4 if comm.rank == 0 else 0), calls
+
+
+def _summary_like(steps: int) -> dict:
+    """A summary with the kinds of values a run's holds: nested dicts and lists, numpy
+    scalars and arrays, None, booleans, a non-ASCII name, and ``steps`` records."""
+    summary = {
+        "scene": 'Fläche "quoted"\n',
+        "modelled": {"contact_pairs": {"s:m": {"penalty_range": np.array([1.5, 2.5])}}},
+        "ranks": np.int64(2),
+        "empty": {},
+        "steps": [],
+        "status": "running",
+        "error": None,
+    }
+    for k in range(steps):
+        summary["steps"].append(
+            {
+                "t": k / 3,
+                "converged": True,
+                "newton_iterations": [np.int32(4), 1],
+                "residual_norms": [[3.2, 1e-12], []],
+                "reactions": {"top": np.array([0.1 * k, -2.0])},
+                "uzawa": [{"s:m": {"exact_update": None, "ratio": np.float64(0.5)}}],
+                "timings": {"total": 0.01, "search": np.float32(0.25)},
+            }
+        )
+    return summary
+
+
+def _indented(summary: dict):
+    """``json.load`` of summary.json as the package wrote it before session 50."""
+    from dolfinx_mortar.output import _json_default
+
+    return json.loads(json.dumps(summary, indent=1, default=_json_default))
+
+
+def test_summary_text_is_the_same_json_with_one_line_per_step():
+    """summary.json's text (output.SummaryText, which caches the lines of finished step
+    records; rewriting the whole file with indent=1 took 64 ms a step at step 1100 of a
+    long run): ``json.load`` equals that of the indented file of before, at each write of
+    a growing run, and each step record is one line."""
+    from dolfinx_mortar.output import SummaryText, _json_default
+
+    for n in (0, 1, 5):
+        summary = _summary_like(n)
+        text = SummaryText().text(summary)
+        assert json.loads(text) == _indented(summary)
+        # the other keys as indent=1 nests them; steps: one compact line each
+        lines = [
+            json.dumps(r, separators=(",", ":"), default=_json_default) for r in summary["steps"]
+        ]
+        steps = "[\n  " + ",\n  ".join(lines) + "\n ]" if n else "[]"
+        expected = json.dumps(dict(summary, steps=[]), indent=1, default=_json_default)
+        assert text == expected.replace(' "steps": []', f' "steps": {steps}')
+        assert sum(line.startswith('  {"t":') for line in text.splitlines()) == n
+    assert SummaryText().text({}) == "{}" and json.loads(SummaryText().text({"steps": []})) == {
+        "steps": []
+    }
+    full = _summary_like(6)
+    summary, cache = dict(full, steps=[]), SummaryText()
+    for k, record in enumerate(full["steps"]):
+        summary["steps"].append(record)
+        summary["status"] = f"step {k}"
+        assert json.loads(cache.text(summary)) == _indented(summary)
+    assert len(cache._lines) == 5  # every record but the last is kept
+
+
+def test_summary_text_never_serves_a_changed_record_or_key():
+    """What changes after it was first written is written again: the last record (its
+    step's ``progress`` callback may change it), ``status``, ``error`` and ``timings``,
+    and a ``steps`` list whose records were replaced, removed or reordered (checked by
+    identity). A record is final once a later one is written."""
+    from dolfinx_mortar.output import SummaryText
+
+    summary, cache = _summary_like(4), SummaryText()
+    cache.text(summary)
+    summary["steps"][-1]["note"] = "a progress callback's"  # the last record: not kept
+    summary["status"], summary["error"] = "failed", "stopped"
+    summary["timings"] = {"total": 1.0}
+    assert json.loads(cache.text(summary)) == _indented(summary)
+    summary["timings"]["output"] = 2.0
+    summary["steps"].append({"t": 9.0})
+    assert json.loads(cache.text(summary)) == _indented(summary)
+    assert "note" in cache._lines[3]
+    for change in (
+        lambda s: s["steps"].__setitem__(1, {"t": -1.0, "replaced": True}),
+        lambda s: s["steps"].pop(0),
+        lambda s: s["steps"].reverse(),
+        lambda s: s.__setitem__("steps", [dict(r) for r in s["steps"]]),
+        lambda s: s["steps"].clear(),
+        lambda s: s["steps"].extend(_summary_like(3)["steps"]),
+    ):
+        change(summary)
+        assert json.loads(cache.text(summary)) == _indented(summary)
+
+
+def test_a_runs_summary_json_is_the_returned_summary_with_the_callbacks_changes(tmp_path):
+    """A run's summary.json, one line per step, holds what ``run`` returns, also where
+    the ``progress`` callback adds to its step's record (written at the next write, as
+    when the whole file was encoded each time)."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.output import _json_default
+
+    def progress(step, record):
+        record["host"] = {"step": step}
+
+    summary = run(
+        parse_scene(patch_press_scene(steps=3), tmp_path),
+        MPI.COMM_SELF,
+        out_dir=tmp_path / "out",
+        progress=progress,
+    )
+    text = (tmp_path / "out" / "summary.json").read_text()
+    assert json.loads(text) == json.loads(json.dumps(summary, default=_json_default))
+    assert [s["host"]["step"] for s in json.loads(text)["steps"]] == [1, 2, 3]
+    assert sum(line.startswith('  {"t":') for line in text.splitlines()) == 3

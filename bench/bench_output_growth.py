@@ -1,0 +1,106 @@
+"""The output's cost per step over a long run (BENCHMARKS.md §58).
+
+``summary``: summary.json's rewrite after each step, as a run of ``--steps`` steps makes
+it: the step records of a finished run's summary.json (``--summary``) are cycled to
+``--steps`` records (copies, each with ``t`` set to its step's), and after each record
+joins ``steps`` the file is written into a temporary directory, as the run writes it
+(:func:`dolfinx_mortar.output.replace_text`), by the encoder before session 50
+(``json.dumps(summary, indent=1)``: Python's pure encoder, the whole file) and by
+:class:`dolfinx_mortar.output.SummaryText` (the finished records' lines cached). Prints
+the median write time of each block of ``--block`` steps, and checks that ``json.load``
+of the two files is equal (at the end of each block). Serial, from the repository root::
+
+    OMP_NUM_THREADS=1 /usr/bin/python3 -m dolfinx_mortar run bench/scenes/slide2d_long.toml --out /tmp/slide2d_long
+    OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py summary --summary /tmp/slide2d_long/summary.json --steps 1200
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+from time import perf_counter
+
+from dolfinx_mortar.output import SummaryText, _json_default, replace_text
+
+
+def _old_text(summary: dict) -> str:
+    """summary.json's text as the package wrote it before session 50."""
+    return json.dumps(summary, indent=1, default=_json_default)
+
+
+def bench_summary(path: Path, steps: int, block: int) -> list[dict]:
+    """The medians (ms) of the summary.json writes of each block of ``block`` steps, by the
+    encoder before session 50 ("old") and by SummaryText ("new"), with the file's size
+    (bytes) at the block's end; a list of rows (local)."""
+    source = json.loads(Path(path).read_text())
+    records = source["steps"]
+    if not records:
+        raise SystemExit(f"{path}: no step records")
+    base = {k: v for k, v in source.items() if k not in ("steps", "timings")}
+    base["status"], base["error"] = "running", None
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = {w: Path(tmp) / w / "summary.json" for w in ("old", "new")}
+        for f in out.values():
+            f.parent.mkdir()
+        summaries = {w: dict(base, steps=[]) for w in out}
+        cache = SummaryText()
+        write = {
+            "old": lambda s: replace_text(out["old"], _old_text(s)),
+            "new": lambda s: replace_text(out["new"], cache.text(s)),
+        }
+        times = {w: [] for w in out}
+        for k in range(1, steps + 1):
+            record = copy.deepcopy(records[(k - 1) % len(records)])
+            record["t"] = k / steps
+            for w in ("old", "new"):
+                summaries[w]["steps"].append(record)
+                t0 = perf_counter()
+                write[w](summaries[w])
+                times[w].append(perf_counter() - t0)
+            if k % block == 0 or k == steps:
+                old, new = (json.loads(out[w].read_text()) for w in ("old", "new"))
+                if old != new:
+                    raise SystemExit(f"step {k}: the two files differ")
+                n = len(times["old"])
+                rows.append(
+                    {
+                        "steps": f"{k - n + 1}-{k}",
+                        "old_ms": 1e3 * statistics.median(times["old"]),
+                        "new_ms": 1e3 * statistics.median(times["new"]),
+                        "old_bytes": out["old"].stat().st_size,
+                        "new_bytes": out["new"].stat().st_size,
+                    }
+                )
+                times = {w: [] for w in out}
+    return rows
+
+
+def main(argv=None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    s = sub.add_parser("summary", help="summary.json's rewrite, old encoder against new")
+    s.add_argument("--summary", type=Path, required=True, help="a finished run's summary.json")
+    s.add_argument("--steps", type=int, default=1200, help="step records [1200]")
+    s.add_argument("--block", type=int, default=100, help="steps per printed median [100]")
+    args = ap.parse_args(argv)
+    if args.steps < 1 or args.block < 1:
+        ap.error("--steps and --block must be >= 1")
+    rows = bench_summary(args.summary, args.steps, args.block)
+    print(f"{'steps':>11} {'old ms':>8} {'new ms':>8} {'old kB':>8} {'new kB':>8}")
+    for r in rows:
+        print(
+            f"{r['steps']:>11} {r['old_ms']:8.2f} {r['new_ms']:8.2f} "
+            f"{r['old_bytes'] / 1e3:8.0f} {r['new_bytes'] / 1e3:8.0f}"
+        )
+    sys.stdout.flush()
+    return rows
+
+
+if __name__ == "__main__":
+    main()
