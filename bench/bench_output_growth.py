@@ -8,9 +8,16 @@ joins ``steps`` the file is written into a temporary directory, as the run write
 (``json.dumps(summary, indent=1)``: Python's pure encoder, the whole file) and by
 :class:`dolfinx_mortar.output.SummaryText` (the finished records' lines cached). Prints
 the median write time of each block of ``--block`` steps, and checks that ``json.load``
-of the two files is equal (at the end of each block). Serial, from the repository root::
+of the two files is equal (at the end of each block).
+
+``steps``: a finished run's per-step output time (``timings.output``, since session 50)
+against its solve (``wall_time``): medians per block of ``--block`` steps, a linear fit
+of each (ms at step 0 + ms per 100 steps, from step 21 on), and the run-level timings.
+
+Serial, from the repository root::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 -m dolfinx_mortar run bench/scenes/slide2d_long.toml --out /tmp/slide2d_long
+    OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py steps --summary /tmp/slide2d_long/summary.json
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py summary --summary /tmp/slide2d_long/summary.json --steps 1200
 """
 
@@ -81,6 +88,36 @@ def bench_summary(path: Path, steps: int, block: int) -> list[dict]:
     return rows
 
 
+def step_costs(path: Path, block: int) -> tuple[list[dict], dict, dict]:
+    """The medians (ms) of ``timings.output`` and ``wall_time`` per block of ``block``
+    steps of the run whose summary.json is ``path``, the linear fits of both (steps > 20:
+    {key: (ms at step 0, ms per 100 steps)}) and the run-level timings (local)."""
+    import numpy as np
+
+    summary = json.loads(Path(path).read_text())
+    steps = summary["steps"]
+    if not steps or "output" not in steps[0].get("timings", {}):
+        raise SystemExit(f"{path}: no step with timings.output (a run before session 50?)")
+    output = np.array([1e3 * r["timings"]["output"] for r in steps])
+    solve = np.array([1e3 * r["wall_time"] for r in steps])
+    rows = []
+    for a in range(0, len(steps), block):
+        rows.append(
+            {
+                "steps": f"{a + 1}-{min(a + block, len(steps))}",
+                "output_ms": float(np.median(output[a : a + block])),
+                "solve_ms": float(np.median(solve[a : a + block])),
+            }
+        )
+    k = np.arange(1, len(steps) + 1)
+    fits = {}
+    if len(steps) > 22:
+        for key, y in (("output", output), ("solve", solve)):
+            slope, at0 = np.polyfit(k[20:], y[20:], 1)
+            fits[key] = (float(at0), float(100 * slope))
+    return rows, fits, summary.get("timings", {})
+
+
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -88,7 +125,21 @@ def main(argv=None) -> list[dict]:
     s.add_argument("--summary", type=Path, required=True, help="a finished run's summary.json")
     s.add_argument("--steps", type=int, default=1200, help="step records [1200]")
     s.add_argument("--block", type=int, default=100, help="steps per printed median [100]")
+    r = sub.add_parser("steps", help="a finished run's per-step output time against its solve")
+    r.add_argument("--summary", type=Path, required=True, help="a finished run's summary.json")
+    r.add_argument("--block", type=int, default=100, help="steps per printed median [100]")
     args = ap.parse_args(argv)
+    if args.what == "steps":
+        if args.block < 1:
+            ap.error("--block must be >= 1")
+        rows, fits, timings = step_costs(args.summary, args.block)
+        print(f"{'steps':>11} {'output ms':>10} {'solve ms':>10}")
+        for row in rows:
+            print(f"{row['steps']:>11} {row['output_ms']:10.2f} {row['solve_ms']:10.2f}")
+        for key, (at0, per100) in fits.items():
+            print(f"fit {key}: {at0:.2f} ms at step 0 + {per100:.2f} ms per 100 steps")
+        print("run-level timings (s):", {k: round(v, 2) for k, v in timings.items()})
+        return rows
     if args.steps < 1 or args.block < 1:
         ap.error("--steps and --block must be >= 1")
     rows = bench_summary(args.summary, args.steps, args.block)

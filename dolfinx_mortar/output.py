@@ -716,6 +716,9 @@ class OutputWriter:
         self._growth = 0
         self._csv_written: list[Path] = []
         self._summary_text = SummaryText()
+        #: the seconds spent in this writer so far (local): :meth:`start`, every
+        #: :meth:`write_step` and :meth:`finish` (run-level ``timings.output``)
+        self.elapsed = 0.0
 
     def start(self) -> None:
         """Create the directory, remove the contact files an earlier run left there, and
@@ -727,6 +730,7 @@ class OutputWriter:
         summary.json names and this run does not have (another scene run into the same
         directory), so that the directory holds one run's output only. Nothing else is
         touched."""
+        t0 = time.perf_counter()
         if self.comm.rank == 0:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             current = {term.slave_name for term in self.problem.contacts}
@@ -743,14 +747,17 @@ class OutputWriter:
                         log.warning("could not remove the earlier run's %s: %s", f, exc)
         self.comm.barrier()
         p = self.problem
-        self._check_room("the meshes and step 0", mesh=True)  # before the first HDF5 write
-        with self._collective_io():
-            self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
-            if p.contacts:
-                Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
-                for key, name in self._contact_names().items():
-                    self._contact_functions[key] = fem.Function(Q, name=name)
-                self._start_surfaces(Q)
+        try:
+            self._check_room("the meshes and step 0", mesh=True)  # before the first HDF5 write
+            with self._collective_io():
+                self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
+                if p.contacts:
+                    Q = fem.FunctionSpace(p.mesh, ("CG", p.degree))
+                    for key, name in self._contact_names().items():
+                        self._contact_functions[key] = fem.Function(Q, name=name)
+                    self._start_surfaces(Q)
+        finally:
+            self.elapsed += time.perf_counter() - t0
         self.write_step(0, 0.0, None)
 
     def _contact_names(self) -> dict[str, str]:
@@ -808,7 +815,20 @@ class OutputWriter:
 
         Before the files are opened, the room on the file system is checked
         (:meth:`_check_room`; collective): where it is short, OutputError on every rank
-        and nothing of the step is written."""
+        and nothing of the step is written.
+
+        ``record["timings"]["output"]`` gets the seconds of the step's write before the
+        record joins summary.json (this rank's: the room check, the fields, the CSVs,
+        the published indices; not the rewrite of summary.json that carries it), and
+        :attr:`elapsed` the whole call's."""
+        t0 = time.perf_counter()
+        try:
+            self._write_step(step, t, record, t0)
+        finally:
+            self.elapsed += time.perf_counter() - t0
+
+    def _write_step(self, step: int, t: float, record: dict | None, t0: float) -> None:
+        """:meth:`write_step`, which started at ``t0`` (``time.perf_counter``)."""
         self._check_room(f"step {step}")
         self._csv_written = []  # the step's CSVs are new files: none before
         before = self._allocated() if self.comm.rank == 0 else 0
@@ -823,6 +843,7 @@ class OutputWriter:
                     self._close_files()
             # the step joins summary.json where every rank wrote its files (collective)
             if record is not None and self._first_write_error() is None:
+                record.setdefault("timings", {})["output"] = time.perf_counter() - t0
                 self.summary["steps"].append(record)
             self._flush()
         if self.comm.rank == 0:
@@ -942,11 +963,13 @@ class OutputWriter:
                     surface.write(f, t)
 
     def finish(self, status: str, error: str | None = None, timings: dict | None = None) -> None:
-        """Close the files and write the final summary (status "ok" or "failed")."""
+        """Close the files and write the final summary (status "ok" or "failed").
+
+        ``timings`` (the run-level ones) get ``"output"``: :attr:`elapsed` once the files
+        are closed, the output's seconds but the final rewrite of summary.json."""
+        t0 = time.perf_counter()
         self.summary["status"] = status
         self.summary["error"] = error
-        if timings is not None:
-            self.summary["timings"] = timings
         closing = None
         try:
             with self._collective_io():
@@ -958,6 +981,9 @@ class OutputWriter:
         except OutputError as exc:  # summary.json is still written
             closing = exc
         self._surfaces = []
+        self.elapsed += time.perf_counter() - t0
+        if timings is not None:
+            self.summary["timings"] = dict(timings, output=self.elapsed)
         self._flush()
         if closing is not None:
             raise closing

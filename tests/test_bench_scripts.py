@@ -471,3 +471,23 @@ def test_repeated_runs_leave_no_petsc_memory_behind(tmp_path):
     assert len(held) == 3 and held[0] > 0.1, res.stdout  # -malloc_debug took effect
     growth = float(re.search(r"growth per run after the first: ([0-9.]+) MiB", res.stdout)[1])
     assert growth < 0.05, res.stdout
+
+
+def test_bench_output_growth_runs(tmp_path, capsys):
+    """``bench/bench_output_growth.py`` on a 3-step run's summary.json: ``summary`` cycles
+    its records to 5 steps and finds the two encodings' files equal (it exits otherwise),
+    ``steps`` gives the medians of the steps' ``timings.output`` (BENCHMARKS §58)."""
+    from conftest import patch_press_scene
+
+    from dolfinx_mortar import parse_scene, run
+
+    run(parse_scene(patch_press_scene(steps=3), tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "o")
+    bench = _load("bench_output_growth")
+    summary = str(tmp_path / "o" / "summary.json")
+    rows = bench.main(["summary", "--summary", summary, "--steps", "5", "--block", "2"])
+    assert [r["steps"] for r in rows] == ["1-2", "3-4", "5-5"]
+    assert all(r["new_bytes"] < r["old_bytes"] and r["new_ms"] > 0 for r in rows)
+    rows = bench.main(["steps", "--summary", summary, "--block", "2"])
+    assert [r["steps"] for r in rows] == ["1-2", "3-3"]
+    assert all(r["output_ms"] > 0 and r["solve_ms"] > 0 for r in rows)
+    assert "run-level timings" in capsys.readouterr().out

@@ -1079,3 +1079,68 @@ def test_a_runs_summary_json_is_the_returned_summary_with_the_callbacks_changes(
     assert json.loads(text) == json.loads(json.dumps(summary, default=_json_default))
     assert [s["host"]["step"] for s in json.loads(text)["steps"]] == [1, 2, 3]
     assert sum(line.startswith('  {"t":') for line in text.splitlines()) == 3
+
+
+STEP_TIMINGS = ("search", "contact_assembly", "bulk_assembly", "linear_solve", "total")
+
+
+def _check_timings(summary: dict, wall: float, seen: list) -> None:
+    """The timings of a run's summary (docs/scenes.md): each step's ``timings`` split its
+    ``wall_time`` (``total``) and add ``output``, its write; the run-level ones hold the
+    same keys summed over steps, ``setup``, and ``output``, every second the output took
+    (the initial write, the steps' writes with their summary.json rewrites and the
+    closing: at least the steps' sum); ``setup``, ``total``, ``output`` (and
+    ``unfinished``) are disjoint parts of the run's wall time ``wall``."""
+    run_level = summary["timings"]
+    for record in summary["steps"]:
+        timings = record["timings"]
+        assert set(timings) == {*STEP_TIMINGS, "output"}, timings
+        assert min(timings.values()) >= 0.0 and timings["output"] > 0.0, timings
+        assert timings["total"] == record["wall_time"]
+    assert [r["timings"]["output"] for r in summary["steps"]] == seen  # what progress got
+    for key in STEP_TIMINGS:
+        steps = sum(r["timings"][key] for r in summary["steps"])
+        assert run_level[key] == pytest.approx(steps, rel=1e-12, abs=1e-15), key
+    assert set(run_level) >= {*STEP_TIMINGS, "setup", "output"}
+    assert min(run_level.values()) >= 0.0, run_level
+    outputs = sum(r["timings"]["output"] for r in summary["steps"])
+    assert run_level["output"] > outputs  # + the meshes and step 0, the rewrites, closing
+    parts = ("setup", "total", "output", "unfinished")
+    assert sum(run_level.get(k, 0.0) for k in parts) <= wall, (run_level, wall)
+
+
+@pytest.mark.mpi
+def test_the_timings_hold_the_output_time(shared_tmp):
+    """summary.json's timings left the output out entirely (a probe's 1200-step run: 120 s,
+    timings.total 15 s + setup 0.37 s, 100 s of output): each step's ``timings.output``
+    is its write, the run-level ``output`` all of the output's time; the solve's keys
+    keep their meaning. Also for a run that stops (``unfinished``). 1–3 ranks."""
+    from time import perf_counter
+
+    from dolfinx_mortar import parse_scene, run
+
+    comm = MPI.COMM_WORLD
+    for name in ("ok", "stopped"):
+        data = patch_press_scene(steps=3 if name == "ok" else 2)
+        if name == "stopped":  # step 1 moves nothing, step 2 presses with 1 Newton iteration
+            data["dirichlet"][1]["path"] = [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, -0.01]]
+            data["solver"] = {"max_it": 1}
+            data["steps"]["max_cutbacks"] = 0
+        seen = []
+        comm.barrier()
+        t0 = perf_counter()
+        summary = run(
+            parse_scene(data, shared_tmp),
+            comm,
+            out_dir=shared_tmp / name,
+            progress=lambda step, record, seen=seen: seen.append(record["timings"]["output"]),
+        )
+        wall = perf_counter() - t0
+        assert summary["status"] == ("ok" if name == "ok" else "failed"), summary["error"]
+        assert len(summary["steps"]) == (3 if name == "ok" else 1)
+        assert ("unfinished" in summary["timings"]) == (name == "stopped")
+        _check_timings(summary, wall, seen)
+        if comm.rank == 0:
+            written = json.loads((shared_tmp / name / "summary.json").read_text())
+            assert written["timings"] == summary["timings"]
+            assert written["steps"] == json.loads(json.dumps(summary["steps"]))
