@@ -14,11 +14,18 @@ of the two files is equal (at the end of each block).
 against its solve (``wall_time``): medians per block of ``--block`` steps, a linear fit
 of each (ms at step 0 + ms per 100 steps, from step 21 on), and the run-level timings.
 
+``series``: one XDMF series (:class:`dolfinx_mortar.output.XDMFSeries`, what a run
+writes as fields.xdmf) of ``--steps`` steps on a ``--cells`` quadrilateral mesh of the
+unit square, with the six fields of a frictional run (displacement and five scalars),
+written as a run writes a step (open, every field, close and publish): the median time
+of each block of ``--block`` steps, and a linear fit. Under mpirun too.
+
 Serial, from the repository root::
 
     OMP_NUM_THREADS=1 /usr/bin/python3 -m dolfinx_mortar run bench/scenes/slide2d_long.toml --out /tmp/slide2d_long
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py steps --summary /tmp/slide2d_long/summary.json
     OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py summary --summary /tmp/slide2d_long/summary.json --steps 1200
+    OMP_NUM_THREADS=1 /usr/bin/python3 bench/bench_output_growth.py series --steps 1200
 """
 
 from __future__ import annotations
@@ -118,6 +125,55 @@ def step_costs(path: Path, block: int) -> tuple[list[dict], dict, dict]:
     return rows, fits, summary.get("timings", {})
 
 
+FIELDS = ("contact_pressure", "gap", "contact_state", "tangential_traction_norm", "slip")
+
+
+def bench_series(steps: int, block: int, cells: tuple[int, int], comm) -> tuple[list, tuple]:
+    """The medians (ms) of a step's write of an XDMF series per block of ``block`` steps,
+    and the linear fit (ms at step 0, ms per 100 steps; steps > 20), rank 0's times
+    (collective)."""
+    import numpy as np
+    from dolfinx import fem, mesh
+
+    from dolfinx_mortar import compat
+    from dolfinx_mortar.output import XDMFSeries
+
+    msh = mesh.create_rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], cells, mesh.CellType.quadrilateral)
+    Q = fem.FunctionSpace(msh, ("CG", 1))
+    functions = [fem.Function(compat.vector_space(msh, 1), name="displacement")]
+    functions += [fem.Function(Q, name=name) for name in FIELDS]
+    tmp = tempfile.mkdtemp() if comm.rank == 0 else None
+    out = Path(comm.bcast(tmp, root=0))
+    series = XDMFSeries(comm, out / "fields.xdmf", msh)
+    times = []
+    for k in range(1, steps + 1):
+        comm.barrier()
+        t0 = perf_counter()
+        file = series.open()
+        for f in functions:
+            f.x.array[:] = k
+            file.write_function(f, k / steps)
+        series.close()
+        times.append(1e3 * (perf_counter() - t0))
+    series.finish()
+    rows = []
+    for a in range(0, steps, block):
+        rows.append(
+            {
+                "steps": f"{a + 1}-{min(a + block, steps)}",
+                "ms": statistics.median(times[a : a + block]),
+            }
+        )
+    k = np.arange(1, steps + 1)
+    slope, at0 = np.polyfit(k[20:], times[20:], 1) if steps > 22 else (float("nan"),) * 2
+    comm.barrier()
+    if comm.rank == 0:
+        import shutil
+
+        shutil.rmtree(out)
+    return rows, (float(at0), float(100 * slope))
+
+
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -128,7 +184,25 @@ def main(argv=None) -> list[dict]:
     r = sub.add_parser("steps", help="a finished run's per-step output time against its solve")
     r.add_argument("--summary", type=Path, required=True, help="a finished run's summary.json")
     r.add_argument("--block", type=int, default=100, help="steps per printed median [100]")
+    x = sub.add_parser("series", help="an XDMF series' write per step")
+    x.add_argument("--steps", type=int, default=1200, help="steps [1200]")
+    x.add_argument("--block", type=int, default=100, help="steps per printed median [100]")
+    x.add_argument("--cells", type=int, nargs=2, default=(6, 5), help="cells in x and y [6 5]")
     args = ap.parse_args(argv)
+    if args.what == "series":
+        from mpi4py import MPI
+
+        if args.steps < 1 or args.block < 1:
+            ap.error("--steps and --block must be >= 1")
+        rows, (at0, per100) = bench_series(
+            args.steps, args.block, tuple(args.cells), MPI.COMM_WORLD
+        )
+        if MPI.COMM_WORLD.rank == 0:
+            print(f"{'steps':>11} {'ms':>8}")
+            for row in rows:
+                print(f"{row['steps']:>11} {row['ms']:8.2f}")
+            print(f"fit: {at0:.2f} ms at step 0 + {per100:.2f} ms per 100 steps")
+        return rows
     if args.what == "steps":
         if args.block < 1:
             ap.error("--block must be >= 1")

@@ -108,16 +108,17 @@ def _allocated(paths) -> int:
     return total
 
 
-def replace_text(path: Path, text: str, tmp: Path | None = None) -> None:
-    """Write ``text`` to ``path`` atomically, through ``tmp`` (default ``<path>.tmp``),
-    then :func:`os.replace` (local). Whatever lies at ``tmp`` is removed first and the file
-    created exclusively: a symbolic link left there would otherwise have the text
-    written into its target, outside the output directory. A failed write (OSError)
-    removes ``tmp`` and raises."""
+def replace_text(path: Path, text: str | bytes, tmp: Path | None = None) -> None:
+    """Write ``text`` (str: as UTF-8; or bytes) to ``path`` atomically, through ``tmp``
+    (default ``<path>.tmp``), then :func:`os.replace` (local). Whatever lies at ``tmp`` is
+    removed first and the file created exclusively: a symbolic link left there would
+    otherwise have the text written into its target, outside the output directory. A
+    failed write (OSError) removes ``tmp`` and raises."""
     tmp = path.with_name(path.name + ".tmp") if tmp is None else tmp
     tmp.unlink(missing_ok=True)
+    binary = isinstance(text, bytes)
     try:
-        with open(tmp, "x", encoding="utf-8") as f:
+        with open(tmp, "xb" if binary else "x", encoding=None if binary else "utf-8") as f:
             f.write(text)
     except OSError:  # a full disk: no truncated .tmp is left behind
         tmp.unlink(missing_ok=True)
@@ -605,12 +606,13 @@ class XDMFSeries:
             self._publish()
 
     def _publish(self) -> None:
-        """Rank 0: ``<name>.xdmf`` := the live index, referencing ``<name>.h5``."""
+        """Rank 0: ``<name>.xdmf`` := the live index, referencing ``<name>.h5`` (as bytes:
+        reading it as text decoded and copied it, a third of the time)."""
         if self.comm.rank != 0 or self.live == self.path:
             return
-        hidden = ">" + self._live_h5.name + ":"
-        text = self.live.read_text().replace(hidden, ">" + self.h5.name + ":")
-        replace_text(self.path, text, self._tmp)
+        hidden = b">" + os.fsencode(self._live_h5.name) + b":"
+        data = self.live.read_bytes().replace(hidden, b">" + os.fsencode(self.h5.name) + b":")
+        replace_text(self.path, data, self._tmp)
 
     def finish(self) -> None:
         """Close, and remove the hidden names (the data stay under ``<name>.h5``)."""

@@ -476,7 +476,8 @@ def test_repeated_runs_leave_no_petsc_memory_behind(tmp_path):
 def test_bench_output_growth_runs(tmp_path, capsys):
     """``bench/bench_output_growth.py`` on a 3-step run's summary.json: ``summary`` cycles
     its records to 5 steps and finds the two encodings' files equal (it exits otherwise),
-    ``steps`` gives the medians of the steps' ``timings.output`` (BENCHMARKS §58)."""
+    ``steps`` gives the medians of the steps' ``timings.output``, ``series`` those of an
+    XDMF series' steps (BENCHMARKS §58)."""
     from conftest import patch_press_scene
 
     from dolfinx_mortar import parse_scene, run
@@ -491,3 +492,5 @@ def test_bench_output_growth_runs(tmp_path, capsys):
     assert [r["steps"] for r in rows] == ["1-2", "3-3"]
     assert all(r["output_ms"] > 0 and r["solve_ms"] > 0 for r in rows)
     assert "run-level timings" in capsys.readouterr().out
+    rows = bench.main(["series", "--steps", "3", "--block", "2", "--cells", "2", "2"])
+    assert [r["steps"] for r in rows] == ["1-2", "3-3"] and all(r["ms"] > 0 for r in rows)
