@@ -533,6 +533,72 @@ def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
     replace_text(Path(path), text.getvalue())
 
 
+class XDMFIndex:
+    """An XDMF index as dolfinx 0.5.2 writes it, assembled from the steps' pieces (local;
+    rank 0 of an :class:`XDMFSeries` keeps one).
+
+    ``skeleton``: the index of the mesh alone (dolfinx's, after ``write_mesh``). Each
+    :meth:`add` takes dolfinx's index of one step (the skeleton, then one temporal
+    collection per function written, each with that step's grids) and keeps the grids
+    under their collections, their data references renamed (``rename``: how a reference
+    to the hidden h5 file begins, and how one to the public file does, as bytes; the
+    mesh's too); :meth:`text` is the index of every step added, byte for byte
+    what dolfinx writes when it appends the steps to one file (pugixml's layout: two
+    spaces per level; without the DOCTYPE line, which its append mode drops). It holds
+    the index in memory: as large as ``<name>.xdmf`` (2.7 kB a step with six fields on a
+    2D mesh), which is written whole after each step anyway."""
+
+    _DOCTYPE = b'<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+    _TAIL = b"  </Domain>\n</Xdmf>\n"
+    _COLLECTION = re.compile(
+        rb'    <Grid Name="([^"\n]*)" GridType="Collection" CollectionType="Temporal">\n'
+        rb"((?:      .*\n)*)    </Grid>\n"
+    )
+
+    def __init__(self, skeleton: bytes, rename: tuple[bytes, bytes]):
+        skeleton = skeleton.replace(self._DOCTYPE, b"", 1)
+        #: whether ``skeleton`` ends as dolfinx 0.5.2 ends an index (otherwise nothing is
+        #: ever added)
+        self.usable = skeleton.endswith(self._TAIL)
+        self._head = skeleton[: -len(self._TAIL)]  # as dolfinx writes it, and as published
+        self._published_head = self._head.replace(*rename)
+        self._rename = rename
+        #: the collections' names and their steps' grids, in the order dolfinx wrote them
+        self.grids: dict[bytes, list[bytes]] = {}
+
+    def add(self, step: bytes) -> bool:
+        """Keep the grids of dolfinx's index ``step`` (one step's); False, and nothing
+        kept, where it is not the skeleton followed by temporal collections laid out as
+        dolfinx 0.5.2 lays them out (checked: they rebuild ``step`` exactly)."""
+        step = step.replace(self._DOCTYPE, b"", 1)
+        if not (self.usable and step.startswith(self._head) and step.endswith(self._TAIL)):
+            return False
+        body = step[len(self._head) : -len(self._TAIL)]
+        found, end = [], 0
+        for match in self._COLLECTION.finditer(body):
+            if match.start() != end:
+                return False
+            found.append((match.group(1), match.group(2)))
+            end = match.end()
+        if end != len(body):
+            return False
+        for name, grids in found:
+            self.grids.setdefault(name, []).append(grids.replace(*self._rename))
+        return True
+
+    def text(self) -> bytes:
+        """The index of the mesh and every step added."""
+        parts = [self._published_head]
+        for name, grids in self.grids.items():
+            parts.append(
+                b'    <Grid Name="' + name + b'" GridType="Collection" CollectionType="Temporal">\n'
+            )
+            parts += grids
+            parts.append(b"    </Grid>\n")
+        parts.append(self._TAIL)
+        return b"".join(parts)
+
+
 class XDMFSeries:
     """An XDMF time series whose index file is replaced atomically after each step
     (collective construction and calls).
@@ -541,11 +607,20 @@ class XDMFSeries:
     (truncate, then write): a run killed at that moment left ``<name>.xdmf`` empty, and
     with it the index of every finished step (their HDF5 data were still there). Here
     dolfinx writes the series as ``.<name>.xdmf`` + ``.<name>.h5`` (hidden), ``<name>.h5``
-    is a hard link to the same data, and after each close rank 0 copies the index to
+    is a hard link to the same data, and after each close rank 0 writes the index to
     ``<name>.xdmf`` through a temporary file and :func:`os.replace`, its data references
     renamed: ``<name>.xdmf`` always holds a whole index of the steps written so far.
     :meth:`finish` removes the hidden names. Where the file system has no hard links,
     the series is written under the public names directly, as before.
+
+    dolfinx also loads the whole index when it opens the file, and saves it after each
+    ``write_function`` (6 a step with all the fields), so that a step's write grew with
+    the steps before it (BENCHMARKS.md §58). With the hidden names, rank 0 therefore puts
+    dolfinx's index back to the mesh alone before each step (:meth:`open`), so that
+    dolfinx loads and saves one step's index, and assembles ``<name>.xdmf`` itself
+    (:class:`XDMFIndex`: byte for byte the index dolfinx would have written). Where the
+    first step's index is not laid out as expected (another dolfinx), the series goes on
+    as before, dolfinx's index whole (logged).
 
     ``path``: the public ``<name>.xdmf``; ``mesh``: written once, at construction.
     """
@@ -589,12 +664,35 @@ class XDMFSeries:
             self.live = self.path
             with io.XDMFFile(comm, str(self.live), "w") as file:
                 file.write_mesh(mesh)
+        #: rank 0, with the hidden names: the mesh's index, which :meth:`open` puts back,
+        #: and the published index's pieces (None: dolfinx keeps the whole index)
+        self._skeleton: bytes | None = None
+        self._index: XDMFIndex | None = None
+        if comm.rank == 0 and self.live != self.path:
+            self._skeleton = self.live.read_bytes()
+            self._index = XDMFIndex(self._skeleton, self._references())
+        #: whether :meth:`open` calls on rank 0 to reset dolfinx's index (the same on every
+        #: rank; rank 0 stops resetting where its :class:`XDMFIndex` cannot read the index)
+        self._resets = comm.bcast(self._index is not None, root=0)
         self._publish()
         #: the file, open in append mode between :meth:`open` and :meth:`close`
         self.file = None
 
     def open(self):
-        """Open the series for the writes of one step; returns the XDMFFile (collective)."""
+        """Open the series for the writes of one step; returns the XDMFFile (collective).
+        First, where it resets dolfinx's index, rank 0 writes the mesh's index over it
+        (in place: the hidden file; a kill then leaves ``<name>.xdmf`` whole); where
+        that fails (OSError), RuntimeError on every rank and nothing is opened."""
+        if self._resets:
+            reason = None
+            if self._index is not None:  # rank 0, the index read as expected so far
+                try:
+                    self.live.write_bytes(self._skeleton)
+                except OSError as exc:
+                    reason = f"{self.live}: {exc.strerror or exc}"
+            reason = self.comm.bcast(reason, root=0)  # the others read it when they open
+            if reason is not None:
+                raise RuntimeError(reason)
         self.file = io.XDMFFile(self.comm, str(self.live), "a")
         return self.file
 
@@ -606,13 +704,34 @@ class XDMFSeries:
             self._publish()
 
     def _publish(self) -> None:
-        """Rank 0: ``<name>.xdmf`` := the live index, referencing ``<name>.h5`` (as bytes:
-        reading it as text decoded and copied it, a third of the time)."""
+        """Rank 0: ``<name>.xdmf`` := the index of every step written, referencing
+        ``<name>.h5``: assembled (:class:`XDMFIndex`) where dolfinx's holds one step, or
+        dolfinx's renamed (as bytes: reading it as text decoded and copied it)."""
         if self.comm.rank != 0 or self.live == self.path:
             return
-        hidden = b">" + os.fsencode(self._live_h5.name) + b":"
-        data = self.live.read_bytes().replace(hidden, b">" + os.fsencode(self.h5.name) + b":")
+        live = self.live.read_bytes()
+        if self._index is not None and not self._index.add(live):
+            if self._index.grids:  # the steps before are in no index dolfinx has
+                raise OSError(
+                    errno.EPROTO, f"{self.live.name}: an XDMF index laid out unexpectedly"
+                )
+            # dolfinx's index holds every step (none before this one): it keeps them
+            log.warning(
+                "%s: dolfinx's XDMF index is not laid out as this package expects: "
+                "the whole index stays in dolfinx's file (slower over many steps)",
+                self.path.name,
+            )
+            self._index = None
+        if self._index is not None:
+            data = self._index.text()
+        else:
+            hidden, public = self._references()
+            data = live.replace(hidden, public)
         replace_text(self.path, data, self._tmp)
+
+    def _references(self) -> tuple[bytes, bytes]:
+        """How the live index and ``<name>.xdmf`` begin a data reference (bytes)."""
+        return tuple(b">" + os.fsencode(p.name) + b":" for p in (self._live_h5, self.h5))
 
     def finish(self) -> None:
         """Close, and remove the hidden names (the data stay under ``<name>.h5``)."""
@@ -621,6 +740,7 @@ class XDMFSeries:
             self.live.unlink(missing_ok=True)
             self._live_h5.unlink(missing_ok=True)
         self.live = self.path  # nothing more is written
+        self._resets, self._index = False, None  # nor reset: it would be the public index
 
 
 class SurfaceFields:
