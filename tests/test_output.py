@@ -5,6 +5,7 @@ volume field's value at its place."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 import re
 import sys
@@ -1254,3 +1255,42 @@ def test_an_xdmf_index_laid_out_otherwise_is_kept_whole_by_dolfinx(tmp_path, mon
     with pytest.raises(OSError, match="an XDMF index laid out unexpectedly"):
         _write_series(series, steps)
     assert (tmp_path / "b.xdmf").read_text().count("<Time ") == 2  # step 1 stays published
+
+
+@pytest.mark.mpi
+def test_a_tetrahedral_patch_writes_its_surface_on_any_partition(shared_tmp, caplog):
+    """patch3d (tetrahedra, n_upper = 3): on 3 ranks a rank owns a slave-surface vertex
+    (dolfinx's submesh keeps the volume mesh's owner) while holding none of the surface
+    facets around it; the set-up stopped with "1 surface dof(s) without a volume dof",
+    no summary.json. The owner now gets the volume dof from the ranks that hold it: the
+    run completes, and every owned surface dof's parent is a volume dof of the slave."""
+    from dolfinx import fem
+
+    comm = MPI.COMM_WORLD
+    params = dict(L=1.0, H=0.5, n_lower=2, n_upper=3, n_y=1, margin=0.2, quads=False)
+    md = load_mesh(comm, generator="patch3d", params=params)
+    Q = fem.FunctionSpace(md.mesh, ("CG", 1))
+    f = fem.Function(Q, name="f")
+    f.interpolate(lambda x: 1.0 + x[0] + 2.0 * x[1] - 3.0 * x[2])
+    facets = compat.tagged_entities(md.facet_tags, md.facet_groups["upper_bottom"])
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.output"):
+        surface = SurfaceFields(shared_tmp / "t3.xdmf", Q, facets)
+    surface.begin_step()
+    surface.write(f, 0.0)
+    surface.close()
+    # every surface dof held by a rank's cells has the field at its coordinates
+    g = surface._functions["f"].x.array
+    held = np.unique(surface.Q.dofmap.list.array)
+    x = surface.Q.tabulate_dof_coordinates()[held]
+    err = np.abs(g[held] - (1.0 + x[:, 0] + 2.0 * x[:, 1] - 3.0 * x[:, 2])).max(initial=0)
+    assert comm.allreduce(err, op=MPI.MAX) < 1e-12
+    n = surface.Q.dofmap.index_map.size_local
+    assert comm.allreduce(n) == 16  # the 4 x 4 slave nodes, each owned once
+    # owned nodes that no cell of their rank holds (3 ranks: one) are named on rank 0:
+    # dolfinx writes 0 there
+    unheld = comm.allreduce(n - int(np.count_nonzero(held < n)))
+    warned = any("holds none of the surface's cells" in r.getMessage() for r in caplog.records)
+    if comm.rank == 0:
+        assert warned == (unheld > 0), (unheld, caplog.records)
+    if comm.size == 3:
+        assert unheld == 1
