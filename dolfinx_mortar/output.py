@@ -52,6 +52,12 @@ CSV_FIELDS_2D = ["x", "y", "X", "Y", "p_N", "p_T0", "gap", "slip", "state"]
 CSV_FIELDS_3D = ["x", "y", "z", "X", "Y", "Z", "p_N", "p_T0", "p_T1", "gap", "slip", "state"]
 
 
+#: Bytes the reserve of room for the final summary.json holds beyond the last summary.json
+#: written and twice what the last step's record added to it (:meth:`OutputLock.reserve`,
+#: :meth:`OutputWriter._check_room`): the final keys (``status``, ``error``,
+#: ``timings``: about 0.5 kB and the error message) and block rounding.
+RESERVE_MARGIN = 16384
+
 #: The bound on the bytes a write adds (:meth:`OutputWriter._check_room`): this many times
 #: the larger of the estimate (:meth:`OutputWriter._estimate`) and what the step before
 #: added.
@@ -367,7 +373,7 @@ def _holder(fd: int) -> str:
     """Who holds the lock file open as ``fd``, from its record (host, pid, since; for the
     refusal message only)."""
     try:
-        record = json.loads(os.pread(fd, 4096, 0))
+        record = json.loads(os.pread(fd, 4096, 0).split(b"\0", 1)[0])  # the reserve: NULs
         return f"host {record['host']}, pid {record['pid']}, since {record['since']}"
     except (OSError, ValueError, TypeError, KeyError):
         return "a run that has not yet written its host and pid"
@@ -424,12 +430,23 @@ class OutputLock:
     pid and time into it for the refusal message. :meth:`release` (rank 0; local) unlinks
     the file, then closes it; call it in a ``finally``. Where the file system refuses
     flock (ENOLCK, EOPNOTSUPP, ENOSYS, EINVAL: some Lustre mounts), one warning, and the
-    run goes on without the lock. Creates the directory (and its parents) where missing."""
+    run goes on without the lock. Creates the directory (and its parents) where missing.
+
+    The lock file also holds the run's reserve of room for its final summary.json
+    (:meth:`reserve`, :meth:`free_reserve`): blocks allocated after the record
+    (``posix_fallocate``; they read as NUL bytes), which :meth:`OutputWriter.finish`
+    frees right before it writes the final status. A run stopped by a full disk left
+    summary.json at "running": the final rewrite needs room for a whole copy. Without the
+    lock (a file system without flock) there is no reserve."""
 
     def __init__(self, comm, out_dir: Path, key: str):
         self.out_dir = Path(out_dir)
         self.path = self.out_dir / LOCK_NAME
         self._fd = None
+        #: the record's length: the reserve lies beyond it (rank 0)
+        self._record = 0
+        #: the bytes reserved (rank 0; 0 elsewhere and without the lock)
+        self.reserved = 0
         reason = None
         if comm.rank == 0:
             try:
@@ -472,8 +489,10 @@ class OutputLock:
                 data = json.dumps(record).encode()
                 # written, then cut to its length (a leftover record may be longer): a
                 # truncation to 0 before the write made ext4 flush it (auto_da_alloc), 1 ms
+                # (a leftover's reserve, a killed run's, is freed too)
                 os.pwrite(fd, data, 0)
                 os.ftruncate(fd, len(data))
+                self._record = len(data)
             except BlockingIOError:
                 who = _holder(fd)
                 os.close(fd)
@@ -497,6 +516,30 @@ class OutputLock:
             self._fd = fd
             return None
         return f"its lock file {LOCK_NAME} keeps changing (other runs start there)"
+
+    @property
+    def reserving(self) -> bool:
+        """Whether this rank holds the lock, and with it the reserve (local)."""
+        return self._fd is not None
+
+    def reserve(self, nbytes: int) -> None:
+        """Grow the reserve to ``nbytes`` (local; rank 0 with the lock: elsewhere nothing;
+        never shrunk): ``posix_fallocate`` of the bytes after the record. OSError
+        (ENOSPC) where the file system cannot allocate them."""
+        if self._fd is None or nbytes <= self.reserved:
+            return
+        os.posix_fallocate(self._fd, self._record, nbytes)
+        self.reserved = nbytes
+
+    def free_reserve(self) -> None:
+        """Free the reserve (local; the lock file cut to its record). OSError is logged."""
+        if self._fd is None or not self.reserved:
+            return
+        try:
+            os.ftruncate(self._fd, self._record)
+            self.reserved = 0
+        except OSError as exc:
+            log.warning("could not free the reserve in %s: %s", self.path, exc)
 
     def release(self) -> None:
         """Unlink the lock file, then close it, which releases the lock, where this rank
@@ -893,6 +936,12 @@ class OutputWriter:
         self._growth = 0
         self._csv_written: list[Path] = []
         self._summary_text = SummaryText()
+        #: the run's OutputLock (:func:`~dolfinx_mortar.runner.run` sets it), whose file
+        #: holds the reserve of room for the final summary.json; None: no reserve
+        self.lock = None
+        #: the bytes of the last summary.json written and what that write added (rank 0)
+        self._summary_bytes = 0
+        self._summary_added = 0
         #: the seconds spent in this writer so far (local): :meth:`start`, every
         #: :meth:`write_step` and :meth:`finish` (run-level ``timings.output``)
         self.elapsed = 0.0
@@ -1079,10 +1128,14 @@ class OutputWriter:
         others waiting in it (a 3-rank run hung); a rank's own OSError (a CSV) is
         caught after the write, as before (:meth:`_raise_write_error`)."""
         need = ROOM_FACTOR * max(self._estimate(mesh), self._growth)
+        reserve = 0
         if self.comm.rank == 0:
             copies = [self.out_dir / "summary.json"]
             copies += [s.path for s in [self._xdmf] + [f.series for f in self._surfaces] if s]
             need += _allocated(copies)
+            if self.lock is not None and self.lock.reserving:
+                reserve = self._reserve_bytes()
+                need += max(reserve - self.lock.reserved, 0)
         log.debug(
             "room check: %d bytes needed (estimate %d, the last step added %d)",
             need,
@@ -1090,6 +1143,24 @@ class OutputWriter:
             self._growth,
         )
         check_room(self.comm, self.out_dir, need, what)
+        if reserve:  # room checked for it: an OSError (a disk filled meanwhile) stops the run
+            self._guarded(self.lock.reserve, reserve)
+
+    def _reserve_bytes(self) -> int:
+        """The reserve of room for the final summary.json before a write (rank 0): the
+        last summary.json written, twice what its step added (the step written next adds
+        its record) and RESERVE_MARGIN (the final keys). The final rewrite, through a
+        temporary copy while summary.json stays, needs room for the whole text: a run
+        stopped by a full disk (a room check that fails, an ENOSPC) left summary.json at
+        "running" and without its run-level timings; the room checked for each write
+        counts the reserve's growth, and :meth:`finish` (:meth:`abandon`) frees the
+        reserve right before it writes the final status."""
+        return int(self._summary_bytes + ROOM_FACTOR * self._summary_added + RESERVE_MARGIN)
+
+    def _free_reserve(self) -> None:
+        """Free the reserve before the final summary.json (rank 0; local)."""
+        if self.lock is not None:
+            self.lock.free_reserve()
 
     def _first_write_error(self) -> str | None:
         """The first failed write of any rank (rank order), or None (collective)."""
@@ -1143,7 +1214,9 @@ class OutputWriter:
         """Close the files and write the final summary (status "ok" or "failed").
 
         ``timings`` (the run-level ones) get ``"output"``: :attr:`elapsed` once the files
-        are closed, the output's seconds but the final rewrite of summary.json."""
+        are closed, the output's seconds but the final rewrite of summary.json. The
+        reserve of room for it (:meth:`_reserve_bytes`) is freed right before it, so that
+        a run stopped by a full disk says so in summary.json."""
         t0 = time.perf_counter()
         self.summary["status"] = status
         self.summary["error"] = error
@@ -1161,6 +1234,7 @@ class OutputWriter:
         self.elapsed += time.perf_counter() - t0
         if timings is not None:
             self.summary["timings"] = dict(timings, output=self.elapsed)
+        self._free_reserve()
         self._flush()
         if closing is not None:
             raise closing
@@ -1174,6 +1248,7 @@ class OutputWriter:
         steps and their hidden series stay, as after a kill."""
         self.summary["status"] = "failed"
         self.summary["error"] = error
+        self._free_reserve()
         self._flush()  # an OSError is logged (not collective here: nothing raised)
 
     def _flush(self) -> None:
@@ -1183,7 +1258,10 @@ class OutputWriter:
             self._guarded(self._write_summary)
 
     def _write_summary(self) -> None:
-        replace_text(self.out_dir / "summary.json", self._summary_text.text(self.summary))
+        data = self._summary_text.text(self.summary).encode("utf-8")
+        replace_text(self.out_dir / "summary.json", data)
+        self._summary_added = max(len(data) - self._summary_bytes, 0)
+        self._summary_bytes = len(data)
 
     def _guarded(self, write, *args) -> None:
         """``write(*args)``, a write of this rank's own; an OSError is kept (the first)

@@ -334,6 +334,7 @@ def run(
         if setup is None:
             problem.destroy()
         raise
+    writer.lock = lock  # its file holds the reserve of room for the final summary.json
     try:
         return _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off, t_setup)
     finally:  # also after an exception, Ctrl-C, SIGTERM (Terminated): rank 0 releases it
