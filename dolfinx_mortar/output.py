@@ -587,7 +587,9 @@ class XDMFIndex:
     to the hidden h5 file begins, and how one to the public file does, as bytes; the
     mesh's too); :meth:`text` is the index of every step added, byte for byte
     what dolfinx writes when it appends the steps to one file (pugixml's layout: two
-    spaces per level; without the DOCTYPE line, which its append mode drops). It holds
+    spaces per level; without the DOCTYPE line, which its append mode drops once a
+    ``write_function`` saved the index: with no collection yet, the skeleton as it
+    came, DOCTYPE included: a run without fields, or whose first write failed). It holds
     the index in memory: as large as ``<name>.xdmf`` (2.7 kB a step with six fields on a
     2D mesh), which is written whole after each step anyway."""
 
@@ -599,6 +601,8 @@ class XDMFIndex:
     )
 
     def __init__(self, skeleton: bytes, rename: tuple[bytes, bytes]):
+        #: the index published while no step has a collection (dolfinx's, untouched)
+        self._published_skeleton = skeleton.replace(*rename)
         skeleton = skeleton.replace(self._DOCTYPE, b"", 1)
         #: whether ``skeleton`` ends as dolfinx 0.5.2 ends an index (otherwise nothing is
         #: ever added)
@@ -631,6 +635,8 @@ class XDMFIndex:
 
     def text(self) -> bytes:
         """The index of the mesh and every step added."""
+        if not self.grids:  # no write_function yet: dolfinx never saved the index
+            return self._published_skeleton
         parts = [self._published_head]
         for name, grids in self.grids.items():
             parts.append(
@@ -1058,23 +1064,41 @@ class OutputWriter:
         self._check_room(f"step {step}")
         self._csv_written = []  # the step's CSVs are new files: none before
         before = self._allocated() if self.comm.rank == 0 else 0
-        with interrupts_after():
-            with self._collective_io():
-                self._xdmf.open()
-                for surface in self._surfaces:
-                    surface.begin_step()
-                try:
-                    self._write_fields(step, t)
-                finally:
-                    self._close_files()
-            # the step joins summary.json where every rank wrote its files (collective)
-            if record is not None and self._first_write_error() is None:
-                record.setdefault("timings", {})["output"] = time.perf_counter() - t0
-                self.summary["steps"].append(record)
-            self._flush()
+        joined = False  # whether the step joined the summary (its CSVs then stay)
+        try:
+            with interrupts_after():
+                with self._collective_io():
+                    self._xdmf.open()
+                    for surface in self._surfaces:
+                        surface.begin_step()
+                    try:
+                        self._write_fields(step, t)
+                    finally:
+                        self._close_files()
+                # the step joins summary.json where every rank wrote its files (collective)
+                joined = self._first_write_error() is None
+                if record is not None and joined:
+                    record.setdefault("timings", {})["output"] = time.perf_counter() - t0
+                    self.summary["steps"].append(record)
+                self._flush()
+        finally:
+            if not joined:
+                self._remove_csvs()
         if self.comm.rank == 0:
             self._growth = max(self._allocated() - before, 0)
         self._raise_write_error()
+
+    def _remove_csvs(self) -> None:
+        """Remove the contact CSVs of a step whose write failed (rank 0; local): its
+        record is in no summary, and a failed write left them behind while summary.json
+        and the indices stopped at the step before. They are new files of this run (an
+        earlier run's were removed at the start); an OSError is logged."""
+        for path in self._csv_written:
+            try:
+                path.unlink(missing_ok=True)
+            except OSError as exc:
+                log.warning("could not remove %s of the unfinished step: %s", path, exc)
+        self._csv_written = []
 
     def _run_files(self) -> list[Path]:
         """The files whose size the step's writes change (rank 0): summary.json, each

@@ -1330,6 +1330,55 @@ def test_an_xdmf_series_keeps_dolfinx_at_one_step_and_publishes_every_step(share
         assert xf.read_mesh(name="mesh").topology.index_map(2).size_global == 12
 
 
+def test_an_xdmf_series_without_functions_publishes_dolfinxs_index(tmp_path):
+    """A series whose steps write no function (``[output] fields = []``, or a first write
+    that failed) publishes the mesh's index byte for byte as dolfinx leaves it, DOCTYPE
+    line included: dolfinx drops that line only once a ``write_function`` saved the index
+    (XDMFIndex stripped it from the skeleton and never put it back)."""
+    from dolfinx import io, mesh
+
+    msh = mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
+    plain = tmp_path / "plain.xdmf"
+    with io.XDMFFile(MPI.COMM_SELF, str(plain), "w") as xf:
+        xf.write_mesh(msh)
+    series = XDMFSeries(MPI.COMM_SELF, tmp_path / "a.xdmf", msh)
+    published = [(tmp_path / "a.xdmf").read_bytes()]
+    for _ in range(2):
+        with io.XDMFFile(MPI.COMM_SELF, str(plain), "a"):
+            pass
+        series.open()
+        series.close()
+        published.append((tmp_path / "a.xdmf").read_bytes())
+    expected = plain.read_bytes().replace(b">plain.h5:", b">a.h5:")
+    assert b'<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>' in expected
+    assert published == [expected] * 3
+    series.finish()
+
+
+def test_a_failed_step_write_leaves_none_of_its_csvs(tmp_path, monkeypatch):
+    """A write that fails after the step's contact CSV (here the slave surface's HDF5
+    write of step 2, as dolfinx raises it on a full disk) stops the run with steps 0 and 1
+    in summary.json, the CSVs and the indices: the CSV of step 2, whose record is in no
+    summary, is removed (it was left behind)."""
+    from dolfinx_mortar import output, parse_scene, run
+
+    write = output.SurfaceFields.write
+
+    def fails_at_step_2(self, f, t):
+        if abs(t - 0.5) < 1e-12:
+            raise RuntimeError("Failed to write HDF5 local dataset into hyperslab.")
+        write(self, f, t)
+
+    monkeypatch.setattr(output.SurfaceFields, "write", fails_at_step_2)
+    summary = run(parse_scene(patch_press_scene(steps=4), tmp_path), MPI.COMM_SELF, tmp_path)
+    assert summary["status"] == "failed"
+    assert summary["error"].endswith("Failed to write HDF5 local dataset into hyperslab.")
+    kept = json.loads((tmp_path / "summary.json").read_text())
+    assert kept["status"] == "failed" and len(kept["steps"]) == 1
+    csvs = sorted(f.name for f in tmp_path.glob("*.csv"))
+    assert csvs == ["contact_upper_bottom_0.csv", "contact_upper_bottom_1.csv"], csvs
+
+
 def test_an_xdmf_index_laid_out_otherwise_is_kept_whole_by_dolfinx(tmp_path, monkeypatch, caplog):
     """Where dolfinx's index of the first step is not what XDMFIndex reads (another
     dolfinx), the series goes on as before session 50, dolfinx's index whole, with a
