@@ -447,6 +447,8 @@ class OutputLock:
         self._record = 0
         #: the bytes reserved (rank 0; 0 elsewhere and without the lock)
         self.reserved = 0
+        #: whether the file system refused the reserve's allocation (not for lack of room)
+        self._no_reserve = False
         reason = None
         if comm.rank == 0:
             try:
@@ -519,16 +521,28 @@ class OutputLock:
 
     @property
     def reserving(self) -> bool:
-        """Whether this rank holds the lock, and with it the reserve (local)."""
-        return self._fd is not None
+        """Whether this rank holds the lock, and with it the reserve (local; not where
+        the file system refused to allocate it)."""
+        return self._fd is not None and not self._no_reserve
 
     def reserve(self, nbytes: int) -> None:
         """Grow the reserve to ``nbytes`` (local; rank 0 with the lock: elsewhere nothing;
         never shrunk): ``posix_fallocate`` of the bytes after the record. OSError
-        (ENOSPC) where the file system cannot allocate them."""
-        if self._fd is None or nbytes <= self.reserved:
+        (ENOSPC, EDQUOT) where there is no room for them; any other OSError (a file
+        system that cannot allocate so) is logged once, and the run goes on without
+        the reserve."""
+        if not self.reserving or nbytes <= self.reserved:
             return
-        os.posix_fallocate(self._fd, self._record, nbytes)
+        try:
+            os.posix_fallocate(self._fd, self._record, nbytes)
+        except OSError as exc:
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+                raise
+            # a file system that allocates no blocks this way (EOPNOTSUPP, EINVAL, ...):
+            # the run goes on without the reserve, as without the lock
+            log.warning("%s: no reserve of room for the final summary.json: %s", self.path, exc)
+            self._no_reserve = True
+            return
         self.reserved = nbytes
 
     def free_reserve(self) -> None:

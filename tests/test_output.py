@@ -791,6 +791,36 @@ def test_the_reserve_follows_summary_json_and_leaves_the_holders_record(tmp_path
     assert not (out / LOCK_NAME).exists()
 
 
+def test_a_file_system_that_cannot_reserve_runs_without_the_reserve(tmp_path, monkeypatch, caplog):
+    """posix_fallocate refused for another reason than room (EOPNOTSUPP: a file system
+    that does not allocate so): one warning, the run goes on without the reserve and
+    ends "ok" with every step; the room check then counts no reserve."""
+    import errno as errno_
+
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.output import LOCK_NAME
+
+    def refuse(fd, offset, length):
+        raise OSError(errno_.EOPNOTSUPP, "Operation not supported")
+
+    monkeypatch.setattr(os, "posix_fallocate", refuse)
+    out = tmp_path / "out"
+    sizes = []
+
+    def progress(step, record):
+        sizes.append(len((out / LOCK_NAME).read_bytes().split(b"\0", 1)[1:]))
+
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.output"):
+        summary = run(
+            parse_scene(patch_press_scene(steps=3), tmp_path), MPI.COMM_SELF, out, progress=progress
+        )
+    assert summary["status"] == "ok", summary.get("error")
+    assert len(summary["steps"]) == 3
+    assert sizes == [0, 0, 0]  # the lock file holds its record only
+    warnings = [r for r in caplog.records if "no reserve of room" in r.getMessage()]
+    assert len(warnings) == 1, caplog.records
+
+
 @pytest.mark.mpi
 def test_a_full_disk_on_one_rank_stops_every_rank(shared_tmp, monkeypatch):
     """The last rank alone sees too little room before step 2: every rank raises the same
