@@ -34,6 +34,11 @@ do not depend on the number of ranks.
 Integrals are over the reference slave surface: p^I is a nominal pressure
 (force per unit reference area), as the CSV output reports it.
 
+Coordinates are relative to the pair's origin o (:attr:`MortarContact.origin`,
+:func:`~dolfinx_mortar.surface.pair_origin`: near the slave surface, 0 for a model near
+the origin): the kernels see (X − o) + u, whose round-off is that of the surface's size
+wherever the model sits (docs/method-notes.md, "A model far from the origin").
+
 Newton aids (docs/method-notes.md): a quadrature point that switches master facet back
 and forth is pinned to one facet for the rest of the solve (PIN_OUTSIDE_TOL), and a
 solve that starts with no active node leaves the geometric part of the normal tangent
@@ -81,7 +86,9 @@ from .surface import (
     extract_facets,
     mixed_nodes,
     nodal_rule,
+    pair_origin,
     quadrature,
+    relative_to,
     shared_nodes,
 )
 
@@ -694,6 +701,15 @@ class MortarContact:
                 "groups (where two surfaces of one body meet, e.g. at a slit's tip), or give "
                 "bodies fused there nodes of their own",
             )
+        #: the pair's origin o (gdim,) (:func:`~dolfinx_mortar.surface.pair_origin`; the
+        #: same on every rank): every coordinate array of the pair (slave, master_local, the
+        #: master ghosts, xs, xm and the histories) is relative to it, X − o and
+        #: (X − o) + u, so that the kernels' round-off is that of the surface's size, not
+        #: of its distance from the origin; o = 0 for a model near the origin. What leaves
+        #: the pair adds o back (:meth:`node_table`, :meth:`master_normals`)
+        self.origin = pair_origin(comm, slave_local.X)
+        slave_local = relative_to(slave_local, self.origin)
+        master_local = relative_to(master_local, self.origin)
         self.ftype = slave_local.ftype
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
         self.mixed = mixed_nodes(self.ftype)
@@ -915,6 +931,12 @@ class MortarContact:
             recovery,
             integration,
         )
+        if np.any(self.origin):
+            log.info(
+                "contact %s: coordinates relative to the pair's origin (%s)",
+                self.name,
+                ", ".join(f"{c:.17g}" for c in self.origin),
+            )
 
     @classmethod
     def from_pair(cls, problem, pair, key="contact"):
@@ -1734,9 +1756,10 @@ class MortarContact:
         return not self._no_contact
 
     def master_normals(self) -> tuple[np.ndarray, np.ndarray]:
-        """The reference positions (npts, gdim) of this rank's master facet nodes, each
-        facet's nodes apart, and the facet's unit normal there (npts, gdim), of either
-        sign (local; :meth:`~dolfinx_mortar.problem.ContactProblem.unheld_motions`)."""
+        """The reference positions (npts, gdim) of this rank's master facet nodes (mesh
+        coordinates: the pair's :attr:`origin` added back), each facet's nodes apart, and
+        the facet's unit normal there (npts, gdim), of either sign (local;
+        :meth:`~dolfinx_mortar.problem.ContactProblem.unheld_motions`)."""
         from .kernels.gap import unit_normal
 
         ml = self.master_local
@@ -1746,7 +1769,7 @@ class MortarContact:
             xf = np.ascontiguousarray(ml.X[f])
             for i, zeta in enumerate(REFERENCE_NODES[ml.ftype]):
                 unit_normal(xf, ml.ftype, 1.0, np.ascontiguousarray(zeta), normals[f, i])
-        return ml.X.reshape(-1, d), normals.reshape(-1, d)
+        return ml.X.reshape(-1, d) + self.origin, normals.reshape(-1, d)
 
     @property
     def body_cells(self) -> np.ndarray:
@@ -3813,9 +3836,9 @@ class MortarContact:
         n, d = self.node_blocks.size, self.gdim
         gap = np.where(self.has_area, self.gamma, np.nan)
         p_t, slip, state = self._tangential_output()
-        cols = [
-            self.slave.X[f, i],
-            self.xs[f, i],
+        cols = [  # mesh coordinates: the pair's origin added back
+            self.slave.X[f, i] + self.origin,
+            self.xs[f, i] + self.origin,
             self.p[:, None],
             p_t,
             gap[:, None],

@@ -11,7 +11,9 @@ field            shape, dtype        meaning
 ``blocks``       (nf, nn) int64      global block (= node) index of each node
 ``dofs``         (nf, nn*d) int64    global PETSc dof of each node component,
                                      ``-1`` where a Dirichlet condition holds
-``X``            (nf, nn, d) f8      reference coordinates
+``X``            (nf, nn, d) f8      reference coordinates relative to the
+                                     contact pair's origin o (X − o; o = 0
+                                     near the origin: surface.pair_origin)
 ``sign``         (nf,) f8            ±1 making the kernel normal outward
 ``owner``        (nf,) int32         rank whose cells hold the facet
 ===============  ==================  =========================================

@@ -12,8 +12,11 @@ vector from the cell centroid to the facet centroid).
 
 from __future__ import annotations
 
+import math
+
 import basix
 import numpy as np
+from mpi4py import MPI
 
 from . import compat
 from .kernels.gap import unit_normal
@@ -88,7 +91,9 @@ def facet_node_orders(cell_name: str, degree: int) -> np.ndarray:
 
 
 def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
-    """Facets of facet group ``group`` whose cells this rank owns (local, no communication).
+    """Facets of facet group ``group`` whose cells this rank owns (local, no communication),
+    in the mesh's coordinates (a contact pair moves them to its origin: :func:`pair_origin`,
+    :func:`relative_to`).
 
     Returns ``(facets, cells, interior)``: the packed facets, the local index of each
     facet's cell (for material look-ups) and the number of facets of the group that are
@@ -163,6 +168,52 @@ def extract_facets(problem, group: str) -> tuple[FacetArrays, np.ndarray, int]:
         np.full(nf, rank, np.int32),
     )
     return fa, np.asarray(cells, np.int32), interior
+
+
+#: :func:`pair_origin`: a slave surface whose centre lies within this many times s (the
+#: power of two above its size) of the origin gets the origin o = 0, and runs as it did
+#: before the pair had an origin, to the last bit.
+ORIGIN_NEAR = 8.0
+
+
+def pair_origin(comm, X: np.ndarray) -> np.ndarray:
+    """The origin o (d,) of a contact pair's coordinates (collective; the same on every
+    rank, fixed for the run): the centre c of the global bounding box of the points X
+    (..., d) (this rank's slave facet nodes, each facet on one rank), or 0 where
+    max_k |c_k| ≤ ORIGIN_NEAR · s, s the power of two with L < s ≤ 2 L (L: the box's
+    largest side).
+
+    The contact kernels work in current coordinates x = X + u, whose round-off eps·|x|
+    is noise in the gaps: 2e-12 for a model 1e4 from the origin, which ε_N turns into
+    contact forces of the size of Newton's tolerance and Uzawa's multiplier changes. The
+    pair keeps its coordinates relative to o (:mod:`~dolfinx_mortar.layout`: X − o), so
+    that the kernels see (X − o) + u: on the slave surface at most L/2 (o ≠ 0) or
+    (2 ORIGIN_NEAR + 0.5) L (o = 0, a model near the origin) per component, wherever the
+    model sits. Along an axis where the surface lies far from 0 (X within a factor 2 of
+    o_k), X − o is exact (Sterbenz) and (X − o) + o gives X back; elsewhere it rounds at
+    eps·L, the round-off the kernels have anyway."""
+    d = X.shape[-1]
+    pts = X.reshape(-1, d)
+    lo = np.array(pts.min(axis=0) if pts.size else np.full(d, np.inf), float)
+    hi = np.array(pts.max(axis=0) if pts.size else np.full(d, -np.inf), float)
+    comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+    comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+    size = float(np.max(hi - lo)) if np.all(hi >= lo) else 0.0
+    if not (math.isfinite(size) and size > 0.0):
+        return np.zeros(d)
+    s = math.ldexp(1.0, math.frexp(size)[1])  # the power of two in (L, 2 L]
+    centre = 0.5 * (lo + hi)
+    if np.max(np.abs(centre)) <= ORIGIN_NEAR * s:
+        return np.zeros(d)
+    return centre + 0.0  # + 0.0: no −0.0
+
+
+def relative_to(fa: FacetArrays, origin: np.ndarray) -> FacetArrays:
+    """The facets ``fa`` with coordinates X − ``origin`` (:func:`pair_origin`; a new
+    FacetArrays sharing the other fields; ``fa`` itself where the origin is 0)."""
+    if not np.any(origin):
+        return fa
+    return FacetArrays(fa.ftype, fa.gdim, fa.blocks, fa.dofs, fa.X - origin, fa.sign, fa.owner)
 
 
 def shared_nodes(comm, ranges: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
