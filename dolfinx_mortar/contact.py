@@ -201,6 +201,24 @@ EXACT_FD_MAX_IT = 40
 #: level 2: a change of 8.3e-8 updated by 6 products to 2.3e-13, uzawa_tol = 1e-8).
 EXACT_FORCING = 0.1
 EXACT_FD_STEP = 1e-7
+#: The floor of the finite-difference exact update's step (frictional pairs, mixed normal
+#: recoveries): a product changes the multipliers by at least this many times the
+#: round-off of the nodal law, ε · eps · max|x_s| (the largest penalty, ε_N or ε_T, times
+#: the rounding of a gap computed from the slave coordinates x_s = (X − o) + u,
+#: :func:`~dolfinx_mortar.surface.pair_origin`), so that the law's rounding stays below
+#: 1/EXACT_FD_ROUND_OFF of the differences it enters
+#: (:meth:`MortarContact._exact_multipliers_fd`).
+#: The probe's frictional patch 1e4 from the origin without the pair's origin (steps of
+#: 0.7 to 1.6 times the law's round-off) took 7 rounds a step with 10, 4 with 1e2 or 3e2,
+#: 4, 3, 3, 3 with 1e3 and 3, 3, 3, 3 with 1e4 (unshifted: 3, 3, 3, 2); near the origin the
+#: steps are 1.5e3 (the hard-case sweep's cattaneo2d_reversal) to 1.4e5 times the law's
+#: round-off, so 1e3 leaves them alone.
+EXACT_FD_ROUND_OFF = 1e3
+#: The exact updates' displacement δu is unusable, and the plain update is taken, where
+#: it is not finite or its largest component exceeds this many search margins (2 × the
+#: largest slave facet; :meth:`MortarContact._exact_outcome`). It closes the penetration
+#: that the penalty allows, a small fraction of a facet with the auto penalty.
+EXACT_DU_MAX = 1.0
 #: The tangential recoveries whose nodes the chattering control freezes in STICK at a slip
 #: reversal (``_add_tangential_jacobian``); the unconstrained one freezes after
 #: FREEZE_AFTER Jacobians only.
@@ -3335,13 +3353,27 @@ class MortarContact:
         self._slip_guess = (out, D, self.mu * s)
         return bool(out.any())
 
-    def _exact_outcome(self, ok: bool, its: int, du, info: dict) -> bool:
-        """Record how an exact update ended (local; ``ok`` is collective): with GMRES
-        converged after ``its`` products, the displacement ``du`` (owned dofs) becomes
-        :attr:`displacement_update` and True is returned; otherwise False (the caller
-        takes the plain update)."""
+    def _exact_outcome(self, ok: bool, its: int, du, step, info: dict) -> bool:
+        """Record how an exact update ended (collective; ``ok`` is the same on every
+        rank): with GMRES converged after ``its`` products and a usable update, the
+        displacement ``du`` (owned dofs, or None) becomes :attr:`displacement_update` and
+        True is returned; otherwise False (the caller takes the plain update). The
+        update is unusable where the multiplier change ``step`` (owned entries) or ``du``
+        has a value that is not finite, or where some |δu| exceeds EXACT_DU_MAX search
+        margins (:data:`EXACT_DU_MAX`): it is added to u before the next solve, and a
+        round-off-ridden one had inverted the elements there."""
         if not ok:
             info["exact_update"] = "plain (GMRES failed)"
+            return False
+        size = np.array([0.0 if du is None else float(np.abs(du).max(initial=0.0)), 0.0])
+        finite = np.all(np.isfinite(step)) and (du is None or np.all(np.isfinite(du)))
+        size[1] = 0.0 if finite else 1.0
+        self.comm.Allreduce(MPI.IN_PLACE, size, op=MPI.MAX)
+        if size[1] > 0.0:
+            info["exact_update"] = "plain (not finite)"
+            return False
+        if size[0] > EXACT_DU_MAX * self.margin:
+            info["exact_update"] = f"plain (displacement {size[0]:.2g} > {EXACT_DU_MAX:g} margin)"
             return False
         info["exact_update"] = f"newton ({its} products)"
         self.displacement_update = du
@@ -3359,7 +3391,8 @@ class MortarContact:
         Uzawa step; the operator is about the identity for a stiff penalty), one
         back-substitution per product. λ_A ← max(λ_A + δλ, 0); every other node takes
         the plain update λ ← p̂ = λ + d, and so does every node when the solver has no
-        factorization to offer or GMRES fails (``info["exact_update"]`` says which).
+        factorization to offer, GMRES fails or the update is unusable
+        (:meth:`_exact_outcome`; ``info["exact_update"]`` says which).
         The displacement change this implies, δu = K⁻¹ Bᵀ δλ (one more back-substitution),
         is left in :attr:`displacement_update` for the problem to apply
         (:meth:`~dolfinx_mortar.problem.ContactProblem.uzawa_update`), so that the next
@@ -3427,11 +3460,23 @@ class MortarContact:
         finally:
             for obj in (B, t, w, dlam):
                 obj.destroy()
-        if not self._exact_outcome(ok, its, du, info):
+        if not self._exact_outcome(ok, its, du, step, info):
             return plain
         out = plain.copy()
         out[nodes] = np.maximum(self.lmbda[nodes] + step, 0.0)
         return out
+
+    def _law_round_off(self) -> float:
+        """The round-off of the nodal law p̂ = ⟨λ − ε γ⟩ (and τ̂) at the current contact
+        state, stress units (collective, the same on every rank): the largest penalty,
+        normal or tangential, times eps · max|x_s|, the rounding of a gap computed from the
+        slave coordinates x_s = (X − o) + u (:func:`~dolfinx_mortar.surface.pair_origin`)."""
+        eps = [float(self.eps.max(initial=0.0))]
+        if self.frictional:
+            eps.append(float(self.eps_t.max(initial=0.0)))
+        local = np.array([max(eps), float(np.abs(self.xs).max(initial=0.0))])
+        self.comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
+        return float(local[0] * np.finfo(float).eps * local[1])
 
     def _exact_multipliers_fd(
         self, fstate: np.ndarray | None, tau_law: np.ndarray | None, info: dict, rtol: float
@@ -3451,7 +3496,9 @@ class MortarContact:
         by GMRES to relative residual ``rtol`` (:meth:`_forcing` of :data:`EXACT_FD_RTOL`)
         with matrix-free products. Each product J v
         takes the contact residual at (u, x + h v) for ∂R/∂x v (forward difference, step
-        h from :data:`EXACT_FD_STEP`; the bulk residual does not depend on x), one
+        h from :data:`EXACT_FD_STEP`, no shorter than :data:`EXACT_FD_ROUND_OFF` times
+        the nodal law's round-off, :meth:`_law_round_off`; the bulk residual does not
+        depend on x), one
         back-substitution w = K⁻¹ ∂R/∂x v with the last factorized Jacobian
         (``problem.linear_inverse``), and the nodal law at (u − h w, x + h v). The
         stick/slip states are those of the free law at the converged state, frozen for
@@ -3472,8 +3519,9 @@ class MortarContact:
         where its law is open and its p < 0, :func:`.recovery.recover`). Without friction
         x = λ and T = p̂.
 
-        Where no factorization exists or GMRES fails, the update is the plain one
-        (λ ← p̂, λ_T ← τ̂) and ``info["exact_update"]`` says so.
+        Where no factorization exists, GMRES fails or the update is unusable (not
+        finite, or δu beyond :data:`EXACT_DU_MAX` search margins: :meth:`_exact_outcome`),
+        the update is the plain one (λ ← p̂, λ_T ← τ̂) and ``info["exact_update"]`` says so.
 
         fstate: (n_nodes,) the free law's states; tau_law: (n_nodes, gdim − 1) its
         traction τ̂ (both None without friction); rtol: GMRES's relative tolerance.
@@ -3530,6 +3578,20 @@ class MortarContact:
             1e-300,
         )
         failed = []
+        # the multipliers' change of a product: EXACT_FD_STEP of their scale, and no less
+        # than EXACT_FD_ROUND_OFF times the law's round-off at the converged state
+        change = EXACT_FD_STEP * scale
+        floor = EXACT_FD_ROUND_OFF * self._law_round_off()
+        if change < floor:
+            log.debug(
+                "%s: exact update: a difference step of %.2g is %.2g × the nodal law's "
+                "round-off: %.2g taken",
+                self.name,
+                change,
+                change * EXACT_FD_ROUND_OFF / floor,
+                floor,
+            )
+            change = floor
 
         def dudx(v: np.ndarray) -> float:
             """w ← K⁻¹ ∂R/∂x v (forward difference); returns the step h (0: v = 0)."""
@@ -3537,7 +3599,7 @@ class MortarContact:
             if vmax == 0.0:
                 w.set(0.0)
                 return 0.0
-            h = EXACT_FD_STEP * scale / vmax
+            h = change / vmax
             law(x0, lam0 + h * v)
             contact_residual(r1)
             r1.axpy(-1.0, r0)
@@ -3582,7 +3644,7 @@ class MortarContact:
             prob.update_contact(x0)
             for vec in (xt, r0, r1, w, x0):
                 vec.destroy()
-        if not self._exact_outcome(ok, its, du, info):
+        if not self._exact_outcome(ok, its, du, step, info):
             return plain
         lam = lam0 + step
         return np.maximum(lam[:n], 0.0), lam[n:].reshape(n, m) if fric else None

@@ -6,17 +6,20 @@ of Newton's tolerance and Uzawa's multiplier changes: the frictional patch below
 ("Uzawa augmentation stalled", multiplier changes 1, 0.97, 0.97, 0.94 after 6 cutbacks)
 and the frictionless one too (changes of 5e-6 to 1.5e-5 against uzawa_tol = 1e-8). Each
 pair now keeps its coordinates relative to an origin o near its slave surface
-(:func:`dolfinx_mortar.surface.pair_origin`).
+(:func:`dolfinx_mortar.surface.pair_origin`), and the frictional exact update's
+difference step has a floor above the nodal law's round-off (contact.EXACT_FD_ROUND_OFF).
 """
 
 from __future__ import annotations
 
 import csv
+import types
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from dolfinx_mortar import contact
 from dolfinx_mortar.runner import run
 from dolfinx_mortar.scene import parse_scene
 from dolfinx_mortar.surface import ORIGIN_NEAR, pair_origin
@@ -173,3 +176,43 @@ def test_a_frictionless_patch_far_from_the_origin_runs_as_at_the_origin(shared_t
     at0, _ = _run(_frictionless(_mesh(shared_tmp, "fl0", FRICTIONLESS, [0, 0])), out0)
     far, _ = _run(_frictionless(_mesh(shared_tmp, "fl_far", FRICTIONLESS, shift)), out_far)
     _compare(at0, far, out0, out_far, shift)
+
+
+def test_the_exact_update_step_has_a_floor_above_the_round_off(shared_tmp, monkeypatch):
+    """Without the pair's origin (o = 0 forced), the coordinates 1e4 from the origin keep
+    their round-off, 1.8e-12, and the nodal law's (ε_N times that) was 0.7 to 1.6 times
+    the frictional exact update's difference step (EXACT_FD_STEP times the multipliers):
+    its differences were noise, and the run stopped as above. The step's floor
+    (EXACT_FD_ROUND_OFF times the law's round-off) alone lets it end with at most one
+    Uzawa round more per step than the unshifted run (4, 3, 3, 3 against 3, 3, 3, 2)."""
+    monkeypatch.setattr(contact, "pair_origin", lambda comm, X: np.zeros(X.shape[-1]))
+    shift = np.array([0.0, 1e4])
+    at0, _ = _run(_frictional(_mesh(shared_tmp, "fric0", FRICTIONAL, [0, 0])), shared_tmp / "a")
+    far, o = _run(_frictional(_mesh(shared_tmp, "fric_far", FRICTIONAL, shift)), shared_tmp / "b")
+    assert np.all(o == 0.0)
+    assert far["status"] == "ok", far.get("error")
+    for a, b in zip(at0["steps"], far["steps"], strict=True):
+        assert b["uzawa_rounds"] <= a["uzawa_rounds"] + 1, (a["uzawa_rounds"], b["uzawa_rounds"])
+        fa, fb = (np.asarray(s["contact_force"][PAIR]) for s in (a, b))
+        assert np.linalg.norm(fb - fa) <= 1e-6 * np.linalg.norm(fa), (fa, fb)
+
+
+@pytest.mark.parametrize(
+    ("du", "step", "said"),
+    [
+        (np.array([0.0, np.nan]), np.zeros(2), "plain (not finite)"),
+        (np.zeros(2), np.array([np.inf, 0.0]), "plain (not finite)"),
+        (np.array([0.0, 2.5]), np.zeros(2), "plain (displacement 2.5 > 1 margin)"),
+        (np.array([0.0, 1.5]), np.zeros(2), "newton (3 products)"),
+    ],
+)
+def test_an_unusable_exact_update_falls_back_to_the_plain_one(du, step, said):
+    """The exact update's δu is added to u before the next solve: one that is not finite,
+    or larger than EXACT_DU_MAX search margins, is not used (the plain update is), as
+    where GMRES fails."""
+    term = types.SimpleNamespace(comm=MPI.COMM_SELF, margin=2.0, displacement_update=None)
+    info = {}
+    used = contact.MortarContact._exact_outcome(term, True, 3, du, step, info)
+    assert info["exact_update"] == said
+    assert used == said.startswith("newton")
+    assert (term.displacement_update is du) == used
