@@ -69,6 +69,12 @@ ROOM_FACTOR = 2.0
 DATASET_OVERHEAD = 2048
 FILE_OVERHEAD = 4096
 
+#: :class:`SurfaceFields` matches a surface dof to the volume dof within 1e-10 of the
+#: surface's size plus this many units of round-off of the largest coordinate
+#: (eps·max|x|): the two spaces tabulate their dof coordinates apart, and far from the
+#: origin (a CAD mesh in mm placed at 1e6) they differ by more than 1e-10 of a unit surface.
+SURFACE_MATCH_ULPS = 64.0
+
 
 def check_room(comm, out_dir: Path, need: float, what: str = "the next write") -> None:
     """Raise OutputError on every rank where the file system of ``out_dir`` has less room
@@ -842,7 +848,12 @@ class SurfaceFields:
         lost, nearest = held.size, np.zeros(0, np.int64)
         if x_vol.size:
             dist, nearest = cKDTree(x_vol).query(x_sur)
-            lost = int(np.sum(dist > 1e-10 * max(float(np.ptp(x_vol, axis=0).max()), 1e-300)))
+            # 1e-10 of the surface's size, and the coordinates' round-off (the two spaces
+            # tabulate them apart: 1e-10 at 1e6 from the origin, where 1e-10 of a unit
+            # surface missed every dof)
+            tol = 1e-10 * max(float(np.ptp(x_vol, axis=0).max()), 1e-300)
+            tol += SURFACE_MATCH_ULPS * np.finfo(float).eps * float(np.abs(x_vol).max())
+            lost = int(np.sum(dist > tol))
         parent = np.full(owned + imap.num_ghosts, -1, dtype=np.int64)
         if not lost:
             parent[held] = np.asarray(candidates, dtype=np.int64)[nearest]
