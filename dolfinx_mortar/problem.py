@@ -1036,8 +1036,10 @@ class ContactProblem:
         R̃ the residual as assembled (Dirichlet rows included). The terms linear in δ
         cancel and the quadratic ones are of order ε_mach², so what is left is the
         rounding of the three assemblies, independent with equal variance (hence √6).
-        The contact terms see the coordinates, not the displacement, so δ is scaled
-        by |X| + |u|. Three residual evaluations; the contact state is that of u
+        The bulk forms see the mesh's coordinates, not the displacement, so δ is scaled
+        by |X| + |u| (the contact terms see coordinates relative to their pair's origin,
+        ``surface.pair_origin``: a smaller δ would do for them; the linear terms cancel
+        either way). Three residual evaluations; the contact state is that of u
         again afterwards (one more search at u). BENCHMARKS.md §24 compares f with the
         plateau that extra exact Newton steps reach."""
         u = self.u.vector
