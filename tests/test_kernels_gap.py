@@ -500,7 +500,7 @@ def test_open_point_in_the_blind_spot_of_a_convex_vertex_is_paired(g):
 @pytest.mark.parametrize("angle", [0.0, 30.0, 55.0, 65.0, 89.0])
 def test_a_master_facet_faces_the_point_within_the_largest_facing_angle(angle):
     """2D: a master facet through (0.5, 0) turned by ``angle`` from facing the slave point
-    0.01 below it (n_s·ν = −cos angle): paired below θ_max = 60° (gap 0.01 cos angle, the
+    0.01 below it (n_s·ν = −cos angle): paired below θ_max = 85° (gap 0.01 cos angle, the
     distance to the facet's line), not beyond (kernels.gap.MAX_FACING_ANGLE)."""
     from dolfinx_mortar.kernels.gap import MAX_FACING_ANGLE
 
@@ -522,7 +522,7 @@ def test_a_master_side_beside_the_point_is_not_paired():
     towards the slave, its side x = 0 tilted by 1° towards the slave, as a load leaves
     it). A slave point beyond the master's edge, beside the side (x = −0.05, y = 0.01,
     its normal +y) projects inside the side with n_s·ν = −sin 1°: the rule n_s·ν < 0
-    paired it with its horizontal distance 0.05 as the gap; under n_s·ν < −cos 60° it
+    paired it with its horizontal distance 0.05 as the gap; under n_s·ν < −cos 85° it
     stays unpaired, as it is without the side (its projection onto the face lies 0.05
     beyond the face's end and it penetrates: neither tolerance applies). A point under
     the face pairs with the face."""

@@ -181,7 +181,7 @@ def test_2d_master_side_at_right_angles_is_not_counted():
     x ∈ [0.3, 1.3] (normal −y) and the master body's side x = 0.3 up to y = 0.5, turned
     by 1° towards the slave (n_s·ν = −sin 1°). The side projects onto the slave facet as a
     sliver 0.5 sin 1° = 0.0087 long; under the rule n_s·ν < 0 it was counted, now
-    (n_s·ν < −cos 60°, kernels.gap.faces) only the face: the weights sum to its overlap
+    (n_s·ν < −cos 85°, kernels.gap.faces) only the face: the weights sum to its overlap
     0.7, in the kernel and its NumPy reference alike."""
     tilt = np.deg2rad(1.0)
     xs = np.array([[[0.0, 0.0], [1.0, 0.0]]])

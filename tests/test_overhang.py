@@ -17,7 +17,7 @@ averaged those positive gaps with the penetration of its other points and read o
 2.9770 (−4.6 %); segment integration counted the sides' thin projections (3.1292 to
 3.1282, −3.2e-4); node integration was not affected (its points are the slave's nodes,
 none of them beside a side). Now a master facet faces a slave point only where
-n_s·ν < −cos θ_max, θ_max = 60° (:data:`dolfinx_mortar.kernels.gap.MAX_FACING_ANGLE`;
+n_s·ν < −cos θ_max, θ_max = 85° (:data:`dolfinx_mortar.kernels.gap.MAX_FACING_ANGLE`;
 docs/method-notes.md, "Pairing"). The mesh gives the probe's figures.
 """
 
@@ -134,7 +134,7 @@ def test_unreachable_master_sides_change_nothing(overhang_msh, integration):
     base reads open (p_N = 0) while it penetrates.
 
     The sides face away from every slave point by ~89° (perpendicular at rest, tilted by
-    the load), beyond θ_max = 60°, so both masters pair the same points with the same
+    the load), beyond θ_max = 85°, so both masters pair the same points with the same
     facets and the two runs do the same arithmetic: the forces agree to round-off
     (measured: equal to the last digit; rel 1e-9 leaves room for the order of sums,
     and lies far below the errors this guards against: 4.6 % with element integration,

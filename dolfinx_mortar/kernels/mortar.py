@@ -13,7 +13,7 @@ it with one master facet. A projection is valid when ζ lies in the master
 reference facet (or, when no candidate contains it, at most ``OUTSIDE_TOL`` in ζ, or
 ``BLIND_SPOT_SLOPE`` g in distance for a point outside the master, outside the nearest
 one: the neighbourhood of a concave kink, and the blind spot of a convex vertex), the
-slave and master normals face each other (n_s·ν < −cos θ_max, θ_max = 60°: the one
+slave and master normals face each other (n_s·ν < −cos θ_max, θ_max = 85°: the one
 facing rule of every pairing, :func:`.gap.faces`, :data:`.gap.MAX_FACING_ANGLE`) and
 the penetration is not deeper than ``max_depth``. Unpaired points contribute to
 nothing (neither A^I nor G^I), in residual and tangent alike. Segment points

@@ -61,7 +61,7 @@ Geometry (current configuration ``xs`` / ``xm``)
     lets :mod:`.segment_reference` reproduce the points.
 
 Facing test (both dimensions): a segment is kept only when n_s·ν_m < −cos θ_max
-(:func:`.gap.faces`, θ_max = :data:`.gap.MAX_FACING_ANGLE` = 60°, the rule of element
+(:func:`.gap.faces`, θ_max = :data:`.gap.MAX_FACING_ANGLE` = 85°, the rule of element
 integration's pairing too), with n_s the slave unit normal (``ssign``) at the segment's
 midpoint / the polygon's vertex mean ξ̄, and ν_m the master unit normal (``msign``) at
 the closest-point projection of x_s(ξ̄) onto the master facet, clamped to the master
