@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import compat
 from .errors import SceneError
@@ -67,6 +68,38 @@ def _element_name(gmsh, etype: int) -> str:
     except Exception:  # gmsh raises bare Exceptions for a type it does not know
         return f"gmsh element type {etype}"
     return f"{nodes}-node {name.split()[0].lower()} (order {order})"
+
+
+def _outside_message(gmsh, name: str, dim: int, group_nodes, cell_nodes) -> str:
+    """The error for a physical group of dimension ``dim`` < tdim whose elements use nodes
+    (gmsh tags, ``group_nodes``) that no element of a physical group of cells uses
+    (``cell_nodes``). Either a body has no physical group of cells, or the mesh is not
+    conforming: the group's nodes duplicate cell nodes at the same positions (a surface
+    meshed or extruded apart from its volume; gmsh's ``removeDuplicateNodes`` merges
+    them). Rank 0 only."""
+    loose = np.setdiff1d(group_nodes, cell_nodes)
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    tags = np.asarray(tags, np.int64)
+    coords = np.asarray(coords).reshape(-1, 3)
+    order = np.argsort(tags)
+    x_loose = coords[order[np.searchsorted(tags, loose, sorter=order)]]
+    x_cells = coords[order[np.searchsorted(tags, np.unique(cell_nodes), sorter=order)]]
+    twins = 0
+    if x_cells.size:
+        tol = 1e-12 * max(float(np.ptp(coords, axis=0).max()), 1e-300)
+        twins = int(np.sum(cKDTree(x_cells).query(x_loose)[0] <= tol))
+    where = ", ".join(f"{v:.6g}" for v in x_loose[0])
+    head = (
+        f"the physical group {name!r} (dimension {dim}) uses {loose.size} node(s) that no "
+        f"element of a physical group of cells uses (node {loose[0]} at ({where}))"
+    )
+    if twins:
+        return (
+            f"{head}; {twins} of them lie where a cell's node lies: the mesh is not "
+            "conforming there (duplicate nodes; gmsh.model.mesh.removeDuplicateNodes() "
+            "merges them)"
+        )
+    return f"{head}: it lies outside every physical group of cells; give every body a physical group of cells"
 
 
 def _inspect_model(gmsh) -> dict:
@@ -128,9 +161,7 @@ def _inspect_model(gmsh) -> dict:
         if d < tdim and ns and not np.isin(np.concatenate(ns), cell_nodes).all():
             name = gmsh.model.getPhysicalName(d, tag) or str(tag)
             raise SceneError(
-                "mesh",
-                f"the physical group {name!r} (dimension {d}) lies outside every physical "
-                f"group of cells: give every body a physical group of cells",
+                "mesh", _outside_message(gmsh, name, d, np.concatenate(ns), cell_nodes)
             )
     names: dict[tuple[int, int], str] = {}
     unnamed = []  # groups without a physical name: known by their tag

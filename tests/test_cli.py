@@ -285,6 +285,16 @@ CASES = [
         "mesh",
         "lies outside every physical group of cells",
     ),
+    (  # gmsh meshed the surface apart from its volume: the message said "give every
+        # body a physical group of cells", which every body had
+        "mesh-not-conforming",
+        _set("mesh", None, file="detached.msh"),
+        "mesh",
+        "the physical group 'top' (dimension 1) uses 6 node(s) that no element of a "
+        "physical group of cells uses (node 7 at (0, 1, 0)); 6 of them lie where a cell's "
+        "node lies: the mesh is not conforming there (duplicate nodes; "
+        "gmsh.model.mesh.removeDuplicateNodes() merges them)",
+    ),
     (
         "mesh-cells-in-two-groups",
         _set("mesh", None, file="overlap.msh"),
@@ -328,6 +338,7 @@ def meshes(tmp_path_factory) -> Path:
         gmsh.finalize()
     write_two_squares_msh(d / "inner.msh")
     write_two_squares_msh(d / "loose.msh", loose=True)
+    write_two_squares_msh(d / "detached.msh", detached=True)
     write_two_squares_msh(d / "unnamed.msh", unnamed=True)
     write_two_squares_msh(d / "overlap.msh", extra_group=(2, "all"))
     write_two_squares_msh(d / "twofacet.msh", extra_group=(1, "load"))
@@ -340,7 +351,7 @@ def meshes(tmp_path_factory) -> Path:
 
 
 def write_two_squares_msh(
-    path: Path, loose: bool = False, unnamed: bool = False, extra_group=None
+    path: Path, loose: bool = False, unnamed: bool = False, extra_group=None, detached=False
 ) -> None:
     """Two unit squares sharing the edge x = 1: groups body, inner (the shared, interior
     edge) and top. ``loose``: the group body holds the first square only, so the file has
@@ -348,7 +359,9 @@ def write_two_squares_msh(
     body holds the first square, the second is a physical group without a name;
     ``extra_group`` (dim, name): one more group of the squares (dim 2, as a whole-domain
     group "all": cells in two groups, which broke dolfinx's mesh creation) or of the top
-    edges (dim 1: facets in two groups, of which dolfinx kept one)."""
+    edges (dim 1: facets in two groups, of which dolfinx kept one); ``detached``: top is
+    a line of its own from (0, 1) to (1, 1), not fragmented with the squares: its nodes
+    duplicate the squares' (a non-conforming mesh)."""
     import gmsh
 
     gmsh.initialize(["-noenv"], readConfigFiles=False)
@@ -357,6 +370,7 @@ def write_two_squares_msh(
         occ = gmsh.model.occ
         a, b = occ.addRectangle(0, 0, 0, 1, 1), occ.addRectangle(1, 0, 0, 1, 1)
         occ.fragment([(2, a)], [(2, b)])
+        line = occ.addLine(occ.addPoint(0, 1, 0), occ.addPoint(1, 1, 0)) if detached else None
         occ.synchronize()
         model = gmsh.model
         model.setPhysicalName(
@@ -370,6 +384,8 @@ def write_two_squares_msh(
                 for _, t in model.getEntities(1)
                 if abs(occ.getCenterOfMass(1, t)[axis] - value) < 1e-9
             ]
+            if detached and name == "top":
+                tags = [line]
             model.setPhysicalName(1, model.addPhysicalGroup(1, tags), name)
             if extra_group and extra_group[0] == 1 and name == "top":
                 model.setPhysicalName(1, model.addPhysicalGroup(1, tags), extra_group[1])
@@ -392,6 +408,7 @@ def workdir(meshes, tmp_path) -> Path:
         "ghost.msh",
         "inner.msh",
         "loose.msh",
+        "detached.msh",
         "empty.msh",
         "twins.msh",
         "unnamed.msh",
