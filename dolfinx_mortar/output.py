@@ -507,10 +507,10 @@ class OutputLock:
                 return _held(who)
             except OSError as exc:
                 os.close(fd)
+                if created:  # a record that a full disk refused left the file behind
+                    self.path.unlink(missing_ok=True)
                 if exc.errno not in NO_FLOCK:
                     raise
-                if created:
-                    self.path.unlink(missing_ok=True)
                 log.warning(
                     "%s: the file system refuses flock (%s): the run goes on without the "
                     "lock of its output directory",
@@ -573,6 +573,23 @@ class OutputLock:
             log.warning("could not remove the lock file %s: %s", self.path, exc)
         finally:
             os.close(fd)
+
+
+def _on_rank_0(comm, action):
+    """``action()`` on rank 0 (a file operation of its own), then one bcast (collective):
+    where it raised OSError, RuntimeError with its message on every rank, as dolfinx
+    raises where a collective HDF5 write fails (:meth:`OutputWriter._collective_io` makes
+    it an OutputError). Returns what ``action`` returned on rank 0, None elsewhere."""
+    result, reason = None, None
+    if comm.rank == 0:
+        try:
+            result = action()
+        except OSError as exc:
+            reason = str(exc)
+    reason = comm.bcast(reason, root=0)
+    if reason is not None:
+        raise RuntimeError(reason)
+    return result
 
 
 def write_contact_csv(path: Path, table: np.ndarray, gdim: int) -> None:
@@ -713,9 +730,11 @@ class XDMFSeries:
         names = self.paths(self.path)
         self.h5, self.live, self._tmp = names["h5"], names["live"], names["tmp"]
         self._live_h5 = live_h5 = names["live_h5"]
-        if comm.rank == 0:  # "w" below then creates a new file, not one a stale link shares
-            live_h5.unlink(missing_ok=True)
-        comm.barrier()
+        # rank 0's own file operations below raise RuntimeError on every rank where they
+        # fail (_on_rank_0), as dolfinx's collective writes do: an OSError on rank 0 alone
+        # left the other ranks waiting in the next collective (a 2-rank run hung)
+        # "w" below then creates a new file, not one a stale link shares
+        _on_rank_0(comm, lambda: live_h5.unlink(missing_ok=True))
         with io.XDMFFile(comm, str(self.live), "w") as file:
             file.write_mesh(mesh)
         linked = True
@@ -727,9 +746,9 @@ class XDMFSeries:
                 log.info("%s written in place (no hard link: %s)", self.path.name, exc)
                 linked = False
         if not comm.bcast(linked, root=0):
-            if comm.rank == 0:
-                self.live.unlink(missing_ok=True)
-                live_h5.unlink(missing_ok=True)
+            _on_rank_0(
+                comm, lambda: (self.live.unlink(missing_ok=True), live_h5.unlink(missing_ok=True))
+            )
             self.live = self.path
             with io.XDMFFile(comm, str(self.live), "w") as file:
                 file.write_mesh(mesh)
@@ -737,13 +756,14 @@ class XDMFSeries:
         #: and the published index's pieces (None: dolfinx keeps the whole index)
         self._skeleton: bytes | None = None
         self._index: XDMFIndex | None = None
-        if comm.rank == 0 and self.live != self.path:
-            self._skeleton = self.live.read_bytes()
+        if self.live != self.path:
+            self._skeleton = _on_rank_0(comm, self.live.read_bytes)
+        if self._skeleton is not None:  # rank 0
             self._index = XDMFIndex(self._skeleton, self._references())
         #: whether :meth:`open` calls on rank 0 to reset dolfinx's index (the same on every
         #: rank; rank 0 stops resetting where its :class:`XDMFIndex` cannot read the index)
         self._resets = comm.bcast(self._index is not None, root=0)
-        self._publish()
+        _on_rank_0(comm, self._publish)
         #: the file, open in append mode between :meth:`open` and :meth:`close`
         self.file = None
 
@@ -986,25 +1006,21 @@ class OutputWriter:
         and every contact file (CSV and XDMF) of the slave surfaces that the directory's
         summary.json names and this run does not have (another scene run into the same
         directory), so that the directory holds one run's output only. Nothing else is
-        touched."""
+        touched.
+
+        Raises OutputError on every rank where something of this fails (a full disk, an
+        OSError of rank 0's: every rank is told; SurfaceFields' RuntimeError): the caller
+        then ends the run with :meth:`fail_start`, which writes summary.json."""
         t0 = time.perf_counter()
-        if self.comm.rank == 0:
-            self.out_dir.mkdir(parents=True, exist_ok=True)
-            current = {term.slave_name for term in self.problem.contacts}
-            earlier = previous_slaves(self.out_dir) - current
-            csv = contact_csv_names(sorted(current | earlier))
-            stale = {f.name for f in self.out_dir.iterdir() if csv.fullmatch(f.name)}
-            stale.update(set(output_names(earlier)) - set(output_names()))
-            for name in sorted(stale):
-                f = self.out_dir / name
-                if f.is_file() or f.is_symlink():
-                    try:
-                        f.unlink()
-                    except OSError as exc:  # checked before (check_out_dir); rank 0 only
-                        log.warning("could not remove the earlier run's %s: %s", f, exc)
-        self.comm.barrier()
         p = self.problem
         try:
+            with self._collective_io():
+                _on_rank_0(self.comm, self._remove_earlier_files)
+            if self.comm.rank == 0 and self.lock is not None:
+                # the reserve's first part (RESERVE_MARGIN) before the first room check, so
+                # that a run stopped by it can still say so in summary.json (fail_start)
+                with contextlib.suppress(OSError):  # no room for it: the check fails too
+                    self.lock.reserve(self._reserve_bytes())
             self._check_room("the meshes and step 0", mesh=True)  # before the first HDF5 write
             with self._collective_io():
                 self._xdmf = XDMFSeries(self.comm, self.out_dir / "fields.xdmf", p.mesh)
@@ -1016,6 +1032,78 @@ class OutputWriter:
         finally:
             self.elapsed += time.perf_counter() - t0
         self.write_step(0, 0.0, None)
+
+    def _remove_earlier_files(self) -> None:
+        """Create the directory and remove an earlier run's contact files (rank 0; local:
+        :meth:`start`). An OSError of the directory is raised, one of a file logged."""
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        current = {term.slave_name for term in self.problem.contacts}
+        earlier = previous_slaves(self.out_dir) - current
+        csv = contact_csv_names(sorted(current | earlier))
+        stale = {f.name for f in self.out_dir.iterdir() if csv.fullmatch(f.name)}
+        stale.update(set(output_names(earlier)) - set(output_names()))
+        for name in sorted(stale):
+            f = self.out_dir / name
+            if f.is_file() or f.is_symlink():
+                try:
+                    f.unlink()
+                except OSError as exc:  # checked before (check_out_dir); rank 0 only
+                    log.warning("could not remove the earlier run's %s: %s", f, exc)
+
+    def fail_start(self, error: str, timings: dict | None = None) -> str:
+        """End a run whose :meth:`start` raised OutputError (on every rank; collective):
+        the series' files are closed and removed with the step-0 contact CSVs (rank 0:
+        :meth:`_remove_run_files`; an earlier run's of the same names too, as the run would
+        have replaced them), and summary.json says ``"status": "failed"``, ``error``, no
+        steps and the run-level ``timings`` (with ``"output"``), the reserve of room for
+        it freed first: the directory holds the run's summary.json and nothing else of it
+        (before, a failure there left no summary.json, or one at "running", and the
+        hidden series). Returns the one line for the caller (the same on every rank):
+        ``error``, and where summary.json could not be written either (a full disk, the
+        directory gone), why."""
+        t0 = time.perf_counter()
+        with contextlib.suppress(OutputError):  # a file left open by the failed write
+            with self._collective_io():
+                self._close_files()
+        self._surfaces, self._xdmf = [], None
+        if self.comm.rank == 0:
+            self._remove_run_files()
+        self.elapsed += time.perf_counter() - t0
+        self.summary["status"] = "failed"
+        self.summary["error"] = error
+        if timings is not None:
+            self.summary["timings"] = dict(timings, output=self.elapsed)
+        reason = None
+        if self.comm.rank == 0:
+            self._free_reserve()
+            try:
+                self._write_summary()
+            except OSError as exc:  # the caller's one line says so
+                reason = str(exc)
+        reason = self.comm.bcast(reason, root=0)
+        if reason is None:
+            return error
+        return f"{error}; summary.json could not be written either: {reason}"
+
+    def _remove_run_files(self) -> None:
+        """Remove the run's XDMF series (public, hidden and temporary names), its contact
+        CSVs and summary.json.tmp (rank 0; local; an OSError is logged): after a failed
+        :meth:`start`, no step of them is whole."""
+        slaves = [term.slave_name for term in self.problem.contacts]
+        csv = contact_csv_names(slaves)
+        names = set(output_names(slaves)) - {"summary.json"}
+        try:
+            names.update(f.name for f in self.out_dir.iterdir() if csv.fullmatch(f.name))
+        except OSError as exc:  # the directory gone
+            log.warning("could not list %s: %s", self.out_dir, exc)
+            return
+        for name in sorted(names):
+            f = self.out_dir / name
+            if f.is_file() or f.is_symlink():
+                try:
+                    f.unlink()
+                except OSError as exc:
+                    log.warning("could not remove %s of the failed start: %s", f, exc)
 
     def _contact_names(self) -> dict[str, str]:
         """The contact fields written ({output.fields key: function name}; local)."""

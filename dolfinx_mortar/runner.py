@@ -282,7 +282,12 @@ def run(
     Raises SceneError before writing anything when the input is bad (the output
     directory too: checked before the set-up), TypeError when ``scene`` is not a
     :class:`~dolfinx_mortar.scene.Scene`, and OutputError on every rank where the
-    initial state cannot be written (a full disk). A run that stops (a step that fails
+    initial state cannot be written (a full disk, a surface file that cannot be set up,
+    an OSError of rank 0's): summary.json then says "failed" and the error with
+    :data:`SETUP_FAILURE`, and nothing else of the run is left
+    (:meth:`OutputWriter.fail_start`); the exception's message is that error, plus why
+    where summary.json could not be written either, and its ``summary`` attribute the
+    summary. A Ctrl-C there: summary.json says "interrupted by …", as in the steps. A run that stops (a step that fails
     after its cutbacks, an option PETSc refuses in the solve, output that cannot be
     written after a step: OutputError on every rank) raises nothing: the summary's
     ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
@@ -362,10 +367,23 @@ def _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off,
     with stops_on_signals(comm):
         try:
             writer.start()
-        except OutputError:  # on every rank: the caller gets it (the CLI: one line, exit 1)
-            newton.destroy()
-            if setup is None:
-                problem.destroy()
+        except OutputError as exc:  # on every rank: summary.json says so, the caller is told
+            try:  # (the CLI: one line, exit status 1)
+                error = writer.fail_start(f"{exc} {SETUP_FAILURE}", totals)
+            finally:
+                newton.destroy()
+                if setup is None:
+                    problem.destroy()
+            failed = OutputError(error)
+            failed.summary = writer.summary
+            raise failed from None
+        except BaseException as exc:  # Ctrl-C, an error of some ranks: as in the steps
+            try:
+                writer.abandon(f"interrupted by {type(exc).__name__}: {exc}")
+            finally:
+                newton.destroy()
+                if setup is None:
+                    problem.destroy()
             raise
 
         mark = [0.0]  # when the set-up or the last converged step ended
@@ -439,6 +457,11 @@ def _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off,
             terminated.summary_kept = True
             raise terminated
         return writer.summary
+
+
+#: What summary.json's ``error`` (and the caller's OutputError) adds to the reason where
+#: the output failed before the initial state was written (:meth:`OutputWriter.fail_start`).
+SETUP_FAILURE = "(at set-up, before the initial state was written)"
 
 
 def terminated_text(signum: int, steps: list) -> str:

@@ -1298,6 +1298,42 @@ register_law("no-volume", psi)
 """
 
 
+# a --laws file runs on every rank before the scene is read: here it makes the writer's
+# start fail as a surface without its volume dofs does (SurfaceFields' RuntimeError)
+START_FAILS = """
+from dolfinx_mortar import output
+
+output.SurfaceFields._from_the_ghosts = lambda *args: 1
+"""
+
+
+def test_a_run_whose_output_cannot_start_ends_in_one_line_and_its_summary(workdir):
+    """The writer's start fails (the slave surface's file cannot be set up): exit status
+    1, one line on stderr (rank 0's, also on 2 ranks), no traceback, and the output
+    directory holds summary.json ("failed", the same reason, no step) and nothing else
+    of the run, the lock released. It left the series (hidden names too) and no
+    summary.json."""
+    (workdir / "fail.py").write_text(START_FAILS)
+    (workdir / "press.toml").write_text(to_toml(patch_press_scene(steps=2)))
+    for ranks in (0, 2):
+        out = f"start{ranks}"
+        res = cli(workdir, "run", "press.toml", "--laws", "fail.py", "--out", out, ranks=ranks)
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 1 and "Traceback" not in res.stderr, where
+        lines = res.stderr.splitlines()
+        assert len(lines) == 1, where
+        assert re.fullmatch(
+            rf"dolfinx-mortar: run failed: the output could not be written to {out}: "
+            r"contact_upper_bottom\.xdmf: \d+ surface dof\(s\) without a volume dof "
+            r"\(at set-up, before the initial state was written\)",
+            lines[0],
+        ), where
+        assert sorted(f.name for f in (workdir / out).iterdir()) == ["summary.json"]
+        summary = json.loads((workdir / out / "summary.json").read_text())
+        assert summary["status"] == "failed" and summary["steps"] == [], summary
+        assert lines[0] == f"dolfinx-mortar: run failed: {summary['error']}", summary
+
+
 def test_a_facet_collapsed_by_a_wild_iterate_stops_the_run_cleanly(workdir):
     """A Newton iterate that collapses a contact facet to zero size (the kernels divide by
     its Jacobian) gives a NaN residual, so the step is cut back and the run stops (exit 1,

@@ -589,21 +589,212 @@ def _disk_usage_running_out(monkeypatch, calls_with_room: int, ranks=None):
 
 def test_a_full_disk_stops_the_run_before_the_mesh_is_written(tmp_path, monkeypatch):
     """With 1000 bytes free the run stops before its first HDF5 write (the meshes and
-    step 0): OutputError, one line naming the directory and the bytes, nothing written.
-    Before, the HDF5 write itself failed (a 3-rank run hung in it)."""
+    step 0): OutputError, one line naming the directory and the bytes; summary.json says
+    "failed" with that line, no step and the run-level timings, and nothing else of the
+    run is there: an earlier run's files of the same names are gone, not left beside a
+    summary of another run. Before, the HDF5 write itself failed (a 3-rank run hung in
+    it), then (session 46-50) nothing was written, no summary.json, while the earlier
+    run's summary.json ("ok") stayed and its CSVs were removed."""
     from dolfinx_mortar import parse_scene, run
     from dolfinx_mortar.errors import OutputError
+    from dolfinx_mortar.runner import SETUP_FAILURE
 
     out = tmp_path / "out"
+    scene = parse_scene(patch_press_scene(steps=2), tmp_path)
+    run(scene, MPI.COMM_SELF, out_dir=out)  # the earlier run
+    assert "fields.xdmf" in {f.name for f in out.iterdir()}
     _disk_usage_running_out(monkeypatch, 0)
     with pytest.raises(OutputError) as info:
-        run(parse_scene(patch_press_scene(steps=2), tmp_path), MPI.COMM_SELF, out_dir=out)
+        run(scene, MPI.COMM_SELF, out_dir=out)
     message = str(info.value)
     assert "\n" not in message
     assert message.startswith(f"the output could not be written to {out}: not enough room, ")
+    assert message.endswith(f" needed for the meshes and step 0 {SETUP_FAILURE}")
     need = int(re.search(r"1000 bytes free, (\d+) needed for the meshes and step 0", message)[1])
     assert need > 1000
+    assert sorted(f.name for f in out.iterdir()) == ["summary.json"]
+    kept = json.loads((out / "summary.json").read_text())
+    assert kept == info.value.summary
+    assert kept["status"] == "failed" and kept["error"] == message and kept["steps"] == []
+    assert set(kept["timings"]) >= {"setup", "output", "total"}, kept["timings"]
+    assert kept["timings"]["setup"] > 0 and kept["timings"]["output"] > 0
+
+
+def _fail_start(monkeypatch, case: str) -> str:
+    """Make :meth:`OutputWriter.start` fail in one of its ways (collective); returns what
+    the one-line error holds. ``room``: no room for step 0's write (after the meshes);
+    ``surface``: a surface dof without a volume dof (SurfaceFields' RuntimeError);
+    ``hdf5``: dolfinx's RuntimeError of a full disk in step 0's surface write; ``csv``:
+    ENOSPC on rank 0's contact CSV of step 0; ``publish``: ENOSPC on rank 0's first
+    index of fields.xdmf, in the series' construction (an OSError of rank 0 alone, which
+    left the other ranks in the next collective: 2 ranks hung); ``unlink``: EACCES on
+    rank 0's removal of a stale hidden series (the same)."""
+    import errno
+
+    from dolfinx_mortar import output
+
+    if case == "room":
+        _disk_usage_running_out(monkeypatch, 1)
+        return "not enough room, 1000 bytes free, "
+    if case == "surface":
+        monkeypatch.setattr(output.SurfaceFields, "_from_the_ghosts", lambda *args: 1)
+        return "contact_upper_bottom.xdmf: "
+    if case == "hdf5":
+
+        def hdf5(self, f, t):
+            raise RuntimeError("Failed to write HDF5 local dataset into hyperslab.")
+
+        monkeypatch.setattr(output.SurfaceFields, "write", hdf5)
+        return "Failed to write HDF5 local dataset into hyperslab."
+    if case == "csv":
+
+        def csv(path, table, gdim):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+        monkeypatch.setattr(output, "write_contact_csv", csv)
+        return "No space left on device"
+    if case == "publish":
+        replace_text = output.replace_text
+
+        def publish(path, text, tmp=None):
+            if path.name == "fields.xdmf":
+                raise OSError(errno.ENOSPC, "No space left on device", str(path))
+            replace_text(path, text, tmp)
+
+        monkeypatch.setattr(output, "replace_text", publish)
+        return "No space left on device"
+    assert case == "unlink"
+    unlink = Path.unlink
+
+    def refuse(self, missing_ok=False):
+        if self.name == ".fields.h5":
+            raise PermissionError(errno.EACCES, "Permission denied", str(self))
+        unlink(self, missing_ok=missing_ok)
+
+    monkeypatch.setattr(Path, "unlink", refuse)
+    return "Permission denied"
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["room", "surface", "hdf5", "csv", "publish", "unlink"])
+def test_a_failed_start_leaves_a_summary_that_says_so(shared_tmp, monkeypatch, case):
+    """Every way the writer's start can fail (before the initial state is whole) ends the
+    run with the same one-line OutputError on every rank, and the directory holds the
+    run's summary.json ("failed", that line, no step) and nothing else: no hidden or
+    public series, no CSV of step 0, no lock file. Before (session 50), a failure there
+    left the series (hidden names too) and no summary.json, or one at "running" (the
+    CSV), and an OSError of rank 0's in the series' construction hung 2 ranks."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import OutputError
+    from dolfinx_mortar.runner import SETUP_FAILURE
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / case
+    scene = parse_scene(patch_press_scene(steps=2), shared_tmp)
+    reason = _fail_start(monkeypatch, case)
+    with pytest.raises(OutputError) as info:
+        run(scene, comm, out_dir=out)
+    message = str(info.value)
+    assert "\n" not in message and reason in message, message
+    assert message.startswith(f"the output could not be written to {out}: "), message
+    assert message.endswith(f" {SETUP_FAILURE}"), message
+    assert comm.allgather(message) == [message] * comm.size
+    assert info.value.summary["status"] == "failed" and info.value.summary["error"] == message
+    comm.barrier()
+    names = sorted(f.name for f in out.iterdir())
+    assert names == ["summary.json"], names
+    kept = json.loads((out / "summary.json").read_text())
+    assert kept["status"] == "failed" and kept["error"] == message and kept["steps"] == []
+    assert kept["ranks"] == comm.size
+
+
+@pytest.mark.mpi
+def test_a_failed_start_says_where_summary_json_could_not_be_written(shared_tmp, monkeypatch):
+    """No room for the meshes and none for summary.json either (its write fails with
+    ENOSPC): the one line on every rank says both, and nothing of the run is left."""
+    import errno
+
+    from dolfinx_mortar import output, parse_scene, run
+    from dolfinx_mortar.errors import OutputError
+    from dolfinx_mortar.runner import SETUP_FAILURE
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / "full"
+    _disk_usage_running_out(monkeypatch, 0)
+    replace_text = output.replace_text
+
+    def full(path, text, tmp=None):
+        if path.name == "summary.json":
+            raise OSError(errno.ENOSPC, "No space left on device")
+        replace_text(path, text, tmp)
+
+    monkeypatch.setattr(output, "replace_text", full)
+    with pytest.raises(OutputError) as info:
+        run(parse_scene(patch_press_scene(steps=2), shared_tmp), comm, out_dir=out)
+    message = str(info.value)
+    assert message.endswith(
+        f"needed for the meshes and step 0 {SETUP_FAILURE}; summary.json could not be "
+        "written either: [Errno 28] No space left on device"
+    ), message
+    assert comm.allgather(message) == [message] * comm.size
+    comm.barrier()
     assert sorted(f.name for f in out.iterdir()) == []
+
+
+def test_a_ctrl_c_in_the_first_write_leaves_a_summary_that_says_so(tmp_path, monkeypatch):
+    """A KeyboardInterrupt out of step 0's write (here its contact CSV) goes on to the
+    caller after summary.json has said "failed" and "interrupted by KeyboardInterrupt",
+    as in the steps (it left no summary.json, or one at "running"), and the lock is
+    released."""
+    from dolfinx_mortar import output, parse_scene, run
+
+    def interrupted(path, table, gdim):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(output, "write_contact_csv", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run(parse_scene(patch_press_scene(steps=2), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    kept = json.loads((tmp_path / "summary.json").read_text())
+    assert kept["status"] == "failed" and kept["steps"] == []
+    assert kept["error"] == "interrupted by KeyboardInterrupt: ", kept["error"]
+    assert not (tmp_path / output.LOCK_NAME).exists()
+
+
+def test_the_first_room_check_counts_the_reserve_for_summary_json(tmp_path, monkeypatch):
+    """The reserve of room for the final summary.json (RESERVE_MARGIN to start with) is
+    in the lock file before the first room check, so that a run that check stops can
+    still write its summary.json on a disk the check finds short (without it, a 64 KiB
+    file system with 24 KiB free left no summary.json)."""
+    from dolfinx_mortar import output, parse_scene, run
+
+    reserved = []
+    check_room = output.check_room
+
+    def spy(comm, out_dir, need, what="the next write"):
+        reserved.append(os.path.getsize(Path(out_dir) / output.LOCK_NAME))
+        check_room(comm, out_dir, need, what)
+
+    monkeypatch.setattr(output, "check_room", spy)
+    run(parse_scene(patch_press_scene(steps=1), tmp_path), MPI.COMM_SELF, out_dir=tmp_path)
+    assert reserved[0] >= output.RESERVE_MARGIN, reserved
+
+
+def test_a_lock_file_whose_record_a_full_disk_refuses_is_not_left(tmp_path, monkeypatch):
+    """A disk filled to 0 bytes: the lock file is created (an inode) but its record
+    cannot be written (ENOSPC): the run is refused (SceneError, nothing written) and the
+    file it created is removed (it was left behind)."""
+    import errno
+
+    from dolfinx_mortar import output
+    from dolfinx_mortar.errors import SceneError
+
+    def full(fd, data, offset):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(output.os, "pwrite", full)
+    with pytest.raises(SceneError, match="No space left on device"):
+        output.OutputLock(MPI.COMM_SELF, tmp_path, "--out")
+    assert list(tmp_path.iterdir()) == []
 
 
 def _assert_no_room_for_step_2(error: str, out) -> None:
