@@ -287,9 +287,10 @@ def run(
     :data:`SETUP_FAILURE`, and nothing else of the run is left
     (:meth:`OutputWriter.fail_start`); the exception's message is that error, plus why
     where summary.json could not be written either, and its ``summary`` attribute the
-    summary. A Ctrl-C there: summary.json says "interrupted by …", as in the steps. A run that stops (a step that fails
-    after its cutbacks, an option PETSc refuses in the solve, output that cannot be
-    written after a step: OutputError on every rank) raises nothing: the summary's
+    summary. A Ctrl-C there: summary.json says "interrupted by …", as in the steps. A
+    run that stops (a step that fails after its cutbacks, an option PETSc refuses in the
+    solve, output that cannot be written after a step: OutputError on every rank)
+    raises nothing: the summary's
     ``status`` is then "failed" and ``error`` says why (logged at INFO only: the caller
     reports it, as the command line does in one line). Any other exception in the steps
     (one that ``progress`` raises, KeyboardInterrupt) goes on to the caller after
