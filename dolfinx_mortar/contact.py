@@ -219,6 +219,18 @@ EXACT_FD_ROUND_OFF = 1e3
 #: largest slave facet; :meth:`MortarContact._exact_outcome`). It closes the penetration
 #: that the penalty allows, a small fraction of a facet with the auto penalty.
 EXACT_DU_MAX = 1.0
+#: A pair whose largest nodal pressure p̂ over the Uzawa round is at most this many times
+#: the nodal law's round-off, ε · eps · max|x_s| (:meth:`MortarContact._law_round_off`),
+#: carries no load the law can resolve: the round counts as converged as where max p̂ = 0
+#: (:meth:`MortarContact.uzawa_update`, :meth:`MortarContact._clear_unloaded`). Such a p̂
+#: is the penalty times a gap of 1e3 units of round-off of the slave coordinates
+#: (2e-13 × max|x_s|): a contact that closes or opens exactly at a step's end, whose
+#: relative multiplier change, measured against that p̂, was round-off over round-off
+#: (1, 0.5, 2.2, 0.72 …) and never met the tolerance. Measured at such steps: max p̂ =
+#: 6e-14 at the touch and 4.4e-11 at the release (0.8 × the round-off) of a 2D patch;
+#: the pressures of a loaded contact are many orders above (the same patch: 1.27, 1e10
+#: times the floor).
+UNLOADED_ROUND_OFF = 1e3
 #: The tangential recoveries whose nodes the chattering control freezes in STICK at a slip
 #: reversal (``_add_tangential_jacobian``); the unconstrained one freezes after
 #: FREEZE_AFTER Jacobians only.
@@ -2983,7 +2995,11 @@ class MortarContact:
         solve whose frozen or held states the free law contradicts); otherwise the step
         is accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`). λ is
         kept ≥ 0. With friction the change counts max |τ − λ_T| too,
-        and a solve that ended with frozen stick/slip states (chattering control) is not
+        measured, as max |p̂ − λ|, against the largest p̂ of the pair; a pair whose
+        largest p̂ is at most :data:`UNLOADED_ROUND_OFF` times the nodal law's round-off
+        (0 included: a contact open, or touching exactly, at the step's end) counts as
+        converged with λ ← max(p̂, 0), λ_T ← τ̂ (:meth:`_clear_unloaded`; summary.json
+        ``unloaded``: that p̂ where it is not 0), and a solve that ended with frozen stick/slip states (chattering control) is not
         accepted when the free states differ: another solve follows with the states free.
 
         With ``carry_states`` (set by the load-stepping driver for the retry of a step that
@@ -3004,8 +3020,14 @@ class MortarContact:
         pmax_aug = comm.allreduce(np.where(sliver, 0.0, self.p_hat).max(initial=0.0), op=MPI.MAX)
         pref = pmax_aug if pmax_aug > 0 else pmax
         change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
-        rel = change / pref if pref > 0 else 0.0
+        # a pair whose pressures are all at the law's round-off carries no load: its
+        # relative change would be round-off over round-off (UNLOADED_ROUND_OFF)
+        floor = UNLOADED_ROUND_OFF * self._law_round_off() if self.uzawa_tol > 0.0 else 0.0
+        unloaded = pmax <= floor
+        rel = change / pref if pref > 0 and not unloaded else 0.0
         info = {"multiplier_change": rel, "max_penetration": self._max_penetration()}
+        if unloaded and pmax > 0.0:
+            info["unloaded"] = pmax
         n_sliver = comm.allreduce(int(np.count_nonzero(sliver)))
         if n_sliver:
             info["sliver_nodes"] = n_sliver
@@ -3027,7 +3049,7 @@ class MortarContact:
                 # state also satisfies the free law to that tolerance (a node at the edge
                 # of the Coulomb cone, where stick and slip give the same traction)
                 dtau = np.linalg.norm(tau_law - self.tau_law, axis=1)
-                off = dtau > self.uzawa_tol * pmax
+                off = dtau > (floor if unloaded else self.uzawa_tol * pmax)
                 local = np.count_nonzero(((fstate != self.fstate) | moved) & off)
                 changed = comm.allreduce(int(local))
                 info["unfrozen_states"] = changed
@@ -3041,7 +3063,7 @@ class MortarContact:
             # λ_T = τ_n (lmbda_t_committed)
             target = np.where(sliver[:, None], self.lmbda_t_committed, tau_law)
             dt = np.linalg.norm(target - self.lmbda_t, axis=1).max(initial=0.0)
-            rel_t = comm.allreduce(dt, op=MPI.MAX) / pref if pref > 0 else 0.0
+            rel_t = comm.allreduce(dt, op=MPI.MAX) / pref if pref > 0 and not unloaded else 0.0
             info["tangential_change"] = rel_t
             norm = np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)
             carry = (fstate.copy(), tau_law / norm[:, None])
@@ -3080,7 +3102,11 @@ class MortarContact:
         if self.held is not None:
             # held in contact, but in tension beyond the tolerance: the law opens it (held
             # is set at the same Jacobian on every rank, so the count is collective)
-            wrong = self.held & ~self.active & (self.p < -self.uzawa_tol * pmax)
+            wrong = (
+                self.held
+                & ~self.active
+                & (self.p < -(floor if unloaded else self.uzawa_tol * pmax))
+            )
             released = comm.allreduce(int(np.count_nonzero(wrong)))
             if released:
                 info["released_nodes"] = released
@@ -3091,7 +3117,7 @@ class MortarContact:
         # rounds keeps free states
         self._carried = carry if changed or not done else None
         if done:
-            self._clear_unloaded(pmax, tau_law if self.frictional else None, info, True)
+            self._clear_unloaded(unloaded, tau_law if self.frictional else None, info, True)
             return changed == 0, info
         if self.uzawa_acceleration.method == "newton":  # exact_update_applies
             if changed:
@@ -3116,7 +3142,7 @@ class MortarContact:
                     self.lmbda_t = lam_t
             else:
                 self.lmbda = self._exact_multipliers(d, info, self._forcing(EXACT_UPDATE_RTOL, rel))
-            self._clear_unloaded(pmax, None, info, False)
+            self._clear_unloaded(unloaded, None, info, False)
             return False, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x
         x = np.concatenate([self.lmbda, self.lmbda_t.ravel()]) if self.frictional else self.lmbda
@@ -3129,7 +3155,7 @@ class MortarContact:
         self.lmbda = np.maximum(x[:n], 0.0)
         if self.frictional:
             self.lmbda_t = x[n:].reshape(self.lmbda_t.shape)
-        self._clear_unloaded(pmax, None, info, False)
+        self._clear_unloaded(unloaded, None, info, False)
         return False, info
 
     def sliver_nodes(self) -> np.ndarray:
@@ -3145,20 +3171,22 @@ class MortarContact:
         return self.has_area & (self.A < SLIVER_FRACTION * self.full_area)
 
     def _clear_unloaded(
-        self, pmax: float, tau_law: np.ndarray | None, info: dict, converged: bool
+        self, unloaded: bool, tau_law: np.ndarray | None, info: dict, converged: bool
     ) -> None:
         """The plain update λ ← p̂, λ_T ← τ̂ where it leaves the converged state as it is
-        (local; ``pmax``, the largest p̂ of the pair, is reduced over the ranks, so every
-        rank takes the same branch). Not with ``uzawa_tol = 0`` (pure penalty: λ stays 0,
-        λ_T is the history τ_n).
+        (local; ``unloaded`` is decided on the largest p̂ of the pair reduced over the
+        ranks, so every rank takes the same branch). Not with ``uzawa_tol = 0`` (pure
+        penalty: λ stays 0, λ_T is the history τ_n).
 
-        - ``pmax = 0`` (no node of the pair carries pressure, the round counts as
-          converged): every node takes λ ← p̂ = 0 and, with friction, λ_T ← τ̂ (``tau_law``:
-          the free law's traction, 0 where nothing is pressed). With p̂ = ⟨λ − εγ⟩ = 0,
-          λ ≤ εγ at every node with paired area, so p̂ stays 0 with λ = 0 and the state
-          (the residual, the tangent) does not change: no solve follows. Without it the
-          multipliers of the last state in contact survived any number of open steps and
-          pressed at re-contact (a ghost pressure p̂ = λ − εγ > 0 at γ > 0).
+        - ``unloaded`` (max p̂ of the pair at most :data:`UNLOADED_ROUND_OFF` times the
+          law's round-off, 0 included; the round counts as converged): every node takes
+          λ ← max(p̂, 0) and, with friction, λ_T ← τ̂ (``tau_law``: the free law's traction,
+          0 where nothing is pressed). With p̂ = ⟨λ − εγ⟩ = 0, λ ≤ εγ at every node with
+          paired area, so p̂ stays 0 with λ = 0 and the state (the residual, the tangent)
+          does not change: no solve follows; with p̂ at the round-off level it changes by
+          that level (p̂ becomes ⟨2p̂ − λ⟩ ∈ [0, 2p̂]). Without it the multipliers of the
+          last state in contact survived any number of open steps and pressed at
+          re-contact (a ghost pressure p̂ = λ − εγ > 0 at γ > 0).
         - every round (``converged``: the round converged, no update; otherwise after the
           update): a node without paired area (a slave node beyond the master's edge;
           ``has_area``) takes λ = 0, λ_T = 0, its p̂ and τ̂ whatever its multipliers; such
@@ -3172,14 +3200,14 @@ class MortarContact:
         (:class:`UzawaAcceleration`) restarts: its last x is no longer the iterate."""
         if self.uzawa_tol == 0.0:
             return
-        nodes = np.ones(self.lmbda.shape, bool) if pmax <= 0.0 else ~self.has_area
+        nodes = np.ones(self.lmbda.shape, bool) if unloaded else ~self.has_area
         sliver = self.sliver_nodes() & ~nodes
         nodes |= sliver
         stale = nodes & (self.lmbda != 0.0)
         if self.frictional:
             stale |= nodes & ~sliver & np.any(self.lmbda_t != 0.0, axis=1)
             stale |= sliver & np.any(self.lmbda_t != self.lmbda_t_committed, axis=1)
-        if pmax <= 0.0:  # a converged round (rel = 0)
+        if unloaded:  # a converged round (rel = 0)
             self.lmbda = np.maximum(self.p_hat, 0.0)
             if self.frictional:
                 self.lmbda_t = tau_law.copy()

@@ -875,3 +875,76 @@ def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory)
     up, low = (np.array(steps[-1]["reactions"][k]) for k in ("upper_top", "lower_bottom"))
     assert np.allclose(up + low, 0.0, atol=1e-9)
     assert low[1] > 0.5 and abs(low[0]) <= 0.3 * low[1] * (1 + 1e-9)
+
+
+def _grazing(integration: str, friction: float, scale_e: float = 1.0, scale_l: float = 1.0):
+    """patch2d (linear elastic, E = 1000, small strain; steps of 0.25): the upper block
+    lifted by 0.001 (t = 1), pressed to −0.003 while shifted by 5e-4 (t = 2), lifted back
+    (t = 3) and pressed again (t = 4). The gap closes on every node exactly at t = 1.25 and
+    opens exactly at t = 2.75, both step ends. ``scale_e`` multiplies E (pressures),
+    ``scale_l`` the lengths (mesh and path). With friction the run ends at t = 2: the
+    frictional release still stalls Newton (docs/method-notes.md, "A contact that touches
+    or releases exactly at a step's end")."""
+    path = [[0, 0, 0], [1, 0, 1e-3], [2, 5e-4, -3e-3], [3, 0, 1e-3], [4, 5e-4, -3e-3]]
+    path = [[row[0]] + [v * scale_l for v in row[1:]] for row in path]
+    params = {"L": scale_l, "H": 0.5 * scale_l, "n_lower": 4, "n_upper": 5, "n_y": 2}
+    t_end = 2.0 if friction > 0.0 else 4.0
+    return {
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": params},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 1e3 * scale_e, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": _patch_pair(friction=friction, integration=integration, uzawa_tol=1e-6),
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0, 0, 0], [4, 0, 0]]},
+            {"boundary": "upper_top", "path": path},
+        ],
+        "steps": {"t_end": t_end, "n": round(4 * t_end), "max_cutbacks": 3},
+    }
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "integration, friction, scale_e, scale_l",
+    [
+        ("segment", 0.3, 1.0, 1.0),
+        ("element", 0.3, 1.0, 1.0),
+        ("segment", 0.0, 1.0, 1.0),
+        ("element", 0.0, 1.0, 1.0),
+        ("element", 0.3, 1e8, 1e-3),  # SI units (m, Pa) of a model in mm and MPa
+        ("segment", 0.0, 1e8, 1e-3),
+    ],
+)
+def test_a_contact_closing_or_opening_at_a_step_end_converges(
+    integration, friction, scale_e, scale_l, tmp_path_factory
+):
+    """At an exact touch or release every p̂ is the law's round-off (6e-14 at the touch,
+    4.4e-11 at the release, against a round-off of 6.1e-11), and the relative multiplier
+    change, measured against that p̂, was round-off over round-off: the touch took 2–5
+    rounds (μ = 0.3: 5), the frictionless release 5–6, the frictional release stopped
+    ("Uzawa augmentation stalled", multiplier changes 0.08 … 5e2). A pair whose largest
+    p̂ is at most contact.UNLOADED_ROUND_OFF × that round-off counts as converged (as at
+    p̂ = 0): the touch takes one round, the frictionless release 2, no cutback, and the
+    second press ends as the first. The same in other units (E × 1e8, lengths × 1e-3).
+    1–3 ranks."""
+    data = _grazing(integration, friction, scale_e, scale_l)
+    steps = _run_scene(data, tmp_path_factory, "grazing")["steps"]
+    n = data["steps"]["n"]
+    assert np.allclose([st["t"] for st in steps], 0.25 * np.arange(1, n + 1)), [
+        (st["t"], st["uzawa_rounds"], st["cutbacks"]) for st in steps
+    ]
+    assert all(st["cutbacks"] == 0 for st in steps)
+    assert steps[4]["uzawa_rounds"] == 1, steps[4]["uzawa_rounds"]  # the touch, t = 1.25
+    (entry,) = steps[4]["uzawa"][0].values()
+    assert entry["multiplier_change"] == 0.0
+    force = [np.asarray(next(iter(st["contact_force"].values()))) for st in steps]
+    scale = scale_e * scale_l  # forces per unit thickness
+    assert np.abs(force[4]).max() <= 1e-7 * scale, force[4]  # round-off only
+    assert np.abs(force[7]).max() > 3.0 * scale  # pressed at t = 2
+    if n < 16:
+        return
+    assert steps[10]["uzawa_rounds"] <= 2, steps[10]["uzawa_rounds"]  # the release, 2.75
+    assert np.abs(force[10]).max() <= 1e-7 * scale, force[10]
+    assert np.allclose(force[15], force[7], rtol=1e-6, atol=1e-9 * scale)
