@@ -2999,8 +2999,9 @@ class MortarContact:
         largest p̂ is at most :data:`UNLOADED_ROUND_OFF` times the nodal law's round-off
         (0 included: a contact open, or touching exactly, at the step's end) counts as
         converged with λ ← max(p̂, 0), λ_T ← τ̂ (:meth:`_clear_unloaded`; summary.json
-        ``unloaded``: that p̂ where it is not 0), and a solve that ended with frozen stick/slip states (chattering control) is not
-        accepted when the free states differ: another solve follows with the states free.
+        ``unloaded``: that p̂ where it is not 0), and a solve that ended with frozen
+        stick/slip states (chattering control) is not accepted when the free states
+        differ: another solve follows with the states free.
 
         With ``carry_states`` (set by the load-stepping driver for the retry of a step that
         failed with :class:`~dolfinx_mortar.errors.FrozenStatesError`) the next solve
