@@ -99,13 +99,121 @@ def vector_space(mesh, degree: int):
     return fem.VectorFunctionSpace(mesh, ("CG", degree))
 
 
-def facet_submesh(mesh, facets: np.ndarray):
-    """The facets ``facets`` (local indices) of ``mesh`` as a mesh of their own
-    (collective). dolfinx 0.5.2 builds curved (P2) facets with a wrong geometry, so the
-    caller must only ask for affine ones."""
-    from dolfinx.mesh import create_submesh
+#: The cell type of a mesh's facets and their number of vertices, by the mesh's cell type
+#: (dolfinx's names).
+FACET_CELL = {
+    "triangle": ("interval", 2),
+    "quadrilateral": ("interval", 2),
+    "tetrahedron": ("triangle", 3),
+    "hexahedron": ("quadrilateral", 4),
+}
 
-    return create_submesh(mesh, mesh.topology.dim - 1, facets)[0]
+
+def facet_submesh(mesh, facets: np.ndarray):
+    """The facets ``facets`` (local indices; ghost facets are skipped, their owners give
+    them) of ``mesh`` as a mesh of their own (collective; affine geometry, degree 1), in
+    the volume mesh's coordinates (gdim columns): each surface cell stays on the rank
+    that owns its facet, with no ghost cells, and each surface vertex is owned by a rank
+    that holds one of its surface cells. The surface's input node indices
+    (``geometry.input_global_indices``) are the volume mesh's global geometry nodes.
+
+    dolfinx 0.5.2's ``create_submesh`` gave each surface vertex the owner it has in the
+    volume mesh, a rank that may hold none of the surface cells around it (a 3-rank
+    tetrahedral patch): the XDMF writer takes a node's values from the rank's own cells
+    and wrote 0 there. Here ``create_mesh`` builds the surface from each rank's owned
+    facets (their nodes as the volume's global geometry indices, the coordinates as each
+    rank's owned volume nodes), with a partitioner that keeps every cell on the rank that
+    gives it. dolfinx 0.5.2 finds the ranks that share a vertex through the ghost cells
+    that the partitioner names (it asks for a layer by facet, and drops it afterwards
+    with ``GhostMode.none``; a partitioner that named none left every rank owning its
+    own copy of the shared vertices): each cell is named a ghost on every other rank
+    whose cells hold one of its vertices (:func:`_ghost_destinations`), a layer by vertex,
+    so that vertices shared at a corner only are found as well. No cell moves.
+    Curved (P2) facets are not built (the caller asks for affine ones only)."""
+    from dolfinx.cpp.graph import AdjacencyList_int32
+    from dolfinx.cpp.mesh import GhostMode, entities_to_geometry
+    from dolfinx.mesh import create_mesh
+
+    comm = mesh.comm
+    tdim, gdim = mesh.topology.dim, mesh.geometry.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    owned = np.asarray(facets, dtype=np.int32)
+    owned = owned[owned < mesh.topology.index_map(tdim - 1).size_local]
+    facet, per_facet = FACET_CELL[mesh.topology.cell_name()]
+    cpp_mesh = getattr(mesh, "_mesh", mesh)  # Debian's 0.5.2 wraps the C++ mesh
+    nodes = entities_to_geometry(cpp_mesh, tdim - 1, owned, False)  # local geometry nodes
+    nodes = np.asarray(nodes, dtype=np.int32).reshape(owned.size, per_facet)
+    gmap = mesh.geometry.index_map()
+    cells = np.asarray(gmap.local_to_global(nodes.reshape(-1)), dtype=np.int64)
+    cells = cells.reshape(owned.size, per_facet)
+    data, offsets = _ghost_destinations(comm, gmap, nodes)
+
+    def stay(comm_, nparts, dim, cells_, ghost_mode):
+        if cells_.num_nodes != owned.size:
+            raise RuntimeError("facet_submesh: the partitioner got other cells than given")
+        return AdjacencyList_int32(data, offsets)
+
+    x = np.ascontiguousarray(mesh.geometry.x[: gmap.size_local, :gdim])  # in global order
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.Cell(facet, geometric_dimension=gdim), 1))
+    return create_mesh(comm, cells, x, domain, GhostMode.none, stay)
+
+
+def _ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """The indices ``starts[i] .. starts[i] + counts[i] - 1`` for each i, concatenated."""
+    total = int(counts.sum())
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.repeat(starts, counts) + np.arange(total) - first
+
+
+def _ghost_destinations(comm, gmap, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The destinations of each of this rank's surface cells, whose local geometry nodes
+    are the rows of ``nodes`` (n_cells, nodes per cell), as an adjacency list (``data``,
+    ``offsets``; int32): this rank, then, sorted, every other rank whose cells hold one of
+    the cell's nodes (collective: two ``alltoall``, through each node's owner in ``gmap``,
+    the volume mesh's geometry index map, where every rank whose cells hold a node has
+    it, owned or ghost)."""
+    rank, size = comm.rank, comm.size
+    local = np.unique(nodes)
+    owners = np.full(local.size, rank, dtype=np.int64)
+    ghost = local >= gmap.size_local
+    owners[ghost] = np.asarray(gmap.owners)[local[ghost] - gmap.size_local]
+    glob = np.asarray(gmap.local_to_global(local.astype(np.int32)), dtype=np.int64)
+    order = np.argsort(owners, kind="stable")
+    bounds = np.searchsorted(owners[order], np.arange(size + 1))
+    asked = comm.alltoall([glob[order[bounds[r] : bounds[r + 1]]] for r in range(size)])
+    # at each node's owner: the ranks that asked about it, sorted by node then rank
+    g = np.concatenate([np.asarray(a, dtype=np.int64) for a in asked])
+    by = np.repeat(np.arange(size), [len(a) for a in asked])
+    key = np.lexsort((by, g))
+    g, by = g[key], by[key]
+    known, first, count = np.unique(g, return_index=True, return_counts=True)
+    answers = []
+    for a in asked:  # for each node asked: how many ranks, then the ranks
+        k = np.searchsorted(known, np.asarray(a, dtype=np.int64))
+        answers.append((count[k], by[_ranges(first[k], count[k])]))
+    answers = comm.alltoall(answers)
+    # (local node, rank holding it) for every node of this rank's cells
+    pair_node = np.concatenate(
+        [np.repeat(local[order[bounds[r] : bounds[r + 1]]], answers[r][0]) for r in range(size)]
+    )
+    pair_rank = np.concatenate([answers[r][1] for r in range(size)]).astype(np.int64)
+    key = np.argsort(pair_node, kind="stable")
+    pair_node, pair_rank = pair_node[key], pair_rank[key]
+    # (cell, rank) for every node of every cell, then each other rank once per cell
+    n_cells, per_cell = nodes.shape
+    flat = nodes.reshape(-1)
+    lo = np.searchsorted(pair_node, flat, side="left")
+    hi = np.searchsorted(pair_node, flat, side="right")
+    cell = np.repeat(np.repeat(np.arange(n_cells), per_cell), hi - lo)
+    other = pair_rank[_ranges(lo, hi - lo)]
+    pairs = np.unique(cell[other != rank] * size + other[other != rank])
+    cell, other = pairs // size, pairs % size
+    per = np.bincount(cell, minlength=n_cells) + 1  # this rank first
+    offsets = np.concatenate([[0], np.cumsum(per)]).astype(np.int32)
+    data = np.full(int(offsets[-1]), rank, dtype=np.int32)
+    within = np.arange(cell.size) - np.searchsorted(cell, cell, side="left")
+    data[offsets[cell] + 1 + within] = other
+    return data, offsets
 
 
 def model_to_mesh(model, comm, gdim: int):

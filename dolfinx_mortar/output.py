@@ -839,15 +839,17 @@ class SurfaceFields:
 
     ``Q``: the scalar Lagrange space of the volume fields (its dofs, in blocks, are those
     of the displacement space: the same element, the same layout); ``facets``: local
-    indices of the group's facets. Each surface dof of a rank's own surface cells is
-    matched, on that rank, to the volume dof at the same coordinates among the dofs of
-    those facets (a k-d tree; not among all dofs: a touching body can have a node at the
-    same place). dolfinx 0.5.2's submesh gives a vertex the owner it has in the volume
-    mesh, and that rank may hold none of the surface cells around it (it holds the
-    facets as ghosts, or not at all: a 3-rank tetrahedral patch): such an owned dof has
-    no coordinates there ((0, 0, 0)). The ranks whose cells hold it therefore send its
-    owner the global index of the volume dof they found (one ``alltoall``), which the
-    owner holds, since it owns the vertex in the volume mesh too. ``parent``
+    indices of the group's facets. The surface mesh (:func:`~dolfinx_mortar.compat.facet_submesh`)
+    holds each rank's owned facets, without ghost cells, and each of its vertices is owned
+    by a rank whose cells hold it: every surface dof of a rank (owned and ghost) lies in
+    one of its cells, where its coordinates are right, and dolfinx 0.5.2's XDMF writer,
+    which takes a node's values from the rank's cells, writes every owned node's value.
+    (Before session 51 the submesh kept the volume mesh's vertex owners, which on a 3-rank
+    tetrahedral patch held none of the surface cells around a node: the file read 0 there.)
+    Each surface dof is matched, on its rank, to the volume dof at the same coordinates
+    among the dofs of that rank's owned facets (a k-d tree, within 1e-10 of the surface's
+    size plus SURFACE_MATCH_ULPS of the coordinates' round-off; not among all dofs: a
+    touching body can have a node at the same place). ``parent``
     (n_owned_surface_dofs,) holds the local volume dof of each owned surface dof; the
     surface's ghost values then come from their owners."""
 
@@ -859,74 +861,36 @@ class SurfaceFields:
         self.V = compat.vector_space(self.surface, degree)
         imap = self.Q.dofmap.index_map
         owned = imap.size_local
-        # the surface dofs of this rank's surface cells: their coordinates are right
+        local = owned + imap.num_ghosts
+        # the surface dofs of this rank's cells: every local one (facet_submesh)
         held = np.unique(self.Q.dofmap.list.array)
-        x_sur = self.Q.tabulate_dof_coordinates()[held]
-        mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
-        candidates = fem.locate_dofs_topological(Q, mesh.topology.dim - 1, facets)
-        x_vol = Q.tabulate_dof_coordinates()[candidates]
-        lost, nearest = held.size, np.zeros(0, np.int64)
-        if x_vol.size:
-            dist, nearest = cKDTree(x_vol).query(x_sur)
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        facets = np.asarray(facets, dtype=np.int32)
+        mine = facets[facets < mesh.topology.index_map(tdim - 1).size_local]
+        candidates = fem.locate_dofs_topological(Q, tdim - 1, mine)
+        lost = local - held.size  # a dof in no cell of its rank: none expected
+        if held.size and candidates.size:
+            x_vol = Q.tabulate_dof_coordinates()[candidates]
+            dist, nearest = cKDTree(x_vol).query(self.Q.tabulate_dof_coordinates()[held])
             # 1e-10 of the surface's size, and the coordinates' round-off (the two spaces
             # tabulate them apart: 1e-10 at 1e6 from the origin, where 1e-10 of a unit
             # surface missed every dof)
             tol = 1e-10 * max(float(np.ptp(x_vol, axis=0).max()), 1e-300)
             tol += SURFACE_MATCH_ULPS * np.finfo(float).eps * float(np.abs(x_vol).max())
-            lost = int(np.sum(dist > tol))
-        parent = np.full(owned + imap.num_ghosts, -1, dtype=np.int64)
-        if not lost:
-            parent[held] = np.asarray(candidates, dtype=np.int64)[nearest]
-            lost = self._from_the_ghosts(parent, Q)
+            lost += int(np.sum(dist > tol))
+        else:
+            lost += held.size
         lost = comm.allreduce(lost)
         if lost:  # on every rank, so that none waits in a collective
             raise RuntimeError(f"{path.name}: {lost} surface dof(s) without a volume dof")
-        # dolfinx 0.5.2 writes a point's values from the rank's own cells: an owned dof
-        # that none of them holds reads 0 in the file (the CSV has its value)
-        unheld = comm.allreduce(int(owned - np.count_nonzero(held < owned)))
-        if unheld and comm.rank == 0:
-            log.warning(
-                "%s: %d node(s) of the surface belong to a rank that holds none of the "
-                "surface's cells around them, where dolfinx 0.5.2 writes 0 for every field; "
-                "the contact CSV files hold their values (another number of ranks avoids it)",
-                path.name, unheld,
-            )  # fmt: skip
+        parent = np.full(local, -1, dtype=np.int64)
+        if held.size:
+            parent[held] = np.asarray(candidates, dtype=np.int64)[nearest]
         self.parent = parent[:owned]
         self.path = path
         self.series = XDMFSeries(comm, path, self.surface)
         self._functions: dict[str, fem.Function] = {}
-
-    def _from_the_ghosts(self, parent: np.ndarray, Q) -> int:
-        """Complete ``parent`` (local surface dof -> local volume dof, -1 where unknown;
-        shape (n_local_surface_dofs,)) at the owned surface dofs that this rank's cells
-        do not hold, from the ranks whose cells hold them as ghosts: each sends every
-        ghost it matched, (global surface dof, global volume dof), to the ghost's owner
-        (collective: one ``alltoall``). Returns the number of owned surface dofs still
-        unknown (local)."""
-        comm = Q.mesh.comm
-        imap, vmap = self.Q.dofmap.index_map, Q.dofmap.index_map
-        owned = imap.size_local
-        ghost = np.nonzero(parent[owned:] >= 0)[0]
-        sends = [[] for _ in range(comm.size)]
-        if ghost.size:
-            globals_ = vmap.local_to_global(parent[owned + ghost].astype(np.int32))
-            for rank, g_sur, g_vol in zip(
-                imap.owners[ghost], imap.ghosts[ghost], globals_, strict=True
-            ):
-                sends[int(rank)].append((int(g_sur), int(g_vol)))
-        first = imap.local_range[0]
-        n_vol = vmap.size_local + vmap.num_ghosts
-        g_all = np.asarray(vmap.local_to_global(np.arange(n_vol, dtype=np.int32)), np.int64)
-        order = np.argsort(g_all)
-        for pairs in comm.alltoall(sends):
-            for g_sur, g_vol in pairs:
-                i = g_sur - first
-                if parent[i] >= 0:
-                    continue
-                k = np.searchsorted(g_all, g_vol, sorter=order)
-                if k < n_vol and g_all[order[k]] == g_vol:
-                    parent[i] = order[k]
-        return int(np.sum(parent[:owned] < 0))
 
     def begin_step(self) -> None:
         """Open the file for the writes of one step (collective)."""
