@@ -823,6 +823,7 @@ class MortarContact:
         self.predictor_tol = 1e-3 * self.h_mean
         # the local cells of the pair's two surfaces, and free_body once asked
         self._body_cells = np.concatenate([slave_cells, master_cells])
+        self._master_cells = master_cells  # whose bodies mirror a symmetry plane (friction)
         self._free_body = None
         self.h_slave_max = comm.allreduce(h_all.max(initial=0.0), op=MPI.MAX)
         self.margin = 2.0 * self.h_slave_max
@@ -991,20 +992,59 @@ class MortarContact:
 
     # ------------------------------------------------------------------ friction set-up
     def _held_at_zero(self) -> np.ndarray:
-        """Which displacement components of the slave facet nodes a Dirichlet condition
-        holds at zero for the whole load path, (nsf, ns, d) bool (collective: the owners'
-        marks are fetched), from ``problem.dofs_held_at_zero`` (none where the problem
-        has no such method). The nodal frames of symmetry planes
-        (:class:`~dolfinx_mortar.friction.NodalFrames`) are built from them."""
+        """Which displacement components of the slave facet nodes lie on a symmetry plane
+        or a clamp, (nsf, ns, d) bool, the nodal frames of symmetry planes
+        (:class:`~dolfinx_mortar.friction.NodalFrames`) are built from. Collective.
+
+        Component k of a node is marked where a Dirichlet condition holds it at zero for
+        the whole load path (``problem.dofs_held_at_zero``; the owners' marks are
+        fetched) AND the master is held there too: its body (``problem.mirrored_planes``
+        of the master's cells) has a node on the plane x_k = X_k of the node whose
+        component k is held at zero. A half model cuts both bodies at its plane; a roller
+        wall beside a slave surface over which the master slides holds the slave only,
+        and the node keeps its full frame (across the wall the master slides and drags
+        it: the wall's reaction holds it). A node with every component held (a clamp)
+        keeps its marks (NodalFrames gives it no symmetry frame). None where the problem
+        has no ``dofs_held_at_zero``, no plane where it has no ``mirrored_planes``."""
         marks = self.problem.u.vector.duplicate()
         try:
             marks.set(0.0)
             held = getattr(self.problem, "dofs_held_at_zero", None)
             if held is not None:
                 marks.array[held()] = 1.0
-            return self._fetch_slave(marks).reshape(self.slave.X.shape) > 0.5
+            held = self._fetch_slave(marks).reshape(self.slave.X.shape) > 0.5
         finally:
             marks.destroy()
+        part = held & ~np.all(held, axis=-1, keepdims=True)  # some, not all: planes
+        f, i, k = np.nonzero(part)
+        c = self.slave.X[f, i, k] + np.asarray(self.origin, float)[k]  # mesh coordinates
+        mine = np.unique(np.stack([k, c], axis=1), axis=0)
+        planes = np.unique(np.concatenate(self.comm.allgather(mine)), axis=0)  # rows [k, c]
+        if not len(planes):
+            return held
+        mirrored = getattr(self.problem, "mirrored_planes", None)
+        ok = np.zeros(len(planes), bool)
+        if mirrored is not None:
+            ok = mirrored(self._master_cells, planes)
+        # each marked component's plane: its row of the sorted list (exact: the same X)
+        row = np.empty(k.size, np.int64)
+        for comp in np.unique(k):
+            j = np.flatnonzero(planes[:, 0] == comp)
+            sel = k == comp
+            row[sel] = j[np.searchsorted(planes[j, 1], c[sel])]
+        drop = ~ok[row]
+        held[f[drop], i[drop], k[drop]] = False
+        if not np.all(ok):
+            log.info(
+                "contact %s: slave nodes held at zero on %s, the master's body not: no "
+                "symmetry plane there (their frames keep the tangent across it)",
+                self.name,
+                ", ".join(
+                    f"u_{'xyz'[int(a)]} on {'xyz'[int(a)]} = {b:.6g}" for a, b in planes[~ok][:4]
+                )
+                + (f" and {np.count_nonzero(~ok) - 4} more" if np.count_nonzero(~ok) > 4 else ""),
+            )
+        return held
 
     def _init_friction(self, penalty_t, key: str) -> None:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""

@@ -23,7 +23,9 @@ lumped or the constrained normal recovery); the point integrals are in
   orthonormal basis of the same plane, convected as g_α is, which gives the same states
   and traction.
 - **Symmetry planes.** At a node on a symmetry plane (a displacement component k held
-  at zero by a Dirichlet condition, the reference normal within 60° of the plane)
+  at zero by a Dirichlet condition, the reference normal within 60° of the plane, and
+  the master's body held so on the same plane: the contact term marks only those,
+  ``MortarContact._held_at_zero``; a roller wall beside a sliding master is none)
   the frame is the one of the mirrored model: the normal ñ − (ñ·e_k) e_k, in the
   plane, and the tangent e_k across it (3D: a_1 = e_k, a_2 = n × e_k). The slip and
   the traction along e_k are odd in the mirror, so the mirrored model has none at the
@@ -112,7 +114,8 @@ class NodalFrames:
     the frames do not depend on the partition.
 
     ``held_at_zero`` (nsf, ns, d) bool, optional: the displacement components of the
-    facet nodes held at zero by a Dirichlet condition. A node with some, not all, of its
+    facet nodes held at zero by a Dirichlet condition (the contact term passes those
+    whose plane the master's body is held on too, and clamps). A node with some, not all, of its
     components held, each within SYMMETRY_NORMAL_TOL of the plane it defines (|n₀·e_k|
     ≤ SYMMETRY_NORMAL_TOL for the reference normal n₀), lies on a symmetry plane (see
     the module docstring): ``sym`` (n_sym,) those nodes, ``sym_proj`` (n_sym, d, d) the

@@ -306,6 +306,11 @@ class UnheldBody:
 #: about it) gives 0 to round-off.
 RIGID_MODE_TOL = 1e-10
 
+#: a node lies on the plane x_k = c when |x_k − c| ≤ this times the mesh extent (plus 64
+#: ulp of c: a model far from the origin): the nodes of one plane differ by round-off
+#: (:meth:`ContactProblem.mirrored_planes`)
+PLANE_TOL = 1e-8
+
 
 class ContactProblem:
     """Bulk forms plus contact terms (collective construction).
@@ -412,6 +417,7 @@ class ContactProblem:
         self.extent = float(np.linalg.norm(box[gdim:] + box[:gdim]))
         self._centre = 0.5 * (box[gdim:] - box[:gdim])
         self.global_dofs_all = compat.global_dof_numbers(self.V).astype(np.int64)
+        self._labels = None  # body_labels(V) (cell_body, block_body), once asked
         self._collect_bcs()
         self.contacts: list = []
         #: whether the last :meth:`uzawa_update` moved u with the multipliers (the exact
@@ -463,7 +469,7 @@ class ContactProblem:
         whole load path (every prescribed value of their component is 0: a symmetry
         plane, a clamp; not those of :meth:`add_dirichlet_field`), sorted (local). The
         frictional nodal frames of symmetry planes use them
-        (:class:`~dolfinx_mortar.friction.NodalFrames`)."""
+        (:class:`~dolfinx_mortar.friction.NodalFrames`, with :meth:`mirrored_planes`)."""
         held = [np.empty(0, np.int32)]
         for d in self._dirichlet:
             if not d.constants:  # add_dirichlet_field: a field, not a uniform path
@@ -472,6 +478,47 @@ class ContactProblem:
                 if not np.any(d.path[:, 1 + j]):
                     held.append(np.asarray(d.dofs_by_component[c], np.int32))
         return np.unique(np.concatenate(held))
+
+    def mirrored_planes(self, cells: np.ndarray, planes: np.ndarray) -> np.ndarray:
+        """Which of the planes x_k = c, ``planes`` (n, 2) rows [k, c] (the same on every
+        rank; c a length), a body of the local ``cells`` (on some rank; :func:`body_labels`)
+        is held on: whether the plane carries a node of such a body whose component k
+        :meth:`dofs_held_at_zero` holds (|x_k − c| ≤ PLANE_TOL × extent + 64 ulp(c), the
+        reference coordinates). (n,) bool, the same on every rank (one reduction over the
+        planes, one over the bodies). Collective.
+
+        A frictional pair asks it of its master's body for the planes on which its slave
+        nodes are held (:class:`~dolfinx_mortar.friction.NodalFrames`, symmetry planes):
+        a half model cuts both bodies there, a roller wall only the slave's."""
+        cell_body, block_body = self._body_labels()
+        nbodies = 1 + self.comm.allreduce(int(cell_body.max(initial=-1)), MPI.MAX)
+        mine = np.zeros(nbodies, np.int8)
+        mine[cell_body[np.asarray(cells, np.int64)]] = 1
+        self.comm.Allreduce(MPI.IN_PLACE, mine, op=MPI.MAX)
+        planes = np.asarray(planes, float).reshape(-1, 2)
+        found = np.zeros(len(planes), np.int8)
+        if len(planes):
+            bs = self.V.dofmap.index_map_bs
+            blocks, comps = np.divmod(self.dofs_held_at_zero(), bs)
+            keep = mine[block_body[blocks]] > 0
+            blocks, comps = blocks[keep], comps[keep]
+            x = self.V.tabulate_dof_coordinates()[blocks, comps]  # x_k of each held dof
+            k, c = planes[:, 0].astype(np.int64), planes[:, 1]
+            tol = PLANE_TOL * self.extent + 64.0 * np.spacing(np.abs(c))
+            for comp in np.unique(k):  # per component: a sorted search, not a double loop
+                xs = np.sort(x[comps == comp])
+                j = np.flatnonzero(k == comp)
+                lo = np.searchsorted(xs, c[j] - tol[j], side="left")
+                hi = np.searchsorted(xs, c[j] + tol[j], side="right")
+                found[j] = hi > lo
+            self.comm.Allreduce(MPI.IN_PLACE, found, op=MPI.MAX)
+        return found > 0
+
+    def _body_labels(self) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`body_labels` of the space, computed once (collective at the first call)."""
+        if self._labels is None:
+            self._labels = body_labels(self.V)
+        return self._labels
 
     def _collect_bcs(self) -> None:
         # dolfinx applies a list of conditions in order (set_bc, the lifting's values), so
@@ -558,7 +605,7 @@ class ContactProblem:
         (:class:`~dolfinx_mortar.contact.MortarContact`). Computed once (one ghost scatter
         and a few reductions), then cached."""
         if self._bodies is None:
-            cell_body, block_body = body_labels(self.V)
+            cell_body, block_body = self._body_labels()
             nbodies = 1 + self.comm.allreduce(int(cell_body.max(initial=-1)), MPI.MAX)
             bs = self.V.dofmap.index_map_bs
             n_own = self.V.dofmap.index_map.size_local * bs

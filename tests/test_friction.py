@@ -15,6 +15,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from test_contact_jacobian import CASES, _set_state, fd_errors
 
+from dolfinx_mortar import compat
 from dolfinx_mortar import friction as fr
 from dolfinx_mortar.kernels.friction import slip_integrals_reference
 from dolfinx_mortar.runner import prepare
@@ -1007,6 +1008,103 @@ def test_no_traction_across_symmetry_planes(dim, shared_tmp):
         # in the planes the traction is free: some node carries one
         inside = (on_x | on_y) & ~(on_x & on_y)
         assert np.abs(np.where(on_x, table["p_T1"], table["p_T0"])[inside]).max() > 1e-6 * scale
+
+
+def _roller_scene(case: str, out) -> dict:
+    """Two E = 1000 blocks (patch generators), the upper pressed by p = 1 over t ∈ [0, 1],
+    then the blocks slide 0.05 past each other over t ∈ [1, 2], μ = 0.3; the slave
+    block stands on a roller wall at x = 0 (u_x = 0 for the whole path) beside which the
+    master slides. ``cross2d``: the slave is the upper block [0, 1] × [0, 0.5], the
+    master the lower one, [−0.25, 1.25] × [−0.5, 0], dragged by its clamped bottom (it
+    slides across x = 0). ``stack3d``: the probe's stack without its top block, the
+    slave the lower block on rollers (bottom u_z, x = 0 u_x, y = 0 u_y), the master the
+    upper one, held u_y = 0 on y = 0 too (a symmetry plane: both bodies held there) and
+    pushed through its x = 0 face."""
+    z = [[0.0, 0.0], [2.0, 0.0]]
+    if case == "cross2d":
+        mesh = {"n_lower": 6, "n_upper": 3, "n_y": 2, "margin": 0.25}
+        pair = {"slave": "upper_bottom", "master": "lower_top"}
+        dirichlet = [
+            {"boundary": "lower_bottom", "path": [[0.0, 0, 0], [1.0, 0, 0], [2.0, 0.05, 0]]},
+            {"boundary": "upper_left", "components": [0], "path": z},
+        ]
+        top = [[0.0, 0.0, 0.0], [1.0, 0.0, -1.0]]
+    else:
+        mesh = {"n_lower": 4, "n_upper": 3, "n_y": 1}
+        pair = {"slave": "lower_top", "master": "upper_bottom"}
+        dirichlet = [
+            {"boundary": "lower_bottom", "components": [2], "path": z},
+            {"boundary": "lower_left", "components": [0], "path": z},
+            {"boundary": "lower_front", "components": [1], "path": z},
+            {
+                "boundary": "upper_left",
+                "components": [0],
+                "path": [[0.0, 0], [1.0, 0], [2.0, 0.05]],
+            },
+            {"boundary": "upper_front", "components": [1], "path": z},
+        ]
+        top = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -1.0]]
+    return {
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d" if case == "cross2d" else "patch3d", "params": mesh},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 1000.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [{**pair, "friction": 0.3}],
+        "dirichlet": dirichlet,
+        "traction": [{"boundary": "upper_top", "path": top}],
+        "steps": {"t_end": 2.0, "n": 4},
+        "output": {"dir": str(out)},
+    }
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("case", ["cross2d", "stack3d"])
+def test_roller_wall_beside_a_sliding_master_is_no_symmetry_plane(case, shared_tmp):
+    """A slave block on a roller wall (u_x = 0 on x = 0 for the whole path) beside which
+    the master slides: the wall is no symmetry plane (the master is not held there), so
+    its slave nodes keep their full frames and the pair carries F_x = μN at gross slip.
+    Until session 51 they lost the tangent across the wall (e_x): the 2D x = 0 node and
+    the 3D x = 0 row took no traction along x (in 3D the row carried the full Coulomb
+    traction along y instead), F_x = 0.2275 (2D) and 0.2713 with F_y = 0.0248 (3D). The
+    3D plane y = 0, where both bodies are held, stays one. Tolerance: 2 p/E N = 2e-3 N
+    (p/E = 1e-3 the strain scale): the interface tilts by O(p/E) and turns the force's
+    components by as much (measured |F_x − μN| = 1.6e-4 N (2D) and 7.7e-4 N (3D),
+    |F_y| = 1.9e-4 N; ten times less with E = 1e4). 1–3 ranks."""
+    from dolfinx_mortar.runner import run
+
+    comm = MPI.COMM_WORLD
+    data = _roller_scene(case, shared_tmp / f"roller-{case}")
+    problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
+    term = problem.contacts[0]
+    # the master's body is held on y = 0 (3D) but not on x = 0; the slave's on both
+    planes = np.array([[0, 0.0], [1, 0.0]])
+    assert problem.mirrored_planes(term._master_cells, planes).tolist() == [
+        False,
+        case == "stack3d",
+    ]
+    md = problem.mesh_data
+    slave_body = "upper" if case == "cross2d" else "lower"
+    cells = compat.tagged_entities(md.cell_tags, md.cell_groups[slave_body])
+    assert problem.mirrored_planes(cells, planes).tolist() == [True, case == "stack3d"]
+    frames, d = term.frames, problem.gdim
+    if d == 2:
+        assert comm.allreduce(int(frames.sym.size)) == 0
+    else:  # only the plane y = 0: its e_y cut, e_x kept (the corner node too)
+        assert comm.allreduce(int(frames.sym.size)) >= 2
+        held = np.diagonal(frames.sym_proj, axis1=1, axis2=2) == 0.0  # I − e_y e_yᵀ
+        assert np.all(held == [False, True, False]) and not np.any(frames.sym_cut[:, 1])
+    summary = run(parse_scene(data, pathlib.Path(".")), comm)
+    assert summary["status"] == "ok"
+    last = summary["steps"][-1]
+    F = np.abs(last["contact_force"][term.name])
+    N = F[-1]
+    assert N == pytest.approx(1.0, rel=1e-8)
+    assert last["stick_nodes"] == 0 and last["slip_nodes"] == last["active_nodes"] > 0
+    assert abs(F[0] - 0.3 * N) <= 2e-3 * N, F
+    if d == 3:
+        assert F[1] <= 2e-3 * N, F
 
 
 @pytest.mark.mpi
