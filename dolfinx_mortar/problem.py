@@ -295,9 +295,31 @@ class UnheldBody:
     def describe(self, gdim: int) -> str:
         """The body and its motions in words: "body 'block' is free in translation along x,
         ... and rotation about z"."""
-        words = self.motions(gdim)
-        text = words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
-        return f"body {self.name} is free in {text}"
+        return f"body {self.name} is free in {_and(self.motions(gdim))}"
+
+
+def _and(words: list[str]) -> str:
+    """ "a", "a and b", "a, b and c"."""
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+@dataclass
+class UnheldGroup(UnheldBody):
+    """Bodies joined by contact with rigid motions that nothing holds when they all make
+    the same one (:meth:`ContactProblem.unheld_joint_motions`): such a motion changes no
+    gap, so no contact pair, frictionless or not, holds it.
+
+    ``name``: the bodies' names joined ("'ring' and 'shaft'"); ``bodies``: each body's
+    name (its material regions, as :class:`UnheldBody` names one), sorted; ``modes``: (k, nmodes)
+    orthonormal coefficients over :func:`rigid_modes`' basis, the same on every body of
+    the group; ``pairs``: the names of the contact pairs that join them."""
+
+    bodies: list[str]
+
+    def describe(self, gdim: int) -> str:
+        """The bodies and their joint motions in words: "bodies 'ring' and 'shaft' are free
+        together in translation along x, ... and rotation in the plane"."""
+        return f"bodies {self.name} are free together in {_and(self.motions(gdim))}"
 
 
 #: A body counts as held by its Dirichlet conditions when the smallest eigenvalue of the
@@ -636,7 +658,8 @@ class ContactProblem:
         singular there. A frictional pair can hold any motion of its bodies by stick: they
         are left out (:meth:`stick_only_motions` lists them), as are the motions that a
         frictionless pair's normal holds (a body pressed by a force onto another, held by
-        contact alone, is a sound scene). Each
+        contact alone, is a sound scene). The motions that bodies joined by contact can make
+        together, which no pair holds, are :meth:`unheld_joint_motions`'. Each
         :class:`UnheldBody` names the body by its material regions and gives the motions
         as an orthonormal basis over :func:`rigid_modes`' (positions about the mesh's
         bounding-box centre over its extent)."""
@@ -655,6 +678,26 @@ class ContactProblem:
         if self._unheld is None:
             self._motions()
         return self._unheld[1]
+
+    def unheld_joint_motions(self) -> list[UnheldGroup]:
+        """The groups of bodies joined by contact (connected through the pairs' surfaces)
+        with a joint rigid motion that no Dirichlet condition holds: the same rigid motion
+        of every body of the group, a ∈ null(Σ_b G_b), G_b the Gram matrix of body b's
+        rigid motions at its constrained dofs (:meth:`bodies_held`), over the shared basis
+        of :func:`rigid_modes` about the mesh's bounding-box centre. Such a motion moves
+        both surfaces of every pair alike and changes no gap, so no pair holds it,
+        frictionless or frictional (stick acts between the bodies): two bodies pressed into
+        each other with no [[dirichlet]] at all (a shrink fit) are free in all of them,
+        though each body alone is held by the other's surface (:meth:`unheld_motions`
+        names none). A group is left out where each of its joint motions is a motion that
+        :meth:`unheld_motions` already names for every body of the group (two blocks
+        each held in u_y only, both free along a flat contact: the body warnings say it);
+        otherwise all its joint motions are given. Collective at the first call (the
+        reductions of :meth:`unheld_motions`, computed with it), then cached; the same on
+        every rank; empty where there is none."""
+        if self._unheld is None:
+            self._motions()
+        return self._unheld[2]
 
     def stick_only_at_start(self) -> list[UnheldBody]:
         """The bodies of :meth:`stick_only_motions` none of whose frictional pairs has a
@@ -676,7 +719,8 @@ class ContactProblem:
         return bodies
 
     def _motions(self) -> None:
-        """Compute :meth:`unheld_motions` and :meth:`stick_only_motions` (collective)."""
+        """Compute :meth:`unheld_motions`, :meth:`stick_only_motions` and
+        :meth:`unheld_joint_motions` (collective)."""
         self.bodies_held(np.empty(0, np.int64))  # the Dirichlet Gram matrices, cached
         cell_body, _, gram = self._bodies
         nbodies, nm = gram.shape[0], gram.shape[1] if gram.ndim == 3 else 0
@@ -706,6 +750,13 @@ class ContactProblem:
         self.comm.Allreduce(MPI.IN_PLACE, in_body, op=MPI.SUM)
         unheld, stick = [], []
         self._tangential = {}  # body -> the motions of unheld or stick (modes.T)
+        named = {}  # body -> the motions that its own warning names (unheld)
+        body_name = {}  # body -> its name (material regions)
+        for b in range(nbodies):
+            names = [regions[j] for j in range(len(regions)) if in_body[j, b]]
+            part = any(np.count_nonzero(in_body[regions.index(r)]) > 1 for r in names)
+            name = " + ".join(repr(r) for r in names)
+            body_name[b] = f"a connected part of {name}" if part else name
         for b in range(nbodies):
             w, v = np.linalg.eigh(gram[b])
             free = v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)]
@@ -719,17 +770,57 @@ class ContactProblem:
             if not modes.shape[1]:
                 continue
             self._tangential[b] = modes
-            names = [regions[j] for j in range(len(regions)) if in_body[j, b]]
-            part = any(np.count_nonzero(in_body[regions.index(r)]) > 1 for r in names)
-            name = " + ".join(repr(r) for r in names)
+            if not frictional:
+                named[b] = modes.T
             (stick if frictional else unheld).append(
                 UnheldBody(
-                    f"a connected part of {name}" if part else name,
-                    modes.T,
-                    [self.contacts[k].name for k in frictional or pairs],
+                    body_name[b], modes.T, [self.contacts[k].name for k in frictional or pairs]
                 )
             )
-        self._unheld = (unheld, stick)
+        self._unheld = (unheld, stick, self._joint(gram, touches > 0, named, body_name))
+
+    def _joint(self, gram, touches, named, body_name) -> list[UnheldGroup]:
+        """:meth:`unheld_joint_motions` from the bodies' Dirichlet Gram matrices ``gram``
+        (nbodies, nm, nm), the bodies each pair touches ``touches`` (npairs, nbodies), the
+        motions each body's own warning names ``named`` (body -> (k, nm) orthonormal rows)
+        and the bodies' names (local: the arguments are the same on every rank)."""
+        nbodies, npairs = gram.shape[0], touches.shape[0]
+        nm = gram.shape[1] if gram.ndim == 3 else 0
+        group = list(range(nbodies))  # union-find over the bodies, joined by each pair
+
+        def root(b: int) -> int:
+            while group[b] != b:
+                group[b] = group[group[b]]
+                b = group[b]
+            return b
+
+        for k in range(npairs):
+            bodies = np.flatnonzero(touches[k])
+            for b in bodies[1:]:
+                group[root(int(b))] = root(int(bodies[0]))
+        out = []
+        for r in sorted({root(b) for b in range(nbodies)}):
+            members = [b for b in range(nbodies) if root(b) == r]
+            pairs = [k for k in range(npairs) if touches[k, members].any()]
+            if not pairs:
+                continue  # a body in no pair: unheld_motions names it
+            total = gram[members].sum(axis=0)
+            w, v = np.linalg.eigh(total)
+            joint = v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)]
+            if not joint.shape[1]:
+                continue
+            # the joint motions that every member's own warning names already
+            apart = sum(
+                (np.eye(nm) - named[b].T @ named[b] if b in named else np.eye(nm)) for b in members
+            )
+            w = np.linalg.eigvalsh(apart)
+            if joint.shape[1] <= np.count_nonzero(w <= 1e-8 * len(members)):
+                continue
+            names = sorted(body_name[b] for b in members)  # not by label: the partition's
+            out.append(
+                UnheldGroup(_and(names), joint.T, [self.contacts[k].name for k in pairs], names)
+            )
+        return out
 
     def free_rigid_motion(self, du: np.ndarray, tangential: bool = False) -> np.ndarray:
         """Per contact term, how far ``du`` moves the bodies of its pair along the rigid

@@ -156,9 +156,14 @@ def warn_unheld_bodies(problem) -> None:
     nor its contact pairs can hold (:meth:`ContactProblem.unheld_motions`; collective at
     the first call). Not an error: where no load acts along such a motion the direct
     solver may still find one of the many solutions (docs/scenes.md), but a body that a
-    load or a contact force pushes along it drifts, and the run stops."""
+    load or a contact force pushes along it drifts, and the run stops. Then one warning
+    per group of bodies joined by contact that nothing holds against a rigid motion of
+    all of them together (:meth:`ContactProblem.unheld_joint_motions`: a shrink fit with
+    no [[dirichlet]] at all stopped after 6 cutbacks, warned of nothing)."""
     for body in problem.unheld_motions():
         log.warning("%s", unheld_text(body, problem.gdim))
+    for group in problem.unheld_joint_motions():
+        log.warning("%s", joint_text(group, problem.gdim))
     for body in problem.stick_only_at_start():
         log.warning("%s", stick_only_text(body, problem.gdim))
 
@@ -192,6 +197,20 @@ def unheld_text(body, gdim: int) -> str:
         f"{body.describe(gdim)}: no [[dirichlet]] condition holds these motions, {contact}; "
         "the Jacobian is singular along them, and the run may fail (it does where a load "
         "pushes the body along them): hold them with [[dirichlet]] components"
+    )
+
+
+def joint_text(group, gdim: int) -> str:
+    """The one line that names an :class:`~dolfinx_mortar.problem.UnheldGroup`, bodies
+    joined by contact with rigid motions that nothing holds when they make them together
+    (local)."""
+    return (
+        f"{group.describe(gdim)}: no [[dirichlet]] condition holds these motions of the "
+        f"bodies moving as one, and their contact ({', '.join(group.pairs)}) cannot, "
+        "frictionless or not: moving every body alike keeps every gap; the Jacobian is "
+        "singular along them, and the run may fail (it does where a load or the contact's "
+        "forces push the bodies along them): hold one of the bodies with [[dirichlet]] "
+        "components"
     )
 
 

@@ -1802,21 +1802,34 @@ def _unheld_hint(problem) -> str:
     (``problem.unheld_motions``; "" where there is none, or the problem cannot tell).
     Collective; cached by the problem (computed when the run set up). A probe's block held
     in z only, its symmetry faces in unnamed physical groups, drifted sideways off the
-    sphere above it, and the error blamed the surfaces' positions."""
+    sphere above it, and the error blamed the surfaces' positions. Then each group of
+    bodies joined by contact that nothing holds against a rigid motion of them all
+    together (``problem.unheld_joint_motions``: a shrink fit with no [[dirichlet]] at
+    all)."""
     find = getattr(problem, "unheld_motions", None)
     if find is None or not getattr(problem, "contacts", None):
         return ""
     bodies = find()
+    joint = getattr(problem, "unheld_joint_motions", None)
+    groups = joint() if joint is not None else ()
     stick = getattr(problem, "stick_free_at_start", None) or ()
-    return "".join(
-        f"; {b.describe(problem.gdim)}, held there by no [[dirichlet]] condition nor by its "
-        f"frictionless contact ({', '.join(b.pairs)})"
-        for b in bodies
-    ) + "".join(
-        f"; {b.describe(problem.gdim)} but for stick ({', '.join(b.pairs)}), which holds "
-        "nothing at the nodes that close within a step: prescribe these components with "
-        "[[dirichlet]], or start the bodies in contact"
-        for b in stick
+    return (
+        "".join(
+            f"; {b.describe(problem.gdim)}, held there by no [[dirichlet]] condition nor by its "
+            f"frictionless contact ({', '.join(b.pairs)})"
+            for b in bodies
+        )
+        + "".join(
+            f"; {g.describe(problem.gdim)}, held there by no [[dirichlet]] condition, and their "
+            f"contact ({', '.join(g.pairs)}) keeps every gap along them"
+            for g in groups
+        )
+        + "".join(
+            f"; {b.describe(problem.gdim)} but for stick ({', '.join(b.pairs)}), which holds "
+            "nothing at the nodes that close within a step: prescribe these components with "
+            "[[dirichlet]], or start the bodies in contact"
+            for b in stick
+        )
     )
 
 

@@ -336,3 +336,75 @@ def test_free_rigid_motion_along_the_surface():
     du[~on_sphere, 0] = 0.1
     assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.4], rtol=1e-12)
     assert np.allclose(problem.free_rigid_motion(du.ravel(), tangential=True), [0.1], rtol=1e-12)
+
+
+def _patch_free(friction: float = 0.0, lower=None, upper=None, press: bool = False) -> dict:
+    """:func:`patch_press_scene` with the Dirichlet conditions replaced: ``lower`` and
+    ``upper`` the components held at zero on lower_bottom and upper_top (None: no
+    condition there); ``press`` a traction of 0.5 pressing upper_top down."""
+    scene = patch_press_scene(friction=friction)
+    scene["dirichlet"] = [
+        {"boundary": name, "components": list(comps), "path": [[0.0] * (1 + len(comps))]}
+        for name, comps in (("lower_bottom", lower), ("upper_top", upper))
+        if comps is not None
+    ]
+    if press:
+        scene["traction"] = [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.5]]}]
+    return scene
+
+
+ALL_2D = ["translation along x", "translation along y", "rotation in the plane"]
+
+
+@pytest.mark.parametrize(
+    ("scene", "joint", "bodies"),
+    [
+        # no [[dirichlet]] at all: each block is held by the other's surface along y and in
+        # rotation (named free along x only), the two together by nothing
+        (_patch_free(), ALL_2D, ["'lower'", "'upper'"]),
+        # stick acts between the bodies: it holds no joint motion either
+        (_patch_free(friction=0.3), ALL_2D, []),
+        # the lower block clamped, the upper pressed onto it by a traction: sound (the
+        # upper block named free along x by its own warning, nothing new)
+        (_patch_free(lower=(0, 1), press=True), [], ["'upper'"]),
+        # both held in u_y only: the joint x translation is what each body's own warning
+        # names already
+        (_patch_free(lower=(1,), upper=(1,)), [], ["'lower'", "'upper'"]),
+        (_hertz3d_press(False), [], ["'block'"]),
+        (_hertz3d_press(True), [], []),
+    ],
+)
+def test_unheld_joint_motions(scene, joint, bodies):
+    """``ContactProblem.unheld_joint_motions``: bodies joined by contact that the Dirichlet
+    conditions of none of them hold against the same rigid motion of all (the null space
+    of the sum of their Gram matrices): patch2d's two blocks with no [[dirichlet]] at all
+    are free together in all three rigid motions (such a motion keeps every gap), with or
+    without friction, though each block alone is held by the other's surface along y and
+    in rotation (``unheld_motions`` names each along x only, frictionless). A clamped
+    lower block holds the pair; blocks each held in u_y only are free together along x
+    only, which each block's own warning says (not named again). The same answer on every
+    rank (1–3)."""
+    from pathlib import Path
+
+    from dolfinx_mortar.runner import prepare
+    from dolfinx_mortar.scene import parse_scene
+
+    problem, _ = prepare(parse_scene(scene, Path(".")), MPI.COMM_WORLD)
+    assert sorted(b.name for b in problem.unheld_motions()) == bodies  # by label: any order
+    for b in problem.unheld_motions() if problem.gdim == 2 else ():
+        assert b.motions(problem.gdim) == ["translation along x"]
+    found = problem.unheld_joint_motions()
+    answers = problem.comm.allgather([(g.name, g.modes.round(12).tolist()) for g in found])
+    assert all(a == answers[0] for a in answers), answers
+    if not joint:
+        assert found == []
+        return
+    (group,) = found
+    assert group.bodies == ["'lower'", "'upper'"] and group.name == "'lower' and 'upper'"
+    assert group.pairs == [problem.contacts[0].name] == ["upper_bottom:lower_top"]
+    assert group.motions(problem.gdim) == joint
+    assert np.allclose(group.modes @ group.modes.T, np.eye(len(joint)), atol=1e-12)
+    assert group.describe(problem.gdim) == (
+        "bodies 'lower' and 'upper' are free together in translation along x, translation "
+        "along y and rotation in the plane"
+    )

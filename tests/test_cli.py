@@ -1631,6 +1631,56 @@ def test_a_body_free_along_its_frictionless_contact_is_named(workdir):
         assert summary["status"] == "failed" and summary["error"] in errors[0], summary
 
 
+@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
+def test_bodies_joined_by_contact_that_nothing_holds_are_named(workdir, ranks):
+    """patch2d's two blocks with no [[dirichlet]] at all, the upper one pressed down by a
+    traction (frictionless): each block alone is held by the other's surface along y and
+    in rotation, so only its x translation was named, but nothing holds the two moving
+    together (a probe's shrink fit with no [[dirichlet]] said "ok" and failed after 6
+    cutbacks). `check` and `run` name the two bodies and their joint motions in one
+    warning; the run stops (the load pushes them along y together: exit 1, no traceback)
+    with one error line that names them too. With the lower block clamped, no such
+    warning (the upper one held by contact alone against it is a sound scene). Serial and
+    under ``mpirun -n 2``."""
+    scene = patch_press_scene()
+    scene["dirichlet"] = []
+    scene["traction"] = [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.5]]}]
+    scene["steps"]["max_cutbacks"] = 1
+    (workdir / "free.toml").write_text(to_toml(scene))
+    scene["dirichlet"] = [{"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0]]}]
+    (workdir / "clamped.toml").write_text(to_toml(scene))
+    warning = (
+        "[WARNING dolfinx_mortar.runner] bodies 'lower' and 'upper' are free together in "
+        "translation along x, translation along y and rotation in the plane: no "
+        "[[dirichlet]] condition holds these motions of the bodies moving as one, and their "
+        "contact (upper_bottom:lower_top) cannot, frictionless or not"
+    )
+    res = cli(workdir, "check", "free.toml", ranks=ranks)
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
+    assert res.stderr.count(warning) == 1, where
+    # and each body's own warning, along x (the flat contact holds no x translation)
+    assert res.stderr.count("is free in translation along x: no [[dirichlet]]") == 2, where
+    assert len(res.stderr.splitlines()) == 3, where
+    res = cli(workdir, "run", "free.toml", "--out", "free", ranks=ranks)
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 1 and "Traceback" not in res.stderr, where
+    assert res.stderr.count(warning) == 1, where
+    (line,) = [x for x in res.stderr.splitlines() if x.startswith("dolfinx-mortar:")]
+    assert line.startswith("dolfinx-mortar: run failed: "), where
+    assert (
+        "bodies 'lower' and 'upper' are free together in translation along x, translation "
+        "along y and rotation in the plane, held there by no [[dirichlet]] condition, and "
+        "their contact (upper_bottom:lower_top) keeps every gap along them" in line
+    ), where
+    res = cli(workdir, "check", "clamped.toml", ranks=ranks)
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 0 and "clamped.toml: ok" in res.stdout, where
+    assert "free together" not in res.stderr, where
+    assert res.stderr.count("body 'upper' is free in translation along x") == 1, where
+    assert len(res.stderr.splitlines()) == 1, where
+
+
 def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(workdir):
     """A [[traction]] on a boundary whose [[dirichlet]] prescribes the same component
     moves nothing there: one warning names the boundary and the component, and the
