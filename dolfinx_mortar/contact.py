@@ -80,7 +80,13 @@ from .scene import (
     quadrature_degree_choice,
     uzawa_acceleration_choice,
 )
-from .search import Fetcher, candidates, distribute_slave_facets, exchange_master_facets
+from .search import (
+    Fetcher,
+    candidates,
+    distribute_slave_facets,
+    exchange_master_facets,
+    points_in_cells,
+)
 from .surface import (
     dual_coefficients,
     extract_facets,
@@ -93,6 +99,15 @@ from .surface import (
 )
 
 log = logging.getLogger(__name__)
+
+#: What the warning and the error of an initial overlap beyond the pairing's reach advise
+#: (:meth:`MortarContact._find_unseen_overlap`, :meth:`MortarContact.unseen_overlap`)
+OVERLAP_ADVICE = (
+    "An initial overlap must start within the pairing's reach (a slave facet's box "
+    "inflated by half its size, at most 2 slave-facet sizes deep; docs/method-notes.md, "
+    '"Pairing"): make the slave facets there coarser, or start from meshes that do not '
+    "overlap and prescribe the fit through the load path"
+)
 
 RECOVERIES = rc.RECOVERIES
 INTEGRATIONS = ("element", "segment", "node")
@@ -968,6 +983,128 @@ class MortarContact:
                 self.name,
                 ", ".join(f"{c:.17g}" for c in self.origin),
             )
+        self._key = key
+        self._find_unseen_overlap()
+
+    def _find_unseen_overlap(self) -> None:
+        """The owned slave nodes that start (reference configuration, u = 0) inside the
+        master's body, away from its cells of which they are nodes
+        (:func:`~dolfinx_mortar.search.points_in_cells` over the cells of the bodies that
+        hold the master facets), and that the pairing at u = 0 leaves without area
+        (A^I = 0: beyond its reach, a slave facet's box inflated by half its size and at
+        most 2 facet sizes deep): an overlap the contact does not see. They are kept (:attr:`unseen_start`, local node indices) for
+        :meth:`unseen_overlap` after the first step, and a warning names them (collective;
+        a contact update at u = 0 only where some node lies inside, then
+        :meth:`forget_search`)."""
+        comm = self.comm
+        #: the owned slave nodes (local indices) that start inside the master's body and
+        #: unpaired (:meth:`_find_unseen_overlap`); empty on most pairs
+        self.unseen_start = np.empty(0, np.int64)
+        self.unseen_report = None
+        fi, ii = self._node_at
+        X = self.slave.X[fi, ii] + self.origin  # (n, gdim), the reference nodes
+        pts = np.zeros((X.shape[0], 3))
+        pts[:, : self.gdim] = X
+        cells = self.problem.body_cells(self._master_cells)
+        inside = points_in_cells(comm, self.problem.mesh, cells, pts)
+        if not comm.allreduce(int(np.count_nonzero(inside))):
+            return
+        from dolfinx import fem
+
+        zero = fem.Function(self.problem.V)
+        self.update(zero)
+        unseen = inside & ~self.has_area
+        depth = self._node_depths(unseen)
+        self.forget_search()
+        self.unseen_start = np.flatnonzero(unseen)
+        report = self._first_node(self.unseen_start, X, depth)
+        if report is not None:
+            self.unseen_report = report
+            count, x, d, h = report
+            where = f"more than {self.margin:.3g} deep" if np.isnan(d) else f"{d:.3g} deep"
+            log.warning(
+                "%s (%s): %d slave node(s) start inside the master's body beyond the "
+                "pairing's reach, unseen by the contact: the first at (%s), %s, its slave "
+                "facets %.3g in size. The run goes on if its first step pairs them (other "
+                "nodes pushing the bodies apart) and stops otherwise. %s",
+                self._key,
+                self.name,
+                count,
+                ", ".join(f"{c:.4g}" for c in x),
+                where,
+                h,
+                OVERLAP_ADVICE,
+            )
+
+    def _first_node(self, nodes: np.ndarray, X: np.ndarray, depth: np.ndarray | None):
+        """(count over the ranks, position, depth, size h_I) of the node of smallest
+        global block among the local ``nodes`` of every rank, or None where there are none
+        (collective: one allgather)."""
+        first = None
+        if nodes.size:
+            k = int(nodes[0])  # node_blocks ascend: the smallest block of this rank
+            d = float("nan") if depth is None else float(depth[k])
+            first = (int(self.node_blocks[k]), X[k].tolist(), d, float(self.h_node[k]))
+        found = self.comm.allgather((int(nodes.size), first))
+        count = sum(c for c, _ in found)
+        if not count:
+            return None
+        _, x, d, h = min(f for _, f in found if f is not None)
+        return count, x, d, h
+
+    def _node_depths(self, sel: np.ndarray) -> np.ndarray:
+        """The depth −g of the owned nodes ``sel`` ((n,) bool) below the nearest master
+        facet of the current search layer that faces them, the projection extended
+        without a depth limit and with the layer's reach (``margin``); NaN where none
+        (local; for the warning of :meth:`_find_unseen_overlap`)."""
+        n = self.node_blocks.size
+        depth = np.full(n, np.nan)
+        nsf, nphi = self.node_of.shape
+        if not nsf or not sel.any():
+            return depth
+        ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
+        xi = np.ascontiguousarray(np.broadcast_to(ref, (nsf,) + ref.shape), dtype=float)
+        node = self.node_of
+        use = (node >= 0) & sel[np.maximum(node, 0)]
+        reach = np.full(nsf, self.margin)
+        off, idx = candidates(self.xs, self.xm, reach)
+        pm = np.full((nsf, nphi), -1, np.int64)
+        pz, pg = np.zeros((nsf, nphi, self.gdim - 1)), np.zeros((nsf, nphi))
+        kmortar.pair_points(
+            self.ftype, self.master.ftype, self.xs, self.slave.sign, xi, use.astype(float),
+            self.xm, self.master.sign, self.master_key, off, idx, np.full(nsf, np.inf),
+            reach, pm, pz, pg, self.outside_tol,
+        )  # fmt: skip
+        f, i = np.nonzero(use & (pm >= 0))
+        np.fmin.at(depth, node[f, i], -pg[f, i])
+        return depth
+
+    def unseen_overlap(self) -> str | None:
+        """At the first converged step (the load stepper asks after each): the text of
+        an error where some slave node that started inside the master's body beyond the
+        pairing's reach (:meth:`_find_unseen_overlap`) is still without area (A^I = 0
+        at the last update, the converged state), else None, and None from then on: only
+        the first step is checked, later the bodies may part (collective where the pair
+        had such nodes: one allgather; the same answer on every rank)."""
+        if self.unseen_report is None:  # the same on every rank
+            return None
+        still = self.unseen_start[~self.has_area[self.unseen_start]]
+        if not self.comm.allreduce(int(still.size)):
+            self.unseen_report = None  # all paired: checked
+            return None
+        fi, ii = self._node_at
+        X = self.slave.X[fi, ii] + self.origin
+        report = self._first_node(still, X, None)
+        if report is None:
+            return None
+        count, x, _, h = report
+        return (
+            f"{self._key} ({self.name}): {count} slave node(s) that started inside the "
+            "master's body beyond the pairing's reach are still unpaired after the first "
+            "step, the first at (" + ", ".join(f"{c:.4g}" for c in x) + ") (reference "
+            f"coordinates; its slave facets {h:.3g} in size): the contact does not see that "
+            f"overlap. {OVERLAP_ADVICE}"
+        )
 
     @classmethod
     def from_pair(cls, problem, pair, key="contact"):

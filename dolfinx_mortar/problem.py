@@ -501,6 +501,17 @@ class ContactProblem:
                     held.append(np.asarray(d.dofs_by_component[c], np.int32))
         return np.unique(np.concatenate(held))
 
+    def body_cells(self, cells: np.ndarray) -> np.ndarray:
+        """The local cells (owned and ghost, sorted indices) of every body
+        (:func:`body_labels`) that holds one of the local ``cells`` on some rank
+        (collective: one allreduce over the bodies; the labels are computed once)."""
+        cell_body, _ = self._body_labels()
+        nbodies = 1 + self.comm.allreduce(int(cell_body.max(initial=-1)), MPI.MAX)
+        mine = np.zeros(nbodies, np.int32)
+        mine[cell_body[np.asarray(cells, np.int64)]] = 1
+        self.comm.Allreduce(MPI.IN_PLACE, mine, op=MPI.MAX)
+        return np.flatnonzero(mine[cell_body] > 0).astype(np.int32)
+
     def mirrored_planes(self, cells: np.ndarray, planes: np.ndarray) -> np.ndarray:
         """Which of the planes x_k = c, ``planes`` (n, 2) rows [k, c] (the same on every
         rank; c a length), a body of the local ``cells`` (on some rank; :func:`body_labels`)
@@ -1550,6 +1561,18 @@ class ContactProblem:
         self._contact_x = None
         for term, ts in zip(self.contacts, state["terms"], strict=True):
             term.resume_round(ts)
+
+    def unseen_overlaps(self) -> str | None:
+        """After the first converged step (the load stepper asks): the contact terms'
+        :meth:`~dolfinx_mortar.contact.MortarContact.unseen_overlap` texts, joined, or
+        None where no term has slave nodes that started inside the master's body beyond
+        the pairing's reach and are still unpaired (collective)."""
+        texts = []
+        for term in self.contacts:
+            check = getattr(term, "unseen_overlap", None)
+            if check is not None and (text := check()) is not None:
+                texts.append(text)
+        return "; ".join(texts) if texts else None
 
     def commit_step(self) -> None:
         """Accept the converged step: contact history and multipliers become the new reference."""

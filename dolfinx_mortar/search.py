@@ -233,3 +233,52 @@ class Fetcher:
     def destroy(self) -> None:
         for obj in (self._sc, self._out, self._is):
             obj.destroy()
+
+
+#: A point closer than sqrt(this) × (1 + |x|) to a geometry node of a cell is that node
+#: (points_in_cells: a cell of which it is a node does not count as holding it)
+_OWN_NODE_TOL2 = 1e-24
+
+
+def points_in_cells(comm, mesh, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Which of this rank's ``points`` (n, 3), reference coordinates, lie in one of the
+    ``cells`` (local cell indices, owned or ghost) of any rank, other than a cell that
+    has the point as one of its geometry nodes (the point's own cells, where it is a
+    node of that mesh: a slave node is not "inside" the body it bounds). Returns (n,)
+    bool. Collective: the ranks whose cells' bounding box holds a point (dolfinx's
+    global bounding-box tree) are sent that point, test it against their cells
+    (``compute_colliding_cells``, GJK to round-off) and send the answer back; no rank
+    gathers a whole surface."""
+    from dolfinx import geometry
+
+    from .compat import cell_geometry_nodes
+
+    tdim = mesh.topology.dim
+    cells = np.asarray(cells, np.int32)
+    points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+    tree = geometry.BoundingBoxTree(mesh, tdim, cells)
+    ranks = geometry.compute_collisions(tree.create_global_tree(comm), points)
+    point_of = np.repeat(np.arange(points.shape[0]), np.diff(ranks.offsets))
+    rank_of = np.asarray(ranks.array, np.int64)
+    send = [point_of[rank_of == r] for r in range(comm.size)]
+    asked = comm.alltoall([points[s] for s in send])
+    geo, x = cell_geometry_nodes(mesh), mesh.geometry.x
+    answers = []
+    for pts in asked:
+        hit = np.zeros(pts.shape[0], bool)
+        if pts.shape[0] and cells.size:
+            coll = geometry.compute_colliding_cells(
+                mesh, geometry.compute_collisions(tree, pts), pts
+            )
+            j = np.repeat(np.arange(pts.shape[0]), np.diff(coll.offsets))
+            c = np.asarray(coll.array, np.int64)
+            # not one of the point's own cells (the point is a geometry node of them)
+            d2 = np.sum((x[geo[c]] - pts[j][:, None, :]) ** 2, axis=2).min(axis=1, initial=np.inf)
+            own = d2 <= _OWN_NODE_TOL2 * (1.0 + np.sum(pts[j] ** 2, axis=1))
+            hit[j[~own]] = True
+        answers.append(hit)
+    back = comm.alltoall(answers)
+    inside = np.zeros(points.shape[0], bool)
+    for s, b in zip(send, back, strict=True):
+        inside[s] |= b
+    return inside

@@ -2017,7 +2017,11 @@ class LoadStepper:
         :data:`MIN_STEP_FRACTION` × ``t_end``. The problem is then back at the last
         converged step: its ``u`` and time, and the contact multipliers of its commit
         (``problem.restore_step``), with no stick/slip states carried; every converged
-        step has been passed to ``on_step``. Other exceptions (a PETSc error, or what
+        step has been passed to ``on_step``. It raises ConvergenceError at once, with
+        no cutback, where the first step converged with slave nodes that started inside
+        the master's body beyond the pairing's reach still unpaired
+        (``problem.unseen_overlaps``), the problem back at t = 0 as above. Other
+        exceptions (a PETSc error, or what
         ``on_step`` raises, e.g. an OutputError) propagate at once, the problem left as
         it was then.
         """
@@ -2134,6 +2138,15 @@ class LoadStepper:
                     "step to t = %g failed (%s); cutting back to t = %g", t_new, exc, pending[0]
                 )
                 continue
+            # the first converged step: an initial overlap beyond the pairing's reach that
+            # is still unseen makes the converged state no equilibrium, and no cutback helps
+            # (the overlap does not depend on t); the terms answer once (then None)
+            unseen = p.unseen_overlaps() if hasattr(p, "unseen_overlaps") else None
+            if unseen is not None:
+                p.u.x.array[:] = saved
+                p.set_time(t)
+                p.restore_step()
+                raise ConvergenceError(f"step to t = {t_new:g} converged, but {unseen}")
             pending.pop(0)
             p.carry_states(False)
             resume = None
