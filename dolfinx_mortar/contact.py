@@ -1253,6 +1253,7 @@ class MortarContact:
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
         self._slip_prev, self._reversed = None, None  # slip reversal (chattering control)
+        self._dual_fixed = None  # the facets' Ψ/Φ choice of this step (_dual_facets)
         # the Newton solves since begin_step; whether this one starts from the predictor
         self._solves, self._from_predictor = 0, False
         self.carry_states = False  # see the docstring of uzawa_update
@@ -1729,6 +1730,7 @@ class MortarContact:
         e_dof = np.empty((cap, d), np.int64)
         e_w = np.empty(cap)
         self.AT, self.S, self.S_n = np.zeros(n), np.zeros((n, d)), np.zeros((n, d))
+        self.dual_on = self._dual_facets()
         ne = 0
         if nsf:
             ne = kfriction.slip_integrals(
@@ -1746,7 +1748,7 @@ class MortarContact:
                 self.node_of,
                 self.node_touching,
                 self.t_weights,
-                self.dual_area,
+                self.dual_on,
                 self.slave.blocks,
                 self.slave.dofs,
                 self.master.blocks,
@@ -2127,6 +2129,27 @@ class MortarContact:
         states[open_[far]] = -1
         return states, dirs
 
+    def _dual_facets(self) -> np.ndarray:
+        """(nsf,) bool: the slave facets whose tangential weights are the dual Ψ, those that
+        their points paired now and at t_n cover whole (to FULL_COVER_TOL of their
+        ``dual_area``, finite on the facets closed at t_n). With segment integration the
+        covered area is a sum of clipped segments that moves with u: a facet whose
+        shortfall straddles FULL_COVER_TOL would switch between Ψ and Φ from one iterate
+        to the next (Newton cycles) or from one Uzawa round's solve to the next (the rounds
+        cycle). There the choice is made at the first evaluation of a step's attempt
+        (:meth:`begin_step`) and kept for the attempt; a facet then falls back to Φ only if
+        its shortfall grows past DUAL_KEEP_TOL (points lost for real: Ψ's negative lobe at
+        a closing facet) or it is no longer closed at t_n (local)."""
+        covered = np.zeros(self.node_of.shape[0])
+        if covered.size:
+            kfriction.covered_area(self.qp_w, self.qp_m, self.qp_mn, covered)
+        dual = covered >= (1.0 - kfriction.FULL_COVER_TOL) * self.dual_area
+        if self.integration != "segment":
+            return dual
+        if self._dual_fixed is None or self._dual_fixed.shape != dual.shape:
+            self._dual_fixed = dual
+        return self._dual_fixed & (covered >= (1.0 - kfriction.DUAL_KEEP_TOL) * self.dual_area)
+
     def _tangential_mass(self) -> np.ndarray:
         """Facet blocks (nsf, nphi, nphi) of the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J
         dA₀ over the points that enter S^I (paired now and at t_n; Ψ on the facets where
@@ -2138,8 +2161,7 @@ class MortarContact:
             return Mf
         qp = np.where((self.qp_m >= 0) & (self.qp_mn >= 0), 0, -1)
         kmortar.facet_mass(self.ftype_phi, self.qp_xi, self.qp_w, qp, Mf)
-        paired = np.where(qp >= 0, self.qp_w, 0.0).sum(axis=1)
-        dual = paired >= (1.0 - kfriction.FULL_COVER_TOL) * self.dual_area
+        dual = self.dual_on
         Mf[dual] = np.einsum("fij,fjk->fik", self.t_weights[dual], Mf[dual])
         partial = np.flatnonzero(self._tangential_partial())
         sums = Mf[partial].sum(axis=2)
@@ -2840,7 +2862,7 @@ class MortarContact:
                 self.qp_mn,
                 self.qp_zn,
                 self.t_weights,
-                self.dual_area,
+                self.dual_on,
                 dg,
                 dgxi,
                 dgn,
@@ -3470,7 +3492,7 @@ class MortarContact:
     _JACOBIAN_WATCH = (
         "held", "_set_jacobians", "qp_pinned", "qp_flip", "_pair_hist", "_pair_jacobians",
         "_pin_exchange", "_jac_active", "first_contact", "_predictor_track", "_jacobians",
-        "qp_frozen", "frozen", "_slip_prev", "_reversed",
+        "qp_frozen", "frozen", "_slip_prev", "_reversed", "_dual_fixed",
     )  # fmt: skip
 
     def _jacobian_watch(self) -> dict:
@@ -3957,6 +3979,7 @@ class MortarContact:
                 self.lmbda_t_committed = tau.copy()
                 self._pending = None
             self.frozen = None
+            self._dual_fixed = None  # the facets' Ψ/Φ choice, segment integration
 
     def commit_step(self) -> None:
         """Accept the converged step. With friction: accumulate slip and dissipation, and

@@ -353,7 +353,7 @@ def test_slip_integrals_match_reference(case, weights):
         term.node_of,
         term.node_touching,
         term.t_weights,
-        term.dual_area,
+        term.dual_on,
     )
     assert np.allclose(term.AT, AT, rtol=1e-13, atol=1e-15)
     assert np.allclose(term.S, S, rtol=1e-12, atol=1e-15)
@@ -474,7 +474,7 @@ def test_slip_point_terms_match_reference(case):
         term.qp_mn,
         term.qp_zn,
         term.t_weights,
-        term.dual_area,
+        term.dual_on,
         *out,
     )
     dg, dgxi, dgn, dgxin, Ns, dNs, Nm, dNm, psi, dpsi, phi, dphi = out

@@ -17,7 +17,7 @@ not zero: the nodal slip is therefore measured from the start of the step,
 
 Nodal integrals over the owned mixed-field nodes I that touched at t_n (``node_ok``;
 points paired now AND at t_n), with the weight functions Ψ_I (the mixed basis Φ_I, or its
-dual basis on the facets of finite ``area``: ``tangential_weights``):
+dual basis on the facets flagged in ``use_dual``: ``tangential_weights``):
 
     A_T^I = Σ_q w_q J₀ Ψ_I(ξ_q),    S^I = Σ_q w_q J₀ Ψ_I(ξ_q) Δg(ξ_q)   (d-vector),
     S_n^I = Σ_q w_q J₀ Ψ_I(ξ_q) d_n(ξ_q)   (the same weights on the t_n coordinates),
@@ -45,16 +45,24 @@ from .shape import shape, tdim
 #: relative shortfall of the paired area below which a facet still counts as fully paired
 FULL_COVER_TOL = 1e-6
 
+#: segment integration: relative shortfall of the paired area above which a facet that
+#: chose the dual weights at a step's first evaluation falls back to Φ within the step (it
+#: lost paired points for real; MortarContact fixes the choice per step attempt)
+DUAL_KEEP_TOL = 1e-3
+
 
 @numba.njit(cache=True)
-def _use_dual(f, qp_w, qp_m, qp_mn, area):
-    """Whether facet f uses the dual weights: its points paired now and at t_n cover its
-    whole ``area[f]`` (to FULL_COVER_TOL)."""
-    covered = 0.0
-    for q in range(qp_w.shape[1]):
-        if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0:
-            covered += qp_w[f, q]
-    return covered >= (1.0 - FULL_COVER_TOL) * area[f]
+def covered_area(qp_w, qp_m, qp_mn, out):
+    """out (nsf,): the area (with J₀, the units of qp_w) of each slave facet that its points
+    paired now (qp_m ≥ 0) and at t_n (qp_mn ≥ 0) cover; qp_w, qp_m, qp_mn (nsf, nq).
+    A facet uses the dual weights where out ≥ (1 − FULL_COVER_TOL)·area (see
+    :func:`slip_integrals`'s ``use_dual``)."""
+    for f in range(qp_w.shape[0]):
+        covered = 0.0
+        for q in range(qp_w.shape[1]):
+            if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0:
+                covered += qp_w[f, q]
+        out[f] = covered
 
 
 @numba.njit(cache=True)
@@ -94,7 +102,7 @@ def slip_integrals(
     node_of,
     node_ok,
     dual,
-    area,
+    use_dual,
     skeys,
     sdofs,
     mkeys,
@@ -119,10 +127,11 @@ def slip_integrals(
     (nsf, nq) weights with J₀; qp_m (nsf, nq) current pairing (−1: none), qp_mn, qp_zn
     (nsf, nq), (nsf, nq, km) the pairing at t_n; node_of (nsf, nphi); node_ok (n,) the nodes
     that take part (touching at t_n, see MortarContact); dual (nsf, nphi, nphi) the
-    weight functions Ψ_i = Σ_j dual[f, i, j] Φ_j (identity: Ψ = Φ), used on a facet only
-    where its points paired now and at t_n cover its whole area (nsf,) (to 1e-6; elsewhere
-    Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone; area = inf keeps Φ on
-    that facet); skeys (nsf, ns),
+    weight functions Ψ_i = Σ_j dual[f, i, j] Φ_j (identity: Ψ = Φ), used on facet f only
+    where use_dual[f] (nsf,) bool: MortarContact sets it where the facet's points paired
+    now and at t_n cover its whole area (:func:`covered_area`, to FULL_COVER_TOL; with
+    segment integration decided once per step attempt, see DUAL_KEEP_TOL); elsewhere
+    Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone; skeys (nsf, ns),
     mkeys (nmf, nm) global blocks; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs.
     Entry arrays must hold nsf·nq·nphi·(ns + nm) rows (e_dof: (…, d)).
     """
@@ -150,14 +159,14 @@ def slip_integrals(
     Sn[:, :] = 0.0
     e = 0
     for f in range(nsf):
-        use_dual = _use_dual(f, qp_w, qp_m, qp_mn, area)
+        dual_f = use_dual[f]
         for q in range(nq):
             mn = qp_mn[f, q]
             if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
-            _weights(ftype_phi, qp_xi[f, q], use_dual, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
+            _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for c in range(d):
                 s = 0.0
                 sn = 0.0
@@ -210,7 +219,7 @@ def slip_point_terms(
     qp_mn,
     qp_zn,
     dual,
-    area,
+    use_dual,
     dg,
     dgxi,
     dgn,
@@ -272,7 +281,7 @@ def slip_point_terms(
     dz = np.empty((km, k))
     row = -1
     for f in range(nsf):
-        use_dual = _use_dual(f, qp_w, qp_m, qp_mn, area)
+        dual_f = use_dual[f]
         for q in range(nq):
             if qp_m[f, q] < 0:
                 continue
@@ -286,7 +295,7 @@ def slip_point_terms(
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nb, dNb, ddNb)
-            _weights(ftype_phi, qp_xi[f, q], use_dual, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
+            _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for i in range(nphi):
                 psi[row, i] = Psi[i]
                 phi[row, i] = Phi[i]
@@ -594,7 +603,7 @@ def slip_integrals_reference(
     node_of,
     node_ok,
     dual,
-    area,
+    use_dual,
 ):
     """NumPy reference of :func:`slip_integrals`: returns (A_T, S, S_n, W) with W a dict
     {(node, slave|master, facet, local node): weight} (for tests)."""
@@ -615,9 +624,7 @@ def slip_integrals_reference(
         return out[:n]
 
     for f in range(xs.shape[0]):
-        paired = (qp_m[f] >= 0) & (qp_mn[f] >= 0)
-        full = qp_w[f][paired].sum() >= (1.0 - FULL_COVER_TOL) * area[f]
-        C = dual[f] if full else np.eye(dual.shape[1])
+        C = dual[f] if use_dual[f] else np.eye(dual.shape[1])
         for q in range(qp_xi.shape[1]):
             mn = qp_mn[f, q]
             if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
