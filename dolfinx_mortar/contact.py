@@ -1997,8 +1997,8 @@ class MortarContact:
         below 1 − EDGE_FRACTION_TOL, :meth:`paired_fraction`) and that touch there (some
         paired point with gap ≤ 0) at the last contact update; 0 for element and node
         integration. Across such an edge the paired area has a kink in the displacement
-        (docs/method-notes.md, "Segment integration"), which Newton can cycle on; the stop
-        message names it. Not collective."""
+        (docs/method-notes.md, "Segment integration"); the stop message names such facets.
+        Not collective."""
         if self.integration != "segment" or self.slave.num_facets == 0:
             return 0
         fraction = self.paired_fraction(self.qp_m)

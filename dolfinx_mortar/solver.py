@@ -1836,9 +1836,12 @@ def _unheld_hint(problem) -> str:
 def _edge_hint(problem) -> str:
     """A clause for the error of a run that stops where slave facets in contact lie
     across the master surface's edge under segment integration (``problem.edge_facet_pairs``;
-    "" where none): the paired area has a kink there, and Newton can cycle between its
-    sides (docs/method-notes.md, "Segment integration": a press or a slide with the slave's
-    boundary on the master's, with friction). Collective; called only when the run stops."""
+    "" where none): the paired area has a kink there (one-sided derivatives), which may
+    be what stopped Newton. The stalls once put down to it (docs/method-notes.md,
+    "Segment integration": a press or a slide with the slave's boundary on the master's,
+    with friction) were the dual tangential weights' choice switching from one iterate to
+    the next, fixed in session 52; the clause names the place and the ways around it, not
+    a known cause. Collective; called only when the run stops."""
     pairs = getattr(problem, "edge_facet_pairs", None)
     found = pairs() if pairs is not None and getattr(problem, "contacts", None) else {}
     if not found:
@@ -1848,7 +1851,7 @@ def _edge_hint(problem) -> str:
     )
     return (
         f"; {where} in contact across the master surface's edge, where the paired area of "
-        "segment integration has a kink that Newton can cycle on (docs/method-notes.md, "
+        "segment integration has a kink, which may have stopped Newton (docs/method-notes.md, "
         '"Segment integration"): integration = "element", or a master surface that extends '
         "beyond the slave, avoids it"
     )

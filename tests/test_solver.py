@@ -283,6 +283,7 @@ def test_a_run_that_stalls_across_the_master_edge_says_so(shared_tmp):
         "; 1 slave facet of upper_bottom:lower_top in contact across the master surface's edge"
         in s["error"]
     ), s["error"]
+    assert "has a kink, which may have stopped Newton" in s["error"], s["error"]
     assert 'integration = "element", or a master surface that extends beyond' in s["error"]
 
 
