@@ -346,7 +346,9 @@ GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: displacement-driven press step puts every node of the previous contact zone into the
 #: other body by its initial gap (cattaneo2d, t = 0.5 → 1: 0.5 h); with the exact tangent
 #: Newton then cycled for 35 iterations, from the predictor and again from the converged
-#: state, and the step was cut back. Converged states penetrate by p/ε ≈ 1e-4 h.
+#: state, and the step was cut back. Converged states penetrate by p/ε ≈ 1e-4 h. The
+#: chattering control's slip-reversal rule does not compare the stick/slip states of such
+#: an iterate either (session 52: meshes that overlap at t = 0; ``_add_tangential_jacobian``).
 DEEP_PENETRATION_TOL = 0.05
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
@@ -1186,6 +1188,7 @@ class MortarContact:
     def _init_friction(self, penalty_t, key: str) -> None:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
+        self.deep_start = False  # the start of the step penetrates deeply (local)
         if penalty_t == "auto":
             self.eps_t = AUTO_PENALTY_T_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
             self.penalty_t_description = f"auto: {AUTO_PENALTY_T_FACTOR:g} E*/h_I"
@@ -1709,6 +1712,10 @@ class MortarContact:
             has = An > 1e-12 * self.h_node ** (self.gdim - 1)
             gamma_n = np.where(has, Gn / np.where(has, An, 1.0), np.inf)
             self.node_touching = gamma_n <= HISTORY_GAP_TOL * self.h_node
+            # a start of step deeper than DEEP_PENETRATION_TOL h_I (meshes that overlap at
+            # t = 0; converged states penetrate by p/ε ≈ 1e-4 h): the slip-reversal rule
+            # skips the iterates far from equilibrium (_add_tangential_jacobian)
+            self.deep_start = bool(np.any(gamma_n < -DEEP_PENETRATION_TOL * self.h_node))
             # facets closed over their whole area at t_n (every point paired with a gap
             # ≤ HISTORY_GAP_TOL h): the dual tangential weights apply only there
             used = self.qp_w != 0.0
@@ -2694,17 +2701,38 @@ class MortarContact:
             # which carries the last step's slip on: it is not compared (session 41: a
             # press followed by a slide turned half the slave nodes there, which froze
             # them in stick far outside the cone and the solve 2-cycled until max_it).
+            # Session 52: in a step that starts deeper than DEEP_PENETRATION_TOL h_I
+            # (meshes that overlap at t = 0), an iterate far from equilibrium (an active
+            # node that deep, p = ε|γ| of 5 E* or more) is not compared: its states say
+            # nothing about the solution's, and the comparisons start afresh at the next
+            # Jacobian. A quarter shrink fit (δ = 0.1, μ = 0.3) froze 4 nodes OPEN at the
+            # 5th Jacobian on a reversal between the 3rd and the 4th (p ≈ 2600 and 8 at a
+            # node), and the re-entry rule let them slip to and fro until max_it. Only
+            # such steps: a press's predictor also penetrates that deep (cattaneo2d,
+            # ironing2d), where the rule is measured as it was (docs/method-notes.md,
+            # "Chattering control").
             reversal = False
             if self.tangential_recovery in REVERSAL_RECOVERIES:
-                if self._slip_prev is None:
-                    self._reversed = np.zeros(slip.shape, bool)
-                elif self._jacobians > 2 or not self._from_predictor:
-                    # the slip states and directions of the last Jacobian of this solve
-                    was, prev = self._slip_prev
-                    self._reversed |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
-                self._slip_prev = (slip, dirs)
-                local = bool(np.any(self._reversed & slip))
-                reversal = self.comm.allreduce(local, op=MPI.LOR)
+                reversed_ = np.zeros(slip.shape, bool)
+                if self._slip_prev is not None:
+                    reversed_ |= self._reversed
+                    if self._jacobians > 2 or not self._from_predictor:
+                        # the slip states and directions of the last Jacobian of this solve
+                        was, prev = self._slip_prev
+                        reversed_ |= slip & was & (np.einsum("na,na->n", dirs, prev) < 0.0)
+                act = self.active
+                depth = float(np.max(-self.gamma[act] / self.h_node[act], initial=0.0))
+                local = (
+                    int(bool(np.any(reversed_ & slip)))
+                    | int(depth > DEEP_PENETRATION_TOL) << 1
+                    | int(self.deep_start) << 2
+                )
+                flags = self.comm.allreduce(local, op=MPI.BOR)
+                if (flags & 6) == 6:  # far from equilibrium: no comparison, none from here
+                    self._slip_prev, self._reversed = None, np.zeros(slip.shape, bool)
+                else:
+                    self._slip_prev, self._reversed = (slip, dirs), reversed_
+                    reversal = bool(flags & 1)
             if self._jacobians >= self.freeze_after or reversal:
                 states = self.fstate.copy()
                 if reversal:

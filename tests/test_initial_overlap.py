@@ -14,7 +14,10 @@ facet's box inflated by half its size, at most 2 facet sizes deep
   graded mesh: an error at set-up would refuse it);
 - δ = 0.3 (2.3 facet sizes): no node pairs, the residual is 0 and Newton converges at
   u = 0 with the bodies overlapping: before, "ok" with no contact force; now a warning at
-  set-up and the run "failed" after its first step, naming the pair and the nodes.
+  set-up and the run "failed" after its first step, naming the pair and the nodes;
+- δ = 0.1 and 0.15 with friction μ = 0.3 (session 52): the exact answer is all stick
+  with τ = 0; before, the states of the first, deeply penetrating iterates froze the
+  stick/slip states with 4 nodes open, and the run failed at every cutback.
 
 Lamé (plane strain, solid shaft): p = δ / (C_ring + C_shaft),
 C_ring = b(1+ν)((1−2ν)b² + c²)/(E(c² − b²)), C_shaft = b(1+ν)(1−2ν)/E.
@@ -103,7 +106,7 @@ def shrink_msh(shared_tmp):
     return make
 
 
-def _scene(msh, out) -> dict:
+def _scene(msh, out, friction: float = 0.0) -> dict:
     rollers = [[0.0, 0.0], [1.0, 0.0]]
     return {
         "title": "shrink fit",
@@ -112,7 +115,14 @@ def _scene(msh, out) -> dict:
         "material": [
             {"region": r, "model": "linear-elastic", "E": E, "nu": NU} for r in ("shaft", "ring")
         ],
-        "contact": [{"slave": "ring_inner", "master": "shaft_surface", "uzawa_tol": 1e-8}],
+        "contact": [
+            {
+                "slave": "ring_inner",
+                "master": "shaft_surface",
+                "uzawa_tol": 1e-8,
+                "friction": friction,
+            }
+        ],
         "dirichlet": [
             {"boundary": f"{body}_{cut}", "components": [k], "path": rollers}
             for body in ("shaft", "ring")
@@ -123,15 +133,18 @@ def _scene(msh, out) -> dict:
     }
 
 
-def _run(msh, out, caplog) -> tuple[dict, list[str]]:
+def _run(msh, out, caplog, friction: float = 0.0) -> tuple[dict, list[str]]:
     with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
-        summary = run(parse_scene(_scene(msh, out), msh.parent), MPI.COMM_WORLD)
+        summary = run(parse_scene(_scene(msh, out, friction), msh.parent), MPI.COMM_WORLD)
     return summary, [r.getMessage() for r in caplog.records if WARNING in r.getMessage()]
 
 
 def _pressures(out) -> np.ndarray:
-    d = np.genfromtxt(out / "contact_ring_inner_1.csv", delimiter=",", names=True)
-    return np.asarray(d["p_N"])
+    return np.asarray(_table(out)["p_N"])
+
+
+def _table(out) -> np.ndarray:
+    return np.genfromtxt(out / "contact_ring_inner_1.csv", delimiter=",", names=True)
 
 
 @pytest.mark.mpi
@@ -174,6 +187,29 @@ def test_nodes_pulled_into_reach_by_the_others_run_ok(shrink_msh, shared_tmp, ca
     assert p.size == 13
     assert abs(p.mean() / _lame(0.15) - 1) < 0.03  # the coarse mesh: each node within 8 %
     assert np.allclose(p, _lame(0.15), rtol=0.08)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("delta", [0.1, 0.15])
+def test_a_frictional_shrink_fit_converges(shrink_msh, shared_tmp, caplog, delta):
+    """μ = 0.3 (session 52): the exact answer is a radial fit, all stick with τ = 0.
+    Before, the first iterates (p = ε δ ≈ 8400 at u = 0, then 2600 at the nodes the
+    first step pairs) froze the stick/slip states on a slip reversal at the 5th Jacobian
+    with 4 nodes OPEN; closing again, they followed the free law and slipped to and fro
+    until max_it, at every cutback (residual 1.896 at δ = 0.1, 2.125 at δ = 0.15). An
+    iterate with an active node deeper than DEEP_PENETRATION_TOL h is now not compared."""
+    out = shared_tmp / f"friction_{delta:g}"
+    summary, _ = _run(shrink_msh(delta), out, caplog, friction=0.3)
+    assert summary["status"] == "ok", summary.get("error")
+    assert summary["steps"][0]["cutbacks"] == 0
+    d = _table(out)
+    p, p_t = np.asarray(d["p_N"]), np.abs(np.asarray(d["p_T0"]))
+    assert p.size == 13
+    assert abs(p.mean() / _lame(delta) - 1) < 0.03  # measured +1.6 % at either δ
+    assert np.allclose(p, _lame(delta), rtol=0.08)
+    assert np.all(p_t <= 0.3 * p)
+    assert p_t.max() < 0.1 * 0.3 * p.min()  # all stick, |τ| ≤ 0.05 μ p measured
+    assert np.all(np.asarray(d["state"]) == 1)
 
 
 def test_the_warning_comes_at_set_up(shrink_msh, caplog):
