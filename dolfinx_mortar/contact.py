@@ -346,9 +346,10 @@ GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: displacement-driven press step puts every node of the previous contact zone into the
 #: other body by its initial gap (cattaneo2d, t = 0.5 → 1: 0.5 h); with the exact tangent
 #: Newton then cycled for 35 iterations, from the predictor and again from the converged
-#: state, and the step was cut back. Converged states penetrate by p/ε ≈ 1e-4 h. The
+#: state, and the step was cut back. Converged states penetrate by p/ε ≈ 1e-4 h. In a
+#: step whose start is that deep (meshes that overlap at t = 0: ``deep_start``), the
 #: chattering control's slip-reversal rule does not compare the stick/slip states of such
-#: an iterate either (session 52: meshes that overlap at t = 0; ``_add_tangential_jacobian``).
+#: an iterate either (session 52; ``_add_tangential_jacobian``).
 DEEP_PENETRATION_TOL = 0.05
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
 #: SLIP_TOL h_I): below, the slip direction would be round-off.
