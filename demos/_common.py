@@ -77,7 +77,8 @@ def parser(
             default=default,
             help="update of the multipliers between Uzawa rounds (newton: the exact update, "
             "with friction pairs with the lumped tangential recovery only; auto: newton on "
-            f"pairs with the lumped recoveries, else aitken) [{default}]",
+            "pairs with the lumped recoveries, else aitken, which switches to newton in a "
+            f"step whose rounds contract slowly where newton applies) [{default}]",
         )
     if frame:
         ap.add_argument(

@@ -76,6 +76,7 @@ from .scene import (
     TANGENTIAL_WEIGHTS,
     UZAWA_ACCELERATIONS,
     contact_numbers,
+    exact_update_applies,
     exact_update_default,
     quadrature_degree_choice,
     uzawa_acceleration_choice,
@@ -470,8 +471,12 @@ def resolve_acceleration(
     lumped recovery and, with friction, the lumped tangential recovery
     (:func:`~dolfinx_mortar.scene.exact_update_default`); "aitken" on any other, in 2D
     and 3D alike (local). The unconstrained and constrained normal recoveries take
-    "newton" on request only (the finite-difference update; session 47: docs/method-notes.md,
-    "The exact update with the mixed normal recoveries").
+    "newton" on request (the finite-difference update; session 47: docs/method-notes.md,
+    "The exact update with the mixed normal recoveries"); with "auto" such a pair (the
+    tangential recovery lumped where it has friction: ``scene.exact_update_applies``)
+    starts each step with Aitken and switches to the exact update for the rest of the
+    step when its rounds contract slowly (session 52: :data:`AUTO_EXACT_ROUNDS`,
+    ``MortarContact._auto_exact``; the pair reports "aitken").
 
     Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
@@ -490,6 +495,34 @@ def resolve_acceleration(
     if not exact_update_default(friction, recovery, tangential_recovery):
         return "aitken"
     return "newton"
+
+
+#: "auto" on a pair where the exact update applies but is not the default (the
+#: unconstrained and constrained normal recoveries: :func:`~dolfinx_mortar.scene.
+#: exact_update_default`) is Aitken, but a step whose Aitken rounds contract slowly
+#: switches to the exact update for the rest of the step (attempt): after at least
+#: AUTO_EXACT_ROUNDS rounds, when the change of the last round is above
+#: AUTO_EXACT_CONTRACTION^(AUTO_EXACT_ROUNDS − 1) times that of AUTO_EXACT_ROUNDS − 1
+#: rounds before (session 39's rule for the lumped 3D frictional pairs, which take the
+#: exact update from the start since session 41). Session 52: a coarse tetrahedral 3D
+#: press with μ = 0.3 and the constrained recovery (patch3d, 3 × 4 slave elements)
+#: ended each step at a change of 5–7e-5 after the 20 Aitken rounds whatever its size
+#: and the run stopped; now 12 + 11 rounds a press step. The patch tests, which converge
+#: in their 2nd or 4th round, keep Aitken (docs/method-notes.md, "The exact update with
+#: the mixed normal recoveries"; BENCHMARKS §62).
+AUTO_EXACT_ROUNDS = 4
+AUTO_EXACT_CONTRACTION = 0.8
+
+
+def _slow_rounds(changes: list[float]) -> bool:
+    """Whether the Uzawa rounds of a step contract slowly (AUTO_EXACT_ROUNDS,
+    AUTO_EXACT_CONTRACTION; ``changes`` the largest relative multiplier change, normal or
+    tangential, of each round so far, dimensionless; local, the changes are global, so
+    the answer is the same on every rank)."""
+    k = AUTO_EXACT_ROUNDS
+    if len(changes) < k:
+        return False
+    return changes[-1] > AUTO_EXACT_CONTRACTION ** (k - 1) * changes[-k]
 
 
 def _gmres(
@@ -631,8 +664,9 @@ class MortarContact:
         or :meth:`_exact_multipliers_fd` (friction, or the unconstrained and constrained
         recoveries), with friction pairs with the lumped tangential recovery only,
         otherwise SceneError; "auto", the default: "newton" on the pairs with the lumped
-        recoveries (2D and 3D, with or without friction), "aitken" elsewhere,
-        :func:`resolve_acceleration`).
+        recoveries (2D and 3D, with or without friction), "aitken" elsewhere, switching
+        to "newton" in a step whose rounds contract slowly where it applies,
+        :func:`resolve_acceleration`, :data:`AUTO_EXACT_ROUNDS`).
     quadrature_degree: of the slave facet rule, an integer >= 1, or None (the default:
         :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type).
     key: scene key used in error messages.
@@ -904,10 +938,20 @@ class MortarContact:
 
         # multipliers and nodal state
         # checked on entry (uzawa_acceleration_choice)
+        requested = uzawa_acceleration
         uzawa_acceleration = resolve_acceleration(
             uzawa_acceleration, self.mu, recovery, tangential_recovery
         )
         self.uzawa_acceleration = UzawaAcceleration(comm, uzawa_acceleration)
+        #: "auto" resolved to "aitken" where the exact update applies (the mixed normal
+        #: recoveries): a step whose Aitken rounds contract slowly switches to the exact
+        #: update (AUTO_EXACT_ROUNDS, AUTO_EXACT_CONTRACTION; local, the same on every rank)
+        self._auto_exact = (
+            requested == "auto"
+            and uzawa_acceleration == "aitken"
+            and exact_update_applies(self.mu, recovery, tangential_recovery)
+        )
+        self._round_changes: list[float] = []  # this attempt's max(rel, rel_t) per round
         self.lmbda = np.zeros(n)
         self.lmbda_committed = np.zeros(n)
         self.p = np.zeros(n)
@@ -3348,6 +3392,12 @@ class MortarContact:
         if done:
             self._clear_unloaded(unloaded, tau_law if self.frictional else None, info, True)
             return changed == 0, info
+        if self._auto_exact:
+            self._round_changes.append(max(rel, rel_t))
+            if self.uzawa_acceleration.method == "aitken" and _slow_rounds(self._round_changes):
+                self.uzawa_acceleration.method = "newton"  # until the attempt ends
+                info["acceleration_switch"] = "aitken -> newton (slow rounds)"
+                log.info("%s: Aitken rounds contract slowly; the exact update", self.name)
         if self.uzawa_acceleration.method == "newton":  # exact_update_applies
             if changed:
                 # the solve ended with frozen states, a frozen QP set or a held contact
@@ -3984,8 +4034,13 @@ class MortarContact:
         return max(1.0, self.penalty_ratio, self._penalty_t_ratio)
 
     def _reset_acceleration(self) -> None:
-        """A step starts (or starts again): the acceleration's history is forgotten."""
+        """A step starts (or starts again): the acceleration's history is forgotten, and a
+        pair that slow Aitken rounds switched to the exact update (AUTO_EXACT_ROUNDS) goes
+        back to Aitken (local)."""
         self.uzawa_acceleration.reset()
+        self._round_changes = []
+        if self._auto_exact:
+            self.uzawa_acceleration.method = "aitken"
 
     def begin_step(self) -> None:
         """Reset the Uzawa acceleration's history (multipliers carry over from the last step)

@@ -189,7 +189,8 @@ TANGENTIAL_WEIGHTS = ("auto", "dual", "standard")
 #: "Friction"; :class:`dolfinx_mortar.friction.MasterFrames`).
 TANGENTIAL_FRAMES = ("slave", "master")
 #: Allowed values of ``contact.uzawa_acceleration`` (docs/method-notes.md, "Uzawa
-#: augmentation"; the first is the default: "newton" where it applies, else "aitken").
+#: augmentation"; the first is the default: "newton" on the lumped pairs, else "aitken",
+#: which switches to "newton" in a step whose rounds contract slowly where it applies).
 UZAWA_ACCELERATIONS = ("auto", "aitken", "anderson", "none", "newton")
 
 
@@ -198,16 +199,17 @@ def exact_update_applies(friction: float, recovery: str, tangential_recovery: st
     available for a pair: any normal recovery (the unconstrained and constrained ones
     since session 47, with the finite-difference update), and with friction (μ > 0) the
     lumped tangential one. "auto" resolves to "newton" only on the pairs with the lumped
-    normal recovery among them (:func:`exact_update_default`)."""
+    normal recovery among them (:func:`exact_update_default`), and on the others a step
+    whose Aitken rounds contract slowly switches to it (``contact.AUTO_EXACT_ROUNDS``)."""
     return recovery in RECOVERIES and (friction == 0.0 or tangential_recovery == "lumped")
 
 
 def exact_update_default(friction: float, recovery: str, tangential_recovery: str) -> bool:
     """Whether ``uzawa_acceleration = "auto"`` is the exact update on a pair: where it
     applies (:func:`exact_update_applies`) and the normal recovery is lumped (the mixed
-    recoveries take it on request only: docs/method-notes.md, "The exact update with the
-    mixed normal recoveries";
-    :func:`dolfinx_mortar.contact.resolve_acceleration`)."""
+    recoveries take it on request, and with "auto" in a step whose Aitken rounds contract
+    slowly, session 52: docs/method-notes.md, "The exact update with the mixed normal
+    recoveries"; :func:`dolfinx_mortar.contact.resolve_acceleration`)."""
     return recovery == "lumped" and exact_update_applies(friction, recovery, tangential_recovery)
 
 

@@ -642,6 +642,61 @@ def test_a_3d_frictional_press_takes_the_exact_update(tmp_path_factory):
     )
 
 
+def test_slow_rounds_rule():
+    """The switch rule of "auto" on the mixed normal recoveries (AUTO_EXACT_ROUNDS = 4,
+    AUTO_EXACT_CONTRACTION = 0.8): slow after 4 rounds when the last change is above
+    0.8³ = 0.512 times that of 3 rounds before."""
+    from dolfinx_mortar.contact import AUTO_EXACT_CONTRACTION, AUTO_EXACT_ROUNDS, _slow_rounds
+
+    assert (AUTO_EXACT_ROUNDS, AUTO_EXACT_CONTRACTION) == (4, 0.8)
+    assert not _slow_rounds([1.0, 0.99, 0.98])  # too few rounds
+    assert not _slow_rounds([1.0, 0.5, 0.2, 0.1])
+    assert not _slow_rounds([1.0, 0.9, 0.8, 0.5])  # 0.5 < 0.512
+    assert _slow_rounds([1.0, 0.9, 0.8, 0.52])
+    # the first press step below (session 52): rounds 4–6 fast enough, round 7 slow
+    changes = [1.0, 5.1e-2, 2.0e-2, 1.0e-2, 7.5e-3, 4.5e-3, 8.1e-3]
+    assert [_slow_rounds(changes[:k]) for k in range(4, 8)] == [False, False, False, True]
+
+
+@pytest.mark.mpi
+def test_a_slow_constrained_3d_press_switches_to_the_exact_update(tmp_path_factory):
+    """ "auto" on a pair with a mixed normal recovery is Aitken, switching to the exact
+    update in a step whose rounds contract slowly (session 52). The coarse tetrahedral
+    frictional press above with the constrained recovery and element integration
+    (finite strain, μ = 0.3): Aitken alone ended its first step at a tangential change of
+    about 7e-5 after the 20 rounds (the probe's press + slide stopped after 5 cutbacks,
+    still 5e-5 at t = 1/64); now 6 Aitken rounds, the switch in the 7th, 3 and 2 exact
+    updates (the 7th's included), 10 + 9 rounds (measured serially, no cutback). Each
+    step starts with Aitken again."""
+    data = {
+        "kinematics": "finite",
+        "mesh": {
+            "generator": "patch3d",
+            "params": {"n_lower": 3, "n_upper": 4, "n_y": 1, "quads": False},
+        },
+        "material": _neo_hookean_blocks(),
+        "contact": _patch_pair(friction=0.3, integration="element", recovery="constrained"),
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.01]]},
+        ],
+        "steps": {"t_end": 1.0, "n": 2, "max_cutbacks": 0},
+    }
+    summary = _run_scene(data, tmp_path_factory, "auto_switch")
+    pair = summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"]
+    assert pair["uzawa_acceleration"] == "aitken"
+    for st in summary["steps"]:
+        assert st["cutbacks"] == 0 and st["uzawa_rounds"] <= 12, st["uzawa_rounds"]
+        rounds = [next(iter(r.values())) for r in st["uzawa"]]
+        switched = [k for k, r in enumerate(rounds) if "acceleration_switch" in r]
+        assert len(switched) == 1 and switched[0] >= 3, switched  # after 4 rounds at least
+        k = switched[0]
+        assert not any("exact_update" in r for r in rounds[:k]), rounds  # Aitken before
+        assert all("exact_update" in r for r in rounds[k:-1]), rounds  # exact from there on
+        last = rounds[-1]
+        assert max(last["multiplier_change"], last["tangential_change"]) <= 1e-6
+
+
 def test_the_exact_update_refactorizes_after_a_state_change(tmp_path_factory):
     """The exact update's K⁻¹ must be the Jacobian of the converged state. A round's solve
     that takes one Newton iteration on the reused factorization leaves the factorization
