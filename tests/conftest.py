@@ -104,16 +104,22 @@ def shared_tmp(tmp_path_factory):
     return Path(path)
 
 
+def written_once(path: Path, write, *args) -> Path:
+    """``path``, written by ``write(path, *args)`` on rank 0 of COMM_WORLD where it does
+    not exist yet (a mesh shared by the tests of a module), then a barrier (collective)."""
+    if MPI.COMM_WORLD.rank == 0 and not path.exists():
+        write(path, *args)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
 @pytest.fixture
 def block_msh(shared_tmp):
     """Factory: block_msh(dim, n, quads, order) -> path of a .msh file (collective)."""
 
     def make(dim, n=3, quads=False, order=1, size=(2.0, 1.0, 1.0), version=4.1):
         path = shared_tmp / f"block{dim}_{n}_{int(quads)}_{order}_{version}.msh"
-        if MPI.COMM_WORLD.rank == 0 and not path.exists():
-            write_block_msh(path, dim, n, quads, order, size, version)
-        MPI.COMM_WORLD.barrier()
-        return path
+        return written_once(path, write_block_msh, dim, n, quads, order, size, version)
 
     return make
 

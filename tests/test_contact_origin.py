@@ -17,6 +17,7 @@ import types
 
 import numpy as np
 import pytest
+from conftest import written_once
 from mpi4py import MPI
 
 from dolfinx_mortar import contact
@@ -46,11 +47,7 @@ def _write_patch(path, params: dict, shift) -> None:
 
 
 def _mesh(tmp, name: str, params: dict, shift) -> str:
-    path = tmp / f"{name}.msh"
-    if MPI.COMM_WORLD.rank == 0 and not path.exists():
-        _write_patch(path, params, shift)
-    MPI.COMM_WORLD.barrier()
-    return str(path)
+    return str(written_once(tmp / f"{name}.msh", _write_patch, params, shift))
 
 
 def _frictional(msh: str) -> dict:

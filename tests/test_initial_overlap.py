@@ -29,6 +29,7 @@ import logging
 
 import numpy as np
 import pytest
+from conftest import written_once
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import prepare, run
@@ -97,11 +98,7 @@ def shrink_msh(shared_tmp):
     """Factory: shrink_msh(delta) -> path of the mesh (collective)."""
 
     def make(delta: float):
-        path = shared_tmp / f"shrink_{delta:g}.msh"
-        if MPI.COMM_WORLD.rank == 0 and not path.exists():
-            _write_shrink_msh(path, delta)
-        MPI.COMM_WORLD.barrier()
-        return path
+        return written_once(shared_tmp / f"shrink_{delta:g}.msh", _write_shrink_msh, delta)
 
     return make
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import written_once
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import run
@@ -56,11 +57,7 @@ def _write_stack_msh(path, n_x=(5, 7, 6), n_y=3) -> None:
 
 @pytest.fixture
 def stack_msh(shared_tmp):
-    path = shared_tmp / "stack.msh"
-    if MPI.COMM_WORLD.rank == 0 and not path.exists():
-        _write_stack_msh(path)
-    MPI.COMM_WORLD.barrier()
-    return path
+    return written_once(shared_tmp / "stack.msh", _write_stack_msh)
 
 
 def _run(msh, out, integration: str, friction: float) -> dict:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import written_once
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import run
@@ -73,13 +74,10 @@ def _write_overhang_msh(path, skin: bool) -> None:
 
 @pytest.fixture
 def overhang_msh(shared_tmp):
-    paths = {}
-    for master in ("top", "skin"):
-        paths[master] = path = shared_tmp / f"overhang_{master}.msh"
-        if MPI.COMM_WORLD.rank == 0 and not path.exists():
-            _write_overhang_msh(path, master == "skin")
-    MPI.COMM_WORLD.barrier()
-    return paths
+    return {
+        master: written_once(shared_tmp / f"overhang_{master}.msh", _write_overhang_msh, skin)
+        for master, skin in (("top", False), ("skin", True))
+    }
 
 
 def _run(msh, integration: str) -> tuple[dict, dict]:

@@ -23,6 +23,7 @@ no step is cut back.
 from __future__ import annotations
 
 import pytest
+from conftest import written_once
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import run
@@ -83,11 +84,7 @@ def _write_two_blocks_msh(path) -> None:
 
 @pytest.fixture
 def two_blocks_msh(shared_tmp):
-    path = shared_tmp / "two_blocks.msh"
-    if MPI.COMM_WORLD.rank == 0 and not path.exists():
-        _write_two_blocks_msh(path)
-    MPI.COMM_WORLD.barrier()
-    return path
+    return written_once(shared_tmp / "two_blocks.msh", _write_two_blocks_msh)
 
 
 @pytest.mark.mpi
