@@ -294,6 +294,15 @@ REENTRY_FREE_SLIP = 0.5
 #: two such nodes 2-cycled around p = 0 until max_it (docs/method-notes.md, "Friction").
 REENTRY_TRIAL_CONE = 3.0
 FROZEN_DIRECTION_TOL = 1e-6
+#: At the chattering control's freeze, a pair none of whose active nodes is in stick (in the
+#: states being frozen) keeps its states frozen but not its slip directions: they follow the
+#: trial traction, with the free law's stiffness μ p ε_T/|τ^tr| (I − s⊗s) across the slip.
+#: With the directions fixed, such a pair has no tangential stiffness at all, and a body
+#: held across its slip only by the contact has a zero pivot (session 52: the 3D sliding
+#: patch test on P2 tetrahedra froze at its 8th Jacobian with ‖R‖ = 8.9e-6; the frozen
+#: directions' net cross-slip traction, 1.2e-5, had nothing to balance it, and the next
+#: Newton step moved the upper block 2.3e8 across the slide: DIVERGED_DTOL, a cutback).
+FREE_SLIP_DIRECTIONS = True
 #: Chattering control of the lumped contact set: from this Jacobian of a Newton solve on,
 #: it can only grow. A node in contact at one of these Jacobians is held in contact for
 #: the rest of the solve (p^I = λ^I − εγ^I, tension allowed, so the residual stays smooth
@@ -2782,6 +2791,12 @@ class MortarContact:
                 states = self.fstate.copy()
                 if reversal:
                     states[self._reversed & slip] = fr.STICK
+                if FREE_SLIP_DIRECTIONS and self.gdim == 3:
+                    # no node of the pair sticks: fixed directions would leave the pair no
+                    # tangential stiffness at all (FREE_SLIP_DIRECTIONS; 3D only)
+                    sticks = int(bool(np.any(states[self.active] == fr.STICK)))
+                    if not self.comm.allreduce(sticks, op=MPI.BOR):
+                        dirs = np.full_like(dirs, np.nan)
                 self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
         mot = None
@@ -3314,6 +3329,7 @@ class MortarContact:
             if self.frozen is not None:
                 fstate, tau_law = self._recover_tangential(frozen=None)
                 s_free = tau_law / np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)[:, None]
+                # (a direction left free, NaN: FREE_SLIP_DIRECTIONS, never counts as moved)
                 moved = (self.fstate == fr.SLIP) & (
                     np.linalg.norm(s_free - self.frozen[1], axis=1) > FROZEN_DIRECTION_TOL
                 )

@@ -472,7 +472,8 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     (the chattering control of :class:`~dolfinx_mortar.contact.MortarContact`): a frozen
     slip node keeps its slip direction s, so τ = μ p_N s is smooth in u; with directions
     None only the states are imposed and s follows the trial traction (the exact
-    multiplier update's differences); tol (n,) a node
+    multiplier update's differences), and so it does at a node whose row of directions
+    is NaN (a pair frozen with no node in stick: contact.FREE_SLIP_DIRECTIONS); tol (n,) a node
     slips only when Φ > tol (round-off in a touching node's slip must not select a
     slip direction).
 
@@ -493,7 +494,8 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
         imposed = active & (states >= 0)
         slip = np.where(imposed, states == SLIP, slip)
         if directions is not None:
-            fixed = imposed & slip
+            # a row of NaN: the state is imposed, the direction follows the trial traction
+            fixed = imposed & slip & np.all(np.isfinite(directions), axis=1)
             s = np.where(fixed[:, None], directions, s)
     stick = active & ~slip
     tau = np.where(stick[:, None], trial, 0.0) + np.where(slip[:, None], mu * p[:, None] * s, 0.0)
