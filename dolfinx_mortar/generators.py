@@ -159,7 +159,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from dolfinx_mortar.errors import SceneError
-from dolfinx_mortar.scene import c_int, finite_float, number_text
+from dolfinx_mortar.scene import C_INT_MAX, c_int, finite_float, number_text
 
 __all__ = ["GENERATORS", "Generator", "build", "describe", "validate_params"]
 
@@ -189,6 +189,12 @@ class Generator:
     checks:
         ``(key, predicate(params) -> bool, reason)`` value checks applied after
         the type checks, in order.
+    counts:
+        ``counts(params) -> [(key, formula, value)]``: the element counts that
+        parameter ``key`` implies (``value`` a float, before rounding; e.g.
+        ``("h_contact", "n_lower = round(L/h_contact)", L/h_contact)``), checked
+        after ``checks`` against the rule of the given counts: at most
+        ``C_INT_MAX``. None: the generator derives no counts.
     """
 
     name: str
@@ -197,6 +203,7 @@ class Generator:
     build: Callable[..., dict]
     gdim: int = 2
     checks: tuple[tuple[str, Callable[[dict], bool], str], ...] = field(default=())
+    counts: Callable[[dict], list[tuple[str, str, float]]] | None = None
 
 
 GENERATORS: dict[str, Generator] = {}
@@ -239,6 +246,13 @@ def validate_params(name: str, params: dict | None) -> dict:
     for key, predicate, reason in gen.checks:
         if not predicate(out):
             raise SceneError(f"mesh.params.{key}", f"{reason} (got {out[key]!r})")
+    for key, formula, value in gen.counts(out) if gen.counts is not None else ():
+        if not (math.isfinite(value) and round(value) <= C_INT_MAX):  # inf: L/h overflows
+            raise SceneError(
+                f"mesh.params.{key}",
+                f"implies {formula} = {value:.4g}, more than {C_INT_MAX} (a C int, the "
+                f"rule of the given counts; got {key} = {out[key]!r})",
+            )
     return out
 
 
@@ -678,6 +692,26 @@ _register(
 # ---------------------------------------------------------------------------
 
 
+def _patch_derived(p: dict) -> list[tuple[str, str, float]]:
+    """The counts that h_contact / h_far imply (``Generator.counts``), as floats
+    before rounding: n_lower = L/h_contact, n_upper = that × n_upper/n_lower,
+    n_y = H/h_far."""
+    out = []
+    if p["h_contact"] > 0.0:
+        nl = p["L"] / p["h_contact"]
+        out.append(("h_contact", "n_lower = round(L/h_contact)", nl))
+        out.append(
+            (
+                "h_contact",
+                "n_upper = round(n_lower n_upper/n_lower)",
+                nl * p["n_upper"] / p["n_lower"],
+            )
+        )
+    if p["h_far"] > 0.0:
+        out.append(("h_far", "n_y = round(H/h_far)", p["H"] / p["h_far"]))
+    return out
+
+
 def _patch_counts(L, H, n_lower, n_upper, n_y, h_contact, h_far):
     if h_contact > 0.0:
         nl = max(1, round(L / h_contact))
@@ -830,6 +864,7 @@ _register(
         build=_build_patch2d,
         gdim=2,
         checks=_PATCH_CHECKS,
+        counts=_patch_derived,
     )
 )
 
@@ -841,6 +876,7 @@ _register(
         build=_build_patch3d,
         gdim=3,
         checks=_PATCH_CHECKS,
+        counts=_patch_derived,
     )
 )
 
@@ -1304,6 +1340,26 @@ _register(
 # ---------------------------------------------------------------------------
 
 
+def _tiedcurved_derived(p: dict) -> list[tuple[str, str, float]]:
+    """The counts that h_contact / h_far imply (``Generator.counts``), as floats
+    before rounding."""
+    out = []
+    if p["h_contact"] > 0.0:
+        ni = p["r1"] * (p["theta1"] - p["theta0"]) / p["h_contact"]
+        out.append(("h_contact", "n_inner = round(r1 (theta1 - theta0)/h_contact)", ni))
+        out.append(
+            (
+                "h_contact",
+                "n_outer = round(n_inner n_outer/n_inner)",
+                ni * p["n_outer"] / p["n_inner"],
+            )
+        )
+    if p["h_far"] > 0.0:
+        nr = max(p["r1"] - p["r0"], p["r2"] - p["r1"]) / p["h_far"]
+        out.append(("h_far", "n_r = round(max(r1 - r0, r2 - r1)/h_far)", nr))
+    return out
+
+
 def _build_tiedcurved2d(
     r0, r1, r2, theta0, theta1, n_inner, n_outer, n_r, h_contact, h_far, order, quads
 ):
@@ -1402,5 +1458,6 @@ _register(
         )
         + tuple((k, (lambda p, k=k: p[k] >= 0.0), "must be >= 0") for k in ("h_contact", "h_far"))
         + _ORDER_CHECK,
+        counts=_tiedcurved_derived,
     )
 )

@@ -470,6 +470,61 @@ def test_an_int_param_beyond_a_c_int():
     )
 
 
+@pytest.mark.parametrize(
+    "name, params, message",
+    [
+        (
+            "patch2d",
+            {"n_lower": 3, "n_upper": 2, "h_contact": 2.328306435454494e-10},
+            "mesh.params.h_contact: implies n_lower = round(L/h_contact) = 4.295e+09, more "
+            "than 2147483647 (a C int, the rule of the given counts; got h_contact = "
+            "2.328306435454494e-10)",
+        ),
+        (
+            "patch3d",
+            {"L": 1e300, "h_contact": 1e-300},
+            "mesh.params.h_contact: implies n_lower = round(L/h_contact) = inf, more than "
+            "2147483647 (a C int, the rule of the given counts; got h_contact = 1e-300)",
+        ),
+        (
+            "patch2d",
+            {"n_lower": 1, "n_upper": 2**31 - 1, "h_contact": 0.1},
+            "mesh.params.h_contact: implies n_upper = round(n_lower n_upper/n_lower) = "
+            "2.147e+10, more than 2147483647 (a C int, the rule of the given counts; got "
+            "h_contact = 0.1)",
+        ),
+        (
+            "patch2d",
+            {"h_far": 1e-300},
+            "mesh.params.h_far: implies n_y = round(H/h_far) = 5e+299, more than 2147483647 "
+            "(a C int, the rule of the given counts; got h_far = 1e-300)",
+        ),
+        (
+            "tiedcurved2d",
+            {"h_far": 1e-12},
+            "mesh.params.h_far: implies n_r = round(max(r1 - r0, r2 - r1)/h_far) = 5e+11, "
+            "more than 2147483647 (a C int, the rule of the given counts; got h_far = 1e-12)",
+        ),
+    ],
+)
+def test_a_derived_count_beyond_a_c_int(name, params, message):
+    """A count that h_contact / h_far imply obeys the rule of the given counts: h_contact
+    = 2**-32 (n_lower = 2**32 + 2) meshed patch2d with 8 nodes and ``check`` said ok, and
+    1e-300 likewise (session 52)."""
+    with pytest.raises(SceneError) as err:
+        G.validate_params(name, params)
+    assert str(err.value) == message
+
+
+def test_a_derived_count_at_the_bound_is_accepted():
+    """The bound is on the rounded count: L/h_contact = 2147483647.4 rounds to
+    C_INT_MAX (accepted); 2147483647.6 rounds beyond it (refused)."""
+    h = 1.0 / 2147483647.4
+    assert G.validate_params("patch2d", {"n_lower": 1, "n_upper": 1, "h_contact": h})
+    with pytest.raises(SceneError, match="n_lower = round"):
+        G.validate_params("patch2d", {"n_lower": 1, "n_upper": 1, "h_contact": 1.0 / 2147483647.6})
+
+
 def test_params_must_be_table():
     with pytest.raises(SceneError) as err:
         G.validate_params("hertz2d", [("R", 1.0)])
