@@ -424,6 +424,10 @@ def main(argv=None) -> int:
         if petsc:  # command-line PETSc options override the scene's
             import dataclasses
 
+            from .scene import petsc_value
+
+            # the scene's rules: an integer fits a C int, a number is finite
+            petsc = {k: petsc_value(v, f"solver.petsc.{k}") for k, v in petsc.items()}
             solver = dataclasses.replace(scene.solver, petsc={**scene.solver.petsc, **petsc})
             scene = dataclasses.replace(scene, solver=solver)
         if args.command == "check":

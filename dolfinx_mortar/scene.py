@@ -754,8 +754,9 @@ def _penalty(value: Any, key: str) -> float | str:
     return _auto_or(_positive, value, key, "> 0")
 
 
-def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
-    """A table whose values are scalars (int, float, string or bool)."""
+def _scalar_table(value: Any, key: str, petsc: bool = False) -> dict[str, int | float | str | bool]:
+    """A table whose values are scalars (int, float, string or bool), floats finite.
+    ``petsc``: the values are PETSc option values, checked by :func:`petsc_value`."""
     table = _table(value, key)
     out: dict[str, int | float | str | bool] = {}
     for name, item in table.items():
@@ -766,8 +767,39 @@ def _scalar_table(value: Any, key: str) -> dict[str, int | float | str | bool]:
             )
         if isinstance(item, float) and not math.isfinite(item):
             raise SceneError(_key(key, name), f"must be a finite number, got {item}")
-        out[name] = item
+        out[name] = petsc_value(item, _key(key, name)) if petsc else item
     return out
+
+
+def petsc_value(item: int | float | str | bool, key: str) -> int | float | str | bool:
+    """``item``, a PETSc option's value (``[solver.petsc]`` or ``-dm_KEY VALUE``), if its
+    numbers obey the scene's rules; else a SceneError keyed ``key``. An integer, or a
+    string that is one (``"99999999999"``), must fit a C int (PETSc's integers are C
+    ints: ``snes_max_it = 4294967297`` wrapped to 1); a float, or a string that is a
+    number (``"nan"``, ``"1e400"``), must be finite. Other strings and booleans pass
+    (PETSc checks them)."""
+    if isinstance(item, bool):
+        return item
+    if isinstance(item, int):
+        return c_int(item, key)
+    if isinstance(item, float):
+        if not math.isfinite(item):
+            raise SceneError(key, f"must be a finite number, got {item}")
+        return item
+    try:
+        whole = int(item)
+    except ValueError:
+        pass
+    else:
+        c_int(whole, key)
+        return item
+    try:
+        x = float(item)
+    except ValueError:
+        return item
+    if not math.isfinite(x):
+        raise SceneError(key, f"must be a finite number, got {item.strip()}")
+    return item
 
 
 def _path(value: Any, key: str) -> LoadPath:
@@ -1220,7 +1252,7 @@ def solver_options(
         raise SceneError(_key(key, "max_it"), f"at most {MAX_IT} Newton iterations, got {max_it}")
     linear = _choice(linear, _key(key, "linear"), LINEAR_SOLVERS)
     line_search = _choice(line_search, _key(key, "line_search"), LINE_SEARCHES)
-    petsc = _scalar_table(_plain({} if petsc is None else petsc), _key(key, "petsc"))
+    petsc = _scalar_table(_plain({} if petsc is None else petsc), _key(key, "petsc"), petsc=True)
     petsc = {name.lstrip("-"): item for name, item in petsc.items()}
     depth = _nonnegative(_plain(step_depth_limit), _key(key, "step_depth_limit"))
     return SolverOptions(

@@ -1201,6 +1201,24 @@ def test_refused_solver_petsc_options(workdir, option, value, reason, cli_value,
     assert snapshot(workdir) == before
 
 
+@pytest.mark.parametrize(
+    ("option", "value", "reason"),
+    [
+        ("snes_max_it", "99999999999", "must be at most 2147483647 in magnitude (a C int)"),
+        ("ksp_rtol", "nan", "must be a finite number, got nan"),
+    ],
+)
+def test_command_line_petsc_numbers_obey_the_scene_rules(workdir, option, value, reason):
+    """-dm_snes_max_it 99999999999 wrapped in PETSc and -dm_ksp_rtol nan was taken (the
+    scene refuses both): one error line per rank naming the key, exit 2, nothing
+    written (session 52)."""
+    (workdir / "good.toml").write_text(to_toml(base_scene()))
+    before = snapshot(workdir)
+    res = cli(workdir, "run", "good.toml", f"-dm_{option}", value, ranks=2)
+    _one_error_line(res, 2, f"solver.petsc.{option}", reason)
+    assert snapshot(workdir) == before
+
+
 @pytest.mark.parametrize("value", ["nonexistent_ksp", "pre only"])
 def test_check_validates_the_petsc_options(workdir, value):
     """`check` sets the solver up as `run` does (without solving): a KSP type PETSc does

@@ -579,6 +579,31 @@ def test_integers_beyond_a_c_int(where, value, key):
     assert info.value.key == key and "at most 2147483647" in info.value.reason, str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("value", "reason"),
+    [
+        (4294967297, "must be at most 2147483647 in magnitude (a C int), got 4294967297"),
+        (10**400, "must be at most 2147483647 in magnitude (a C int), got 1e+400"),
+        ("99999999999", "must be at most 2147483647 in magnitude (a C int), got 99999999999"),
+        ("nan", "must be a finite number, got nan"),
+        (" 1e400", "must be a finite number, got 1e400"),
+    ],
+)
+def test_petsc_numbers_obey_the_scene_rules(value, reason):
+    """[solver.petsc] values go to PETSc, whose integers are C ints: snes_max_it =
+    4294967297 wrapped to 1 (the SNES stopped after one iteration) and a 400-digit
+    integer was accepted; a string that is a number obeys the same rules (session 52)."""
+    with pytest.raises(SceneError) as info:
+        parse_scene(mutate(example(), ("solver",), {"petsc": {"snes_max_it": value}}), BASE)
+    assert str(info.value) == f"solver.petsc.snes_max_it: {reason}"
+
+
+def test_petsc_values_within_the_rules_pass():
+    petsc = {"snes_max_it": 2147483647, "ksp_rtol": "1e-8", "ksp_type": "gmres", "a": True}
+    sc = parse_scene(mutate(example(), ("solver",), {"petsc": petsc}), BASE)
+    assert sc.solver.petsc == petsc
+
+
 @pytest.mark.parametrize("max_it", [2147483647, 10**9])
 def test_max_it_is_bounded(max_it):
     """solver.max_it sizes the SNES's residual history: 2147483647 overflowed PETSc's
