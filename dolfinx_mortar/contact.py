@@ -128,6 +128,13 @@ AUTO_PENALTY_FACTOR = 100.0
 #: nodes whose trial traction sits near the Coulomb cone (Cattaneo–Mindlin first
 #: contact); the Uzawa rounds remove the elastic stick slip that the softer penalty allows.
 AUTO_PENALTY_T_FACTOR = 10.0
+#: The stiffest penalty taken: max_I ε^I (and max_I ε_T^I) at most MAX_PENALTY_RATIO ×
+#: max_I ε_auto^I, i.e. ε h/E* ≤ 1e12, checked at set-up (a SceneError keyed
+#: ``<pair>.penalty`` / ``.penalty_tangential``). Far above what the stiff-penalty rules
+#: were measured at (ε h/E* = 1e6; docs/method-notes.md, "Stiff penalties"): it refuses
+#: nonsense such as penalty = 1e308, whose ε/A overflowed (RuntimeWarnings, then "the
+#: first residual is not finite" after 6 cutbacks; `check` said ok).
+MAX_PENALTY_RATIO = 1e10
 #: Penalties stiffer than "auto": a pair whose largest ε^I (or ε_T^I) exceeds the largest
 #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I is stiff (:attr:`MortarContact.soft_start`).
 #: Three rules follow (docs/method-notes.md, "Stiff penalties"); pairs at or below the
@@ -927,6 +934,7 @@ class MortarContact:
         #: contact zone would otherwise be "stiff" at the coarse slave facets far from it
         #: (16.7 on the hard-case sweep's hertz2d mesh)
         self.penalty_ratio = self.penalty_range[1] / self._eps_auto_max
+        self._check_penalty_ratio(self.penalty_ratio, self.penalty_range[1], f"{key}.penalty")
         self._penalty_t_ratio = 0.0
         self.mu = float(friction)
         self.frictional = self.mu > 0.0
@@ -1239,6 +1247,18 @@ class MortarContact:
             )
         return held
 
+    def _check_penalty_ratio(self, ratio: float, eps_max: float, key: str) -> None:
+        """SceneError keyed ``key`` where ``ratio`` = max ε / max ε_auto exceeds
+        :data:`MAX_PENALTY_RATIO` (the same on every rank: both maxima are reduced)."""
+        if ratio <= MAX_PENALTY_RATIO:
+            return
+        raise SceneError(
+            key,
+            f"{eps_max:.3g} is {ratio:.3g} times the auto penalty ({AUTO_PENALTY_FACTOR:g} "
+            f"E*/h, at most {self._eps_auto_max:.3g} here); at most {MAX_PENALTY_RATIO:g} "
+            "times it is taken (stiff penalties were measured up to 1e4 times it)",
+        )
+
     def _init_friction(self, penalty_t, key: str) -> None:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
@@ -1253,6 +1273,7 @@ class MortarContact:
         # None (= the normal penalty) give ratios ≤ 1
         eps_t_max = self.comm.allreduce(float(self.eps_t.max(initial=0.0)), op=MPI.MAX)
         self._penalty_t_ratio = eps_t_max / self._eps_auto_max
+        self._check_penalty_ratio(self._penalty_t_ratio, eps_t_max, f"{key}.penalty_tangential")
         self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
         #: ε_T,soft^I = min(ε_T^I, ε_auto^I) (n,), used with ε_soft (SOFT_START_RATIO)
         self.eps_t_soft = np.minimum(self.eps_t, self.eps_auto)

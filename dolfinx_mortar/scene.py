@@ -31,10 +31,11 @@ Schema (``*`` = required; defaults in brackets)::
     [[contact]]      zero or more
       slave *    string, physical group of facets (carries the mixed fields)
       master *   string, physical group of facets, != slave
-      friction   float >= 0, Coulomb coefficient mu           [0.0]
+      friction   float in [0, 1e6], Coulomb coefficient mu    [0.0]
       recovery   "unconstrained" | "lumped" | "constrained"   ["lumped"]
       integration "element" | "segment" | "node"             ["element"]
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
+                 (at most contact.MAX_PENALTY_RATIO = 1e10 × the auto value)
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
       tangential_weights  "auto" | "standard" | "dual"        ["auto"]
                  ("auto": "dual" with linear-elastic (small-strain) bodies and
@@ -918,6 +919,10 @@ MAX_STEPS = 1_000_000
 #: residual history of 2 max_it + 11 entries (max_it = 2147483647 overflowed PETSc's
 #: integer, 1e9 failed to allocate it)
 MAX_IT = 100_000
+#: The largest Coulomb coefficient ``friction`` taken: measured coefficients are O(1),
+#: and 1e6 already sticks everywhere; friction = 1e308 overflowed μ p ε_T in the
+#: return mapping (a leaked RuntimeWarning).
+MAX_FRICTION = 1e6
 _SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "step_depth_limit")
 _OUTPUT_KEYS = ("dir", "fields")
 
@@ -1001,13 +1006,19 @@ def contact_numbers(
     :class:`~dolfinx_mortar.contact.MortarContact`'s arguments (``prefix``: the key of the
     pair, ``contact[0]`` or the term's ``key``; local).
 
-    Raises SceneError (a ValueError) keyed ``PREFIX.NAME`` for a friction < 0, a penalty
+    Raises SceneError (a ValueError) keyed ``PREFIX.NAME`` for a friction < 0 or above
+    :data:`MAX_FRICTION`, a penalty
     <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a uzawa_max < 1, and
     SceneTypeError (a TypeError) for a value of the wrong type."""
     friction = _number(_plain(friction), _key(prefix, "friction"))
     if friction < 0.0:
         raise SceneError(
             _key(prefix, "friction"), f"friction coefficient must be >= 0, got {friction:g}"
+        )
+    if friction > MAX_FRICTION:
+        raise SceneError(
+            _key(prefix, "friction"),
+            f"friction coefficient must be at most {MAX_FRICTION:g}, got {friction:g}",
         )
     penalty = _penalty(_plain(penalty), _key(prefix, "penalty"))
     if penalty_tangential is not None:

@@ -313,6 +313,25 @@ CASES = [
         "contact[0]",
         "the contact stiffness 100 E*/h overflows",
     ),
+    (  # `check` said ok with a leaked RuntimeWarning (ε/A overflowed); `run` leaked five
+        # and stopped after 6 cutbacks, "the first residual is not finite" (session 52)
+        "penalty-far-beyond-auto",
+        _add_contact(penalty=1e308),
+        "contact[0].penalty",
+        "times the auto penalty (100 E*/h, at most",
+    ),
+    (
+        "penalty-tangential-far-beyond-auto",
+        _add_contact(friction=0.3, penalty_tangential=1e20),
+        "contact[0].penalty_tangential",
+        "times the auto penalty (100 E*/h, at most",
+    ),
+    (  # ran with a leaked RuntimeWarning: μ p ε_T overflowed in the return mapping
+        "friction-huge",
+        _add_contact(friction=1e308),
+        "contact[0].friction",
+        "friction coefficient must be at most 1e+06, got 1e+308",
+    ),
 ]
 CASE_IDS = [c[0] for c in CASES]
 CASE_BY_ID = {c[0]: c for c in CASES}
@@ -494,6 +513,7 @@ def test_bad_input_serial(workdir, case_id, command):
         ("unsorted-path", "run"),
         ("empty-contact-surface", "run"),
         ("surfaces-share-nodes", "run"),
+        ("penalty-far-beyond-auto", "check"),
     ],
 )
 def test_bad_input_mpirun(workdir, case_id, command):

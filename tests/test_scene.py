@@ -598,6 +598,19 @@ def test_petsc_numbers_obey_the_scene_rules(value, reason):
     assert str(info.value) == f"solver.petsc.snes_max_it: {reason}"
 
 
+@pytest.mark.parametrize(("friction", "ok"), [(1e6, True), (1.0000001e6, False), (1e308, False)])
+def test_friction_is_bounded(friction, ok):
+    """friction = 1e308 ran with a leaked RuntimeWarning (μ p ε_T overflowed): at most
+    scene.MAX_FRICTION = 1e6 (session 52)."""
+    scene = mutate(example(), ("contact", 0, "friction"), friction)
+    if ok:
+        assert parse_scene(scene, BASE).contacts[0].friction == friction
+        return
+    with pytest.raises(SceneError) as info:
+        parse_scene(scene, BASE)
+    assert info.value.key == "contact[0].friction" and "at most 1e+06" in info.value.reason
+
+
 def test_petsc_values_within_the_rules_pass():
     petsc = {"snes_max_it": 2147483647, "ksp_rtol": "1e-8", "ksp_type": "gmres", "a": True}
     sc = parse_scene(mutate(example(), ("solver",), {"petsc": petsc}), BASE)
