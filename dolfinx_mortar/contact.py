@@ -1101,19 +1101,21 @@ class MortarContact:
             )
 
     def _first_node(self, nodes: np.ndarray, X: np.ndarray, depth: np.ndarray | None):
-        """(count over the ranks, position, depth, size h_I) of the node of smallest
-        global block among the local ``nodes`` of every rank, or None where there are none
-        (collective: one allgather)."""
+        """(count over the ranks, position, depth, size h_I) of the first node, by
+        reference position (smallest x, then y, then z), among the local ``nodes`` of every
+        rank, or None where there are none (collective: one allgather). By position, not
+        by global block: the blocks follow the partition, and the message named another
+        node on 3 ranks than on 1 and 2."""
         first = None
         if nodes.size:
-            k = int(nodes[0])  # node_blocks ascend: the smallest block of this rank
+            k = int(nodes[np.lexsort(X[nodes].T[::-1])[0]])
             d = float("nan") if depth is None else float(depth[k])
-            first = (int(self.node_blocks[k]), X[k].tolist(), d, float(self.h_node[k]))
+            first = (X[k].tolist(), d, float(self.h_node[k]))
         found = self.comm.allgather((int(nodes.size), first))
         count = sum(c for c, _ in found)
         if not count:
             return None
-        _, x, d, h = min(f for _, f in found if f is not None)
+        x, d, h = min((f for _, f in found if f is not None), key=lambda f: f[0])
         return count, x, d, h
 
     def _node_depths(self, sel: np.ndarray) -> np.ndarray:
