@@ -433,6 +433,10 @@ def main(argv=None) -> int:
         if args.command == "check":
             from .runner import check_solver, prepare
 
+            # the output directory as `run` checks it (created and removed where missing:
+            # nothing is left), but not the lock: a run writing there now is no input error
+            slaves = [pair.slave for pair in scene.contacts]
+            check_out_dir(scene.output.dir, "output.dir", comm, slaves, lock=False)
             problem, mesh_data = prepare(scene, comm)
             check_solver(scene, problem)  # the PETSc options, as `run` checks them
             if comm.rank == 0:

@@ -267,7 +267,7 @@ def previous_slaves(out_dir: Path) -> set[str]:
         return set()
 
 
-def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=()) -> None:
+def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=(), lock: bool = True) -> None:
     """Raise SceneError on every rank if the output directory cannot be used (collective;
     rank 0 decides): an empty name, a path that exists and is not a directory, a dangling
     link, or one that cannot be created. A missing directory is created to find out, and
@@ -279,16 +279,17 @@ def check_out_dir(out: Path | str, key: str, comm, slaves=(), files=()) -> None:
     CSV and plots) or where it removes an earlier run's contact files (those of the
     slaves its summary.json names: :meth:`OutputWriter.start`), and no other run may hold
     its lock (:func:`lock_problem`; :class:`OutputLock` takes the lock later, when the
-    run starts to write)."""
+    run starts to write; ``lock=False`` skips that: ``dolfinx-mortar check`` checks the
+    directory as input, not whether a run writes there now)."""
     reason = None
     if comm.rank == 0:
-        reason = _out_dir_problem(str(out), tuple(slaves), tuple(files))
+        reason = _out_dir_problem(str(out), tuple(slaves), tuple(files), lock)
     reason = comm.bcast(reason, root=0)
     if reason is not None:
         raise SceneError(key, f"cannot use {str(out)!r} as output directory: {reason}")
 
 
-def _out_dir_problem(out: str, slaves=(), files=()) -> str | None:
+def _out_dir_problem(out: str, slaves=(), files=(), lock: bool = True) -> str | None:
     """Why ``out`` cannot be the output directory, or None (local)."""
     if not out.strip():
         return "empty name"
@@ -300,7 +301,7 @@ def _out_dir_problem(out: str, slaves=(), files=()) -> str | None:
     if p.exists():
         if not p.is_dir():
             return "it exists and is not a directory"
-        return _existing_dir_problem(p, out, slaves, files)
+        return _existing_dir_problem(p, out, slaves, files, lock)
     top = p  # the outermost directory to create
     while not top.parent.exists() and top.parent != top:
         top = top.parent
@@ -341,17 +342,18 @@ def _try_to_create(p: Path, top: Path) -> str | None:
     return None
 
 
-def _existing_dir_problem(p: Path, out: str, slaves=(), files=()) -> str | None:
+def _existing_dir_problem(p: Path, out: str, slaves=(), files=(), lock=True) -> str | None:
     """Why the existing directory ``p`` (named ``out``) cannot take the run's files, or
     None (local): a file cannot be created in it (tried: ``os.access`` says yes to root
     on a read-only file system or in /proc), another run holds it (:func:`lock_problem`),
-    or a directory or a read-only file is where one of the run's files goes."""
+    (unless ``lock`` is False), or a directory or a read-only file is where one of the
+    run's files goes."""
     try:
         with tempfile.TemporaryFile(dir=p):
             pass
     except OSError:
         return "not writable (a file cannot be created in it)"
-    held = lock_problem(p)
+    held = lock_problem(p) if lock else None
     if held is not None:
         return held
     slaves = tuple(slaves) + tuple(sorted(previous_slaves(p) - set(slaves)))

@@ -602,6 +602,43 @@ def test_output_dir_with_a_nul_character(workdir):
     assert snapshot(workdir) == before
 
 
+@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
+def test_check_refuses_the_output_dir_that_run_refuses(workdir, ranks):
+    """``check`` refuses an ``output.dir`` that ``run`` refuses, with the same line on
+    every rank, exit 2, nothing written (session 52: ``check`` said ok to a directory
+    that is a file); a missing one is created to find out and removed again, and a lock
+    that another run holds is no input error for ``check`` (it is for ``run``)."""
+    import fcntl
+
+    n = max(ranks, 1)
+    scene = base_scene()
+    scene["output"]["dir"] = "afile"
+    (workdir / "afile").write_text("x\n")
+    (workdir / "s.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    lines = []
+    for command in ("check", "run"):
+        res = cli(workdir, command, "s.toml", ranks=ranks)
+        _one_error_line(res, n, "output.dir", "it exists and is not a directory")
+        lines.append(res.stderr)
+    assert lines[0] == lines[1]
+    scene["output"]["dir"] = "new/deep/results"
+    (workdir / "s.toml").write_text(to_toml(scene))
+    before = snapshot(workdir)
+    res = cli(workdir, "check", "s.toml", ranks=ranks)
+    assert res.returncode == 0 and res.stdout.startswith("s.toml: ok"), res.stderr
+    assert snapshot(workdir) == before  # nothing left of the directory checked
+    (workdir / "held").mkdir()
+    scene["output"]["dir"] = "held"
+    (workdir / "s.toml").write_text(to_toml(scene))
+    with open(workdir / "held" / ".dolfinx_mortar.lock", "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)  # "another run is writing there"
+        res = cli(workdir, "check", "s.toml", ranks=ranks)
+        assert res.returncode == 0 and res.stdout.startswith("s.toml: ok"), res.stderr
+        res = cli(workdir, "run", "s.toml", ranks=ranks)
+        _one_error_line(res, n, "output.dir", "another run is writing there")
+
+
 @pytest.mark.parametrize(
     "where, reason",
     [
