@@ -30,6 +30,7 @@ from .errors import (
     SceneError,
     Terminated,
     every_rank_arrives,
+    file_problem,
     raise_on_every_rank,
 )
 
@@ -175,11 +176,14 @@ def _usage_exit(text: str):
 def load_laws(path: Path) -> None:
     """Run the Python file ``path`` (``--laws``; local: every rank runs it): it registers
     bulk laws with :func:`dolfinx_mortar.register_law` for the scene to name. Raises
-    SceneError (key ``--laws``) where the file is missing, raises or calls sys.exit()."""
+    SceneError (key ``--laws``) where the file is missing or not a regular file (a
+    directory, a FIFO: :func:`~dolfinx_mortar.errors.file_problem`), raises or calls
+    sys.exit()."""
     import runpy
 
-    if not Path(path).is_file():
-        raise SceneError("--laws", f"file not found: {path}")
+    problem = file_problem(path, "a Python file")
+    if problem is not None:
+        raise SceneError("--laws", problem)
     try:
         runpy.run_path(str(path), run_name="__dolfinx_mortar_laws__")
     except (Exception, SystemExit) as exc:  # whatever the user's file raises, or exit()

@@ -14,7 +14,10 @@ stopped (:func:`stops_on_signals`, :func:`check_stop`), after its summary was wr
 """
 
 import contextlib
+import errno
+import os
 import signal
+import stat
 import threading
 
 
@@ -79,6 +82,40 @@ class InvertedElementsError(ConvergenceError):
 class OutputError(DolfinxMortarError):
     """A file of the run's output could not be written (an OSError on the rank that
     writes it: a full disk, a quota, the directory gone), raised on every rank."""
+
+
+#: What a file that is not a regular one is, for :func:`file_problem`'s message.
+_FILE_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def file_problem(path, what: str) -> str | None:
+    """Why ``path`` cannot be read as ``what`` (e.g. "a mesh file"), or None where it is
+    a regular file (local; it follows links): missing ("file not found: PATH"), a link
+    to nothing or one that loops, a directory, or not a regular file (a FIFO, a device
+    such as /dev/null, a socket). The reason for a SceneError; the caller names the key."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        if os.path.islink(path):
+            return f"{path} is a link to nothing (dangling)"
+        return f"file not found: {path}"
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return f"{path} is a link that loops (too many levels of symbolic links)"
+        return f"cannot read {path}: {(exc.strerror or type(exc).__name__).lower()}"
+    except ValueError:  # a NUL in the name
+        return f"cannot read {path!r}: the name holds a NUL character"
+    if stat.S_ISDIR(st.st_mode):
+        return f"{path} is a directory, not {what}"
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((k for test, k in _FILE_KINDS if test(st.st_mode)), "not a regular file")
+        return f"{path} is not a regular file ({kind}), not {what}"
+    return None
 
 
 def first_on_any_rank(comm, value):

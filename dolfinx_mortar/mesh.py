@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import compat
-from .errors import SceneError
+from .errors import SceneError, file_problem
 
 log = logging.getLogger(__name__)
 
@@ -377,10 +377,9 @@ def load_mesh(
         try:
             session.enter_context(gmsh_model(gmsh))
             if file is not None:
-                if Path(file).is_dir():
-                    raise SceneError("mesh.file", f"{file} is a directory, not a mesh file")
-                if not Path(file).is_file():
-                    raise SceneError("mesh.file", f"file not found: {file}")
+                problem = file_problem(file, "a mesh file")
+                if problem is not None:
+                    raise SceneError("mesh.file", problem)
                 if Path(file).stat().st_size == 0:
                     raise SceneError("mesh.file", f"{file} is empty")
                 try:

@@ -1149,6 +1149,9 @@ def test_laws_file(workdir, ranks):
     _one_error_line(res, n, "material[0].model", "dolfinx_mortar.register_law")
     res = cli(workdir, "check", "law.toml", "--laws", "missing.py", ranks=ranks)
     _one_error_line(res, n, "--laws", "file not found: missing.py")
+    (workdir / "lawdir").mkdir()  # session 52: it said "file not found"
+    res = cli(workdir, "check", "law.toml", "--laws", "lawdir", ranks=ranks)
+    _one_error_line(res, n, "--laws", "lawdir is a directory, not a Python file")
     res = cli(workdir, "run", "law.toml", "--laws", "broken.py", ranks=ranks)
     _one_error_line(res, n, "--laws", "broken.py failed: RuntimeError: no such law here")
     (workdir / "quits.py").write_text("import sys\nsys.exit(0)\n")

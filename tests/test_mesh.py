@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import ufl
@@ -67,6 +69,39 @@ def test_meshes_that_cannot_be_read(tmp_path, name, text, key, reason):
     with pytest.raises(SceneError) as info:
         load_mesh(MPI.COMM_SELF, file=path)
     assert info.value.key == key and reason in info.value.reason, str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("kind", "reason"),
+    [
+        ("fifo", "is not a regular file (a FIFO), not a mesh file"),
+        ("devnull", "/dev/null is not a regular file (a character device), not a mesh file"),
+        ("loop", "is a link that loops (too many levels of symbolic links)"),
+        ("dangling", "is a link to nothing (dangling)"),
+        ("missing", "file not found: "),
+    ],
+    ids=["fifo", "devnull", "loop", "dangling", "missing"],
+)
+def test_mesh_file_that_is_not_a_regular_file(tmp_path, kind, reason):
+    """A mesh.file that exists but is not a regular file, or a link that leads nowhere, is
+    one error saying what it is (session 52: "file not found" for a FIFO, /dev/null and a
+    link that loops); nothing opens it (a FIFO would block the read)."""
+    import os
+
+    path = tmp_path / "m.msh"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "devnull":
+        path = Path("/dev/null")
+    elif kind == "loop":
+        path.symlink_to(tmp_path / "n.msh")
+        (tmp_path / "n.msh").symlink_to(path)
+    elif kind == "dangling":
+        path.symlink_to(tmp_path / "nowhere.msh")
+    with pytest.raises(SceneError) as info:
+        load_mesh(MPI.COMM_SELF, file=path)
+    assert info.value.key == "mesh.file" and reason in info.value.reason, str(info.value)
+    assert str(path) in info.value.reason
 
 
 # two triangles of the unit square, the second's nodes in clockwise order
