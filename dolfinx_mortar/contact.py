@@ -66,7 +66,7 @@ from petsc4py import PETSc
 from . import friction as fr
 from . import recovery as rc
 from .analytic import effective_modulus
-from .errors import SceneError
+from .errors import SceneError, SceneTypeError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
 from .kernels.shape import INTERVAL1, QUAD1, QUAD2, REFERENCE_NODES, TRIANGLE1, TRIANGLE2, tdim
@@ -75,6 +75,8 @@ from .scene import (
     TANGENTIAL_FRAMES,
     TANGENTIAL_WEIGHTS,
     UZAWA_ACCELERATIONS,
+    _show,
+    check_facet_group,
     contact_numbers,
     exact_update_applies,
     exact_update_default,
@@ -735,6 +737,12 @@ class MortarContact:
             ("tangential_recovery", tangential_recovery, RECOVERIES),
             ("tangential_frame", tangential_frame, TANGENTIAL_FRAMES),
         ):
+            if not isinstance(value, str):  # a list, an array (its `in` was ambiguous)
+                raise SceneTypeError(
+                    f"{key}.{name}",
+                    f"expected a string, one of {', '.join(allowed)}; got "
+                    f"{type(value).__name__} {_show(value)}",
+                )
             if value not in allowed:
                 raise SceneError(f"{key}.{name}", f"{value!r} is not one of {', '.join(allowed)}")
         # the scene's rules for [[contact]]'s numbers (one definition; local, the same
@@ -774,6 +782,9 @@ class MortarContact:
             comm.allgather(imap.local_range[0]) + [imap.size_global], dtype=np.int64
         )
 
+        md = problem.mesh_data  # a missing or a cell group was a KeyError
+        for k, name in (("slave", slave), ("master", master)):
+            check_facet_group(f"{key}.{k}", name, md.facet_groups, md.cell_groups)
         slave_local, slave_cells, slave_interior = extract_facets(problem, slave)
         master_local, master_cells, master_interior = extract_facets(problem, master)
         for name, fa, interior, k in (

@@ -43,7 +43,8 @@ from scipy.sparse.csgraph import connected_components
 from . import compat
 from .assembly import MatrixPattern, RecordedValues, sorted_contains, unique_runs
 from .bulk import LINEAR_MODELS, internal_residual, inversion_points
-from .scene import problem_inputs
+from .errors import SceneError, SceneTypeError
+from .scene import check_facet_group, problem_inputs
 
 log = logging.getLogger(__name__)
 
@@ -334,6 +335,32 @@ RIGID_MODE_TOL = 1e-10
 PLANE_TOL = 1e-8
 
 
+def _field_components(components, gdim: int) -> tuple[int, ...]:
+    """The components of :meth:`ContactProblem.add_dirichlet_field` (local): all where
+    None, else distinct integers in [0, gdim); SceneTypeError / SceneError naming
+    ``add_dirichlet_field.components`` (``[7]`` was a bare AssertionError from UFL)."""
+    key = "add_dirichlet_field.components"
+    if components is None:
+        return tuple(range(gdim))
+    if isinstance(components, str | bytes) or not hasattr(components, "__iter__"):
+        raise SceneTypeError(
+            key, f"expected a sequence of integers, got {type(components).__name__}"
+        )
+    comps = list(components)
+    for c in comps:
+        if isinstance(c, bool | np.bool_) or not isinstance(c, int | np.integer):
+            raise SceneTypeError(key, f"expected integers, got {type(c).__name__} {c!r}")
+    comps = [int(c) for c in comps]
+    if not comps:
+        raise SceneError(key, "empty: name at least one component (None: all)")
+    bad = [c for c in comps if not 0 <= c < gdim]
+    if bad:
+        raise SceneError(key, f"component {bad[0]} out of range [0, {gdim}) for a {gdim}D mesh")
+    if len(set(comps)) != len(comps):
+        raise SceneError(key, f"a component is named twice: {comps}")
+    return tuple(comps)
+
+
 class ContactProblem:
     """Bulk forms plus contact terms (collective construction).
 
@@ -597,19 +624,25 @@ class ContactProblem:
         (they record which dofs are constrained). The boundary's reaction appears in
         :meth:`reactions` under ``name``. Where earlier conditions (the scene's, earlier
         fields) prescribe nodes of this group on other boundaries, theirs hold (the first
-        prescription wins); ValueError where one prescribes a component of ``name`` itself.
+        prescription wins). SceneError (a ValueError) where one prescribes a component of
+        ``name`` itself, where ``name`` is not a facet group or a component is out of range
+        [0, gdim) or repeated, SceneTypeError (a TypeError) where ``name`` is not a string
+        or a component not an integer: each names the argument (``add_dirichlet_field.name``,
+        ``add_dirichlet_field.components``), before any collective.
         """
         if self.contacts:
             raise RuntimeError("add_dirichlet_field must be called before add_contact")
         mesh, md, gdim = self.mesh, self.mesh_data, self.gdim
         fdim = mesh.topology.dim - 1
+        check_facet_group("add_dirichlet_field.name", name, md.facet_groups, md.cell_groups)
+        comps = _field_components(components, gdim)
         facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
-        comps = tuple(range(gdim)) if components is None else tuple(components)
         taken = sorted({c for d in self._dirichlet if d.name == name for c in d.components})
         if set(taken) & set(comps):
-            raise ValueError(
-                f"add_dirichlet_field: components {taken} of {name!r} are already prescribed "
-                "(a [[dirichlet]] entry or an earlier field)"
+            raise SceneError(
+                "add_dirichlet_field.components",
+                f"components {taken} of {name!r} are already prescribed "
+                "(a [[dirichlet]] entry or an earlier field)",
             )
         bcs = []
         for c in comps:

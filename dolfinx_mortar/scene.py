@@ -568,8 +568,10 @@ def _show(value: Any) -> str:
 
 
 def _suggest(word: str, choices: Sequence[str] | set[str]) -> str:
-    """``"; did you mean 'x'?"`` for the closest choice, or an empty string."""
-    if not choices:
+    """``"; did you mean 'x'?"`` for the closest choice, or an empty string (also where
+    ``word`` or a choice is not a string: difflib would raise a TypeError)."""
+    choices = [c for c in choices if isinstance(c, str)]
+    if not choices or not isinstance(word, str):
         return ""
     close = difflib.get_close_matches(word, list(choices), n=len(choices), cutoff=0.6)
     if not close:
@@ -599,9 +601,15 @@ def _get(table: Mapping[str, Any], name: str, prefix: str, default: Any = _MISSI
 
 
 def _table(value: Any, key: str) -> Mapping[str, Any]:
-    """Check that ``value`` is a table."""
+    """Check that ``value`` is a table, its keys strings (a Python caller's dict may have
+    others: ``{1: 2}``, ``{None: 0}``)."""
     if not isinstance(value, Mapping):
         raise SceneTypeError(key, f"expected a table, got {_type_name(value)} {_show(value)}")
+    for name in value:
+        if not isinstance(name, str):
+            raise SceneTypeError(
+                key, f"keys must be strings, got {_type_name(name)} key {_show(name)}"
+            )
     return value
 
 
@@ -1498,6 +1506,22 @@ def _group_error(
     )
 
 
+def check_facet_group(
+    key: str, name: Any, facet_groups: Mapping[str, int], cell_groups: Mapping[str, int]
+) -> str:
+    """Check that ``name`` is a string naming a facet group (local; the groups are the same
+    on every rank): ``name``, or SceneTypeError / SceneError naming ``key`` (a cell
+    group named instead is said to be one). For the Python API's surface and boundary
+    names (:class:`~dolfinx_mortar.contact.MortarContact`'s slave and master,
+    :meth:`~dolfinx_mortar.problem.ContactProblem.add_dirichlet_field`'s name), which
+    were a KeyError from the group table."""
+    if not isinstance(name, str):
+        raise SceneTypeError(key, f"expected a string, got {_type_name(name)} {_show(name)}")
+    if name not in facet_groups:
+        raise _group_error(key, name, "facet", facet_groups, cell_groups, "cell")
+    return name
+
+
 _SCENE_NAMES = ("material", "contact", "dirichlet", "traction")
 
 
@@ -1538,8 +1562,7 @@ def check_groups(
         seen[m.region] = i
 
     def facet(key: str, name: str) -> None:
-        if name not in facet_groups:
-            raise _group_error(key, name, "facet", facet_groups, cell_groups, "cell")
+        check_facet_group(key, name, facet_groups, cell_groups)
 
     for i, c in enumerate(scene.contacts):
         facet(f"{con}[{i}].slave", c.slave)

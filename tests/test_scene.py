@@ -831,6 +831,26 @@ def test_dump_scene_refuses_values_toml_cannot_hold(bad, key):
 
 
 @pytest.mark.parametrize(
+    "where, key, shown",
+    [((), "scene", "integer key 1"), (("contact", 0), "contact[0]", "NoneType key None")],
+    ids=["top", "contact"],
+)
+def test_a_key_that_is_not_a_string(where, key, shown):
+    """A Python caller's dict with a key that is not a string (``{1: 2}``, ``{None: 2}``)
+    is one SceneTypeError naming the table (session 52: a TypeError from difflib)."""
+    from dolfinx_mortar.errors import SceneTypeError
+
+    data = example()
+    table = data
+    for w in where:
+        table = table[w]
+    table[1 if not where else None] = 2
+    with pytest.raises(SceneTypeError) as info:
+        parse_scene(data, BASE)
+    assert str(info.value) == f"{key}: keys must be strings, got {shown}"
+
+
+@pytest.mark.parametrize(
     "name, value",
     [
         ("recovery", "mixed"),

@@ -1760,6 +1760,57 @@ def test_contact_problem_takes_what_it_took_before_its_checks(patch2d_api):
 
 
 @pytest.mark.mpi
+def test_api_names_a_bad_surface_boundary_or_component(patch2d_api):
+    """MortarContact's slave / master and add_dirichlet_field's name and components are
+    checked as the scene's are: one SceneError / SceneTypeError naming the argument, on
+    every rank (session 52: KeyError 'nope' for a missing or a cell group, a bare
+    AssertionError from UFL for component 7, numpy's ambiguous truth value for a
+    recovery given as an array)."""
+    from dolfinx_mortar import ContactProblem, MortarContact
+    from dolfinx_mortar.errors import SceneError, SceneTypeError
+
+    problem = ContactProblem(patch2d_api, materials=_MATS, dirichlet=[_DBC[0]])
+
+    def field(t, x):
+        return np.zeros((2, x.shape[1]))
+
+    def contact(*surfaces, **kw):
+        return lambda: MortarContact(problem, *surfaces, **kw)
+
+    def dirichlet(name, components=None):
+        return lambda: problem.add_dirichlet_field(name, field, components=components)
+
+    fk, ck = "add_dirichlet_field.name", "add_dirichlet_field.components"
+    for call, error, key, phrase in [
+        (contact("upper_bottom", "nope"), SceneError, "contact.master", "'nope' not found"),
+        (contact("upper", "lower_top"), SceneError, "contact.slave", "'upper' is a cell group"),
+        (contact(None, "lower_top"), SceneTypeError, "contact.slave", "expected a string"),
+        (
+            contact("upper_bottom", "lower_top", recovery=np.array(["lumped", "x"])),
+            SceneTypeError,
+            "contact.recovery",
+            "expected a string, one of unconstrained, lumped, constrained; got ndarray",
+        ),
+        (dirichlet("nope"), SceneError, fk, "'nope' not found among facet groups"),
+        (dirichlet("upper"), SceneError, fk, "'upper' is a cell group"),
+        (dirichlet("upper_top", [7]), SceneError, ck, "component 7 out of range [0, 2)"),
+        (dirichlet("upper_top", [-1]), SceneError, ck, "component -1 out of range"),
+        (dirichlet("upper_top", [1, 1]), SceneError, ck, "a component is named twice"),
+        (dirichlet("upper_top", []), SceneError, ck, "empty"),
+        (dirichlet("upper_top", ["0"]), SceneTypeError, ck, "expected integers, got str"),
+        (dirichlet("upper_top", [True]), SceneTypeError, ck, "expected integers, got bool"),
+        (dirichlet("upper_top", 1), SceneTypeError, ck, "expected a sequence of integers"),
+        (dirichlet("lower_bottom"), SceneError, ck, "already prescribed"),
+    ]:
+        with pytest.raises(error) as info:
+            call()
+        assert info.value.key == key and phrase in info.value.reason, str(info.value)
+    problem.add_dirichlet_field("upper_top", field, components=np.array([1]))  # still works
+    assert [d.components for d in problem._dirichlet][-1] == (1,)
+    problem.destroy()
+
+
+@pytest.mark.mpi
 def test_add_contact_takes_terms_of_this_problem_before_the_solver(patch2d_api):
     """add_contact refuses what is not a term (a str was accepted and failed later), a
     term built on another problem (it ran with that problem's factorization; on another
