@@ -371,7 +371,9 @@ GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: an iterate either (session 52; ``_add_tangential_jacobian``).
 DEEP_PENETRATION_TOL = 0.05
 #: A node slips only when |τ^tr| − μ p_N > SLIP_TOL ε_T h_I (the traction of a slip of
-#: SLIP_TOL h_I): below, the slip direction would be round-off.
+#: SLIP_TOL h_I): below, the slip direction would be round-off. The lumped law fades it
+#: to 0 below the unloaded floor of p_N (:meth:`MortarContact._law_slip_tol`), so that a
+#: node whose p_N is round-off carries no stick traction beyond round-off.
 SLIP_TOL = 1e-10
 #: A slave node takes part in the friction of a step only when it touched at t_n: mixed
 #: gap γ_n ≤ HISTORY_GAP_TOL h_I (a node closing from farther enters frictionless: its slip
@@ -1288,6 +1290,7 @@ class MortarContact:
         self._penalty_t_ratio = eps_t_max / self._eps_auto_max
         self._check_penalty_ratio(self._penalty_t_ratio, eps_t_max, f"{key}.penalty_tangential")
         self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
+        self._p_floor = 0.0  # the unloaded floor of p at the last _recover (_law_slip_tol)
         #: ε_T,soft^I = min(ε_T^I, ε_auto^I) (n,), used with ε_soft (SOFT_START_RATIO)
         self.eps_t_soft = np.minimum(self.eps_t, self.eps_auto)
         self._eps_t_own = self.eps_t
@@ -2037,6 +2040,8 @@ class MortarContact:
             self.predictor_nodes = int(near.sum())
             self.active = np.zeros_like(active)
         if self.frictional:
+            # the pressure below which the slip tolerance fades (_law_slip_tol), collective
+            self._p_floor = UNLOADED_ROUND_OFF * self._law_round_off()
             self._recover_tangential()
 
     @property
@@ -2188,7 +2193,7 @@ class MortarContact:
         p = np.where(hasT, self.p, 0.0)
         active = hasT & self.active
         tau, state, D, Pd = fr.return_mapping(
-            self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._slip_tol
+            self.lmbda_t, gam, p, active, self.mu, self.eps_t, imposed, self._law_slip_tol(p)
         )
         if frozen is None:
             return state, tau
@@ -2197,6 +2202,27 @@ class MortarContact:
         self._D, self._Pd = D, Pd
         self.t_vec = np.einsum("na,nac->nc", tau, self.frame_a)
         return state, None
+
+    def _law_slip_tol(self, p: np.ndarray) -> np.ndarray:
+        """The lumped law's slip tolerance at the nodal pressures p (n,): SLIP_TOL ε_T h_I,
+        faded linearly to 0 below the unloaded floor p_u = UNLOADED_ROUND_OFF × the law's
+        round-off (:meth:`_law_round_off`, taken at the last :meth:`_recover`),
+
+            tol_I = SLIP_TOL ε_T h_I min(1, max(p_I, 0) / p_u),
+
+        so that the stick radius μp + tol_I goes to 0 with p: a node carries at most
+        (μ + SLIP_TOL ε_T h_I / p_u) p in τ, continuous where it opens. A node with p ≈ 0
+        that stuck with |τ| up to SLIP_TOL ε_T h_I (5.5e-7 on the patch, where μp was
+        5e-11) dropped to τ = 0 when it opened, a jump of the residual between iterates
+        that stalled Newton at a frictional release exactly at a step's end
+        (docs/method-notes.md, "A contact that touches or releases exactly at a step's
+        end"). Above p_u (every loaded node)
+        nothing changes; at p = 0 a node sticks only where its trial traction is 0
+        exactly (the start of a step, σ = 0 at u = u_n). Local."""
+        floor = self._p_floor
+        if not floor > 0.0:
+            return self._slip_tol
+        return self._slip_tol * np.clip(p / floor, 0.0, 1.0)
 
     def _reentry(self, imposed, gamma: np.ndarray, hasT: np.ndarray):
         """The frozen states (chattering control) as they are imposed now (local): a node

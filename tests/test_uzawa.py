@@ -937,13 +937,10 @@ def _grazing(integration: str, friction: float, scale_e: float = 1.0, scale_l: f
     lifted by 0.001 (t = 1), pressed to −0.003 while shifted by 5e-4 (t = 2), lifted back
     (t = 3) and pressed again (t = 4). The gap closes on every node exactly at t = 1.25 and
     opens exactly at t = 2.75, both step ends. ``scale_e`` multiplies E (pressures),
-    ``scale_l`` the lengths (mesh and path). With friction the run ends at t = 2: the
-    frictional release still stalls Newton (docs/method-notes.md, "A contact that touches
-    or releases exactly at a step's end")."""
+    ``scale_l`` the lengths (mesh and path)."""
     path = [[0, 0, 0], [1, 0, 1e-3], [2, 5e-4, -3e-3], [3, 0, 1e-3], [4, 5e-4, -3e-3]]
     path = [[row[0]] + [v * scale_l for v in row[1:]] for row in path]
     params = {"L": scale_l, "H": 0.5 * scale_l, "n_lower": 4, "n_upper": 5, "n_y": 2}
-    t_end = 2.0 if friction > 0.0 else 4.0
     return {
         "kinematics": "small",
         "mesh": {"generator": "patch2d", "params": params},
@@ -956,7 +953,7 @@ def _grazing(integration: str, friction: float, scale_e: float = 1.0, scale_l: f
             {"boundary": "lower_bottom", "path": [[0, 0, 0], [4, 0, 0]]},
             {"boundary": "upper_top", "path": path},
         ],
-        "steps": {"t_end": t_end, "n": round(4 * t_end), "max_cutbacks": 3},
+        "steps": {"t_end": 4.0, "n": 16, "max_cutbacks": 3},
     }
 
 
@@ -983,7 +980,16 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     p̂ is at most contact.UNLOADED_ROUND_OFF × that round-off counts as converged (as at
     p̂ = 0): the touch takes one round, the frictionless release 2, no cutback, and the
     second press ends as the first. The same in other units (E × 1e8, lengths × 1e-3).
-    1–3 ranks."""
+    1–3 ranks.
+
+    The frictional release (session 53): a node whose p was round-off stuck with |τ| up
+    to the slip tolerance SLIP_TOL ε_T h_I (5.5e-7, against μp ≈ 5e-11) and dropped to
+    τ = 0 when it opened; the last round's Newton solve cycled between ‖R‖ 2.2e-8 and
+    3.4e-9 on 2 ranks until max_it (a cutback) and took 4–14 iterations serially. The
+    tolerance now fades to 0 below the unloaded floor (MortarContact._law_slip_tol): that
+    solve takes one iteration. The release takes one more round than without friction: its first
+    round ends with states frozen by the slip-reversal rule that the free law
+    contradicts, and the plain update follows (docs/method-notes.md)."""
     data = _grazing(integration, friction, scale_e, scale_l)
     steps = _run_scene(data, tmp_path_factory, "grazing")["steps"]
     n = data["steps"]["n"]
@@ -998,8 +1004,10 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     scale = scale_e * scale_l  # forces per unit thickness
     assert np.abs(force[4]).max() <= 1e-7 * scale, force[4]  # round-off only
     assert np.abs(force[7]).max() > 3.0 * scale  # pressed at t = 2
-    if n < 16:
-        return
-    assert steps[10]["uzawa_rounds"] <= 2, steps[10]["uzawa_rounds"]  # the release, 2.75
+    # the release, t = 2.75
+    release = steps[10]
+    assert release["uzawa_rounds"] <= (3 if friction else 2), release["uzawa_rounds"]
+    if friction:  # the last round's solve stalled there (2 ranks: a cutback)
+        assert release["newton_iterations"][-1] <= 2, release["newton_iterations"]
     assert np.abs(force[10]).max() <= 1e-7 * scale, force[10]
     assert np.allclose(force[15], force[7], rtol=1e-6, atol=1e-9 * scale)
