@@ -28,7 +28,7 @@ from .errors import (
 )
 from .laws import registered_law
 from .mesh import load_mesh
-from .scene import Scene, check_components, check_groups, check_regions_covered
+from .scene import Scene, check_components, check_groups, check_regions_covered, path_argument
 
 log = logging.getLogger(__name__)
 
@@ -299,8 +299,9 @@ def run(
     (:meth:`~dolfinx_mortar.problem.ContactProblem.residual_round_off`: three more
     residual evaluations per step), against which the demos read ``residual_norms``.
     Raises SceneError before writing anything when the input is bad (the output
-    directory too: checked before the set-up), TypeError when ``scene`` is not a
-    :class:`~dolfinx_mortar.scene.Scene`, and OutputError on every rank where the
+    directory too: checked before the set-up; an ``out_dir`` that is neither a string
+    nor a ``pathlib.Path`` a SceneTypeError keyed ``out_dir``), TypeError when ``scene``
+    is not a :class:`~dolfinx_mortar.scene.Scene`, and OutputError on every rank where the
     initial state cannot be written (a full disk, a surface file that cannot be set up,
     an OSError of rank 0's): summary.json then says "failed" and the error with
     :data:`SETUP_FAILURE`, and nothing else of the run is left
@@ -336,7 +337,7 @@ def run(
     _check_scene(scene, "run")
     t_setup = perf_counter()
     key = "out_dir" if out_dir is not None else "output.dir"
-    out_dir = Path(out_dir) if out_dir is not None else scene.output.dir
+    out_dir = path_argument(out_dir, key) if out_dir is not None else scene.output.dir
     check_out_dir(out_dir, key, comm, [pair.slave for pair in scene.contacts])
     problem, _ = prepare(scene, comm, setup)
     settings = solver_settings(scene)

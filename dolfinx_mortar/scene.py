@@ -108,6 +108,7 @@ import bisect
 import difflib
 import json
 import math
+import os
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -147,6 +148,7 @@ __all__ = [
     "quadrature_degree_choice",
     "solver_options",
     "problem_inputs",
+    "path_argument",
     "interpolate_path",
 ]
 
@@ -935,6 +937,21 @@ _SOLVER_KEYS = ("rtol", "atol", "max_it", "linear", "line_search", "petsc", "ste
 _OUTPUT_KEYS = ("dir", "fields")
 
 
+def path_argument(value: Any, key: str) -> Path:
+    """``value``, a path argument of the Python API (a string or an ``os.PathLike`` such
+    as a ``pathlib.Path``), as a Path; anything else a SceneTypeError keyed ``key``
+    (local). ``Path(None)`` was a bare TypeError from pathlib."""
+    if isinstance(value, str | os.PathLike):
+        try:
+            return Path(value)
+        except TypeError:  # an os.PathLike whose __fspath__ gives bytes
+            pass
+    raise SceneTypeError(
+        key,
+        f"expected a path (a string or a pathlib.Path), got {_type_name(value)} {_show(value)}",
+    )
+
+
 def _resolve(text: str, base_dir: Path) -> Path:
     """``text`` as a path, relative ones taken against ``base_dir``."""
     p = Path(text).expanduser()
@@ -1330,18 +1347,23 @@ def parse_scene(data: Mapping[str, Any], base_dir: Path, source: str = "<dict>")
         The decoded TOML document.
     base_dir:
         Directory against which relative ``mesh.file`` and ``output.dir`` are resolved
-        (the scene file's directory); a relative one is taken from the current
-        directory now, so the scene does not depend on later changes of directory.
+        (the scene file's directory), a string or a ``pathlib.Path``; a relative one is
+        taken from the current directory now, so the scene does not depend on later
+        changes of directory.
     source:
-        Where the data came from, for ``Scene.source`` and the default title and
-        output directory (the file stem).
+        Where the data came from (a string), for ``Scene.source`` and the default title
+        and output directory (the file stem).
 
     Raises
     ------
     SceneError
-        On the first problem found, naming the dotted key and the reason.
+        On the first problem found, naming the dotted key and the reason; a
+        SceneTypeError (a TypeError) for a value of the wrong type, ``base_dir`` and
+        ``source`` included (``parse_scene.base_dir: expected a path (a string or a
+        pathlib.Path), got NoneType None``).
     """
-    base_dir = Path(base_dir).absolute()
+    base_dir = path_argument(base_dir, "parse_scene.base_dir").absolute()
+    _string(source, "parse_scene.source")
     table = _table(_plain(data), "scene")
     _check_keys(table, _TOP_KEYS, "")
     stem = _stem(source)
@@ -1459,9 +1481,10 @@ def load_scene(path: str | Path) -> Scene:
     SceneError
         When the file cannot be read, is not valid TOML (the message names the
         file and line; ``key`` is ``""``), or fails validation (see
-        :func:`parse_scene`).
+        :func:`parse_scene`); a SceneTypeError (a TypeError) keyed ``load_scene.path``
+        where ``path`` is neither a string nor a ``pathlib.Path``.
     """
-    path = Path(path).expanduser()
+    path = path_argument(path, "load_scene.path").expanduser()
     try:
         # "utf-8-sig": a byte-order mark (editors on Windows write one) is not TOML
         text = path.read_bytes().decode("utf-8-sig")

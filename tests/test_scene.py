@@ -830,6 +830,57 @@ def test_dump_scene_refuses_values_toml_cannot_hold(bad, key):
     assert exc.value.key == key
 
 
+class _BytesPath:
+    """An os.PathLike whose path is bytes (pathlib refuses it with a TypeError)."""
+
+    def __fspath__(self):
+        return b"/scenes"
+
+
+@pytest.mark.parametrize(
+    "call, key, shown",
+    [
+        (lambda: parse_scene(example(), None), "parse_scene.base_dir", "NoneType None"),
+        (lambda: parse_scene(example(), 3), "parse_scene.base_dir", "integer 3"),
+        (lambda: parse_scene(example(), b"/scenes"), "parse_scene.base_dir", "bytes b'/scenes'"),
+        (lambda: parse_scene(example(), _BytesPath()), "parse_scene.base_dir", "_BytesPath"),
+        (lambda: load_scene(None), "load_scene.path", "NoneType None"),
+        (lambda: load_scene(["a.toml"]), "load_scene.path", "array ['a.toml']"),
+    ],
+    ids=[
+        "base_dir-None",
+        "base_dir-int",
+        "base_dir-bytes",
+        "base_dir-bytes-pathlike",
+        "path-None",
+        "path-list",
+    ],
+)
+def test_a_path_argument_that_is_not_a_path(call, key, shown):
+    """parse_scene's base_dir and load_scene's path are a string or a pathlib.Path; else
+    one SceneTypeError naming the argument (session 53: ``parse_scene(data, None)`` was
+    a bare TypeError from ``Path(None)``)."""
+    from dolfinx_mortar.errors import SceneTypeError
+
+    with pytest.raises(SceneTypeError) as info:
+        call()
+    assert info.value.key == key
+    assert info.value.reason.startswith(
+        f"expected a path (a string or a pathlib.Path), got {shown}"
+    )
+
+
+def test_parse_scene_source_is_a_string():
+    """``source`` (for the default title and output directory) is a string: None was an
+    AttributeError (``'NoneType' object has no attribute 'startswith'``)."""
+    from dolfinx_mortar.errors import SceneTypeError
+
+    with pytest.raises(SceneTypeError) as info:
+        parse_scene(example(), BASE, source=None)
+    assert str(info.value) == "parse_scene.source: expected a string, got NoneType None"
+    assert parse_scene(example(), str(BASE)) == parse_scene(example(), BASE)
+
+
 @pytest.mark.parametrize(
     "where, key, shown",
     [((), "scene", "integer key 1"), (("contact", 0), "contact[0]", "NoneType key None")],

@@ -1811,6 +1811,27 @@ def test_api_names_a_bad_surface_boundary_or_component(patch2d_api):
     problem.destroy()
 
 
+def test_run_names_an_out_dir_that_is_not_a_path(tmp_path):
+    """run's out_dir is a string or a pathlib.Path (None: the scene's output.dir); else one
+    SceneTypeError keyed out_dir, before the mesh is built (session 53: a bare TypeError
+    from ``Path(3)``)."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneTypeError
+
+    materials = [
+        {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ]
+    data = {"kinematics": "small", "mesh": {"generator": "patch2d"}, "material": materials}
+    scene = parse_scene(data, tmp_path)
+    for bad, shown in ((3, "integer 3"), (b"out", "bytes b'out'")):
+        with pytest.raises(SceneTypeError) as info:
+            run(scene, MPI.COMM_WORLD, out_dir=bad)
+        assert str(info.value) == (
+            f"out_dir: expected a path (a string or a pathlib.Path), got {shown}"
+        )
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.mpi
 def test_add_contact_takes_terms_of_this_problem_before_the_solver(patch2d_api):
     """add_contact refuses what is not a term (a str was accepted and failed later), a
