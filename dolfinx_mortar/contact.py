@@ -91,6 +91,7 @@ from .search import (
     points_in_cells,
 )
 from .surface import (
+    CONTACT_DEGREES,
     dual_coefficients,
     extract_facets,
     mixed_nodes,
@@ -710,7 +711,10 @@ class MortarContact:
     (:func:`~dolfinx_mortar.scene.uzawa_acceleration_choice`) and a quadrature_degree < 1
     (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`), a value of the wrong type
     SceneTypeError (a TypeError), keyed ``KEY.NAME`` (``contact.penalty: must be > 0, got
-    -5``).
+    -5``). A ``problem`` whose displacement degree is not 1 or 2
+    (:data:`~dolfinx_mortar.surface.CONTACT_DEGREES`), or not the mesh's geometry order,
+    is a SceneError keyed ``KEY.problem`` (``contact.problem: the displacement degree 3
+    (ContactProblem's degree) is not supported: ...``).
     """
 
     def __init__(
@@ -759,6 +763,24 @@ class MortarContact:
             key, uzawa_acceleration, friction, recovery, tangential_recovery
         )
         quadrature_degree = quadrature_degree_choice(key, quadrature_degree)
+        # the problem's displacement degree: the contact facets are P1/Q1 and P2/Q2 of the
+        # mesh's geometry order (ContactProblem's default degree); a degree of 3 was a
+        # plain ValueError of surface.facet_type naming no argument (local, before any
+        # collective: the same degrees on every rank)
+        degree, order = problem.degree, problem.mesh.geometry.cmap.degree
+        if degree not in CONTACT_DEGREES or degree != order:
+            supported = " and ".join(str(d) for d in CONTACT_DEGREES)
+            what = (
+                "is not supported"
+                if degree not in CONTACT_DEGREES
+                else f"differs from the mesh's geometry order {order}"
+            )
+            raise SceneError(
+                f"{key}.problem",
+                f"the displacement degree {degree} (ContactProblem's degree) {what}: mortar "
+                f"contact takes degrees {supported} (P1/Q1, P2/Q2), equal to the mesh's "
+                f"geometry order (here {order}; ContactProblem's default)",
+            )
         self.tangential_frame = tangential_frame
         #: as asked ("auto" included), and what it resolved to
         self.tangential_weights_asked = tangential_weights

@@ -50,6 +50,10 @@ _FACET_TYPE = {
     ("hexahedron", 2): QUAD2,
 }
 
+#: The displacement degrees (= the mesh's geometry order) of the contact surfaces: P1/Q1
+#: and P2/Q2 facets (the kernels' facet types; ``MortarContact`` checks it first).
+CONTACT_DEGREES = tuple(sorted({degree for _, degree in _FACET_TYPE}))
+
 
 def facet_type(cell_name: str, degree: int) -> int:
     """Kernel facet type code of the facets of ``cell_name`` cells of geometric degree ``degree``."""

@@ -1811,6 +1811,38 @@ def test_api_names_a_bad_surface_boundary_or_component(patch2d_api):
     problem.destroy()
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "degree, what",
+    [
+        (3, "the displacement degree 3 (ContactProblem's degree) is not supported"),
+        (2, "the displacement degree 2 (ContactProblem's degree) differs from the mesh's "),
+    ],
+)
+def test_mortar_contact_names_an_unsupported_degree(patch2d_api, degree, what):
+    """A ContactProblem of displacement degree 3 (or one that is not the mesh's geometry
+    order) is one SceneError naming ``contact.problem`` and the degrees mortar contact
+    takes, before any collective (session 53: a plain ValueError, "no contact facets for
+    triangle of degree 3" from surface.facet_type, or "contact needs the displacement
+    degree to equal the geometric degree"). The scene cannot ask for it: no key sets the
+    degree, and a generator's order 3 or a P3 mesh file is refused by name
+    (test_generators, test_mesh)."""
+    from dolfinx_mortar import ContactProblem, MortarContact
+    from dolfinx_mortar.errors import SceneError
+
+    assert patch2d_api.mesh.geometry.cmap.degree == 1
+    problem = ContactProblem(patch2d_api, _MATS, degree=degree)
+    with pytest.raises(SceneError) as info:
+        MortarContact(problem, "upper_bottom", "lower_top", key="contact[0]")
+    assert info.value.key == "contact[0].problem"
+    assert info.value.reason.startswith(what), info.value.reason
+    assert info.value.reason.endswith(
+        "mortar contact takes degrees 1 and 2 (P1/Q1, P2/Q2), equal to the mesh's geometry "
+        "order (here 1; ContactProblem's default)"
+    ), info.value.reason
+    problem.destroy()
+
+
 def test_run_names_an_out_dir_that_is_not_a_path(tmp_path):
     """run's out_dir is a string or a pathlib.Path (None: the scene's output.dir); else one
     SceneTypeError keyed out_dir, before the mesh is built (session 53: a bare TypeError
