@@ -12,7 +12,8 @@ kernel into the *current* gmsh model, meshes it and returns a metadata dict.
 The caller owns gmsh: it calls ``gmsh.initialize()`` and ``gmsh.model.add(...)``
 before, converts the model (``dolfinx.io.gmshio.model_to_mesh``) and finalizes
 after. Only one rank (rank 0) builds; this module does not use MPI.
-:func:`validate_params` checks the parameters without gmsh (for ``check``).
+:func:`validate_params` checks the parameters without gmsh (for ``check``), the size
+of the mesh they ask for too (at most :data:`MAX_NODES` nodes, :func:`estimate_nodes`).
 
 Every generator tags, with NAMED physical groups, all cells of each body and
 the facet groups listed below, and nothing else. The bodies are separate OCC
@@ -161,7 +162,15 @@ from dataclasses import dataclass, field
 from dolfinx_mortar.errors import SceneError
 from dolfinx_mortar.scene import C_INT_MAX, c_int, finite_float, number_text
 
-__all__ = ["GENERATORS", "Generator", "build", "describe", "validate_params"]
+__all__ = [
+    "GENERATORS",
+    "MAX_NODES",
+    "Generator",
+    "build",
+    "describe",
+    "estimate_nodes",
+    "validate_params",
+]
 
 
 # ---------------------------------------------------------------------------
@@ -195,6 +204,10 @@ class Generator:
         ``("h_contact", "n_lower = round(L/h_contact)", L/h_contact)``), checked
         after ``checks`` against the rule of the given counts: at most
         ``C_INT_MAX``. None: the generator derives no counts.
+    nodes:
+        ``nodes(params) -> (estimate, keys)``: about how many mesh nodes the
+        parameters ask for (:func:`estimate_nodes`; the order included) and the
+        parameters that set it, checked last against :data:`MAX_NODES`.
     """
 
     name: str
@@ -204,6 +217,7 @@ class Generator:
     gdim: int = 2
     checks: tuple[tuple[str, Callable[[dict], bool], str], ...] = field(default=())
     counts: Callable[[dict], list[tuple[str, str, float]]] | None = None
+    nodes: Callable[[dict], tuple[float, tuple[str, ...]]] | None = None
 
 
 GENERATORS: dict[str, Generator] = {}
@@ -253,7 +267,37 @@ def validate_params(name: str, params: dict | None) -> dict:
                 f"implies {formula} = {value:.4g}, more than {C_INT_MAX} (a C int, the "
                 f"rule of the given counts; got {key} = {out[key]!r})",
             )
+    if gen.nodes is not None:
+        nodes, keys = gen.nodes(out)
+        if not nodes <= MAX_NODES:  # an inf too
+            given = ", ".join(f"{k} = {out[k]!r}" for k in keys)
+            about = f"about {nodes:.2g}" if math.isfinite(nodes) else "more than 1e+308"
+            raise SceneError(
+                "mesh.params",
+                f"{given} ask {name} for {about} mesh nodes, more than it meshes "
+                f"(MAX_NODES = {MAX_NODES:.0e}: rank 0 meshes the whole model in gmsh, "
+                "and dolfinx reads it there with 32-bit offsets); coarsen the mesh",
+            )
     return out
+
+
+#: The most mesh nodes a generator is asked for (:func:`estimate_nodes`, checked by
+#: :func:`validate_params` before gmsh is called: ``check`` and ``run`` alike). Within a
+#: C int, a count such as patch2d's ``n_lower = 2000000000`` (about 8e9 nodes) or an
+#: ``h_contact`` of 1e-6 went on to gmsh, which died of ``std::bad_alloc`` or meshed for
+#: hours. The figure: dolfinx 0.5 reads the whole mesh on rank 0 into an
+#: ``AdjacencyList``, whose offsets are ``std::int32_t``: at most 2**31 - 1 cell-node
+#: entries, about 9.4e7 nodes of linear tetrahedra (5.7 cells, 23 entries, a node:
+#: hertz3d, h_contact = 0.05); the estimate of the unstructured meshes is low, 0.3 to
+#: 1.02 times gmsh's count (the defaults and refined ones), so 2e7 keeps tetrahedra
+#: below that (6.7e7 at most). Rank
+#: 0 alone meshes the whole model, and gmsh took about 2.1 kB a node for unstructured
+#: tetrahedra (hertz3d, 8 919 -> 50 526 nodes: 47 -> 130 MB) and 0.4 kB for structured
+#: hexahedra (patch3d, 271 622 nodes: 106 MB): 2e7 nodes are about 40 GB. PETSc's
+#: indices are 32-bit here too (3 dofs a node: 7.2e8 nodes in 3D). Real runs are far
+#: below it: a few million dofs are about 1e6 nodes (BENCHMARKS.md's largest run: 63 972
+#: dofs).
+MAX_NODES = 20_000_000
 
 
 def _coerce(key: str, value: object, typ: type) -> object:
@@ -526,6 +570,158 @@ def _positive(*keys):
 _ORDER_CHECK = (("order", lambda p: p["order"] in (1, 2), "must be 1 or 2"),)
 
 
+# Mesh size estimates (Generator.nodes) ----------------------------------------
+
+#: Mesh nodes per unit area (2D) or volume (3D) at element size h, times h**d, of gmsh's
+#: unstructured meshes: 2/sqrt(3) for equilateral triangles of side h; in 3D, tetrahedra
+#: of edge h (h**3/(6 sqrt 2) each) at 5.7 a node (hertz3d). Checked against gmsh:
+#: tests/test_generators.py::test_node_estimates_follow_gmsh.
+_NODE_DENSITY = {2: 2.0 / math.sqrt(3.0), 3: 6.0 * math.sqrt(2.0) / 5.7}
+
+
+def estimate_nodes(name: str, params: dict) -> float:
+    """About how many mesh nodes generator ``name`` makes with ``params`` (completed by
+    :func:`validate_params`), its order included: a float (inf where it overflows);
+    local, without gmsh. Exact for the structured meshes (patch2d, patch3d, tiedcurved2d,
+    the ironing dies) but for the order-2 nodes of triangles and tetrahedra (about
+    order**d as many); for the unstructured ones a lower estimate, the bodies' measure
+    in the refined box at ``h_contact`` plus the rest at ``h_far`` (the transition layer
+    left out) times :data:`_NODE_DENSITY`: 0.3 to 1.02 times gmsh's count on the
+    generators' defaults and refined ones (cattaneo2d, hertz2d, twist3d, wedge2d: 0.3,
+    the transition layer holding most of their nodes)."""
+    return GENERATORS[name].nodes(params)[0]
+
+
+def _per_size(measure: float, h: float, d: int) -> float:
+    """``measure / h**d`` (inf where it overflows; h > 0)."""
+    if measure <= 0.0:
+        return 0.0
+    try:
+        return measure * (1.0 / h) ** d
+    except (OverflowError, ZeroDivisionError):
+        return math.inf
+
+
+def _overlap(lo_a, hi_a, lo_b, hi_b) -> float:
+    """Measure of the intersection of two axis-aligned boxes."""
+    out = 1.0
+    for a0, a1, b0, b1 in zip(lo_a, hi_a, lo_b, hi_b, strict=True):
+        out *= max(0.0, min(a1, b1) - max(a0, b0))
+    return out
+
+
+def _graded_nodes(d: int, order: int, total: float, zone: float, box: float, p: dict) -> float:
+    """Nodes of an unstructured mesh of bodies of measure ``total``, of which at least
+    ``zone`` lies in the refined box (of measure ``box``) at size h_contact, and at
+    least ``total - box`` outside it at h_far or finer (the Box field: h_far outside
+    the box and its transition layer, sizes from h_contact to h_far in the layer)."""
+    cells = _per_size(zone, p["h_contact"], d) + _per_size(total - box, p["h_far"], d)
+    return _NODE_DENSITY[d] * order**d * cells
+
+
+def _structured(order: int, *counts: float) -> float:
+    """Nodes of a structured block of ``counts`` elements per direction."""
+    return math.prod(order * n + 1 for n in counts)
+
+
+_ZONE_KEYS = ("h_contact", "h_far", "c_zone", "order")
+
+
+def _hertz2d_nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+    c, R, W, H, g = p["c_zone"], p["R"], p["W"], p["H"], p["gap0"]
+    total = 0.25 * math.pi * R**2 + 0.5 * W * H
+    zone = _overlap((0.0, -H), (0.5 * W, 0.0), (-c, -c), (c, c + g))  # the block's part
+    box = _overlap((0.0, -H), (max(0.5 * W, R), R + g), (-c, -c), (c, c + g))  # bodies' box
+    return _graded_nodes(2, p["order"], total, zone, box, p), _ZONE_KEYS
+
+
+def _hemisphere_nodes(quarter: bool):
+    def nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+        c, R, W, H, g = p["c_zone"], p["R"], p["W"], p["H"], p["gap0"]
+        x0 = 0.0 if quarter else -0.5 * W
+        lo, hi = (x0, x0, -H), (0.5 * W, 0.5 * W, 0.0)
+        ball = (1.0 / 6.0 if quarter else 2.0 / 3.0) * math.pi * R**3
+        total = ball + _overlap(lo, hi, lo, hi)
+        zone = _overlap(lo, hi, (-c, -c, -c), (c, c, c + g))  # the block's part
+        a = max(0.5 * W, R)  # the bodies' box
+        box = _overlap((-a, -a, -H), (a, a, R + g), (-c, -c, -c), (c, c, c + g))
+        return _graded_nodes(3, p["order"], total, zone, box, p), _ZONE_KEYS
+
+    return nodes
+
+
+def _cattaneo2d_nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+    c, R = p["c_zone"], p["R"]
+    m = min(c, R)
+    # in the box, the lower half-disc holds the rectangle |x| <= m/2, -m <= y <= -m**2/(4R)
+    # (its arc lies above y = -x**2/R), the upper one its mirror image lifted by gap0
+    # (cut at the box's bottom y = -c where gap0 < 0)
+    g, low = p["gap0"], m**2 / (4.0 * R)
+    zone = m * (m - low) + m * max(0.0, g + m - max(g + low, -c))
+    box = 2.0 * c * (2.0 * c + p["gap0"])
+    return _graded_nodes(2, p["order"], math.pi * R**2, zone, box, p), _ZONE_KEYS
+
+
+def _wedge2d_nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+    t, L, H, b, c, x0 = p["tan_alpha"], p["L"], p["H"], p["b"], p["c_zone"], p["x0"]
+    total = L * H + 0.5 * L**2 * t + b * p["block_height"]
+    x1 = x0 + b
+    lo, hi = (x0 - c, min(x0 * t, x1 * t) - c), (x1 + c, max(x0 * t, x1 * t) + c)
+    # the wedge in the box: under its incline (above the box's bottom there) and over -H
+    xa, xb = max(0.0, lo[0]), min(L, hi[0])
+    zone = max(0.0, xb - xa) * max(0.0, 0.5 * (xa + xb) * t - max(-H, lo[1]))
+    box = _overlap(lo, hi, lo, hi)
+    return _graded_nodes(2, p["order"], total, zone, box, p), _ZONE_KEYS
+
+
+def _ironing_nodes(d: int):
+    def nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+        c, H, L, x_left, x_die = p["c_zone"], p["H"], p["L"], p["x_left"], p["x_die"]
+        r_out, order, h_die = p["r_out"], p["order"], p["h_die"]
+        thickness = p["t"] if d == 3 else r_out - p["r_in"]
+        n_arc = max(2.0, 0.5 * math.pi * r_out / h_die)  # as _ring_counts, not rounded
+        n_thick = max(1.0 if d == 3 else 2.0, thickness / h_die)
+        die = [2.0 * n_arc, n_thick] + ([max(1.0, p["w_die"] / h_die)] if d == 3 else [])
+        width = [p["W"]] if d == 3 else []
+        lo, hi = [x_left, -H], [x_left + L, 0.0]
+        box_lo = [x_die - c, -c]
+        box_hi = [x_die + p["slide"] + c, c + max(p["gap0"], 0.0)]
+        if d == 3:
+            lo.insert(1, 0.0)
+            hi.insert(1, width[0])
+            box_lo.insert(1, -c)
+            box_hi.insert(1, width[0] + c)
+        zone = _overlap(lo, hi, box_lo, box_hi)
+        slab = _graded_nodes(d, order, _overlap(lo, hi, lo, hi), zone, zone, p)
+        return slab + _structured(order, *die), (*_ZONE_KEYS[:3], "h_die", "order")
+
+    return nodes
+
+
+def _patch_nodes(d: int):
+    def nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+        n_lower, n_upper, n_y = _patch_counts(
+            p["L"], p["H"], p["n_lower"], p["n_upper"], p["n_y"], p["h_contact"], p["h_far"]
+        )
+        bodies = sum(_structured(p["order"], *[n] * (d - 1), n_y) for n in (n_lower, n_upper))
+        keys = ("h_contact" if p["h_contact"] > 0.0 else "n_lower", "n_upper")
+        return bodies, (*keys, "h_far" if p["h_far"] > 0.0 else "n_y", "order")
+
+    return nodes
+
+
+def _tiedcurved2d_nodes(p: dict) -> tuple[float, tuple[str, ...]]:
+    n_inner, n_outer, n_r = p["n_inner"], p["n_outer"], p["n_r"]
+    if p["h_contact"] > 0.0:  # as _build_tiedcurved2d, not rounded
+        ni = p["r1"] * (p["theta1"] - p["theta0"]) / p["h_contact"]
+        n_inner, n_outer = ni, ni * n_outer / n_inner
+    if p["h_far"] > 0.0:
+        n_r = max(p["r1"] - p["r0"], p["r2"] - p["r1"]) / p["h_far"]
+    bodies = _structured(p["order"], n_inner, n_r) + _structured(p["order"], n_outer, n_r)
+    keys = ("h_contact" if p["h_contact"] > 0.0 else "n_inner", "n_outer")
+    return bodies, (*keys, "h_far" if p["h_far"] > 0.0 else "n_r", "order")
+
+
 # ---------------------------------------------------------------------------
 # hertz2d
 # ---------------------------------------------------------------------------
@@ -593,6 +789,7 @@ _register(
         checks=_positive("R", "W", "H", "c_zone", "h_contact", "h_far", "grading")
         + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
         + _ORDER_CHECK,
+        nodes=_hertz2d_nodes,
     )
 )
 
@@ -683,6 +880,7 @@ _register(
         build=_build_hertz3d,
         gdim=3,
         checks=_hemisphere_checks("hertz3d"),
+        nodes=_hemisphere_nodes(quarter=True),
     )
 )
 
@@ -865,6 +1063,7 @@ _register(
         gdim=2,
         checks=_PATCH_CHECKS,
         counts=_patch_derived,
+        nodes=_patch_nodes(2),
     )
 )
 
@@ -877,6 +1076,7 @@ _register(
         gdim=3,
         checks=_PATCH_CHECKS,
         counts=_patch_derived,
+        nodes=_patch_nodes(3),
     )
 )
 
@@ -935,6 +1135,7 @@ _register(
         checks=_positive("R", "c_zone", "h_contact", "h_far", "grading")
         + (("gap0", lambda p: -p["R"] < p["gap0"] < p["R"], "must lie in (-R, R)"),)
         + _ORDER_CHECK,
+        nodes=_cattaneo2d_nodes,
     )
 )
 
@@ -1017,6 +1218,7 @@ _register(
             ),
         )
         + _ORDER_CHECK,
+        nodes=_wedge2d_nodes,
     )
 )
 
@@ -1247,6 +1449,7 @@ _register(
         )
         + _IRONING_CHECKS
         + _ORDER_CHECK,
+        nodes=_ironing_nodes(2),
     )
 )
 
@@ -1274,6 +1477,7 @@ _register(
         + _IRONING_CHECKS
         + _ORDER_CHECK
         + (("quads", lambda p: not p["quads"], "hexahedra are not available for ironing3d"),),
+        nodes=_ironing_nodes(3),
     )
 )
 
@@ -1331,6 +1535,7 @@ _register(
         build=_build_twist3d,
         gdim=3,
         checks=_hemisphere_checks("twist3d"),
+        nodes=_hemisphere_nodes(quarter=False),
     )
 )
 
@@ -1459,5 +1664,6 @@ _register(
         + tuple((k, (lambda p, k=k: p[k] >= 0.0), "must be >= 0") for k in ("h_contact", "h_far"))
         + _ORDER_CHECK,
         counts=_tiedcurved_derived,
+        nodes=_tiedcurved2d_nodes,
     )
 )

@@ -332,6 +332,13 @@ CASES = [
         "contact[0].friction",
         "friction coefficient must be at most 1e+06, got 1e+308",
     ),
+    (  # gmsh died of std::bad_alloc (or meshed for ages), `check` too (session 53)
+        "mesh-generator-too-big",
+        lambda s: s.update(mesh={"generator": "patch2d", "params": {"n_lower": 2000000000}}),
+        "mesh.params",
+        "n_lower = 2000000000, n_upper = 7, n_y = 3, order = 1 ask patch2d for about 8e+09 "
+        "mesh nodes, more than it meshes (MAX_NODES = 2e+07",
+    ),
 ]
 CASE_IDS = [c[0] for c in CASES]
 CASE_BY_ID = {c[0]: c for c in CASES}
@@ -514,6 +521,7 @@ def test_bad_input_serial(workdir, case_id, command):
         ("empty-contact-surface", "run"),
         ("surfaces-share-nodes", "run"),
         ("penalty-far-beyond-auto", "check"),
+        ("mesh-generator-too-big", "run"),
     ],
 )
 def test_bad_input_mpirun(workdir, case_id, command):

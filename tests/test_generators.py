@@ -516,13 +516,123 @@ def test_a_derived_count_beyond_a_c_int(name, params, message):
     assert str(err.value) == message
 
 
-def test_a_derived_count_at_the_bound_is_accepted():
+def test_a_derived_count_at_the_bound_is_accepted(monkeypatch):
     """The bound is on the rounded count: L/h_contact = 2147483647.4 rounds to
-    C_INT_MAX (accepted); 2147483647.6 rounds beyond it (refused)."""
+    C_INT_MAX (accepted by the C-int rule, then refused by the node bound, MAX_NODES);
+    2147483647.6 rounds beyond it (refused by the C-int rule first)."""
     h = 1.0 / 2147483647.4
-    assert G.validate_params("patch2d", {"n_lower": 1, "n_upper": 1, "h_contact": h})
+    params = {"n_lower": 1, "n_upper": 1, "h_contact": h}
+    with pytest.raises(SceneError, match="ask patch2d for about 1.7e[+]10 mesh nodes"):
+        G.validate_params("patch2d", params)
+    monkeypatch.setattr(G, "MAX_NODES", float("inf"))  # the C-int rule alone
+    assert G.validate_params("patch2d", params)
     with pytest.raises(SceneError, match="n_lower = round"):
         G.validate_params("patch2d", {"n_lower": 1, "n_upper": 1, "h_contact": 1.0 / 2147483647.6})
+
+
+@pytest.fixture
+def no_gmsh(monkeypatch):
+    """G.build fails the test where it reaches gmsh."""
+
+    def called():
+        raise AssertionError("gmsh was called")
+
+    monkeypatch.setattr(G, "_gmsh", called)
+
+
+@pytest.mark.parametrize(
+    "name, params, given, about",
+    [
+        # gmsh died of std::bad_alloc (or meshed for ages): check said ok (session 53)
+        ("patch2d", {"n_lower": 2000000000}, "n_lower = 2000000000, n_upper = 7, n_y = 3", "8e+09"),
+        ("patch3d", {"n_lower": 1000, "n_upper": 1000, "n_y": 10}, "n_y = 10", "2.2e+07"),
+        ("patch2d", {"h_contact": 1e-9}, "h_contact = 1e-09, n_upper = 7, n_y = 3", "9.6e+09"),
+        ("tiedcurved2d", {"h_far": 1e-7}, "n_outer = 9, h_far = 1e-07", "8.5e+07"),
+        ("hertz2d", {"h_contact": 1e-5}, "h_contact = 1e-05, h_far = 2.0, c_zone = 2.0", "4.6e+10"),
+        ("hertz2d", {"h_far": 1e-4}, "h_contact = 0.1, h_far = 0.0001", "2.8e+10"),
+        ("hertz3d", {"h_contact": 1e-300}, "h_contact = 1e-300", "more than 1e+308"),
+        ("twist3d", {"h_contact": 0.005}, "h_contact = 0.005, h_far = 4.0", "1.6e+08"),
+        ("cattaneo2d", {"h_contact": 1e-4}, "h_contact = 0.0001", "8.7e+08"),
+        ("wedge2d", {"h_far": 1e-5}, "h_far = 1e-05", "5.7e+10"),
+        ("ironing2d", {"h_die": 1e-6}, "h_die = 1e-06, order = 1", "1.9e+12"),
+        ("ironing3d", {"h_die": 1e-4}, "h_die = 0.0001, order = 1", "9.8e+12"),
+    ],
+)
+def test_a_mesh_beyond_max_nodes_is_refused_before_gmsh(no_gmsh, name, params, given, about):
+    """A generator asked for more than MAX_NODES mesh nodes (estimate_nodes) is one
+    SceneError naming the size parameters and the estimate, before gmsh is called."""
+    with pytest.raises(SceneError) as err:
+        G.build(name, params)
+    assert err.value.key == "mesh.params"
+    reason = err.value.reason
+    assert given in reason and f"ask {name} for " in reason and about in reason, reason
+    assert "MAX_NODES = 2e+07" in reason and reason.endswith("coarsen the mesh"), reason
+
+
+def test_the_max_nodes_message():
+    with pytest.raises(SceneError) as err:
+        G.validate_params("patch2d", {"n_lower": 2000000000})
+    assert str(err.value) == (
+        "mesh.params: n_lower = 2000000000, n_upper = 7, n_y = 3, order = 1 ask patch2d "
+        "for about 8e+09 mesh nodes, more than it meshes (MAX_NODES = 2e+07: rank 0 meshes "
+        "the whole model in gmsh, and dolfinx reads it there with 32-bit offsets); "
+        "coarsen the mesh"
+    )
+
+
+@pytest.mark.parametrize(
+    "name, params",
+    [
+        ("patch2d", {"n_lower": 2**31 - 1}),
+        ("patch2d", {"n_upper": 2**31 - 1}),
+        ("patch2d", {"n_y": 2**31 - 1}),
+        ("patch3d", {"n_lower": 2**31 - 1, "quads": False}),
+        ("tiedcurved2d", {"n_r": 2**31 - 1}),
+        ("tiedcurved2d", {"n_inner": 2**31 - 1, "n_outer": 1}),
+    ],
+)
+def test_a_count_of_c_int_max_is_refused_before_gmsh(no_gmsh, name, params):
+    """A given count of exactly C_INT_MAX passes the C-int rule, but the generator asks
+    gmsh for n + 1 nodes along that edge (2**31: it overflowed): the node bound refuses
+    it first (MAX_NODES < C_INT_MAX)."""
+    assert G.MAX_NODES < G.C_INT_MAX
+    with pytest.raises(SceneError) as err:
+        G.build(name, params)
+    assert err.value.key == "mesh.params"
+    assert f"{next(iter(params))} = 2147483647" in err.value.reason
+    assert "mesh nodes, more than it meshes (MAX_NODES" in err.value.reason
+
+
+@pytest.mark.parametrize(
+    "name, params",
+    [
+        ("patch3d", {"n_lower": 100, "n_upper": 100, "n_y": 50}),  # 1.04e6 nodes, 3.1e6 dofs
+        ("patch2d", {"n_lower": 2000, "n_upper": 2000, "n_y": 1000, "order": 2}),  # 1.6e7
+        ("hertz2d", {"h_contact": 0.1 / 2**5}),  # bench level 5 (3.3e6 dofs)
+        ("hertz3d", {"h_contact": 0.2 / 2**4}),  # estimated 2.6e6 nodes
+        ("cattaneo2d", {"h_contact": 0.1 / 2**5}),
+        ("ironing2d", {"h_contact": 0.2 / 2**5, "h_die": 0.2 / 2**5}),
+    ],
+)
+def test_large_real_meshes_pass_the_node_bound(name, params):
+    """Meshes of a few million dofs (and the bench's finest levels) are not refused."""
+    p = G.validate_params(name, params)
+    assert 1e5 < G.estimate_nodes(name, p) <= G.MAX_NODES
+
+
+def test_node_estimates_follow_gmsh(model):
+    """estimate_nodes against gmsh's count on every generator's defaults: exact for the
+    structured meshes, low by at most a factor 1/0.3 for the unstructured ones (their
+    transition layers left out), never more than 5 % high."""
+    ratios = {}
+    for name in sorted(G.GENERATORS):
+        gmsh.model.add(name)
+        meta = G.build(name, {})
+        gmsh.model.remove()
+        ratios[name] = G.estimate_nodes(name, G.validate_params(name, {})) / meta["num_nodes"]
+    for name in ("patch2d", "patch3d", "tiedcurved2d"):
+        assert ratios[name] == 1.0, ratios
+    assert all(0.25 < r < 1.05 for r in ratios.values()), ratios
 
 
 def test_params_must_be_table():
