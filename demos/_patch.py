@@ -15,7 +15,8 @@ Lumped recovery (``--recovery``), penalty "auto", Uzawa to 1e-8, one load step.
 
 Metrics: max |p/p0 - 1| over all slave nodes, the normal contact force against
 p0 × area, the number of slave nodes not in contact. Expected: round-off with
-``--integration segment``; a quadrature error with ``element``: <= 2 % on quadrilaterals,
+``--integration segment`` (``--recovery constrained``: Newton's tolerance, 5e-12 in 2D and
+3e-10 in 3D; BENCHMARKS.md §4, session 53); a quadrature error with ``element``: <= 2 % on quadrilaterals,
 triangles and hexahedra (2D 0.1–0.5 %, 3D 1.2–1.9 %), 5–7 % on tetrahedra (3D
 ``--tri``: 7.0e-2 slave finer, 5.0e-2 slave coarser; BENCHMARKS.md §4).
 """

@@ -165,6 +165,37 @@ def test_patch3d(shared_tmp, integration, tol, swap, recovery):
     assert m["open_nodes"] == 0
 
 
+def test_patch3d_constrained_segment_to_newtons_tolerance(shared_tmp):
+    """The constrained recovery passes the segment patch test to Newton's tolerance, not
+    to round-off (BENCHMARKS.md §4, session 53): 2.0e-10 (slave finer) with the default
+    ``[solver]``, 9.5e-14 with rtol = 1e-13 for one more Newton iteration. Its first
+    Newton step has the lumped contact predictor in the Jacobian; the second Uzawa
+    round's single step is GMRES on that factorization, which ends at ‖R‖ = 5.5e-12,
+    under the absolute tolerance (min(1e-10, rtol × 0.57) = 1e-10), so no iteration
+    follows. The
+    lumped and unconstrained recoveries read 2e-13 and 1.1e-13: their first Jacobian is
+    the exact one of this linear problem."""
+    import _patch
+
+    comm = MPI.COMM_WORLD
+    m = {}
+    for rtol in (None, 1e-13):
+        sc = _patch.scene(3, integration="segment", recovery="constrained")
+        if rtol is not None:
+            sc["solver"] = {"rtol": rtol}
+        out = shared_tmp / f"patch3d_constrained_{rtol}"
+        summary, _ = cm.run_scene(sc, out, comm)
+        m[rtol] = cm.on_root(
+            _patch.evaluate, summary, out, 3, "upper_bottom", "lower_top", comm=comm
+        )
+        assert m[rtol]["force_err"] <= 1e-11, m[rtol]["force_err"]
+        assert m[rtol]["open_nodes"] == 0
+    assert 0.0 < m[None]["p_err"] <= 1e-9, m[None]["p_err"]
+    assert m[1e-13]["p_err"] <= 1e-12, m[1e-13]["p_err"]
+    its = {k: sum(v["newton_iterations"]) for k, v in m.items()}
+    assert its[1e-13] <= its[None] + 1, its
+
+
 @pytest.mark.parametrize("swap,tol", [(False, 0.075), (True, 0.055)], ids=["finer", "coarser"])
 def test_patch3d_on_tetrahedra(shared_tmp, swap, tol):
     """``--tri``: segment integration to round-off, element integration NOT within 2 %
