@@ -18,6 +18,7 @@ DEMOS = Path(__file__).resolve().parents[1] / "demos"
 sys.path.insert(0, str(DEMOS))
 
 import demo_cattaneo2d  # noqa: E402
+import demo_cattaneo3d  # noqa: E402
 import demo_friction_patch  # noqa: E402
 import demo_ironing2d  # noqa: E402
 import demo_ironing3d  # noqa: E402
@@ -402,3 +403,48 @@ def test_cattaneo2d_unloading_with_the_constrained_tangential_recovery(shared_tm
         xs = np.asarray(s["slip_x"])
         assert np.any(xs < 0) and np.any(xs > 0), xs
         assert np.allclose(s["slip_q_ratio"], -1.0, atol=1e-6), s["slip_q_ratio"]
+
+
+def test_cattaneo3d_metrics_read_the_closed_form_as_exact():
+    """demo_cattaneo3d's metrics (the run itself takes 80 s: BENCHMARKS §63) on a contact
+    CSV written from the closed forms: nodes of a sphere's lower cap (a jittered grid),
+    p of Hertz, q of Cattaneo–Mindlin against +x in the CSV's slave frame, stick within
+    c. The fitted stick radius is c to the grid's spacing, no node is misclassified, the
+    slip nodes sit on the cone, and the L2 error of q is the interpolation floor."""
+    R, mu = demo_cattaneo3d.R, demo_cattaneo3d.MU
+    P, Q = 77.0, 0.5 * mu * 77.0
+    e_star = demo_cattaneo3d.analytic.effective_modulus(demo_cattaneo3d.E, demo_cattaneo3d.NU)
+    a = demo_cattaneo3d.analytic.hertz3d(P, R, e_star)["a"]
+    c = a * demo_cattaneo3d.analytic.cattaneo_mindlin3d(P, Q, mu)
+    rng = np.random.default_rng(7)
+    g = np.linspace(-2.5, 2.5, 61)
+    xy = np.column_stack([v.ravel() for v in np.meshgrid(g, g)])
+    xy += rng.uniform(-0.02, 0.02, xy.shape)
+    z = R - np.sqrt(R**2 - np.sum(xy**2, axis=1))
+    x = np.column_stack([xy, z])
+    r = np.hypot(*xy.T)
+    p = demo_cattaneo3d.analytic.hertz3d_pressure(r, P, R, e_star)
+    q = demo_cattaneo3d.analytic.cattaneo_mindlin3d_traction(r, P, Q, mu, R, e_star)
+    t0, t1 = demo_cattaneo3d.slave_frame(x)
+    # the traction on the slave resists +x: -q along x, in the tangent plane
+    qv = -q[:, None] * np.array([1.0, 0.0, 0.0])
+    n = (x - [0.0, 0.0, R]) / R
+    qv -= np.sum(qv * n, axis=1)[:, None] * n
+    qv *= (q / np.maximum(np.linalg.norm(qv, axis=1), 1e-300))[:, None]
+    state = np.where(p > 0.0, np.where(r < c, 1, 2), 0)
+    csv = {
+        "x": x[:, 0], "y": x[:, 1], "z": x[:, 2], "p_N": p, "state": state.astype(float),
+        "p_T0": np.sum(qv * t0, axis=1), "p_T1": np.sum(qv * t1, axis=1),
+    }  # fmt: skip
+    m = demo_cattaneo3d.evaluate(csv, P, Q, h=0.083)
+    assert m["Q_over_muP"] == pytest.approx(0.5)
+    assert m["c_over_a"] == pytest.approx(0.5 ** (1 / 3))
+    assert abs(m["c_err_elements"]) < 0.5, m
+    assert m["misclassified"] == 0
+    lo, hi = m["slip_ratio"]
+    assert 1 - 1e-12 < lo <= hi < 1 + 1e-12, m["slip_ratio"]
+    assert m["stick_ratio_max"] < 1.0
+    # to the offset of the pressure centroid from the origin on the jittered grid
+    assert m["l2_q"] == pytest.approx(m["l2_q_floor"], rel=1e-2)
+    assert m["l2_q"] < 0.08 and m["l2_p"] < 0.03, m  # the floor: 5.9 % at this spacing
+    assert abs(m["p_max_err"]) < 0.01
