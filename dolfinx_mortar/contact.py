@@ -496,8 +496,8 @@ def resolve_acceleration(
     "The exact update with the mixed normal recoveries"); with "auto" such a pair (the
     tangential recovery lumped where it has friction: ``scene.exact_update_applies``)
     starts each step with Aitken and switches to the exact update for the rest of the
-    step when its rounds contract slowly (session 52: :data:`AUTO_EXACT_ROUNDS`,
-    ``MortarContact._auto_exact``; the pair reports "aitken").
+    step when its rounds are predicted to take too many (sessions 52–53:
+    :data:`AUTO_EXACT_BOUND`, ``MortarContact._auto_exact``; the pair reports "aitken").
 
     Why "newton" by default there: the single serial runs of BENCHMARKS.md §3, §8 and §10
     (sessions 16 and 17): peers problem A 7 / 8 / 9 Newton iterations instead of 11 / 12
@@ -520,30 +520,46 @@ def resolve_acceleration(
 
 #: "auto" on a pair where the exact update applies but is not the default (the
 #: unconstrained and constrained normal recoveries: :func:`~dolfinx_mortar.scene.
-#: exact_update_default`) is Aitken, but a step whose Aitken rounds contract slowly
-#: switches to the exact update for the rest of the step (attempt): after at least
-#: AUTO_EXACT_ROUNDS rounds, when the change of the last round is above
-#: AUTO_EXACT_CONTRACTION^(AUTO_EXACT_ROUNDS − 1) times that of AUTO_EXACT_ROUNDS − 1
-#: rounds before (session 39's rule for the lumped 3D frictional pairs, which take the
-#: exact update from the start since session 41). Session 52: a coarse tetrahedral 3D
-#: press with μ = 0.3 and the constrained recovery (patch3d, 3 × 4 slave elements)
-#: ended each step at a change of 5–7e-5 after the 20 Aitken rounds whatever its size
-#: and the run stopped; now 12 + 11 rounds a press step. The patch tests, which converge
-#: in their 2nd or 4th round, keep Aitken (docs/method-notes.md, "The exact update with
-#: the mixed normal recoveries"; BENCHMARKS §62).
-AUTO_EXACT_ROUNDS = 4
-AUTO_EXACT_CONTRACTION = 0.8
+#: exact_update_default`) is Aitken, but a step whose Aitken rounds are predicted to take
+#: too many switches to the exact update for the rest of the step (attempt): after at
+#: least AUTO_EXACT_ROUNDS rounds, with r the change's mean contraction per round over the
+#: last AUTO_EXACT_WINDOW rounds, the rounds still needed to reach uzawa_tol are
+#: log(uzawa_tol/change)/log(r) (any if r ≥ 1); the switch comes when the rounds so far
+#: plus those exceed AUTO_EXACT_BOUND. Session 52 had session 39's rule here (4 rounds, a
+#: change above 0.8³ times that of 3 rounds before): a coarse tetrahedral 3D press with
+#: μ = 0.3 and the constrained recovery, which Aitken could not finish, switched in rounds
+#: 10 and 9 (12 + 11 rounds a press step), but Q1 hexahedra, whose Aitken rounds
+#: contract by about 0.5 each, never switched and took 13 + 13 against the exact
+#: update's 5 + 5 (session 53, BENCHMARKS §63). Why 10: the exact update takes about 3
+#: rounds after the switch, each about 1.7 times an Aitken round's cost, so switching
+#: in round 5 costs about 10 Aitken rounds; measured, the press steps predict 11.8–29.8
+#: rounds in round 5 (and take 13–34 with Aitken alone), and now 7 or 8 (BENCHMARKS §63).
+#: 5 rounds at least: a step that ends in its 5th round never switches, as hertz2d's
+#: first constrained step (changes 1, 2.3e-3, 8.6e-2, 2.6e-2, converged in round 5;
+#: 12.4 predicted in round 4) and every round of the patch tests, the 2D demos and the
+#: quick hard-case sweep with the mixed recoveries (2–5 rounds a step) (docs/
+#: method-notes.md, "The exact update with the mixed normal recoveries").
+AUTO_EXACT_ROUNDS = 5
+AUTO_EXACT_WINDOW = 3
+AUTO_EXACT_BOUND = 10
 
 
-def _slow_rounds(changes: list[float]) -> bool:
-    """Whether the Uzawa rounds of a step contract slowly (AUTO_EXACT_ROUNDS,
-    AUTO_EXACT_CONTRACTION; ``changes`` the largest relative multiplier change, normal or
-    tangential, of each round so far, dimensionless; local, the changes are global, so
-    the answer is the same on every rank)."""
-    k = AUTO_EXACT_ROUNDS
-    if len(changes) < k:
+def _slow_rounds(changes: list[float], tol: float) -> bool:
+    """Whether the Aitken rounds of a step are predicted to take more than
+    AUTO_EXACT_BOUND rounds (AUTO_EXACT_ROUNDS, AUTO_EXACT_WINDOW): with n = len(changes)
+    ≥ AUTO_EXACT_ROUNDS, c_k the change of round k (``changes``, the largest relative
+    multiplier change, normal or tangential, of each round so far, each above ``tol``;
+    dimensionless) and w = AUTO_EXACT_WINDOW, the mean contraction r = (c_n/c_{n−w})^(1/w),
+    slow when r ≥ 1 or n + log(tol/c_n)/log(r) > AUTO_EXACT_BOUND. ``tol`` the Uzawa
+    tolerance (> 0). Local; the changes are global, so the answer is the same on every
+    rank."""
+    n, w = len(changes), AUTO_EXACT_WINDOW
+    if n < max(AUTO_EXACT_ROUNDS, w + 1) or changes[-1] <= tol:
         return False
-    return changes[-1] > AUTO_EXACT_CONTRACTION ** (k - 1) * changes[-k]
+    ratio = changes[-1] / changes[-1 - w]  # r^w
+    if not ratio < 1.0:
+        return True
+    return n + w * math.log(tol / changes[-1]) / math.log(ratio) > AUTO_EXACT_BOUND
 
 
 def _gmres(
@@ -686,8 +702,8 @@ class MortarContact:
         recoveries), with friction pairs with the lumped tangential recovery only,
         otherwise SceneError; "auto", the default: "newton" on the pairs with the lumped
         recoveries (2D and 3D, with or without friction), "aitken" elsewhere, switching
-        to "newton" in a step whose rounds contract slowly where it applies,
-        :func:`resolve_acceleration`, :data:`AUTO_EXACT_ROUNDS`).
+        to "newton" in a step whose rounds are predicted to take too many where it
+        applies, :func:`resolve_acceleration`, :data:`AUTO_EXACT_BOUND`).
     quadrature_degree: of the slave facet rule, an integer >= 1, or None (the default:
         :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type).
     key: scene key used in error messages.
@@ -996,8 +1012,9 @@ class MortarContact:
         )
         self.uzawa_acceleration = UzawaAcceleration(comm, uzawa_acceleration)
         #: "auto" resolved to "aitken" where the exact update applies (the mixed normal
-        #: recoveries): a step whose Aitken rounds contract slowly switches to the exact
-        #: update (AUTO_EXACT_ROUNDS, AUTO_EXACT_CONTRACTION; local, the same on every rank)
+        #: recoveries): a step whose Aitken rounds are predicted to take too many switches
+        #: to the exact update (AUTO_EXACT_ROUNDS, AUTO_EXACT_BOUND; local, the same on
+        #: every rank)
         self._auto_exact = (
             requested == "auto"
             and uzawa_acceleration == "aitken"
@@ -3492,10 +3509,12 @@ class MortarContact:
             return changed == 0, info
         if self._auto_exact:
             self._round_changes.append(max(rel, rel_t))
-            if self.uzawa_acceleration.method == "aitken" and _slow_rounds(self._round_changes):
+            if self.uzawa_acceleration.method == "aitken" and _slow_rounds(
+                self._round_changes, self.uzawa_tol
+            ):
                 self.uzawa_acceleration.method = "newton"  # until the attempt ends
                 info["acceleration_switch"] = "aitken -> newton (slow rounds)"
-                log.info("%s: Aitken rounds contract slowly; the exact update", self.name)
+                log.info("%s: Aitken rounds predicted too many; the exact update", self.name)
         if self.uzawa_acceleration.method == "newton":  # exact_update_applies
             if changed:
                 # the solve ended with frozen states, a frozen QP set or a held contact
@@ -4133,7 +4152,7 @@ class MortarContact:
 
     def _reset_acceleration(self) -> None:
         """A step starts (or starts again): the acceleration's history is forgotten, and a
-        pair that slow Aitken rounds switched to the exact update (AUTO_EXACT_ROUNDS) goes
+        pair that slow Aitken rounds switched to the exact update (AUTO_EXACT_BOUND) goes
         back to Aitken (local)."""
         self.uzawa_acceleration.reset()
         self._round_changes = []

@@ -203,7 +203,8 @@ def exact_update_applies(friction: float, recovery: str, tangential_recovery: st
     since session 47, with the finite-difference update), and with friction (μ > 0) the
     lumped tangential one. "auto" resolves to "newton" only on the pairs with the lumped
     normal recovery among them (:func:`exact_update_default`), and on the others a step
-    whose Aitken rounds contract slowly switches to it (``contact.AUTO_EXACT_ROUNDS``)."""
+    whose Aitken rounds are predicted to take too many switches to it
+    (``contact.AUTO_EXACT_BOUND``)."""
     return recovery in RECOVERIES and (friction == 0.0 or tangential_recovery == "lumped")
 
 
