@@ -530,10 +530,10 @@ def resolve_acceleration(
 #: μ = 0.3 and the constrained recovery, which Aitken could not finish, switched in rounds
 #: 10 and 9 (12 + 11 rounds a press step), but Q1 hexahedra, whose Aitken rounds
 #: contract by about 0.5 each, never switched and took 13 + 13 against the exact
-#: update's 5 + 5 (session 53, BENCHMARKS §63). Why 10: the exact update takes about 3
+#: update's 5 + 5 (session 53, BENCHMARKS §64). Why 10: the exact update takes about 3
 #: rounds after the switch, each about 1.7 times an Aitken round's cost, so switching
 #: in round 5 costs about 10 Aitken rounds; measured, the press steps predict 11.8–29.8
-#: rounds in round 5 (and take 13–34 with Aitken alone), and now 7 or 8 (BENCHMARKS §63).
+#: rounds in round 5 (and take 13–34 with Aitken alone), and now 7 or 8 (BENCHMARKS §64).
 #: 5 rounds at least: a step that ends in its 5th round never switches, as hertz2d's
 #: first constrained step (changes 1, 2.3e-3, 8.6e-2, 2.6e-2, converged in round 5;
 #: 12.4 predicted in round 4) and every round of the patch tests, the 2D demos and the

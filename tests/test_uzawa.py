@@ -667,7 +667,7 @@ def test_slow_rounds_rule():
     changes = [1.0, 0.3, 0.1, 0.03, 0.01]
     assert _slow_rounds(changes, 1e-6) and not _slow_rounds(changes, 1e-4)
     assert not _slow_rounds([1.0, 0.3, 0.1, 0.03, 1e-7], 1e-6)  # converged (not called)
-    # the Q1 hexahedral press (BENCHMARKS §63, scene A), first step: 11.8 rounds
+    # the Q1 hexahedral press (BENCHMARKS §64, scene A), first step: 11.8 rounds
     # predicted in round 5 (Aitken alone took 13; session 52's rule never switched)
     changes = [1.0, 7.22e-2, 5.03e-2, 7.69e-3, 2.33e-3]
     assert [_slow_rounds(changes[:k], 1e-6) for k in (4, 5)] == [False, True]
