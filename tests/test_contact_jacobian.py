@@ -759,6 +759,50 @@ def test_points_that_switched_back_start_the_next_solve_pinned_at_their_edge():
 
 
 @pytest.mark.mpi
+def test_points_held_beyond_their_facets_edge_start_the_next_solve_pinned(monkeypatch):
+    """contact.PIN_CARRY_TOL for the points pinned by HOLD_AFTER (session 53): one whose
+    converged projection lies beyond its pinned facet's edge, at most PIN_CARRY_TOL
+    outside, starts the next solve of the load step pinned (it sits on a master vertex
+    that the free pairing crosses back and forth: hertz2d with 128 load steps crawled for
+    13 + 15 Newton iterations there); one inside its facet, or further outside, starts
+    free."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    comm = MPI.COMM_WORLD
+    problem = _problem("hertz2d-P1", "element", "lumped")
+    term = problem.contacts[0]
+    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
+    term.update(problem.u)
+    own = term.qp_m >= 0  # at its own facet: inside it
+    _pin_neighbours(term)  # beyond a neighbour's edge
+    neighbour = term.qp_pinned >= 0
+    own &= ~neighbour
+    term.qp_pinned[own] = term.qp_m[own]
+    term.qp_flip = np.zeros(own.shape, bool)  # every pin from HOLD_AFTER, none switched back
+    term.update(problem.u)
+    pinned = term.qp_pinned >= 0
+    assert np.array_equal(term.qp_m[pinned], term.qp_pinned[pinned])
+    outside = np.zeros(own.shape)
+    outside[pinned] = [kmortar._outside(term.master.ftype, z) for z in term.qp_zeta[pinned]]
+    assert np.all(outside[own] <= 0.0) and np.all(outside[neighbour] > 0.0)
+    # a tolerance between the two smallest distances beyond an edge: some carried, some not
+    beyond = np.unique(np.concatenate(comm.allgather(outside[neighbour])))
+    assert beyond.size >= 2
+    tol = 0.5 * (beyond[0] + beyond[1])
+    monkeypatch.setattr(contact, "PIN_CARRY_TOL", tol)
+    keep = neighbour & (outside <= tol)
+    assert comm.allreduce(int(keep.sum())) >= 1
+    assert comm.allreduce(int((neighbour & ~keep).sum())) >= 1
+    assert comm.allreduce(int(own.sum())) >= 1
+    _, info = term.uzawa_update()
+    assert info["carried_pins"] == comm.allreduce(int(keep.sum()))
+    term.begin_solve()
+    assert np.array_equal(term.qp_pinned, np.where(keep, term.qp_m, -1))
+    term.update(problem.u)
+    assert np.array_equal(term.qp_m[keep], term.qp_pinned[keep])
+
+
+@pytest.mark.mpi
 def test_a_rank_without_pins_follows_the_carried_pins():
     """uzawa_update where one rank's term has no pinning state (qp_pinned and qp_flip
     None, as on a rank without slave facets) while the others carry pins: every rank
