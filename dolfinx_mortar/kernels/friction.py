@@ -486,6 +486,61 @@ def _node_dofs(node, s_off, s_dof, f_off, f_dofs, b_lo, b_hi, b_idx):
 
 
 @numba.njit(cache=True)
+def _s_weight_dofs(node, s_off, s_dof):
+    """Sorted unique dofs ≥ 0 of one node's S-weights."""
+    u = np.unique(s_dof[s_off[node] : s_off[node + 1]].ravel())
+    return u[u >= 0]
+
+
+@numba.njit(cache=True)
+def _node_slip_rates(
+    i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_lo, b_hi, b_idx,
+    b_val,
+):  # fmt: skip
+    """(Srow (d, nu), dt (d, nu)) of listed node i over its sorted dofs Ui: the S-weights
+    ∂S^I/∂u and ∂t^I/∂u (:func:`node_tangents`)."""
+    m, d = a.shape[1], a.shape[2]
+    nb = f_dofs.shape[1]
+    nu = Ui.size
+    Srow = np.zeros((d, nu))
+    Frow = np.zeros((m, d, nu))
+    Brow = np.zeros(nu)
+    for e in range(s_off[node], s_off[node + 1]):
+        for c in range(d):
+            if s_dof[e, c] >= 0:
+                Srow[c, np.searchsorted(Ui, s_dof[e, c])] += s_w[e]
+    for p in range(f_off[node], f_off[node + 1]):
+        for b in range(nb):
+            for c2 in range(d):
+                dof = f_dofs[p, b, c2]
+                if dof < 0:
+                    continue
+                j = np.searchsorted(Ui, dof)
+                for al in range(m):
+                    for c in range(d):
+                        Frow[al, c, j] += fdA[p, b, al, c, c2]
+    for t in range(b_lo, b_hi):
+        if b_idx[t] >= 0:
+            Brow[np.searchsorted(Ui, b_idx[t])] += b_val[t]
+    dgam = np.zeros((m, nu))
+    for al in range(m):
+        for j in range(nu):
+            v = 0.0
+            for c in range(d):
+                v += a[node, al, c] * Srow[c, j] + S[node, c] * Frow[al, c, j]
+            dgam[al, j] = v / AT[node]
+    dt = np.zeros((d, nu))
+    for al in range(m):
+        for j in range(nu):
+            dtau = -Pd[i, al] * kN[i] * Brow[j]
+            for be in range(m):
+                dtau += D[i, al, be] * dgam[be, j]
+            for c in range(d):
+                dt[c, j] += a[node, al, c] * dtau + tau[node, al] * Frow[al, c, j]
+    return Srow, dt
+
+
+@numba.njit(cache=True)
 def node_tangents(
     nodes,
     a,
@@ -521,10 +576,10 @@ def node_tangents(
     f_off (n + 1,) per node, f_dofs (P, nb, d) the dofs of each occurrence's facet nodes,
     fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out.
     Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each node's
-    (nu, nu) block row-major)."""
+    (nu, nu) block row-major). Only the rows of the node's S-weights are nonzero
+    (:func:`node_tangent_rows` returns those alone)."""
     k = nodes.size
-    m, d = a.shape[1], a.shape[2]
-    nb = f_dofs.shape[1]
+    d = a.shape[2]
     dofs = [
         _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
         for i in range(k)
@@ -542,41 +597,10 @@ def node_tangents(
         Ui = dofs[i]
         nu = Ui.size
         U[u_off[i] : u_off[i + 1]] = Ui
-        Srow = np.zeros((d, nu))
-        Frow = np.zeros((m, d, nu))
-        Brow = np.zeros(nu)
-        for e in range(s_off[node], s_off[node + 1]):
-            for c in range(d):
-                if s_dof[e, c] >= 0:
-                    Srow[c, np.searchsorted(Ui, s_dof[e, c])] += s_w[e]
-        for p in range(f_off[node], f_off[node + 1]):
-            for b in range(nb):
-                for c2 in range(d):
-                    dof = f_dofs[p, b, c2]
-                    if dof < 0:
-                        continue
-                    j = np.searchsorted(Ui, dof)
-                    for al in range(m):
-                        for c in range(d):
-                            Frow[al, c, j] += fdA[p, b, al, c, c2]
-        for t in range(b_off[i], b_off[i + 1]):
-            if b_idx[t] >= 0:
-                Brow[np.searchsorted(Ui, b_idx[t])] += b_val[t]
-        dgam = np.zeros((m, nu))
-        for al in range(m):
-            for j in range(nu):
-                v = 0.0
-                for c in range(d):
-                    v += a[node, al, c] * Srow[c, j] + S[node, c] * Frow[al, c, j]
-                dgam[al, j] = v / AT[node]
-        dt = np.zeros((d, nu))
-        for al in range(m):
-            for j in range(nu):
-                dtau = -Pd[i, al] * kN[i] * Brow[j]
-                for be in range(m):
-                    dtau += D[i, al, be] * dgam[be, j]
-                for c in range(d):
-                    dt[c, j] += a[node, al, c] * dtau + tau[node, al] * Frow[al, c, j]
+        Srow, dt = _node_slip_rates(
+            i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA,
+            b_off[i], b_off[i + 1], b_idx, b_val,
+        )  # fmt: skip
         base = k_off[i]
         for r in range(nu):
             for j in range(nu):
@@ -585,6 +609,70 @@ def node_tangents(
                     v += Srow[c, r] * dt[c, j]
                 K[base + r * nu + j] = v
     return u_off, U, k_off, K
+
+
+@numba.njit(cache=True)
+def node_tangent_rows(
+    nodes,
+    a,
+    S,
+    AT,
+    tau,
+    D,
+    Pd,
+    kN,
+    s_off,
+    s_dof,
+    s_w,
+    f_off,
+    f_dofs,
+    fdA,
+    b_off,
+    b_idx,
+    b_val,
+):
+    """:func:`node_tangents` restricted to the rows that can be nonzero, those of the
+    node's S-weights (the rows of ∂S^I/∂u): the same arguments; returns (u_off, U as
+    there, r_off (k + 1,), R: each node's sorted S-weight dofs ⊂ U_i, k_off (k + 1,), K:
+    each node's (nr, nu) block row-major). For a B row that reaches far beyond the
+    node's facets (the constrained normal recovery's ∂p^I/∂u, through M⁻¹) this is
+    nr × nu instead of nu × nu entries (session 53)."""
+    k = nodes.size
+    d = a.shape[2]
+    dofs = [
+        _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
+        for i in range(k)
+    ]
+    rows = [_s_weight_dofs(nodes[i], s_off, s_dof) for i in range(k)]
+    u_off = np.zeros(k + 1, np.int64)
+    r_off = np.zeros(k + 1, np.int64)
+    k_off = np.zeros(k + 1, np.int64)
+    for i in range(k):
+        u_off[i + 1] = u_off[i] + dofs[i].size
+        r_off[i + 1] = r_off[i] + rows[i].size
+        k_off[i + 1] = k_off[i] + dofs[i].size * rows[i].size
+    U = np.empty(u_off[k], np.int64)
+    R = np.empty(r_off[k], np.int64)
+    K = np.zeros(k_off[k])
+    for i in range(k):
+        node = nodes[i]
+        Ui, Ri = dofs[i], rows[i]
+        nu, nr = Ui.size, Ri.size
+        U[u_off[i] : u_off[i + 1]] = Ui
+        R[r_off[i] : r_off[i + 1]] = Ri
+        Srow, dt = _node_slip_rates(
+            i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA,
+            b_off[i], b_off[i + 1], b_idx, b_val,
+        )  # fmt: skip
+        base = k_off[i]
+        for q in range(nr):
+            r = np.searchsorted(Ui, Ri[q])
+            for j in range(nu):
+                v = 0.0
+                for c in range(d):
+                    v += Srow[c, r] * dt[c, j]
+                K[base + q * nu + j] = v
+    return u_off, U, r_off, R, k_off, K
 
 
 def slip_integrals_reference(
