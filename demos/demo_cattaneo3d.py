@@ -37,16 +37,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _common as cm  # noqa: E402
+import demo_twist3d  # noqa: E402
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 from dolfinx_mortar import analytic  # noqa: E402
 
-R, E, NU, MU = 8.0, 200.0, 0.3, 0.3
-DEPTH = 0.3
+R, E, NU, MU = demo_twist3d.R, demo_twist3d.E, demo_twist3d.NU, demo_twist3d.MU
+DEPTH = demo_twist3d.DEPTH
 SHIFT = 0.072  # Q/(μP) ≈ 0.5 at h = 0.3
-H_CONTACT = 0.3
-SLAVE, MASTER = "sphere_surface", "block_top"
+H_CONTACT = demo_twist3d.H_CONTACT
+SLAVE, MASTER = demo_twist3d.SLAVE, demo_twist3d.MASTER
 PAIR = f"{SLAVE}:{MASTER}"
 
 
@@ -58,44 +59,29 @@ def scene(
     n_shift: int = 2,
     h_contact: float = H_CONTACT,
 ) -> dict:
-    """The scene dict: press by DEPTH in ``n_press`` steps, shift by ``shift`` in
-    ``n_shift`` steps."""
-    return {
-        "title": f"cattaneo3d, refine {refine}, {integration}",
-        "kinematics": "small",
-        "mesh": {
-            "generator": "twist3d",
-            "params": {"R": R, "h_contact": h_contact / 2**refine, "c_zone": 1.8, "h_far": 4.0},
-        },
-        "material": cm.elastic(("sphere", "block"), E, NU),
-        "contact": [
-            {
-                "slave": SLAVE,
-                "master": MASTER,
-                "friction": MU,
-                "integration": integration,
-                "penalty": "auto",
-            }
-        ],
-        "dirichlet": [
-            {
-                "boundary": "block_bottom",
-                "components": [0, 1, 2],
-                "path": [[0, 0, 0, 0], [2, 0, 0, 0]],
-            },
-            {
-                "boundary": "sphere_top",
-                "components": [0, 1, 2],
-                "path": [[0, 0, 0, 0], [1, 0, 0, -DEPTH], [2, shift, 0, -DEPTH]],
-            },
-        ],
-        "steps": {
-            "t_end": 2.0,
-            "n": 2,
-            "output_times": [k / n_press for k in range(1, n_press)]
-            + [1.0 + k / n_shift for k in range(1, n_shift)],
-        },
+    """The scene dict: the twist demo's mesh, materials and frictional pair
+    (:func:`demo_twist3d.scene`, with the default Uzawa settings), ``sphere_top`` pressed
+    by DEPTH in ``n_press`` steps, then shifted by ``shift`` in ``n_shift`` steps."""
+    sc = demo_twist3d.scene(refine, integration, h_contact=h_contact)
+    sc["title"] = f"cattaneo3d, refine {refine}, {integration}"
+    sc["contact"] = [
+        {k: v for k, v in sc["contact"][0].items() if k not in ("uzawa_tol", "uzawa_max")}
+    ]
+    sc["dirichlet"].append(
+        {
+            "boundary": "sphere_top",
+            "components": [0, 1, 2],
+            "path": [[0, 0, 0, 0], [1, 0, 0, -DEPTH], [2, shift, 0, -DEPTH]],
+        }
+    )
+    sc["steps"] = {
+        "t_end": 2.0,
+        "n": 2,
+        "output_times": [k / n_press for k in range(1, n_press)]
+        + [1.0 + k / n_shift for k in range(1, n_shift)],
     }
+    del sc["output"]
+    return sc
 
 
 def slave_frame(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -716,26 +716,35 @@ def test_pinned_points_keep_their_facet_and_an_exact_tangent(case):
     assert term.qp_pinned is None
 
 
-@pytest.mark.mpi
-def test_points_that_switched_back_start_the_next_solve_pinned_at_their_edge():
-    """contact.PIN_CARRY_TOL: at the end of a solve (uzawa_update), a point pinned for
-    switching back whose projection lies within PIN_CARRY_TOL of its pinned facet stays
-    pinned in the next solve of the load step; a point pinned beyond that, or pinned by
-    HOLD_AFTER, starts free; a new load step starts with no pin."""
-    from dolfinx_mortar.contact import PIN_CARRY_TOL
-    from dolfinx_mortar.kernels import mortar as kmortar
-
-    comm = MPI.COMM_WORLD
+def _pinned_at_own_and_neighbour_facets():
+    """hertz2d-P1 (element, lumped) pressed by 0.05 with the case's slide, its points
+    paired, then pinned: some beyond a neighbour facet's edge (:func:`_pin_neighbours`),
+    the rest at their own facet (inside it). Returns (problem, term, own, neighbour): the
+    two pinned sets as (nsf, nq) masks (collective)."""
     problem = _problem("hertz2d-P1", "element", "lumped")
     term = problem.contacts[0]
     _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
     term.update(problem.u)
     own = term.qp_m >= 0  # at its own facet: inside it
     pins = _pin_neighbours(term)  # beyond a neighbour's edge
-    assert comm.allreduce(len(pins)) >= 2
+    assert problem.comm.allreduce(len(pins)) >= 2
     neighbour = term.qp_pinned >= 0
     own &= ~neighbour
     term.qp_pinned[own] = term.qp_m[own]
+    return problem, term, own, neighbour
+
+
+@pytest.mark.mpi
+def test_points_that_switched_back_start_the_next_solve_pinned_at_their_edge():
+    """contact.PIN_CARRY_TOL: at the end of a solve (uzawa_update), a point pinned for
+    switching back whose projection lies within PIN_CARRY_TOL of its pinned facet stays
+    pinned in the next solve of the load step; a point pinned beyond that, or pinned by
+    HOLD_AFTER inside its facet, starts free; a new load step starts with no pin."""
+    from dolfinx_mortar.contact import PIN_CARRY_TOL
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    comm = MPI.COMM_WORLD
+    problem, term, own, neighbour = _pinned_at_own_and_neighbour_facets()
     hold = own & (np.arange(own.size).reshape(own.shape) % 2 == 0)  # pinned by HOLD_AFTER
     term.qp_flip = (term.qp_pinned >= 0) & ~hold
     term.update(problem.u)
@@ -769,15 +778,7 @@ def test_points_held_beyond_their_facets_edge_start_the_next_solve_pinned(monkey
     from dolfinx_mortar.kernels import mortar as kmortar
 
     comm = MPI.COMM_WORLD
-    problem = _problem("hertz2d-P1", "element", "lumped")
-    term = problem.contacts[0]
-    _set_state(problem, 0.05, CASES["hertz2d-P1"][4][0])
-    term.update(problem.u)
-    own = term.qp_m >= 0  # at its own facet: inside it
-    _pin_neighbours(term)  # beyond a neighbour's edge
-    neighbour = term.qp_pinned >= 0
-    own &= ~neighbour
-    term.qp_pinned[own] = term.qp_m[own]
+    problem, term, own, neighbour = _pinned_at_own_and_neighbour_facets()
     term.qp_flip = np.zeros(own.shape, bool)  # every pin from HOLD_AFTER, none switched back
     term.update(problem.u)
     pinned = term.qp_pinned >= 0

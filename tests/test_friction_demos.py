@@ -405,6 +405,16 @@ def test_cattaneo2d_unloading_with_the_constrained_tangential_recovery(shared_tm
         assert np.allclose(s["slip_q_ratio"], -1.0, atol=1e-6), s["slip_q_ratio"]
 
 
+def test_cattaneo3d_scene_is_valid(tmp_path):
+    """demo_cattaneo3d's scene (not run here: 60 s) parses: the twist demo's hemisphere,
+    pressed then shifted, its pair with the default Uzawa settings."""
+    from dolfinx_mortar.scene import parse_scene
+
+    sc = parse_scene(demo_cattaneo3d.scene(shift=0.05, n_shift=3), tmp_path)
+    assert sc.contacts[0].friction == demo_cattaneo3d.MU
+    assert [d.boundary for d in sc.dirichlet] == ["block_bottom", "sphere_top"]
+
+
 def test_cattaneo3d_metrics_read_the_closed_form_as_exact():
     """demo_cattaneo3d's metrics (the run itself takes 80 s: BENCHMARKS §63) on a contact
     CSV written from the closed forms: nodes of a sphere's lower cap (a jittered grid),
