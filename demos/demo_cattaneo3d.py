@@ -27,6 +27,11 @@ Run, from the repository root (``scripts/env.sh`` sets ``$PY``)::
 
     . scripts/env.sh
     mpirun -n 2 $PY demos/demo_cattaneo3d.py [--refine K] [--shift S] [--shift-steps N]
+        [--recovery lumped|constrained]
+
+With ``--recovery constrained`` (the tangential recovery lumped) the run takes about 4 ×
+the lumped one's time: the exact tangent couples the contact zone to every slave node
+with paired area through M⁻¹ (BENCHMARKS §65).
 """
 
 from __future__ import annotations
@@ -58,15 +63,16 @@ def scene(
     n_press: int = 2,
     n_shift: int = 2,
     h_contact: float = H_CONTACT,
+    recovery: str = "lumped",
 ) -> dict:
     """The scene dict: the twist demo's mesh, materials and frictional pair
-    (:func:`demo_twist3d.scene`, with the default Uzawa settings), ``sphere_top`` pressed
-    by DEPTH in ``n_press`` steps, then shifted by ``shift`` in ``n_shift`` steps."""
+    (:func:`demo_twist3d.scene`, with the default Uzawa settings and the normal
+    ``recovery``), ``sphere_top`` pressed by DEPTH in ``n_press`` steps, then shifted by
+    ``shift`` in ``n_shift`` steps."""
     sc = demo_twist3d.scene(refine, integration, h_contact=h_contact)
     sc["title"] = f"cattaneo3d, refine {refine}, {integration}"
-    sc["contact"] = [
-        {k: v for k, v in sc["contact"][0].items() if k not in ("uzawa_tol", "uzawa_max")}
-    ]
+    pair = {k: v for k, v in sc["contact"][0].items() if k not in ("uzawa_tol", "uzawa_max")}
+    sc["contact"] = [{**pair, "recovery": recovery}]
     sc["dirichlet"].append(
         {
             "boundary": "sphere_top",
@@ -174,14 +180,23 @@ def evaluate(csv: dict, P: float, Q: float, h: float) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = cm.parser("3D Cattaneo–Mindlin (sphere on a block)", "results/demo_cattaneo3d")
+    ap = cm.parser(
+        "3D Cattaneo–Mindlin (sphere on a block)", "results/demo_cattaneo3d", recovery=True
+    )
     ap.add_argument("--shift", type=float, default=SHIFT, help=f"sideways motion [{SHIFT}]")
     ap.add_argument("--press-steps", type=int, default=2, help="steps of the press [2]")
     ap.add_argument("--shift-steps", type=int, default=2, help="steps of the shift [2]")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     h = H_CONTACT / 2**args.refine
-    sc = scene(args.refine, args.integration, args.shift, args.press_steps, args.shift_steps)
+    sc = scene(
+        args.refine,
+        args.integration,
+        args.shift,
+        args.press_steps,
+        args.shift_steps,
+        recovery=args.recovery,
+    )
     summary, wall = cm.run_scene(sc, args.out, comm)
 
     def measure():
@@ -196,7 +211,7 @@ def main(argv=None) -> dict:
     m["wall_time"] = wall
     lo, hi = m["slip_ratio"]
     cm.report(
-        f"cattaneo3d: {args.integration}, h = {h:g} (a/h = {m['a'] / h:.1f}), "
+        f"cattaneo3d: {args.integration}, {args.recovery}, h = {h:g} (a/h = {m['a'] / h:.1f}), "
         f"{comm.size} rank(s), {m['dofs']} dofs",
         [
             ("P, Q, Q/(μP)", f"{m['P']:.4f}, {m['Q']:.4f}, {m['Q_over_muP']:.3f}"),

@@ -410,8 +410,9 @@ def test_cattaneo3d_scene_is_valid(tmp_path):
     pressed then shifted, its pair with the default Uzawa settings."""
     from dolfinx_mortar.scene import parse_scene
 
-    sc = parse_scene(demo_cattaneo3d.scene(shift=0.05, n_shift=3), tmp_path)
+    sc = parse_scene(demo_cattaneo3d.scene(shift=0.05, n_shift=3, recovery="constrained"), tmp_path)
     assert sc.contacts[0].friction == demo_cattaneo3d.MU
+    assert sc.contacts[0].recovery == "constrained"
     assert [d.boundary for d in sc.dirichlet] == ["block_bottom", "sphere_top"]
 
 
