@@ -578,36 +578,11 @@ def node_tangents(
     Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each node's
     (nu, nu) block row-major). Only the rows of the node's S-weights are nonzero
     (:func:`node_tangent_rows` returns those alone)."""
-    k = nodes.size
-    d = a.shape[2]
-    dofs = [
-        _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
-        for i in range(k)
-    ]
-    u_off = np.zeros(k + 1, np.int64)
-    k_off = np.zeros(k + 1, np.int64)
-    for i in range(k):
-        nu = dofs[i].size
-        u_off[i + 1] = u_off[i] + nu
-        k_off[i + 1] = k_off[i] + nu * nu
-    U = np.empty(u_off[k], np.int64)
-    K = np.zeros(k_off[k])
-    for i in range(k):
-        node = nodes[i]
-        Ui = dofs[i]
-        nu = Ui.size
-        U[u_off[i] : u_off[i + 1]] = Ui
-        Srow, dt = _node_slip_rates(
-            i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA,
-            b_off[i], b_off[i + 1], b_idx, b_val,
-        )  # fmt: skip
-        base = k_off[i]
-        for r in range(nu):
-            for j in range(nu):
-                v = 0.0
-                for c in range(d):
-                    v += Srow[c, r] * dt[c, j]
-                K[base + r * nu + j] = v
+    u_off, U, _, _, k_off, K = _tangent_blocks(
+        True,
+        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_off,
+        b_idx, b_val,
+    )  # fmt: skip
     return u_off, U, k_off, K
 
 
@@ -637,13 +612,44 @@ def node_tangent_rows(
     each node's (nr, nu) block row-major). For a B row that reaches far beyond the
     node's facets (the constrained normal recovery's ∂p^I/∂u, through M⁻¹) this is
     nr × nu instead of nu × nu entries (session 53)."""
+    return _tangent_blocks(
+        False,
+        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_off,
+        b_idx, b_val,
+    )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _tangent_blocks(
+    all_rows,
+    nodes,
+    a,
+    S,
+    AT,
+    tau,
+    D,
+    Pd,
+    kN,
+    s_off,
+    s_dof,
+    s_w,
+    f_off,
+    f_dofs,
+    fdA,
+    b_off,
+    b_idx,
+    b_val,
+):
+    """The one body of :func:`node_tangents` (``all_rows``: every row of U_i, R_i = U_i)
+    and :func:`node_tangent_rows` (the rows of the node's S-weights): returns (u_off, U,
+    r_off, R, k_off, K), K_i the (nr, nu) block row-major (numba)."""
     k = nodes.size
     d = a.shape[2]
     dofs = [
         _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
         for i in range(k)
     ]
-    rows = [_s_weight_dofs(nodes[i], s_off, s_dof) for i in range(k)]
+    rows = [dofs[i] if all_rows else _s_weight_dofs(nodes[i], s_off, s_dof) for i in range(k)]
     u_off = np.zeros(k + 1, np.int64)
     r_off = np.zeros(k + 1, np.int64)
     k_off = np.zeros(k + 1, np.int64)
