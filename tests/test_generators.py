@@ -548,12 +548,12 @@ def no_gmsh(monkeypatch):
         ("patch3d", {"n_lower": 1000, "n_upper": 1000, "n_y": 10}, "n_y = 10", "2.2e+07"),
         ("patch2d", {"h_contact": 1e-9}, "h_contact = 1e-09, n_upper = 7, n_y = 3", "9.6e+09"),
         ("tiedcurved2d", {"h_far": 1e-7}, "n_outer = 9, h_far = 1e-07", "8.5e+07"),
-        ("hertz2d", {"h_contact": 1e-5}, "h_contact = 1e-05, h_far = 2.0, c_zone = 2.0", "4.6e+10"),
-        ("hertz2d", {"h_far": 1e-4}, "h_contact = 0.1, h_far = 0.0001", "2.8e+10"),
+        ("hertz2d", {"h_contact": 1e-5}, "h_contact = 1e-05, h_far = 2.0, c_zone = 2.0", "1.2e+11"),
+        ("hertz2d", {"h_far": 1e-4}, "h_contact = 0.1, h_far = 0.0001", "3.6e+10"),
         ("hertz3d", {"h_contact": 1e-300}, "h_contact = 1e-300", "more than 1e+308"),
-        ("twist3d", {"h_contact": 0.005}, "h_contact = 0.005, h_far = 4.0", "1.6e+08"),
-        ("cattaneo2d", {"h_contact": 1e-4}, "h_contact = 0.0001", "8.7e+08"),
-        ("wedge2d", {"h_far": 1e-5}, "h_far = 1e-05", "5.7e+10"),
+        ("twist3d", {"h_contact": 0.005}, "h_contact = 0.005, h_far = 4.0", "3.6e+08"),
+        ("cattaneo2d", {"h_contact": 1e-4}, "h_contact = 0.0001", "2.2e+09"),
+        ("wedge2d", {"h_far": 1e-5}, "h_far = 1e-05", "7.7e+10"),
         ("ironing2d", {"h_die": 1e-6}, "h_die = 1e-06, order = 1", "1.9e+12"),
         ("ironing3d", {"h_die": 1e-4}, "h_die = 0.0001, order = 1", "9.8e+12"),
     ],
@@ -609,7 +609,7 @@ def test_a_count_of_c_int_max_is_refused_before_gmsh(no_gmsh, name, params):
         ("patch3d", {"n_lower": 100, "n_upper": 100, "n_y": 50}),  # 1.04e6 nodes, 3.1e6 dofs
         ("patch2d", {"n_lower": 2000, "n_upper": 2000, "n_y": 1000, "order": 2}),  # 1.6e7
         ("hertz2d", {"h_contact": 0.1 / 2**5}),  # bench level 5 (3.3e6 dofs)
-        ("hertz3d", {"h_contact": 0.2 / 2**4}),  # estimated 2.6e6 nodes
+        ("hertz3d", {"h_contact": 0.2 / 2**4}),  # estimated 6.0e6 nodes (2.6e6 before session 54)
         ("cattaneo2d", {"h_contact": 0.1 / 2**5}),
         ("ironing2d", {"h_contact": 0.2 / 2**5, "h_die": 0.2 / 2**5}),
     ],
@@ -621,18 +621,33 @@ def test_large_real_meshes_pass_the_node_bound(name, params):
 
 
 def test_node_estimates_follow_gmsh(model):
-    """estimate_nodes against gmsh's count on every generator's defaults: exact for the
-    structured meshes, low by at most a factor 1/0.3 for the unstructured ones (their
-    transition layers left out), never more than 5 % high."""
-    ratios = {}
-    for name in sorted(G.GENERATORS):
+    """estimate_nodes is gmsh's count exactly on the structured generators' defaults."""
+    for name in ("patch2d", "patch3d", "tiedcurved2d"):
         gmsh.model.add(name)
         meta = G.build(name, {})
         gmsh.model.remove()
-        ratios[name] = G.estimate_nodes(name, G.validate_params(name, {})) / meta["num_nodes"]
-    for name in ("patch2d", "patch3d", "tiedcurved2d"):
-        assert ratios[name] == 1.0, ratios
-    assert all(0.25 < r < 1.05 for r in ratios.values()), ratios
+        assert G.estimate_nodes(name, G.validate_params(name, {})) == meta["num_nodes"], name
+
+
+#: The generators whose bodies gmsh meshes by a size field (the ironing dies structured).
+UNSTRUCTURED = ("hertz2d", "cattaneo2d", "wedge2d", "ironing2d", "hertz3d", "ironing3d", "twist3d")
+
+
+@pytest.mark.parametrize("name", UNSTRUCTURED)
+@pytest.mark.parametrize("params", [{}, {"grading": 0.1}])
+def test_node_estimates_bound_gmsh(model, name, params):
+    """estimate_nodes bounds gmsh's count from above, by at most 3 times, on each
+    unstructured generator's defaults and with a transition layer twice as thick
+    (grading 0.1; bench/node_estimates.py sweeps more). Before session 54 it left the
+    layer out and was 0.30 to 0.93 times the count on the defaults and 0.09 to 0.84
+    with grading 0.1 (twist3d: 955 estimated, 11 049 meshed). Measured (estimate /
+    count, session 54): defaults 1.16 (hertz2d) to 1.99 (twist3d), grading 0.1 1.24
+    (hertz2d) to 2.62 (twist3d)."""
+    gmsh.model.add(name)
+    meta = G.build(name, params)
+    gmsh.model.remove()
+    ratio = G.estimate_nodes(name, G.validate_params(name, params)) / meta["num_nodes"]
+    assert 1.0 <= ratio <= 3.0, (name, params, ratio, meta["num_nodes"])
 
 
 def test_params_must_be_table():
