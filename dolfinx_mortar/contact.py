@@ -138,6 +138,12 @@ AUTO_PENALTY_T_FACTOR = 10.0
 #: nonsense such as penalty = 1e308, whose ε/A overflowed (RuntimeWarnings, then "the
 #: first residual is not finite" after 6 cutbacks; `check` said ok).
 MAX_PENALTY_RATIO = 1e10
+#: The stiffest penalty ratio ε/ε_auto at which the stiff-penalty rules were measured
+#: (docs/method-notes.md, "Stiff penalties"): a run that stops with a pair above it says
+#: so (:meth:`MortarContact.stiff_penalty_note`; a probe's penalty = 1e10 × auto stopped
+#: with DIVERGED_DTOL after 6 cutbacks, a tangential 2.6e4 × auto with "Uzawa
+#: augmentation stalled", neither naming the penalty; 1e3 × auto ran).
+MEASURED_PENALTY_RATIO = 1e4
 #: Penalties stiffer than "auto": a pair whose largest ε^I (or ε_T^I) exceeds the largest
 #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I is stiff (:attr:`MortarContact.soft_start`).
 #: Three rules follow (docs/method-notes.md, "Stiff penalties"); pairs at or below the
@@ -1339,7 +1345,8 @@ class MortarContact:
             key,
             f"{eps_max:.3g} is {ratio:.3g} times the auto penalty ({AUTO_PENALTY_FACTOR:g} "
             f"E*/h, at most {self._eps_auto_max:.3g} here); at most {MAX_PENALTY_RATIO:g} "
-            "times it is taken (stiff penalties were measured up to 1e4 times it)",
+            f"times it is taken (stiff penalties were measured up to {MEASURED_PENALTY_RATIO:g} "
+            "times it)",
         )
 
     def _init_friction(self, penalty_t, key: str) -> None:
@@ -1412,6 +1419,9 @@ class MortarContact:
         self.slip_length = np.zeros(n)  # accumulated |γ_T| over converged steps
         self.slip_length_committed = np.zeros(n)
         self.dissipation = 0.0
+        # (active, slipping) slave nodes of the last committed step, all ranks (the hint of
+        # a run that stops: a tangential load beyond μ times the normal load)
+        self.committed_slip = (0, 0)
         self.t_vec = np.zeros((n, d))
         self.frozen = None  # imposed stick/slip states (chattering control)
         self._slip_prev, self._reversed = None, None  # slip reversal (chattering control)
@@ -4218,6 +4228,28 @@ class MortarContact:
         threshold = 1.0 if self.uzawa_tol > 0.0 else SOFT_START_RATIO
         return max(self.penalty_ratio, self._penalty_t_ratio) > threshold
 
+    def stiff_penalty_note(self) -> str:
+        """A clause for the error of a run that stops, where this pair's largest normal or
+        tangential penalty exceeds :data:`MEASURED_PENALTY_RATIO` times the largest normal
+        auto value ε_auto = AUTO_PENALTY_FACTOR E*/h (the ratios of set-up); "" otherwise.
+        Local; the same on every rank (the ratios are reduced at set-up)."""
+        keys = [
+            (k, r)
+            for k, r in (
+                ("penalty", self.penalty_ratio),
+                ("penalty_tangential", self._penalty_t_ratio),
+            )
+            if r > MEASURED_PENALTY_RATIO
+        ]
+        if not keys:
+            return ""
+        said = " and the ".join(f"{k} is {r:.3g} times" for k, r in keys)
+        return (
+            f"on {self.name} the {said} the auto normal penalty ({AUTO_PENALTY_FACTOR:g} "
+            f"E*/h), beyond the {MEASURED_PENALTY_RATIO:g} times at which stiff penalties "
+            'were measured: with Uzawa a softer penalty ("auto") reaches the same solution'
+        )
+
     @property
     def round_off_scale(self) -> float:
         """The factor ≥ 1 on the absolute Newton tolerance: the ratios of the largest
@@ -4275,6 +4307,9 @@ class MortarContact:
             # Σ over slipping nodes of τ^I·σ^I (σ = a·S − a_n·S_n = A_T γ when lumped)
             local = float(np.sum(np.einsum("na,na->n", self.tau, self.sigma_t)[slip]))
             self.dissipation = self.comm.allreduce(local)
+            touching = self.p_hat > 0.0
+            counts = [int(touching.sum()), int(np.count_nonzero(slip & touching))]
+            self.committed_slip = tuple(self.comm.allreduce(np.array(counts)).tolist())
             if self._pending is not None:
                 self._pending[0].destroy()
             hist = np.where((self.fstate > 0)[:, None], self.tau_law, 0.0)

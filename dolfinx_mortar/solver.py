@@ -1700,7 +1700,8 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
         if uzawa_stalled(changes):
             raise ConvergenceError(
                 f"Uzawa augmentation stalled: no progress in {UZAWA_STALL_ROUNDS} rounds "
-                f"(multiplier changes {', '.join(f'{c:.2g}' for c in changes)}; {info})"
+                f"(multiplier changes {', '.join(f'{c:.2g}' for c in changes)}; last round: "
+                f"{_round_text(info)})"
             )
         unfrozen = any(i.get("unfrozen_states", 0) > 0 for i in info.values())
         growing = len(changes) >= 2 and changes[-1] >= changes[-2]
@@ -1716,13 +1717,34 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
             raise FrozenStatesError(
                 f"the stick/slip states frozen by the chattering control were wrong at "
                 f"convergence, and the multiplier change grew, in {inconsistent} Uzawa "
-                f"rounds in a row ({info})",
+                f"rounds in a row ({_round_text(info)})",
                 resume=after_first,
             )
     raise ConvergenceError(
-        f"Uzawa augmentation did not converge in {uzawa_max} rounds ({info_all[-1]}); a "
+        f"Uzawa augmentation did not converge in {uzawa_max} rounds (last round: "
+        f"{_round_text(info_all[-1])}); a "
         "change that still falls needs more rounds ([[contact]] uzawa_max) or a looser "
         "uzawa_tol"
+    )
+
+
+#: The keys of a round's ``uzawa_update`` information that :func:`_round_text` reports,
+#: in its words.
+_ROUND_WORDS = {
+    "multiplier_change": "change",
+    "tangential_change": "tangential change",
+    "max_penetration": "largest penetration",
+}
+
+
+def _round_text(info: dict) -> str:
+    """One Uzawa round's ``uzawa_update`` information (``info``: per pair name, a dict) in
+    words for an error message: each pair's relative multiplier changes and largest
+    penetration, "a:b: change 2e-12, tangential change 0.0002, largest penetration
+    2.6e-19" (local). An error had printed the raw dicts, 17 digits each."""
+    return "; ".join(
+        f"{name}: " + ", ".join(f"{w} {i[k]:.2g}" for k, w in _ROUND_WORDS.items() if k in i)
+        for name, i in info.items()
     )
 
 
@@ -1833,6 +1855,49 @@ def _unheld_hint(problem) -> str:
     )
 
 
+def _friction_hold_hint(problem) -> str:
+    """A clause for the error of a run that stops, naming each body that only stick holds
+    along some rigid motion (``problem.stick_only_motions``) where at least half of the
+    active slave nodes of its frictional pairs slipped in the last converged step (each
+    pair's ``committed_slip``): a tangential load beyond μ times the normal load has no
+    equilibrium there. A probe's block held by friction alone, pushed by a traction whose
+    ratio to the pressure rose past μ = 0.2, stopped at 0.1985 with DIVERGED_DTOL and no
+    word of friction (7 of its 8 active nodes slipped in the last converged step; the
+    failed attempt's own states were frozen at stick). Bodies named by
+    :func:`_unheld_hint`'s stick clause (no contact at t = 0) are left to it. Local after
+    the cached ``stick_only_motions``; the same on every rank; "" where there is none."""
+    find = getattr(problem, "stick_only_motions", None)
+    if find is None or not getattr(problem, "contacts", None):
+        return ""
+    named = {b.name for b in getattr(problem, "stick_free_at_start", None) or ()}
+    counts = {t.name: getattr(t, "committed_slip", (0, 0)) for t in problem.contacts}
+    clauses = []
+    for b in find():
+        active = sum(counts[p][0] for p in b.pairs)
+        slip = sum(counts[p][1] for p in b.pairs)
+        if b.name not in named and active and 2 * slip >= active:
+            clauses.append(
+                f"; {b.describe(problem.gdim)} but for friction ({', '.join(b.pairs)}), and "
+                f"{slip} of its {active} active slave nodes slipped in the last converged "
+                "step: a tangential load above the friction coefficient times the normal "
+                "load has no equilibrium (check the loads along these motions, or prescribe "
+                "the motion instead of a force)"
+            )
+    return "".join(clauses)
+
+
+def _penalty_hint(problem) -> str:
+    """A clause for the error of a run that stops, naming the pairs whose penalties exceed
+    the band in which stiff penalties were measured (``stiff_penalty_note`` of each
+    pair; local, the same on every rank); "" where none does."""
+    notes = [
+        n
+        for t in getattr(problem, "contacts", ())
+        if (n := getattr(t, "stiff_penalty_note", lambda: "")())
+    ]
+    return "".join(f"; {n}" for n in notes)
+
+
 def _edge_hint(problem) -> str:
     """A clause for the error of a run that stops where slave facets in contact lie
     across the master surface's edge under segment integration (``problem.edge_facet_pairs``;
@@ -1887,7 +1952,13 @@ def _stop_hints(problem, inverted=None, exc: ConvergenceError | None = None) -> 
     0.2 wider than the slave on each side); "" where ``exc`` (an InvertedElementsError)
     already says so (local then)."""
     if inverted is None:
-        return _unheld_hint(problem) + _open_contact_hint(problem) + _edge_hint(problem)
+        return (
+            _unheld_hint(problem)
+            + _open_contact_hint(problem)
+            + _edge_hint(problem)
+            + _friction_hold_hint(problem)
+            + _penalty_hint(problem)
+        )
     if isinstance(exc, InvertedElementsError):
         return ""
     return f"; the last attempt ended with inverted elements ({inverted.describe()})"

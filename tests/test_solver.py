@@ -1991,3 +1991,122 @@ def test_a_contact_term_records_whether_an_attempt_touched(tmp_path):
         assert not term.touched_in_attempt
     finally:
         problem.destroy()
+
+
+def test_a_stopped_run_names_a_tangential_load_beyond_friction(shared_tmp):
+    """A block held along x by friction alone (μ = 0.2), pushed by a traction whose ratio
+    to the pressure rises to 0.21: no equilibrium beyond q = μp. The run stops, and its
+    error says why (a probe's run stopped at q/p = 0.1985 with DIVERGED_DTOL and no word
+    of friction): 7 of the 8 active slave nodes slipped in the last converged step.
+    Serial (the counts are reduced in ``commit_step``; the same message on 2 and 3 ranks,
+    checked by hand in session 54)."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    data = {
+        "mesh": {
+            "generator": "patch2d",
+            "params": {"margin": 0.25, "n_lower": 12, "n_upper": 7, "n_y": 3},
+        },
+        "kinematics": "small",
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 10.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": 0.2,
+                "integration": "segment",
+            }
+        ],
+        "dirichlet": [{"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0]]}],
+        "traction": [
+            {
+                "boundary": "upper_top",
+                "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.1], [2.0, 0.021, -0.1]],
+            }
+        ],
+        "steps": {"t_end": 2.0, "n": 4},
+    }
+    out = shared_tmp / f"beyond_mu_{MPI.COMM_WORLD.size}"
+    s = run(parse_scene(data, shared_tmp), MPI.COMM_WORLD, out_dir=out)
+    assert s["status"] == "failed", s["status"]
+    assert s["steps"][-1]["t"] < 2.0 and len(s["steps"]) >= 3  # the press and a slide kept
+    last = s["steps"][-1]
+    text = (
+        f"body 'upper' is free in translation along x but for friction "
+        f"(upper_bottom:lower_top), and {last['slip_nodes']} of its {last['active_nodes']} "
+        "active slave nodes slipped in the last converged step: a tangential load above "
+        "the friction coefficient times the normal load has no equilibrium"
+    )
+    assert text in s["error"], s["error"]
+    assert 2 * last["slip_nodes"] >= last["active_nodes"] > 0, last
+
+
+@pytest.mark.parametrize(("slip", "hint"), [((8, 7), True), ((8, 4), True), ((8, 3), False)])
+def test_the_friction_hint_needs_half_the_nodes_slipping(slip, hint):
+    """:func:`solver._friction_hold_hint` names a body that only stick holds where at
+    least half of its pairs' active nodes slipped in the last converged step, and leaves
+    a body that the stick clause of a run with no contact at t = 0 names to that clause."""
+    from types import SimpleNamespace
+
+    from dolfinx_mortar.problem import UnheldBody
+
+    body = UnheldBody("'upper'", np.eye(3)[:1], ["a:b"])
+    problem = SimpleNamespace(
+        gdim=2,
+        contacts=[SimpleNamespace(name="a:b", committed_slip=slip)],
+        stick_only_motions=lambda: [body],
+        stick_free_at_start=[],
+    )
+    text = solver_module._friction_hold_hint(problem)
+    assert bool(text) == hint, text
+    if hint:
+        assert f"{slip[1]} of its {slip[0]} active slave nodes slipped" in text
+        assert "translation along x but for friction (a:b)" in text
+    problem.stick_free_at_start = [body]
+    assert solver_module._friction_hold_hint(problem) == ""
+
+
+def test_the_penalty_hint_names_penalties_beyond_the_measured_band():
+    """``MortarContact.stiff_penalty_note`` (read by the error of a run that stops, a
+    probe's penalty 1e10 × auto ended in DIVERGED_DTOL, a tangential one in "Uzawa
+    augmentation stalled", neither naming the penalty): a clause for each penalty above
+    MEASURED_PENALTY_RATIO times the auto normal penalty, none at or below it."""
+    from types import SimpleNamespace
+
+    from dolfinx_mortar.contact import MEASURED_PENALTY_RATIO, MortarContact
+
+    def note(normal, tangential):
+        pair = SimpleNamespace(name="a:b", penalty_ratio=normal, _penalty_t_ratio=tangential)
+        return MortarContact.stiff_penalty_note(pair)
+
+    assert note(MEASURED_PENALTY_RATIO, 0.1) == ""
+    text = note(9.94e9, 0.1)
+    assert text.startswith("on a:b the penalty is 9.94e+09 times the auto normal penalty")
+    assert "penalty_tangential" not in text
+    text = note(1.0, 2.6e5)
+    assert text.startswith("on a:b the penalty_tangential is 2.6e+05 times"), text
+    problem = SimpleNamespace(
+        contacts=[SimpleNamespace(stiff_penalty_note=lambda: "x"), SimpleNamespace()]
+    )
+    assert solver_module._penalty_hint(problem) == "; x"
+
+
+def test_round_text_reads_an_uzawa_round():
+    """:func:`solver._round_text`: a round's per-pair information in words, two digits
+    (an error had printed the raw dicts)."""
+    info = {
+        "a:b": {
+            "multiplier_change": 2.0164425684635276e-12,
+            "max_penetration": 2.6e-19,
+            "tangential_change": 1.96e-4,
+            "exact_update": "newton (2 products)",
+        },
+        "c:d": {"multiplier_change": 0.5},
+    }
+    assert solver_module._round_text(info) == (
+        "a:b: change 2e-12, tangential change 0.0002, largest penetration 2.6e-19; c:d: change 0.5"
+    )
