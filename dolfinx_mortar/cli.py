@@ -91,7 +91,10 @@ def _parser() -> argparse.ArgumentParser:
             "dolfinx_mortar.register_law, run on every rank before the scene is read "
             "(repeatable)",
         )
-    sub.add_parser("generators", help="list the built-in mesh generators and their parameters")
+    sub.add_parser(
+        "generators",
+        help="list the built-in mesh generators, their parameters and their physical groups",
+    )
     b = sub.add_parser(
         "bench", help="mesh-level sweep of a benchmark: CSV row per run and PNG plots"
     )
@@ -377,18 +380,14 @@ def main(argv=None) -> int:
     if args.command == "generators":
         from mpi4py import MPI
 
-        from .generators import GENERATORS
+        from .generators import describe
 
         if MPI.COMM_WORLD.rank > 0:  # the list once under mpirun
             return 0
 
-        lines = []
-        for g in GENERATORS.values():
-            lines.append(f"{g.name}: {g.description}")
-            for name, (typ, default, doc) in g.params.items():
-                lines.append(f"    {name} ({typ.__name__}, default {default!r}): {doc}")
+        text = describe()  # with each generator's groups: it builds their geometries
         try:
-            sys.stdout.write("\n".join(lines) + "\n")
+            sys.stdout.write(text + "\n")
             sys.stdout.flush()
         except BrokenPipeError:  # e.g. `dolfinx-mortar generators | head`
             sys.stdout = None

@@ -10,62 +10,14 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import signal
-import threading
 
 import numpy as np
 import ufl
 from dolfinx import fem
 from petsc4py import PETSc
 
-
-def keep_sigint_handler(action):
-    """Call ``action()`` and put back the SIGINT handler it found (returns its result).
-    gmsh 4.8 sets SIGINT to SIG_DFL when it is imported and, in ``gmsh.finalize``, to the
-    handler it saw then: Ctrl-C killed the process outright (no KeyboardInterrupt, no
-    ``finally``, summary.json left "running"), and a host program's own handler was
-    replaced. Outside the main thread, where Python cannot set handlers, ``action()``
-    alone."""
-    handler = signal.getsignal(signal.SIGINT)
-    try:
-        return action()
-    finally:
-        if handler is not None and threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, handler)
-
-
-def gmsh_initialize(gmsh) -> bool:
-    """Initialize gmsh unless a session runs already (a host program's); returns whether
-    one did. Local (the caller's rank only).
-
-    gmsh 4.8 has no ``isInitialized`` (later versions have, and it is used where
-    present), and every other call before ``initialize`` is undefined behaviour: its
-    error path reads options that ``initialize`` has not set yet and, by chance, exits
-    the process with status 1 and no message (``gmsh.model.list()`` did so in some runs
-    of the demos, on rank 0). ``initialize`` in a running session only counts the
-    warning "Gmsh has already been initialized" and returns: gmsh's warning count
-    (``Msg::_warningCount``) tells, and the warning is kept off the host's terminal by a
-    verbosity of 0 (``Msg::_verbosity``) during the call. Where these symbols are not
-    found, no session is assumed."""
-    is_initialized = getattr(gmsh, "isInitialized", None)
-    if is_initialized is not None:
-        if is_initialized():
-            return True
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-        return False
-    try:
-        warnings = ctypes.c_int.in_dll(gmsh.lib, "_ZN3Msg13_warningCountE")
-        verbosity = ctypes.c_int.in_dll(gmsh.lib, "_ZN3Msg10_verbosityE")
-    except (AttributeError, ValueError):  # another build of gmsh: no such symbols
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-        return False
-    before, level = warnings.value, verbosity.value
-    verbosity.value = 0
-    try:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-    finally:
-        verbosity.value = level
-    return warnings.value > before
+# the gmsh session's helpers, here before session 54 (dolfinx-free now: gmsh_session.py)
+from .gmsh_session import gmsh_initialize, keep_sigint_handler  # noqa: F401
 
 
 def _import_gmshio():

@@ -155,6 +155,7 @@ counts, e.g. ``n_lower``, ``n_inner``, ``n_die_arc``), ``groups`` (name -> (dim,
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -169,6 +170,7 @@ __all__ = [
     "build",
     "describe",
     "estimate_nodes",
+    "groups",
     "validate_params",
 ]
 
@@ -322,15 +324,51 @@ def _coerce(key: str, value: object, typ: type) -> object:
 
 
 def describe(name: str | None = None) -> str:
-    """Plain-text help: every generator (or one) with its parameters."""
-    names = [name] if name is not None else sorted(GENERATORS)
+    """Plain-text help (``dolfinx-mortar generators``): every generator (or one) with its
+    dimension, its parameters and its physical groups (:func:`groups`): each body's cell
+    group with the facet groups on it, and the suggested contact pair. Local; builds
+    each generator's geometry once (:func:`groups`)."""
+    names = [name] if name is not None else list(GENERATORS)
     lines = []
     for n in names:
         gen = GENERATORS[n]
-        lines.append(f"{gen.name} ({gen.gdim}D): {gen.description}")
+        lines.append(f"{gen.name}: {gen.description}")
         for key, (typ, default, doc) in gen.params.items():
             lines.append(f"    {key} ({typ.__name__}, default {default!r}): {doc}")
+        layout = groups(n)
+        d = gen.gdim
+        lines.append(f"  physical groups: each body's cells ({d}D), then its facets ({d - 1}D)")
+        for body, facets in layout["bodies"].items():
+            lines.append(f"    {body}: {', '.join(facets)}")
+        pairs = "; ".join(f"slave {s}, master {m}" for s, m in layout["contact"])
+        lines.append(f"  contact pair: {pairs}")
     return "\n".join(lines)
+
+
+@functools.cache
+def groups(name: str) -> dict:
+    """The physical groups that generator ``name`` makes, read from its own build (local;
+    rank 0 or any rank: no MPI): ``{"cells": [...], "facets": [...], "bodies": {cell
+    group: [facet groups on that body]}, "contact": [(slave, master)]}``, names in the
+    build's order. A facet group on two bodies (hertz2d's ``symmetry``) is listed under
+    both. The names do not depend on the parameters: this builds the geometry only (no
+    mesh; about 0.01 s) with the defaults, in a gmsh model of its own
+    (:func:`dolfinx_mortar.gmsh_session.gmsh_model`: a caller's gmsh session is kept),
+    once per process; no dolfinx, PETSc nor MPI. ``dolfinx-mortar generators`` (:func:`describe`) and docs/scenes.md's table
+    of groups (tests/test_generators.py checks it) print them."""
+    from .gmsh_session import gmsh_model, import_gmsh
+
+    gen = GENERATORS[name]
+    gmsh = import_gmsh()
+    with gmsh_model(gmsh):
+        meta = gen.build(**validate_params(name, {}))
+    dims = {key: dim for key, (dim, _tag) in meta["groups"].items()}
+    return {
+        "cells": [k for k, d in dims.items() if d == gen.gdim],
+        "facets": [k for k, d in dims.items() if d == gen.gdim - 1],
+        "bodies": {body: list(facets) for body, facets in meta["bodies"].items()},
+        "contact": [tuple(pair) for pair in meta["contact"]],
+    }
 
 
 def build(name: str, params: dict | None = None) -> dict:

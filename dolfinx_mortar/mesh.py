@@ -18,6 +18,9 @@ from scipy.spatial import cKDTree
 from . import compat
 from .errors import SceneError, file_problem
 
+# moved to gmsh_session (session 54: dolfinx-free, for `dolfinx-mortar generators`)
+from .gmsh_session import GMSH_OPTIONS, gmsh_model  # noqa: F401
+
 log = logging.getLogger(__name__)
 
 # gmsh element types accepted as cells: (topological dim, name)
@@ -296,68 +299,6 @@ class _HideGroups:
 
     def __getattr__(self, name):
         return getattr(self._model, name)
-
-
-#: the gmsh options that :func:`load_mesh` and the generators set
-#: (``generators._baseline_options``), put back after a host program's gmsh session
-GMSH_OPTIONS = (
-    "General.Terminal",
-    "General.Verbosity",
-    "Mesh.MeshSizeFromPoints",
-    "Mesh.MeshSizeExtendFromBoundary",
-    "Mesh.MeshSizeFromCurvature",
-    "Mesh.MeshSizeMin",
-    "Mesh.MeshSizeMax",
-    "Mesh.MeshSizeFactor",
-    "Mesh.Algorithm",
-    "Mesh.Algorithm3D",
-    "Mesh.RecombineAll",
-    "Mesh.Recombine3DAll",
-    "Mesh.RecombinationAlgorithm",
-    "Mesh.SubdivisionAlgorithm",
-    "Mesh.ElementOrder",
-    "Mesh.SecondOrderLinear",
-    "Mesh.SecondOrderIncomplete",
-)
-
-
-@contextlib.contextmanager
-def gmsh_model(gmsh):
-    """Rank 0: a gmsh model of this package's own, current for the ``with`` block.
-
-    Without a gmsh session, gmsh is initialized here and finalized after (with the
-    SIGINT handler put back: :func:`~dolfinx_mortar.compat.keep_sigint_handler`). In a
-    host program's session (a Python caller that uses gmsh itself) the session stays:
-    the model is removed after, the host's current model is current again, and the
-    options in :data:`GMSH_OPTIONS` get their values back. It finalized the host's
-    session before (a helper's probe: its next gmsh call raised). No gmsh call comes
-    before ``initialize`` (:func:`~dolfinx_mortar.compat.gmsh_initialize`): in gmsh 4.8
-    that exited the process now and then."""
-    hosted = compat.gmsh_initialize(gmsh)
-    if hosted:
-        current = gmsh.model.getCurrent()
-        saved = {key: gmsh.option.getNumber(key) for key in GMSH_OPTIONS}
-        name, k = "dolfinx_mortar", 0
-        while name in gmsh.model.list():
-            k += 1
-            name = f"dolfinx_mortar_{k}"
-    else:
-        name = "dolfinx_mortar"
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.option.setNumber("General.Verbosity", 0)
-    gmsh.model.add(name)
-    try:
-        yield
-    finally:
-        if hosted:
-            gmsh.model.setCurrent(name)
-            gmsh.model.remove()
-            if current in gmsh.model.list():
-                gmsh.model.setCurrent(current)
-            for key, value in saved.items():
-                gmsh.option.setNumber(key, value)
-        else:
-            compat.keep_sigint_handler(gmsh.finalize)
 
 
 def load_mesh(

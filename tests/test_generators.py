@@ -826,6 +826,10 @@ def test_tiedcurved2d_h_overrides(model):
 
 
 def test_cli_lists_generators(capsys):
+    """``dolfinx-mortar generators`` lists each generator with its parameters and its
+    physical groups: each body's cell group with its facet groups, and the suggested
+    pair. The group names were found only in the error of a scene that named a wrong
+    one ("... not found among facet groups (available: ...)")."""
     from dolfinx_mortar import cli
 
     assert cli.main(["generators"]) == 0
@@ -834,6 +838,64 @@ def test_cli_lists_generators(capsys):
         assert f"\n{name}: " in "\n" + out, name
     for name in NEW:
         assert name in G.describe()
+    patch2d = G.describe("patch2d").splitlines()
+    assert "  physical groups: each body's cells (2D), then its facets (1D)" in patch2d
+    assert "    lower: lower_bottom, lower_top, lower_left, lower_right" in patch2d
+    assert "    upper: upper_bottom, upper_top, upper_left, upper_right" in patch2d
+    assert "  contact pair: slave upper_bottom, master lower_top" in patch2d
+    assert "\n".join(patch2d) in out
+    assert "    block: block_top, block_bottom, symmetry" in G.describe("hertz2d")
+
+
+@pytest.mark.parametrize("name", list(GROUPS))
+def test_groups_are_those_the_generator_makes(name, model):
+    """``generators.groups`` (the listing's and docs/scenes.md's source) names the groups
+    that a build with other parameters than its defaults tags (this file's own list,
+    GROUPS), each body with the facet groups on it; the caller's gmsh model stays
+    current."""
+    G.groups.cache_clear()  # built here, in this test's gmsh session
+    layout = G.groups(name)
+    cells, facets, pair = GROUPS[name]
+    assert layout["cells"] == cells and sorted(layout["facets"]) == sorted(facets)
+    assert list(layout["bodies"]) == cells
+    on_bodies = [f for fs in layout["bodies"].values() for f in fs]
+    assert sorted(set(on_bodies)) == sorted(facets)
+    assert pair in layout["contact"]
+    assert gmsh.model.getCurrent() == "test"
+    if G.GENERATORS[name].gdim == 2:  # a cheap build with other parameters
+        meta = G.build(name, COARSE[name])
+        assert meta["bodies"] == layout["bodies"]
+        assert list(meta["groups"]) == cells + layout["facets"]
+
+
+def groups_table() -> str:
+    """docs/scenes.md's table of the generators' groups, from :func:`generators.groups`."""
+    rows = [
+        "| generator | body (cell group): its facet groups | contact pair (slave, master) |",
+        "|---|---|---|",
+    ]
+    for name, gen in G.GENERATORS.items():
+        layout = G.groups(name)
+        bodies = "; ".join(
+            f"`{b}`: " + ", ".join(f"`{f}`" for f in fs) for b, fs in layout["bodies"].items()
+        )
+        pairs = "; ".join(f"`{s}`, `{m}`" for s, m in layout["contact"])
+        rows.append(f"| `{name}` ({gen.gdim}D) | {bodies} | {pairs} |")
+    return "\n".join(rows)
+
+
+def test_scenes_md_lists_the_generators_groups():
+    """docs/scenes.md's table of the generators' physical groups is what
+    ``generators.groups`` says (it cannot rot: on a change, paste the expected table
+    that this test prints)."""
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "docs" / "scenes.md").read_text()
+    start = "<!-- generators.groups table: tests/test_generators.py -->\n"
+    assert start in text
+    found = text.split(start, 1)[1].split("\n\n", 1)[0]
+    expected = groups_table()
+    assert found == expected, f"docs/scenes.md should read:\n{start}{expected}"
 
 
 def test_load_mesh_keeps_a_host_gmsh_session(model):

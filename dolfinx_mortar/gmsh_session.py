@@ -1,0 +1,142 @@
+"""The gmsh session of this package's own models (rank 0 or one rank: no MPI).
+
+:func:`gmsh_model` gives a model of its own for the ``with`` block, in a session it
+starts and ends or in a host program's, which it keeps; :func:`gmsh_initialize` and
+:func:`keep_sigint_handler` are gmsh 4.8's workarounds that it needs. dolfinx-free (no
+dolfinx, no PETSc, no MPI), so that ``dolfinx-mortar generators`` can build the
+generators' geometries on rank 0 alone under mpirun (:func:`dolfinx_mortar.generators.
+groups`): importing petsc4py there initializes PETSc, a collective that the other ranks,
+which print nothing, never joined. Moved here from ``compat`` and ``mesh`` (session 54),
+which still export the names.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import signal
+import threading
+
+__all__ = ["GMSH_OPTIONS", "gmsh_initialize", "gmsh_model", "import_gmsh", "keep_sigint_handler"]
+
+
+def keep_sigint_handler(action):
+    """Call ``action()`` and put back the SIGINT handler it found (returns its result).
+    gmsh 4.8 sets SIGINT to SIG_DFL when it is imported and, in ``gmsh.finalize``, to the
+    handler it saw then: Ctrl-C killed the process outright (no KeyboardInterrupt, no
+    ``finally``, summary.json left "running"), and a host program's own handler was
+    replaced. Outside the main thread, where Python cannot set handlers, ``action()``
+    alone."""
+    handler = signal.getsignal(signal.SIGINT)
+    try:
+        return action()
+    finally:
+        if handler is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, handler)
+
+
+def gmsh_initialize(gmsh) -> bool:
+    """Initialize gmsh unless a session runs already (a host program's); returns whether
+    one did. Local (the caller's rank only).
+
+    gmsh 4.8 has no ``isInitialized`` (later versions have, and it is used where
+    present), and every other call before ``initialize`` is undefined behaviour: its
+    error path reads options that ``initialize`` has not set yet and, by chance, exits
+    the process with status 1 and no message (``gmsh.model.list()`` did so in some runs
+    of the demos, on rank 0). ``initialize`` in a running session only counts the
+    warning "Gmsh has already been initialized" and returns: gmsh's warning count
+    (``Msg::_warningCount``) tells, and the warning is kept off the host's terminal by a
+    verbosity of 0 (``Msg::_verbosity``) during the call. Where these symbols are not
+    found, no session is assumed."""
+    is_initialized = getattr(gmsh, "isInitialized", None)
+    if is_initialized is not None:
+        if is_initialized():
+            return True
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+        return False
+    try:
+        warnings = ctypes.c_int.in_dll(gmsh.lib, "_ZN3Msg13_warningCountE")
+        verbosity = ctypes.c_int.in_dll(gmsh.lib, "_ZN3Msg10_verbosityE")
+    except (AttributeError, ValueError):  # another build of gmsh: no such symbols
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+        return False
+    before, level = warnings.value, verbosity.value
+    verbosity.value = 0
+    try:
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+    finally:
+        verbosity.value = level
+    return warnings.value > before
+
+
+#: the gmsh options that :func:`~dolfinx_mortar.mesh.load_mesh` and the generators set
+#: (``generators._baseline_options``), put back after a host program's gmsh session
+GMSH_OPTIONS = (
+    "General.Terminal",
+    "General.Verbosity",
+    "Mesh.MeshSizeFromPoints",
+    "Mesh.MeshSizeExtendFromBoundary",
+    "Mesh.MeshSizeFromCurvature",
+    "Mesh.MeshSizeMin",
+    "Mesh.MeshSizeMax",
+    "Mesh.MeshSizeFactor",
+    "Mesh.Algorithm",
+    "Mesh.Algorithm3D",
+    "Mesh.RecombineAll",
+    "Mesh.Recombine3DAll",
+    "Mesh.RecombinationAlgorithm",
+    "Mesh.SubdivisionAlgorithm",
+    "Mesh.ElementOrder",
+    "Mesh.SecondOrderLinear",
+    "Mesh.SecondOrderIncomplete",
+)
+
+
+@contextlib.contextmanager
+def gmsh_model(gmsh):
+    """Rank 0: a gmsh model of this package's own, current for the ``with`` block.
+
+    Without a gmsh session, gmsh is initialized here and finalized after (with the
+    SIGINT handler put back: :func:`keep_sigint_handler`). In a
+    host program's session (a Python caller that uses gmsh itself) the session stays:
+    the model is removed after, the host's current model is current again, and the
+    options in :data:`GMSH_OPTIONS` get their values back. It finalized the host's
+    session before (a helper's probe: its next gmsh call raised). No gmsh call comes
+    before ``initialize`` (:func:`gmsh_initialize`): in gmsh 4.8
+    that exited the process now and then."""
+    hosted = gmsh_initialize(gmsh)
+    if hosted:
+        current = gmsh.model.getCurrent()
+        saved = {key: gmsh.option.getNumber(key) for key in GMSH_OPTIONS}
+        name, k = "dolfinx_mortar", 0
+        while name in gmsh.model.list():
+            k += 1
+            name = f"dolfinx_mortar_{k}"
+    else:
+        name = "dolfinx_mortar"
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.Verbosity", 0)
+    gmsh.model.add(name)
+    try:
+        yield
+    finally:
+        if hosted:
+            gmsh.model.setCurrent(name)
+            gmsh.model.remove()
+            if current in gmsh.model.list():
+                gmsh.model.setCurrent(current)
+            for key, value in saved.items():
+                gmsh.option.setNumber(key, value)
+        else:
+            keep_sigint_handler(gmsh.finalize)
+
+
+def import_gmsh():
+    """``import gmsh`` with the SIGINT handler kept (:func:`keep_sigint_handler`)."""
+
+    def load():
+        import gmsh
+
+        return gmsh
+
+    return keep_sigint_handler(load)
