@@ -241,7 +241,9 @@ def shared_nodes(comm, ranges: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
 
 
 def mixed_nodes(ftype: int) -> np.ndarray:
-    """Facet-local nodes carrying the mixed fields (P1 vertices on 6-node triangles, where ∫N_vertex = 0)."""
+    """Facet-local nodes carrying the mixed fields: the 3 vertices of a 6-node triangular
+    facet (of a P2 tetrahedron), where ∫N_vertex = 0; every node of any other facet (the
+    3-node intervals of 2D P2 cells included)."""
     if ftype == TRIANGLE2:
         return np.arange(3)
     return np.arange(REFERENCE_NODES[ftype].shape[0])
