@@ -45,7 +45,9 @@ Schema (``*`` = required; defaults in brackets)::
                  (the plane of the tangential components: the convected slave
                  frame, or the master's convected covariant basis, METHOD.md §1)
       uzawa_tol  float >= 0 (relative; 0 = pure penalty)     [1e-6]
-      uzawa_max  int >= 1                                     [20]
+                 (>= 1: without friction the first round ends every step's
+                 rounds and the multipliers stay 0: pure penalty)
+      uzawa_max  int >= 1; >= 2 where 0 < uzawa_tol < 1       [20]
       uzawa_acceleration  "auto" | "aitken" | "anderson" | "none" | "newton"  ["auto"]
                  ("newton": with friction tangential_recovery = "lumped"
                  only; "auto": "newton" on the pairs with recovery = "lumped"
@@ -320,9 +322,12 @@ class ContactPair:
         at t_n); docs/method-notes.md, "Friction".
     uzawa_tol:
         Relative tolerance on the multiplier change (dimensionless), >= 0;
-        0 = pure penalty.
+        0 = pure penalty. The change of a round is max|p̂ − λ| / max p̂, which is 1 in
+        the first round of the first step whose contact carries load (λ starts at 0):
+        a value >= 1 ends the rounds there and λ stays 0 (pure penalty, in effect).
     uzawa_max:
-        Maximum number of Uzawa augmentations per load step, >= 1.
+        Maximum number of Uzawa augmentations per load step, >= 1; >= 2 where
+        0 < uzawa_tol < 1 (one round never converges there).
     uzawa_acceleration:
         Update of the multipliers between Uzawa rounds: ``"aitken"`` (Irons–Tuck
         relaxation), ``"anderson"`` (Anderson, depth 5), ``"none"`` (plain),
@@ -1034,7 +1039,9 @@ def contact_numbers(
 
     Raises SceneError (a ValueError) keyed ``PREFIX.NAME`` for a friction < 0 or above
     :data:`MAX_FRICTION`, a penalty
-    <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a uzawa_max < 1, and
+    <= 0 (or a string other than "auto"), a uzawa_tol < 0, a uzawa_max < 1 or a
+    uzawa_max = 1 with 0 < uzawa_tol < 1 (it can never converge: the first round's
+    relative change is 1 where the multipliers start at 0), and
     SceneTypeError (a TypeError) for a value of the wrong type."""
     friction = _number(_plain(friction), _key(prefix, "friction"))
     if friction < 0.0:
@@ -1053,6 +1060,18 @@ def contact_numbers(
         )
     uzawa_tol = _nonnegative(_plain(uzawa_tol), _key(prefix, "uzawa_tol"))
     uzawa_max = _int_at_least(_plain(uzawa_max), _key(prefix, "uzawa_max"), 1)
+    if uzawa_max == 1 and 0.0 < uzawa_tol < 1.0:
+        # the multipliers start at 0: in the first step whose contact carries load the
+        # first round's change max|p̂ − λ| / max p̂ is 1 (contact.MortarContact.uzawa_update),
+        # so one round never reaches a tolerance below 1 (the run cut back 6 times and
+        # stopped with "did not converge in 1 rounds")
+        raise SceneError(
+            _key(prefix, "uzawa_max"),
+            f"1 Uzawa round cannot converge to uzawa_tol = {uzawa_tol:g}: the multipliers "
+            "start at 0, so the first round's relative change is 1 in the first step whose "
+            "contact carries load; set uzawa_tol = 0 for pure penalty, or "
+            "uzawa_max >= 2 (default 20) for the augmented Lagrangian",
+        )
     return friction, penalty, penalty_tangential, uzawa_tol, uzawa_max
 
 

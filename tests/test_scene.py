@@ -472,6 +472,7 @@ CASES = [
     (("contact", 0, "tangential_frame"), "covariant", "contact[0].tangential_frame", '"master"'),
     (("contact", 0, "uzawa_tol"), -1e-6, "contact[0].uzawa_tol", "must be >= 0"),
     (("contact", 0, "uzawa_max"), 0, "contact[0].uzawa_max", "must be >= 1"),
+    (("contact", 0, "uzawa_max"), 1, "contact[0].uzawa_max", "1 Uzawa round cannot converge"),
     (
         ("contact", 0, "uzawa_acceleration"),
         "broyden",
@@ -933,6 +934,7 @@ def test_mortar_contact_names_a_bad_option(name, value):
         ("friction", "high", TypeError),
         ("uzawa_tol", -1e-6, ValueError),
         ("uzawa_max", 0, ValueError),
+        ("uzawa_max", 1, ValueError),
         ("uzawa_max", 2.5, TypeError),
         ("uzawa_acceleration", "broyden", ValueError),
         ("uzawa_acceleration", 3, TypeError),
@@ -954,6 +956,28 @@ def test_mortar_contact_checks_its_numbers_as_the_scene_does(name, value, error)
     scene_err = raises(mutate(example(), ("contact", 0, name), value), f"contact[0].{name}", "")
     assert scene_err.reason == err.value.reason
     assert isinstance(scene_err, error)
+
+
+def test_one_uzawa_round_is_refused_where_it_cannot_converge():
+    """``uzawa_max = 1`` with 0 < ``uzawa_tol`` < 1 is refused with one error naming
+    ``contact[i].uzawa_max`` and the two ways out: the multipliers start at 0, so the
+    first round's relative change max|p̂ − λ| / max p̂ is 1 in the first loaded step (a
+    probe's stack of blocks: "did not converge in 1 rounds ({... 'multiplier_change':
+    1.0 ...})" after 6 cutbacks). With ``uzawa_tol = 0`` (pure penalty) or ≥ 1 (the
+    first round ends the rounds) one round is taken, as is any tolerance with 2."""
+    data = mutate(example(), ("contact", 0, "uzawa_max"), 1)
+    err = raises(mutate(data, ("contact", 0, "uzawa_tol"), 0.5), "contact[0].uzawa_max", "")
+    assert err.reason == (
+        "1 Uzawa round cannot converge to uzawa_tol = 0.5: the multipliers start at 0, so "
+        "the first round's relative change is 1 in the first step whose contact carries "
+        "load; set uzawa_tol = 0 for pure penalty, or uzawa_max >= 2 (default 20) for the "
+        "augmented Lagrangian"
+    )
+    for tol in (0.0, 1.0, 10.0):
+        c = parse_scene(mutate(data, ("contact", 0, "uzawa_tol"), tol), BASE, "/s.toml")
+        assert (c.contacts[0].uzawa_max, c.contacts[0].uzawa_tol) == (1, tol)
+    data = mutate(example(), ("contact", 0, "uzawa_max"), 2)
+    assert parse_scene(data, BASE, "/s.toml").contacts[0].uzawa_max == 2
 
 
 @pytest.mark.parametrize(
