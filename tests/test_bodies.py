@@ -408,3 +408,57 @@ def test_unheld_joint_motions(scene, joint, bodies):
         "bodies 'lower' and 'upper' are free together in translation along x, translation "
         "along y and rotation in the plane"
     )
+
+
+def test_the_warnings_of_bodies_held_by_contact_alone(caplog):
+    """The set-up warnings' words (no solve; fake bodies). A frictionless body held by
+    contact alone: where its pairs take element integration the line says that their
+    quadrature error on non-matching meshes is a small load along the free motions and
+    offers segment integration (a probe's frictionless stack of three blocks, the middle
+    one held by contact alone and pressed normal to it, stopped after 6 cutbacks with
+    element integration, the middle block drifted along x, and completed with segments;
+    held along x with element integration, its pairs carried lateral contact forces of
+    4.9e-8 and -2.2e-8 against 0.1 normal, 1e-15 with segments); with segments, or in no
+    pair, it says nothing of them. A body that only stick holds "may escape": it said
+    it escapes and the run stops, and the probe's frictional stack started from a gap
+    completed with the exact solution. Each is one line."""
+    import logging
+    from types import SimpleNamespace
+
+    from dolfinx_mortar.problem import UnheldBody
+    from dolfinx_mortar.runner import stick_only_text, unheld_text, warn_unheld_bodies
+
+    modes = np.eye(3)[:1]  # translation along x
+    middle = UnheldBody("'middle'", modes, ["a:b", "c:d"])
+    line = unheld_text(middle, 2, ["a:b", "c:d"])
+    assert line == (
+        "body 'middle' is free in translation along x: no [[dirichlet]] condition holds "
+        "these motions, and its frictionless contact (a:b, c:d) cannot: they keep every gap "
+        "of the pair; the Jacobian is singular along them, and the run may fail (it does "
+        "where a load pushes the body along them; element integration's quadrature error on "
+        "non-matching meshes is such a load, a small one): hold them with [[dirichlet]] "
+        'components, or, where no load acts along them, integration = "segment" for a:b, c:d'
+    )
+    for plain in (unheld_text(middle, 2), unheld_text(UnheldBody("'x'", modes, []), 2)):
+        assert plain.endswith("along them): hold them with [[dirichlet]] components")
+        assert "segment" not in plain
+    stick = stick_only_text(
+        SimpleNamespace(describe=lambda gdim: "body 'c' is free", pairs=["a:b"]), 2
+    )
+    assert "(it may escape, and the run stop)" in stick and "it escapes" not in stick
+    # the runner's warning names the element pairs only
+    contacts = [SimpleNamespace(name="a:b", integration="element")]
+    contacts.append(SimpleNamespace(name="c:d", integration="segment"))
+    problem = SimpleNamespace(
+        gdim=2,
+        contacts=contacts,
+        unheld_motions=lambda: [middle],
+        unheld_joint_motions=lambda: [],
+        stick_only_at_start=lambda: [],
+    )
+    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar.runner"):
+        warn_unheld_bodies(problem)
+    (record,) = caplog.records
+    assert record.getMessage() == unheld_text(middle, 2, ["a:b"])
+    assert record.getMessage().endswith('integration = "segment" for a:b')
+    assert "\n" not in record.getMessage()
