@@ -524,3 +524,29 @@ def test_uzawa_scenes_parse():
         for s in sections:
             assert f"\n## {s[1:]}. " in benchmarks, (path, s)
         assert path.stem not in {stem for stem, _, _ in hard.CASES.values()}, path
+
+
+def test_flat_punch_files(tmp_path):
+    """``bench/flat_punch`` (docs/method-notes.md, "Flat-punch edge", a session-54 probe's
+    scene and scripts): the scene loads, its mesh script writes the mesh it reads (the
+    probe's, 1847 nodes at h_c = 0.05) with the groups the scene names, and the notes
+    name the files. No solve (the notes' figures take a run and the reference)."""
+    from dolfinx_mortar.scene import load_scene
+
+    scene = load_scene(BENCH / "flat_punch" / "punch.toml")
+    assert scene.mesh.file.name == "punch.msh" and scene.kinematics == "small"
+    (pair,) = scene.contacts
+    assert (pair.slave, pair.master, pair.friction) == ("block_top", "punch_bottom", 0.0)
+    mesh = _load("flat_punch/mesh")
+    out = tmp_path / "punch.msh"
+    assert mesh.main(0.05, 1, str(out)) == 1847
+    text = out.read_text().split("$PhysicalNames\n", 1)[1].split("$EndPhysicalNames")[0]
+    names = {line.split('"')[1] for line in text.splitlines()[1:]}
+    assert len(names) == 6, names
+    wanted = {m.region for m in scene.materials} | {pair.slave, pair.master}
+    assert wanted | {b.boundary for b in scene.dirichlet} <= names
+    notes = (BENCH.parent / "docs" / "method-notes.md").read_text()
+    assert "## Flat-punch edge" in notes
+    for name in ("mesh.py", "punch.toml", "reference.py"):
+        assert (BENCH / "flat_punch" / name).is_file()
+        assert name in notes.split("## Flat-punch edge", 1)[1].split("\n## ", 1)[0], name
