@@ -17,6 +17,10 @@ hertz3d, hertz3d_pressure                    point contact
 cattaneo_mindlin2d_stick, cattaneo_mindlin2d partial slip, line contact
 mindlin_deresiewicz2d                        unloading and reloading, line contact
 cattaneo_mindlin3d, cattaneo_mindlin3d_traction   partial slip, point contact
+tangential_compliance, cattaneo_mindlin3d_shift    tangential shift, point contact
+mindlin_deresiewicz3d, mindlin_deresiewicz3d_stick,
+mindlin_deresiewicz3d_shift, mindlin_deresiewicz3d_energy
+                                             unloading and reloading, point contact
 torsion_full_slip                            torque of a fully sliding Hertz contact
 wedge_slip_ratio                             gross-slip force ratio of a block on a wedge
 
@@ -34,6 +38,7 @@ __all__ = [
     "cattaneo_mindlin2d",
     "cattaneo_mindlin2d_stick",
     "cattaneo_mindlin3d",
+    "cattaneo_mindlin3d_shift",
     "cattaneo_mindlin3d_traction",
     "effective_modulus",
     "effective_radius",
@@ -42,6 +47,11 @@ __all__ = [
     "hertz3d",
     "hertz3d_pressure",
     "mindlin_deresiewicz2d",
+    "mindlin_deresiewicz3d",
+    "mindlin_deresiewicz3d_energy",
+    "mindlin_deresiewicz3d_shift",
+    "mindlin_deresiewicz3d_stick",
+    "tangential_compliance",
     "torsion_full_slip",
     "wedge_slip_ratio",
 ]
@@ -247,6 +257,208 @@ def _cm_traction(x, a: float, c: float, q0: float, Q: float):
     q = _ellipse(x, a, q0) - (c / a) * _ellipse(x, c, q0) if c > 0 else _ellipse(x, a, q0)
     q = np.asarray(q) * (1.0 if Q >= 0 else -1.0)
     return q[()] if q.ndim == 0 else q
+
+
+# ---------------------------------------------------------------------------
+# Mindlin-Deresiewicz: a tangential cycle of a point contact
+# ---------------------------------------------------------------------------
+
+
+def tangential_compliance(
+    E1: float, nu1: float, E2: float | None = None, nu2: float | None = None
+) -> float:
+    """The tangential compliance sum ``Λ = (2 - nu1)/G1 + (2 - nu2)/G2``, ``G = E/(2(1 + nu))``
+    (Johnson, Contact Mechanics, 1985, eq. 7.42; units 1/modulus).
+
+    Arguments as :func:`effective_modulus`'s: ``E2 = None`` (default) is the same material
+    as the first body, ``E2 = inf`` a rigid second body (its term 0). Identical materials:
+    ``Λ = 2(2 - nu)/G``. A Hertz contact of radius ``a`` under a small tangential force has
+    the tangential compliance ``dδ/dQ = Λ/(8a)`` (Mindlin 1949).
+    """
+    if E2 is None:
+        E2 = E1
+        nu2 = nu1 if nu2 is None else nu2
+    elif nu2 is None:
+        nu2 = nu1
+    if E1 <= 0.0 or E2 <= 0.0:
+        raise ValueError("Young's moduli must be positive")
+
+    def term(E, nu):
+        return 0.0 if math.isinf(E) else (2.0 - nu) * 2.0 * (1.0 + nu) / E
+
+    return term(E1, nu1) + term(E2, nu2)
+
+
+def _g23(x: float) -> float:
+    """``1 - (1 - x)^(2/3)`` for x in [0, 1] (clipped)."""
+    return 1.0 - (1.0 - min(max(x, 0.0), 1.0)) ** (2.0 / 3.0)
+
+
+def _shift_scale(P: float, mu: float, R_star: float, E_star: float, compliance: float) -> float:
+    """``K0 = 3 mu P Λ/(16 a)``, the shift at gross slip (Q = mu P) of a virgin loading."""
+    a = hertz3d(P, R_star, E_star)["a"]
+    return 3.0 * mu * P * compliance / (16.0 * a)
+
+
+def cattaneo_mindlin3d_shift(
+    P: float, Q: float, mu: float, R_star: float, E_star: float, compliance: float
+) -> float:
+    """Tangential shift ``δ`` of distant points of a 3D (point) Cattaneo-Mindlin contact
+    (Mindlin 1949; Johnson, Contact Mechanics, 1985, eq. 7.42)::
+
+        δ = (3 mu P Λ/(16 a)) [1 - (1 - |Q|/(mu P))^(2/3)] sign(Q)
+
+    Constant ``P``, ``Q`` rising monotonically from 0 with ``|Q| <= mu P`` (the virgin
+    curve); ``a`` of :func:`hertz3d`, ``Λ = compliance`` of :func:`tangential_compliance`.
+    Mindlin's approximation (the traction parallel to the force; exact for nu = 0). The
+    shift of the contact alone: a body's own elastic compliance away from the contact adds
+    ``C_b Q``. Returns δ in length units, the sign of ``Q``.
+    """
+    f = _slip_fraction(P, Q, mu)
+    d = _shift_scale(P, mu, R_star, E_star, compliance) * _g23(f)
+    return d if Q >= 0 else -d
+
+
+def _md_frame(P: float, Q_star: float, Q: float, mu: float, Q_min: float | None):
+    """Checks of a Mindlin-Deresiewicz history (as :func:`mindlin_deresiewicz2d`'s) and
+    its forces in the loading direction's frame: (sgn, Q*, Q, Q_min or None)."""
+    _slip_fraction(P, Q_star, mu)
+    tol = 1e-12 * mu * P
+    sgn = 1.0 if Q_star >= 0 else -1.0
+    qs, qq = sgn * Q_star, sgn * Q
+    qm = None if Q_min is None else sgn * Q_min
+    low = -qs if qm is None else qm
+    if qm is not None and not (-qs - tol <= qm <= qs + tol):
+        raise ValueError(f"Q_min = {Q_min} lies outside [-|Q_star|, |Q_star|] = [{-qs}, {qs}]")
+    if not (low - tol <= qq <= qs + tol):
+        raise ValueError(f"Q = {Q} lies outside the loop [{sgn * low}, {Q_star}]")
+    return sgn, qs, qq, qm
+
+
+def mindlin_deresiewicz3d_stick(
+    P: float, Q_star: float, Q: float, mu: float, Q_min: float | None = None
+) -> float:
+    """Stick ratio ``c'/a`` of a 3D (point) contact unloaded after Cattaneo-Mindlin loading
+    to ``Q_star``, or reloaded from ``Q_min`` (Mindlin & Deresiewicz 1953; Johnson,
+    Contact Mechanics, 1985, eq. 7.46)::
+
+        (c'/a)^3 = 1 - |Q - Q_rev|/(2 mu P),   Q_rev = Q_star (unloading) or Q_min (reloading)
+
+    The slip since the last reversal of the force lies in the annulus c' < r < a; c' = a
+    at the reversal, c' = c of :func:`cattaneo_mindlin3d` at ``Q_star`` when the unloading
+    reaches ``Q = -Q_star``. Arguments, signs and ranges as :func:`mindlin_deresiewicz3d`'s
+    (ValueError outside the loop).
+    """
+    _, qs, qq, qm = _md_frame(P, Q_star, Q, mu, Q_min)
+    rev = qs if qm is None else qm
+    return (1.0 - min(abs(qq - rev) / (2.0 * mu * P), 1.0)) ** (1.0 / 3.0)
+
+
+def mindlin_deresiewicz3d(
+    r,
+    P: float,
+    Q_star: float,
+    Q: float,
+    mu: float,
+    R_star: float,
+    E_star: float,
+    Q_min: float | None = None,
+):
+    """Tangential traction ``q(r)`` of a 3D (point) contact unloaded after Cattaneo-Mindlin
+    loading, and reloaded (Mindlin & Deresiewicz 1953; Johnson, Contact Mechanics, 1985,
+    section 7.2, eqs. 7.45-7.47; Mindlin's approximation: q parallel to the force).
+
+    The point-contact form of :func:`mindlin_deresiewicz2d` (same material, constant ``P``,
+    the same history, signs and ranges): each change of the force direction superposes a
+    Cattaneo solution with twice the friction coefficient for the force change ``dQ``::
+
+        q_2mu(r; dQ) = 2 mu (p0/a) [sqrt(a^2 - r^2) - sqrt(c_d^2 - r^2) 1{r < c_d}] sign(dQ),
+        (c_d/a)^3 = 1 - |dQ|/(2 mu P)
+
+    so that unloading gives ``q = q* + q_2mu(r; Q - Q_star)`` (``q*`` of
+    :func:`cattaneo_mindlin3d_traction` at ``Q_star``; the new stick radius ``c'`` of
+    :func:`mindlin_deresiewicz3d_stick`, reverse slip ``q = -mu p sign(Q_star)`` in
+    ``c' < r < a``), reloading adds ``q_2mu(r; Q - Q_min)`` to the state at ``Q_min``.
+    ``∫ q dA = Q`` over the disc; ``Q = -Q_star`` gives ``-q*``. ``r``: distance from the
+    contact centre (array or scalar); ``a``, ``p0`` of :func:`hertz3d`. Returns q with
+    r's shape (force per unit area, the sign of the force).
+
+    Raises ValueError where the history leaves that range (gross slip, or a force past
+    the loop, where the memory of the loop is erased and the virgin curve holds).
+    """
+    h = hertz3d(P, R_star, E_star)
+    a, q0 = h["a"], mu * h["p0"]
+    sgn, qs, qq, qm = _md_frame(P, Q_star, Q, mu, Q_min)
+
+    def step(dq):  # q_2mu(r; dq): the Cattaneo solution of dq with 2 mu
+        c = a * (1.0 - min(abs(dq) / (2.0 * mu * P), 1.0)) ** (1.0 / 3.0)
+        return 2.0 * _cm_traction(r, a, c, q0, dq)
+
+    q = _cm_traction(r, a, a * (1.0 - min(qs / (mu * P), 1.0)) ** (1.0 / 3.0), q0, qs)
+    if qm is None:
+        q = q + step(qq - qs)
+    else:
+        q = q + step(qm - qs) + step(qq - qm)
+    q = sgn * np.asarray(q)
+    return q[()] if q.ndim == 0 else q
+
+
+def mindlin_deresiewicz3d_shift(
+    P: float,
+    Q_star: float,
+    Q: float,
+    mu: float,
+    R_star: float,
+    E_star: float,
+    compliance: float,
+    Q_min: float | None = None,
+) -> float:
+    """Tangential shift ``δ`` on the unloading and reloading branches of a 3D (point)
+    contact's hysteresis loop (Mindlin & Deresiewicz 1953; Johnson, Contact Mechanics,
+    1985, eqs. 7.48-7.49)::
+
+        unloading from Q*:  δ = δ* - 2 K0 [1 - (1 - (Q* - Q)/(2 mu P))^(2/3)]
+        reloading from Q_min: δ = δ_min + 2 K0 [1 - (1 - (Q - Q_min)/(2 mu P))^(2/3)]
+
+    for ``Q_star > 0`` (mirrored for ``Q_star < 0``), with ``K0 = 3 mu P Λ/(16 a)``,
+    ``δ* = δ(Q*)`` of :func:`cattaneo_mindlin3d_shift` and ``δ_min`` the unloading
+    branch's at ``Q_min``: each branch is the virgin curve scaled by 2 in force and shift
+    (Masing's rule). ``Q = Q*`` gives δ*, ``Q = -Q*`` gives ``-δ*``; with ``Q_min = -Q*``
+    the reloading branch is the unloading one mirrored. Arguments, signs and ranges as
+    :func:`mindlin_deresiewicz3d`'s; ``compliance`` ``Λ`` of
+    :func:`tangential_compliance`. Returns δ (length units); ValueError outside the loop.
+    """
+    sgn, qs, qq, qm = _md_frame(P, Q_star, Q, mu, Q_min)
+    k0 = _shift_scale(P, mu, R_star, E_star, compliance)
+    d = k0 * _g23(qs / (mu * P))
+    if qm is not None:
+        d -= 2.0 * k0 * _g23((qs - qm) / (2.0 * mu * P))
+        d += 2.0 * k0 * _g23((qq - qm) / (2.0 * mu * P))
+    else:
+        d -= 2.0 * k0 * _g23((qs - qq) / (2.0 * mu * P))
+    return sgn * d
+
+
+def mindlin_deresiewicz3d_energy(
+    P: float, Q_star: float, mu: float, R_star: float, E_star: float, compliance: float
+) -> float:
+    """Frictional energy dissipated per cycle of the tangential force between ``-Q_star``
+    and ``Q_star`` at constant ``P`` (the area of the δ(Q) loop of
+    :func:`mindlin_deresiewicz3d_shift`; Mindlin & Deresiewicz 1953, Johnson, Contact
+    Mechanics, 1985, eq. 7.50, with X = |Q_star|/(mu P))::
+
+        ΔW = (9 mu^2 P^2 Λ/(10 a)) [1 - (1 - X)^(5/3) - (5X/6)(1 + (1 - X)^(2/3))]
+
+    ``a`` of :func:`hertz3d`, ``Λ = compliance`` of :func:`tangential_compliance`
+    (identical materials: ``9 mu^2 P^2 (2 - nu)/(5 G a)``). Small amplitudes:
+    ``ΔW ≈ Λ |Q*|^3/(36 mu P a)``; gross slip (X = 1): ``3 mu^2 P^2 Λ/(20 a)``.
+    Energy units (force × length).
+    """
+    x = _slip_fraction(P, Q_star, mu)
+    a = hertz3d(P, R_star, E_star)["a"]
+    y = 1.0 - x
+    bracket = 1.0 - y ** (5.0 / 3.0) - (5.0 * x / 6.0) * (1.0 + y ** (2.0 / 3.0))
+    return 9.0 * mu**2 * P**2 * compliance / (10.0 * a) * max(bracket, 0.0)
 
 
 # ---------------------------------------------------------------------------

@@ -197,3 +197,133 @@ def test_mindlin_deresiewicz2d_reloading():
         md(0.0, P, Qs, 1.1 * Qs, mu, Rs, Es, Q_min=Qm)
     with pytest.raises(ValueError):
         md(0.0, P, 1.01 * mu * P, 0.0, mu, Rs, Es)  # gross slip
+
+
+def test_tangential_compliance():
+    """Λ = (2 − ν1)/G1 + (2 − ν2)/G2: identical materials 2(2 − ν)/G, a rigid partner one
+    term; the virgin shift's initial slope is Mindlin's compliance Λ/(8a)."""
+    G = E / (2 * (1 + NU))
+    assert A.tangential_compliance(E, NU) == pytest.approx(2 * (2 - NU) / G, rel=1e-14)
+    assert A.tangential_compliance(E, NU, math.inf) == pytest.approx((2 - NU) / G, rel=1e-14)
+    assert A.tangential_compliance(100.0, 0.0, 300.0, 0.5) == pytest.approx(
+        2 / 50 + 1.5 / 100, rel=1e-14
+    )
+    lam, Es, mu = A.tangential_compliance(E, NU), A.effective_modulus(E, NU), 0.3
+    a = A.hertz3d(P, R, Es)["a"]
+    dQ = 1e-6 * mu * P
+    slope = A.cattaneo_mindlin3d_shift(P, dQ, mu, R, Es, lam) / dQ
+    assert slope == pytest.approx(lam / (8 * a), rel=1e-5)
+    assert A.cattaneo_mindlin3d_shift(P, -dQ, mu, R, Es, lam) == -slope * dQ
+    with pytest.raises(ValueError):
+        A.tangential_compliance(0.0, NU)
+
+
+def _md3d_branches(X, mu=0.3, sign=1.0):
+    """δ on the unloading and reloading branches of the full loop ±X μP (3D)."""
+    lam, Es = A.tangential_compliance(E, NU), A.effective_modulus(E, NU)
+    Qs = sign * X * mu * P
+
+    def unload(Q):
+        return A.mindlin_deresiewicz3d_shift(P, Qs, Q, mu, R, Es, lam)
+
+    def reload(Q):
+        return A.mindlin_deresiewicz3d_shift(P, Qs, Q, mu, R, Es, lam, Q_min=-Qs)
+
+    return Qs, lam, Es, unload, reload
+
+
+@pytest.mark.parametrize("X", [0.05, 0.3, 0.54, 0.78, 1.0])
+def test_mindlin_deresiewicz3d_loop_area_is_the_energy(X):
+    """The area of the δ(Q) loop (unloading from Q* to −Q*, reloading back), by quadrature,
+    is the closed-form energy per cycle (Johnson eq. 7.50) to 1e-9; the virgin curve joins
+    the unloading branch at Q* and the reloading branch at −Q* (mirrored), the two
+    branches meet at the turning points ±Q* (δ = ±δ*), and the reloading branch is the
+    unloading one mirrored."""
+    mu = 0.3
+    Qs, lam, Es, unload, reload = _md3d_branches(X, mu)
+    ds = A.cattaneo_mindlin3d_shift(P, Qs, mu, R, Es, lam)
+    assert unload(Qs) == pytest.approx(ds, rel=1e-14)
+    assert unload(-Qs) == pytest.approx(-ds, rel=1e-12)
+    assert reload(-Qs) == pytest.approx(-ds, rel=1e-12)
+    assert reload(Qs) == pytest.approx(ds, rel=1e-12)
+    for f in (0.9, 0.2, -0.6):
+        assert reload(f * Qs) == pytest.approx(-unload(-f * Qs), rel=1e-12)
+        assert unload(f * Qs) > reload(f * Qs)  # the force lags the shift: a loss
+    # continuity of slope at the reversal: the unloading starts with the virgin slope ×1
+    # (twice the force and twice the shift scales: dδ/dQ = Λ/(8a) there)
+    a = A.hertz3d(P, R, Es)["a"]
+    eps = 1e-7 * Qs
+    assert (ds - unload(Qs - eps)) / eps == pytest.approx(lam / (8 * a), rel=1e-5)
+    area = quad(lambda Q: unload(Q) - reload(Q), -Qs, Qs, epsabs=0, epsrel=1e-12, limit=200)[0]
+    dW = A.mindlin_deresiewicz3d_energy(P, Qs, mu, R, Es, lam)
+    assert area == pytest.approx(dW, rel=1e-9)
+    assert A.mindlin_deresiewicz3d_energy(P, -Qs, mu, R, Es, lam) == pytest.approx(dW, rel=1e-14)
+
+
+def test_mindlin_deresiewicz3d_energy_limits():
+    """ΔW → Λ Q*³/(36 μ P a) as X → 0 (cubic in the amplitude), 3 μ² P² Λ/(20 a) at gross
+    slip (X = 1), increasing in between; gross sliding (X > 1) is refused."""
+    mu = 0.3
+    lam, Es = A.tangential_compliance(E, NU), A.effective_modulus(E, NU)
+    a = A.hertz3d(P, R, Es)["a"]
+
+    def dW(X):
+        return A.mindlin_deresiewicz3d_energy(P, X * mu * P, mu, R, Es, lam)
+
+    for X in (1e-2, 1e-3):
+        Qs = X * mu * P
+        assert dW(X) == pytest.approx(lam * Qs**3 / (36 * mu * P * a), rel=2 * X)
+    assert dW(0.0) == 0.0
+    assert dW(1.0) == pytest.approx(3 * mu**2 * P**2 * lam / (20 * a), rel=1e-14)
+    xs = np.linspace(0.0, 1.0, 51)
+    assert np.all(np.diff([dW(x) for x in xs]) > 0)
+    with pytest.raises(ValueError):
+        dW(1.01)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_mindlin_deresiewicz3d_traction_and_stick(sign):
+    """Unloading from Q* = ±0.54 μP: c' = a at Q = Q*, c' → c (Cattaneo–Mindlin's at Q*)
+    as Q → −Q*; q = q* at Q*, −q* at −Q*; ∫ q dA = Q; reverse slip q = −μ p sign(Q*) in
+    c' < r < a, |q| < μ p within c'; the reloading from −Q* is the unloading mirrored;
+    the shift, traction and stick ratio refuse a force past the loop."""
+    mu = 0.3
+    Es = A.effective_modulus(E, NU)
+    Qs = sign * 0.54 * mu * P
+    a = A.hertz3d(P, R, Es)["a"]
+    rs = np.linspace(0.0, 1.1 * a, 111)
+    md, st = A.mindlin_deresiewicz3d, A.mindlin_deresiewicz3d_stick
+    qstar = A.cattaneo_mindlin3d_traction(rs, P, Qs, mu, R, Es)
+    assert st(P, Qs, Qs, mu) == 1.0
+    assert st(P, Qs, -Qs, mu) == pytest.approx(A.cattaneo_mindlin3d(P, Qs, mu), rel=1e-14)
+    assert np.allclose(md(rs, P, Qs, Qs, mu, R, Es), qstar, rtol=0, atol=1e-13)
+    assert np.allclose(md(rs, P, Qs, -Qs, mu, R, Es), -qstar, rtol=0, atol=1e-13)
+    c0 = a * A.cattaneo_mindlin3d(P, Qs, mu)
+    for f in (0.8, 0.0, -0.5, -0.99):
+        Q = f * Qs
+        c1 = a * st(P, Qs, Q, mu)
+        assert c1 == pytest.approx(a * (1 - (1 - f) * 0.54 / 2) ** (1 / 3), rel=1e-14)
+
+        def q(r, Q=Q):
+            return md(r, P, Qs, Q, mu, R, Es)
+
+        total = quad(lambda r: 2 * math.pi * r * q(r), 0, a, points=[c0, c1], limit=200)[0]
+        assert total == pytest.approx(Q, rel=1e-8, abs=1e-12)
+        band = np.linspace(c1, a, 9)[1:-1]
+        assert np.allclose(q(band), -sign * mu * A.hertz3d_pressure(band, P, R, Es), atol=1e-13)
+        inner = np.linspace(0.0, c1, 11)[:-1]
+        assert np.all(np.abs(q(inner)) < mu * A.hertz3d_pressure(inner, P, R, Es))
+        assert q(1.01 * a) == 0.0
+        assert np.allclose(
+            md(rs, P, Qs, -Q, mu, R, Es, Q_min=-Qs), -q(rs), rtol=0, atol=1e-13
+        )  # reloading from −Q* mirrors the unloading
+        assert st(P, Qs, -Q, mu, Q_min=-Qs) == pytest.approx(c1 / a, rel=1e-14)
+    lam = A.tangential_compliance(E, NU)
+    for fn in (
+        lambda: md(0.0, P, Qs, 1.1 * Qs, mu, R, Es),
+        lambda: st(P, Qs, -1.1 * Qs, mu),
+        lambda: A.mindlin_deresiewicz3d_shift(P, Qs, 1.1 * Qs, mu, R, Es, lam, Q_min=-Qs),
+        lambda: A.mindlin_deresiewicz3d_shift(P, 1.01 * mu * P, 0.0, mu, R, Es, lam),
+    ):
+        with pytest.raises(ValueError):
+            fn()
