@@ -1,7 +1,8 @@
 """Shared helpers of the demo scripts (not part of the library).
 
 - :func:`parser`, :func:`add_step_depth_limit`, :func:`run_scene`: command line and a collective run of a scene dict;
-- :func:`final_csv`: the slave-node table of the last converged step (rank 0);
+- :func:`final_csv`, :func:`step_csv`: the slave-node table of the last converged step,
+  of step k (rank 0);
 - :func:`mirror`: unfold a symmetric half model's profile onto -x;
 - :func:`profile_metrics`: the peers' pressure metrics (``shared/peers/hertz_common.py``
   ``normal_metrics``): L2 error of the piecewise-linear interpolant of the nodal
@@ -165,7 +166,13 @@ def final_csv(out_dir, slave: str) -> dict[str, np.ndarray]:
             files[int(m.group(1))] = f
     if not files:
         raise FileNotFoundError(f"no {stem}_<step>.csv in {out_dir}")
-    with open(files[max(files)], newline="") as fh:
+    return step_csv(out_dir, slave, max(files))
+
+
+def step_csv(out_dir, slave: str, k: int) -> dict[str, np.ndarray]:
+    """Columns of ``contact_<slave>_<k>.csv`` (k: the step's number, 1 for the first
+    step of summary.json's ``steps``), as arrays."""
+    with open(Path(out_dir) / f"{contact_stem(slave)}_{k}.csv", newline="") as fh:
         rows = [r for r in csv.reader(fh) if r]
     head = [c.strip() for c in rows[0]]
     data = np.array([[float(c) for c in r] for r in rows[1:]], dtype=float).reshape(-1, len(head))

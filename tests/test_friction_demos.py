@@ -414,6 +414,113 @@ def test_cattaneo3d_scene_is_valid(tmp_path):
     assert sc.contacts[0].friction == demo_cattaneo3d.MU
     assert sc.contacts[0].recovery == "constrained"
     assert [d.boundary for d in sc.dirichlet] == ["block_bottom", "sphere_top"]
+    # --cycle: +S at t = 2, -S at 4, +S at 6, n_shift steps per S
+    raw = demo_cattaneo3d.scene(shift=0.05, n_shift=2, cycle=True)
+    assert raw["dirichlet"][1]["path"][1:] == [
+        [1, 0, 0, -demo_cattaneo3d.DEPTH],
+        *([t, s * 0.05, 0, -demo_cattaneo3d.DEPTH] for t, s in ((2, 1), (4, -1), (6, 1))),
+    ]
+    assert raw["steps"]["t_end"] == 6.0
+    assert raw["steps"]["output_times"] == [0.5, 1.5, 2.5, 3.5, 4.5, 5.5]
+    parse_scene(raw, tmp_path)
+    t = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert np.allclose(demo_cattaneo3d.cycle_shift(t, 0.05), [0, 0.025, 0.05, 0, -0.05, 0, 0.05])
+    assert [demo_cattaneo3d.cycle_branch(x) for x in t] == [
+        "press", "load", "load", "unload", "unload", "reload", "reload",
+    ]  # fmt: skip
+
+
+def _cap_nodes(seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes of demo_cattaneo3d's sphere's lower cap (a jittered 61 × 61 grid over
+    [-2.5, 2.5]², spacing 0.083) and their distances r from the axis."""
+    R = demo_cattaneo3d.R
+    rng = np.random.default_rng(seed)
+    g = np.linspace(-2.5, 2.5, 61)
+    xy = np.column_stack([v.ravel() for v in np.meshgrid(g, g)])
+    xy += rng.uniform(-0.02, 0.02, xy.shape)
+    z = R - np.sqrt(R**2 - np.sum(xy**2, axis=1))
+    return np.column_stack([xy, z]), np.hypot(*xy.T)
+
+
+def _closed_form_csv(x: np.ndarray, p: np.ndarray, q: np.ndarray, c: float) -> dict:
+    """A contact CSV (columns of demo_cattaneo3d's) of the nodes x: pressure p, the
+    traction q along +x (the force's sign) resisted by the slave (-q along x, in the
+    tangent plane, in the CSV's slave frame), stick within the radius c."""
+    R = demo_cattaneo3d.R
+    t0, t1 = demo_cattaneo3d.slave_frame(x)
+    qv = -q[:, None] * np.array([1.0, 0.0, 0.0])
+    n = (x - [0.0, 0.0, R]) / R
+    qv -= np.sum(qv * n, axis=1)[:, None] * n
+    qv *= (np.abs(q) / np.maximum(np.linalg.norm(qv, axis=1), 1e-300))[:, None]
+    r = np.hypot(x[:, 0], x[:, 1])
+    state = np.where(p > 0.0, np.where(r < c, 1, 2), 0)
+    return {
+        "x": x[:, 0], "y": x[:, 1], "z": x[:, 2], "p_N": p, "state": state.astype(float),
+        "p_T0": np.sum(qv * t0, axis=1), "p_T1": np.sum(qv * t1, axis=1),
+    }  # fmt: skip
+
+
+def test_cattaneo3d_cycle_metrics_read_the_closed_form_as_exact():
+    """demo_cattaneo3d --cycle's metrics (the run takes 2 min: BENCHMARKS §67) on data
+    written from the closed forms: a loop Q(δ) of Mindlin–Deresiewicz's branches plus a
+    body compliance C_b gives C_b back and no loop error; the cycle's dissipation sums
+    the steps of 2 < t ≤ 6 only; contact CSVs of the unloading and reloading tractions
+    (stick within c') give c' to the grid's spacing and no old-sign slip node, and one
+    node's traction turned back to the old sign is counted."""
+    A, d = demo_cattaneo3d.analytic, demo_cattaneo3d
+    P, mu, C_b = 77.0, d.MU, 1.94e-3
+    e_star, lam = A.effective_modulus(d.E, d.NU), A.tangential_compliance(d.E, d.NU)
+    Qs = 0.54 * mu * P
+    t = np.array([0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5, 6.0])
+    Q = np.array([0.0, 0.0, 0.5, 1.0, 0.5, 0.0, -0.5, -1.0, -0.5, 0.0, 0.5, 1.0]) * Qs
+    dc = [0.0, 0.0, *(A.cattaneo_mindlin3d_shift(P, q, mu, d.R, e_star, lam) for q in Q[2:4])]
+    dc += [A.mindlin_deresiewicz3d_shift(P, Qs, q, mu, d.R, e_star, lam) for q in Q[4:8]]
+    dc += [A.mindlin_deresiewicz3d_shift(P, Qs, q, mu, d.R, e_star, lam, -Qs) for q in Q[8:]]
+    delta = np.array(dc) + C_b * Q
+    m = d.loop_metrics(t, delta, np.full(len(t), P), Q)
+    assert m["C_b"] == pytest.approx(C_b, rel=1e-9)
+    assert m["Q_star"] == Qs and m["Q_min"] == -Qs
+    assert m["loop_err"] < 1e-8
+    assert np.isnan(m["Q_pred"][:2]).all()
+    assert m["branch"][2:] == ["load"] * 2 + ["unload"] * 4 + ["reload"] * 4
+    # a force 3 % off on the unloading branch is read as such
+    Q2 = Q.copy()
+    Q2[5] += 0.03 * Qs
+    assert d.loop_metrics(t, delta, np.full(len(t), P), Q2)["loop_err"] == pytest.approx(
+        0.03, rel=1e-6
+    )
+    # Masing's rule: each branch's closed-form shift is continuous where it leaves the loop
+    for branch, q, qm in (("unload", -Qs, -Qs), ("reload", -1.02 * Qs, -1.02 * Qs)):
+        lo, hi = (d.loop_contact_shift(branch, P, q * (1 + s), Qs, qm, lam) for s in (1e-9, -1e-9))
+        assert lo == pytest.approx(hi, abs=1e-9)
+    diss = np.full(len(t), 0.01)
+    w = d.cycle_dissipation(t, diss, P, Qs)
+    assert w["dW_fe"] == pytest.approx(0.08)  # the 8 steps of (2, 6]
+    assert w["dW"] == pytest.approx(A.mindlin_deresiewicz3d_energy(P, Qs, mu, d.R, e_star, lam))
+    assert w["dW_ratio"] == pytest.approx(w["dW_fe"] / w["dW"])
+
+    x, r = _cap_nodes()
+    p = A.hertz3d_pressure(r, P, d.R, e_star)
+    a = A.hertz3d(P, d.R, e_star)["a"]
+    for Qk, Qprev, qmin in ((-0.5 * Qs, 0.0, None), (0.5 * Qs, 0.0, -Qs)):
+        branch = "unload" if qmin is None else "reload"
+        c1 = a * d.loop_stick_ratio(branch, P, Qk, Qs, qmin)
+        assert c1 == pytest.approx(a * A.mindlin_deresiewicz3d_stick(P, Qs, Qk, mu, qmin))
+        cur = _closed_form_csv(
+            x, p, A.mindlin_deresiewicz3d(r, P, Qs, Qk, mu, d.R, e_star, qmin), c1
+        )
+        prev = _closed_form_csv(
+            x, p, A.mindlin_deresiewicz3d(r, P, Qs, Qprev, mu, d.R, e_star, qmin), a
+        )
+        c_fit, rr, state = d.stick_fit(cur, a)
+        assert abs(c_fit - c1) < 0.083, (branch, c_fit, c1)
+        direction = Qk - Qprev
+        assert d.old_sign_slip_nodes(cur, prev, direction) == 0
+        slip = np.flatnonzero((state == 2) & (prev["state"] > 0))
+        assert len(slip) > 20
+        cur["p_T0"][slip[0]] *= -1.0
+        assert d.old_sign_slip_nodes(cur, prev, direction) == 1
+        assert d.old_sign_slip_nodes(cur, prev, -direction) == len(slip) - 1
 
 
 def test_cattaneo3d_metrics_read_the_closed_form_as_exact():
@@ -427,26 +534,10 @@ def test_cattaneo3d_metrics_read_the_closed_form_as_exact():
     e_star = demo_cattaneo3d.analytic.effective_modulus(demo_cattaneo3d.E, demo_cattaneo3d.NU)
     a = demo_cattaneo3d.analytic.hertz3d(P, R, e_star)["a"]
     c = a * demo_cattaneo3d.analytic.cattaneo_mindlin3d(P, Q, mu)
-    rng = np.random.default_rng(7)
-    g = np.linspace(-2.5, 2.5, 61)
-    xy = np.column_stack([v.ravel() for v in np.meshgrid(g, g)])
-    xy += rng.uniform(-0.02, 0.02, xy.shape)
-    z = R - np.sqrt(R**2 - np.sum(xy**2, axis=1))
-    x = np.column_stack([xy, z])
-    r = np.hypot(*xy.T)
+    x, r = _cap_nodes()
     p = demo_cattaneo3d.analytic.hertz3d_pressure(r, P, R, e_star)
     q = demo_cattaneo3d.analytic.cattaneo_mindlin3d_traction(r, P, Q, mu, R, e_star)
-    t0, t1 = demo_cattaneo3d.slave_frame(x)
-    # the traction on the slave resists +x: -q along x, in the tangent plane
-    qv = -q[:, None] * np.array([1.0, 0.0, 0.0])
-    n = (x - [0.0, 0.0, R]) / R
-    qv -= np.sum(qv * n, axis=1)[:, None] * n
-    qv *= (q / np.maximum(np.linalg.norm(qv, axis=1), 1e-300))[:, None]
-    state = np.where(p > 0.0, np.where(r < c, 1, 2), 0)
-    csv = {
-        "x": x[:, 0], "y": x[:, 1], "z": x[:, 2], "p_N": p, "state": state.astype(float),
-        "p_T0": np.sum(qv * t0, axis=1), "p_T1": np.sum(qv * t1, axis=1),
-    }  # fmt: skip
+    csv = _closed_form_csv(x, p, q, c)
     m = demo_cattaneo3d.evaluate(csv, P, Q, h=0.083)
     assert m["Q_over_muP"] == pytest.approx(0.5)
     assert m["c_over_a"] == pytest.approx(0.5 ** (1 / 3))
