@@ -1440,6 +1440,7 @@ class MortarContact:
         self._u_n_local = None  # (version, u_n at the local slave and master facets)
         self._hist_far = None  # ((version, exchanges), _history_far's value)
         self._history_key = None
+        self._history_memo = []  # (points, t_n pairing) of _history_pairing
         self._pending = None  # (u, τ, t^n vectors) of a committed step, for begin_step
 
     # ------------------------------------------------------------------ helpers
@@ -1834,67 +1835,31 @@ class MortarContact:
         and, once per t_n and exchange, in the t_n configuration: ``frame_a_n``).
 
         The t_n pairing depends only on u_n, the quadrature points and the master ghost
-        layer: it is recomputed when one of them changed (every update for segments).
+        layer. The t_n configuration and its candidates are computed once per t_n and
+        exchange (:attr:`_history_key`); the pairing of the points too, except with
+        segment integration, whose points move with u: there it is made at every update
+        whose points differ from those of the last two (:meth:`_history_pairing`; the
+        exact multiplier update, :meth:`_exact_multipliers_fd`, returns to the converged
+        state between its perturbed ones).
         """
         nsf, nq = self.qp_w.shape
-        n, d, km = self.node_blocks.size, self.gdim, self.gdim - 1
+        n, d = self.node_blocks.size, self.gdim
         key = (self._exchanges, self._u_n_version)
         new_key = key != self._history_key
-        if self.integration == "segment" or new_key:
-            un = self._u_n
+        if new_key:
+            un = self._u_n  # (the fetches are collective; the key is the same on every rank)
             xs_n = self.slave.X + self._fetch_slave(un).reshape(self.slave.X.shape)
             xm_n = self.master.X + self._fetch_cand(un).reshape(self.master.X.shape)
             self._x_n = (xs_n, xm_n)
-            off, idx = candidates(xs_n, xm_n, 2.0 * self.h_facet)
-            self.hist_cand = (off, idx)
-            self.qp_mn = np.full((nsf, nq), -1, np.int64)
-            self.qp_zn = np.zeros((nsf, nq, km))
-            gn = np.zeros((nsf, nq))
-            if nsf:
-                kmortar.pair_points(
-                    self.ftype,
-                    self.master.ftype,
-                    xs_n,
-                    self.slave.sign,
-                    self.qp_xi,
-                    self.qp_w,
-                    xm_n,
-                    self.master.sign,
-                    self.master_key,
-                    off,
-                    idx,
-                    2.0 * self.h_facet,
-                    2.0 * self.h_facet,
-                    self.qp_mn,
-                    self.qp_zn,
-                    gn,
-                    self.outside_tol,
-                )
-            # nodes still open at t_n (mixed gap γ_n > 0) have no material point to stick to:
-            # their closing motion seen from the t_n projection would be a spurious slip of
-            # order γ_n × (normal rotation); they enter frictionless and join the next step
-            An, Gn = np.zeros(n), np.zeros(n)
-            if nsf:
-                kmortar.nodal_integrals(
-                    self.ftype_phi, self.qp_xi, self.qp_w, self.qp_mn, gn, self.node_of, An, Gn
-                )
-            has = An > 1e-12 * self.h_node ** (self.gdim - 1)
-            gamma_n = np.where(has, Gn / np.where(has, An, 1.0), np.inf)
-            self.node_touching = gamma_n <= HISTORY_GAP_TOL * self.h_node
-            # a start of step deeper than DEEP_PENETRATION_TOL h_I (meshes that overlap at
-            # t = 0; converged states penetrate by p/ε ≈ 1e-4 h): the slip-reversal rule
-            # skips the iterates far from equilibrium (_add_tangential_jacobian)
-            self.deep_start = bool(np.any(gamma_n < -DEEP_PENETRATION_TOL * self.h_node))
-            # facets closed over their whole area at t_n (every point paired with a gap
-            # ≤ HISTORY_GAP_TOL h): the dual tangential weights apply only there
-            used = self.qp_w != 0.0
-            ok = (self.qp_mn >= 0) & (gn <= HISTORY_GAP_TOL * self.h_facet[:, None])
-            closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
-            self.dual_area = np.where(closed, self.t_facet_area, np.inf)
+            self.hist_cand = candidates(xs_n, xm_n, 2.0 * self.h_facet)
+            self._history_memo = []
+        if self.integration == "segment" or new_key:
+            self._history_pairing()
             self._history_key = key
             if new_key:  # not per segment update
+                xs_n, xm_n = self._x_n
                 if self.tangential_frame == "master":
-                    self._master_points(xs_n, xm_n, off, idx)
+                    self._master_points(xs_n, xm_n, *self.hist_cand)
                 # the nodes' frames in the t_n configuration, a_n of σ = a·S − a_n·S_n
                 self.frame_a_n = self._frames_at(xs_n, xm_n, False)[0]
                 if self._hist_vec is not None:  # master frames, the first search at a new t_n
@@ -1948,6 +1913,77 @@ class MortarContact:
         self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
         self.frame_a, self.frame_n, _ = self._frames_at(self.xs, self.xm, False)
         self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
+
+    def _history_pairing(self) -> None:
+        """The pairing of the quadrature points in the t_n configuration (``_x_n``, its
+        candidates ``hist_cand``; local): qp_mn, qp_zn, and what follows from it,
+        node_touching, deep_start and dual_area.
+
+        A function of the points (qp_xi, qp_w) at a given t_n and exchange: the results
+        for the last two sets of points are kept (``_history_memo``, emptied at a new
+        t_n or exchange), and points equal to one of them, bit for bit, take its results.
+        """
+        memo = self._history_memo
+        points = (self.qp_xi.shape, self.qp_xi.tobytes(), self.qp_w.tobytes())
+        for i, (pts, result) in enumerate(memo):
+            if pts == points:
+                memo.insert(0, memo.pop(i))
+                (self.qp_mn, self.qp_zn, self.node_touching, self.deep_start, self.dual_area) = (
+                    result
+                )
+                return
+        nsf, nq = self.qp_w.shape
+        n, km = self.node_blocks.size, self.gdim - 1
+        xs_n, xm_n = self._x_n
+        off, idx = self.hist_cand
+        self.qp_mn = np.full((nsf, nq), -1, np.int64)
+        self.qp_zn = np.zeros((nsf, nq, km))
+        gn = np.zeros((nsf, nq))
+        if nsf:
+            kmortar.pair_points(
+                self.ftype,
+                self.master.ftype,
+                xs_n,
+                self.slave.sign,
+                self.qp_xi,
+                self.qp_w,
+                xm_n,
+                self.master.sign,
+                self.master_key,
+                off,
+                idx,
+                2.0 * self.h_facet,
+                2.0 * self.h_facet,
+                self.qp_mn,
+                self.qp_zn,
+                gn,
+                self.outside_tol,
+                True,  # nearest first: 25-36 candidates per facet at 2 h
+            )
+        # nodes still open at t_n (mixed gap γ_n > 0) have no material point to stick to:
+        # their closing motion seen from the t_n projection would be a spurious slip of
+        # order γ_n × (normal rotation); they enter frictionless and join the next step
+        An, Gn = np.zeros(n), np.zeros(n)
+        if nsf:
+            kmortar.nodal_integrals(
+                self.ftype_phi, self.qp_xi, self.qp_w, self.qp_mn, gn, self.node_of, An, Gn
+            )
+        has = An > 1e-12 * self.h_node ** (self.gdim - 1)
+        gamma_n = np.where(has, Gn / np.where(has, An, 1.0), np.inf)
+        self.node_touching = gamma_n <= HISTORY_GAP_TOL * self.h_node
+        # a start of step deeper than DEEP_PENETRATION_TOL h_I (meshes that overlap at
+        # t = 0; converged states penetrate by p/ε ≈ 1e-4 h): the slip-reversal rule
+        # skips the iterates far from equilibrium (_add_tangential_jacobian)
+        self.deep_start = bool(np.any(gamma_n < -DEEP_PENETRATION_TOL * self.h_node))
+        # facets closed over their whole area at t_n (every point paired with a gap
+        # ≤ HISTORY_GAP_TOL h): the dual tangential weights apply only there
+        used = self.qp_w != 0.0
+        ok = (self.qp_mn >= 0) & (gn <= HISTORY_GAP_TOL * self.h_facet[:, None])
+        closed = np.all(ok | ~used, axis=1) & np.any(used, axis=1)
+        self.dual_area = np.where(closed, self.t_facet_area, np.inf)
+        result = (self.qp_mn, self.qp_zn, self.node_touching, self.deep_start, self.dual_area)
+        memo.insert(0, (points, result))
+        del memo[2:]
 
     def _frames_at(self, xs, xm, derivatives: bool):
         """The nodal frames (a, nrm, dA) at slave xs and master xm coordinates (local)."""

@@ -614,3 +614,98 @@ def test_affine_projection_in_closed_form(ftype):
         degenerate[1] = degenerate[0]
     ok, z = nproject(np.ones(k + 1), degenerate, ftype)
     assert np.all(np.isfinite(z))
+
+
+def _quad_grid(n, lo, hi, z):
+    """QUAD1 facets of an n × n grid of [lo, hi]², heights z(x, y): (n², 4, 3)."""
+    t = np.linspace(lo, hi, n + 1)
+    out = []
+    for j in range(n):
+        for i in range(n):
+            nodes = [(t[i], t[j]), (t[i + 1], t[j]), (t[i], t[j + 1]), (t[i + 1], t[j + 1])]
+            out.append([[x, y, z(x, y)] for x, y in nodes])
+    return np.array(out)
+
+
+def test_nearest_first_pairing_equals_the_sweep_in_candidate_order():
+    """kernels.mortar.pair_points with ``nearest_first`` (the t_n pairings of friction,
+    session 54) against the plain sweep, every master facet a candidate of every slave
+    facet, in a shuffled order, reach 2 h: the same master facet, ζ and gap, bit for bit,
+    at 1520 points of a 4 × 4 slave grid over a 6 × 6 master (h = 0.2) with a convex
+    kink and a bump: points inside a facet, over shared edges and vertices of the flat
+    part (ties, decided by the facet keys), just outside both facets of the kink (the
+    least-outside winner: no facet contains them, the sweep is replayed), and beyond the
+    master (unpaired: both sweeps run)."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    rng = np.random.default_rng(54)
+
+    def z(x, y):  # flat for x ≤ 0.4, a convex kink along x = 0.4, a bump near (0.9, 0.9)
+        return 0.03 * max(x - 0.4, 0.0) + 0.01 * np.exp(-((x - 0.9) ** 2 + (y - 0.9) ** 2) / 0.02)
+
+    xm = _quad_grid(6, -0.2, 1.0, z)
+    msign = _down(QUAD1, xm)
+    xs = _quad_grid(4, -0.3, 1.1, lambda x, y: -0.002)  # reaches past the master's end
+    nsf, nq = len(xs), 100
+    ssign = -_down(QUAD1, xs)
+    qp_xi = rng.uniform(0.0, 1.0, (nsf, nq, 2))
+    # points exactly over master edges and vertices of the flat part (x < 0.4)
+    t = np.linspace(-0.3, 1.1, 5)
+    for f in range(nsf):
+        i, j = f % 4, f // 4
+        for q, (x, y) in enumerate([(0.0, 0.0), (0.2, 0.2), (0.0, 0.1), (0.2, -0.1)]):
+            qp_xi[f, q] = [(x - t[i]) / (t[i + 1] - t[i]), (y - t[j]) / (t[j + 1] - t[j])]
+    qp_w = np.ones((nsf, nq))
+    qp_w[:, -5:] = 0.0  # unused slots
+    off = np.arange(nsf + 1) * len(xm)
+    idx = np.concatenate([rng.permutation(len(xm)) for _ in range(nsf)])
+    reach = np.full(nsf, 0.4)
+    out = []
+    for nearest in (False, True):
+        qp_m = np.full((nsf, nq), -7, np.int64)
+        qp_zeta, qp_g = np.full((nsf, nq, 2), 7.0), np.full((nsf, nq), 7.0)
+        kmortar.pair_points(
+            QUAD1, QUAD1, xs, ssign, qp_xi, qp_w, xm, msign, kmortar.facet_keys(xm), off, idx,
+            reach, reach, qp_m, qp_zeta, qp_g, kmortar.OUTSIDE_TOL, nearest,
+        )  # fmt: skip
+        out.append((qp_m, qp_zeta, qp_g))
+    for a, b in zip(*out, strict=True):
+        np.testing.assert_array_equal(a, b)
+    qp_m, qp_zeta, _ = out[1]
+    used = qp_w != 0.0
+    paired = used & (qp_m >= 0)
+    outside = np.array([kmortar._outside(QUAD1, zz) for zz in qp_zeta[paired]])
+    assert np.count_nonzero(used & (qp_m < 0)) > 50  # beyond the master
+    assert np.count_nonzero(outside > kmortar.INSIDE_TOL) > 0  # just outside every facet
+    assert np.count_nonzero(np.abs(outside) <= kmortar.INSIDE_TOL) >= 3 * nsf  # on edges
+    assert np.all(qp_m[~used] == -1)
+
+
+def test_nearest_first_pairing_keeps_the_order_of_a_tie_cycle():
+    """Three stacked master facets over a slave point, at gaps d, d + 0.7 tie and
+    d + 1.4 tie (tie = PAIR_TIE_TOL reach), keys C < B < A: B beats A (a tie, the smaller
+    key), C beats B (likewise), A beats C (nearer by more than the tie), so the sweep's
+    winner depends on the candidates' order: C for (A, B, C), B for (C, A, B). The
+    nearest-first pairing meets A, B, C in that order whatever the candidates' order; its
+    check finds the cycle and replays the sweep in the candidates' order: the same winner
+    for both orders."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    reach, d = 1.0, 0.01
+    tie = kmortar.PAIR_TIE_TOL * reach
+    sq = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
+    xm = np.array([np.column_stack([sq, np.full(4, d + s * tie)]) for s in (0.0, 0.7, 1.4)])
+    msign = _down(QUAD1, xm)
+    keys = np.array([[3.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.0, 0.0]])  # A, B, C
+    xs = np.array([[[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [-0.5, 0.5, 0.0], [0.5, 0.5, 0.0]]])
+    ssign = -_down(QUAD1, xs)
+    for order, winner in (([0, 1, 2], 2), ([2, 0, 1], 1)):
+        for nearest in (False, True):
+            qp_m, qp_zeta, qp_g = np.empty((1, 1), np.int64), np.empty((1, 1, 2)), np.empty((1, 1))
+            kmortar.pair_points(
+                QUAD1, QUAD1, xs, ssign, np.full((1, 1, 2), 0.5), np.ones((1, 1)), xm, msign,
+                keys, np.array([0, 3]), np.array(order), np.full(1, 1.0), np.full(1, reach),
+                qp_m, qp_zeta, qp_g, kmortar.OUTSIDE_TOL, nearest,
+            )  # fmt: skip
+            assert qp_m[0, 0] == winner, (order, nearest)
+            assert qp_g[0, 0] == pytest.approx(d + [0.0, 0.7, 1.4][winner] * tie, abs=1e-16)

@@ -201,6 +201,166 @@ def _better(out, dist, key, best_out, best_dist, best_key, tie):
     return False
 
 
+#: The margin, relative to ``reach``, by which a master facet that :func:`pair_points`
+#: did not project (its bounding box farther than the winner's |g| + PAIR_TIE_TOL reach)
+#: must lie beyond the winner for the nearest-first order to count as deciding the
+#: point (``nearest_first``): a projection within OUTSIDE_TOL of its facet may lie just
+#: outside the facet's bounding box, so its |g| is bounded below by the box distance
+#: only up to a few INSIDE_TOL facet sizes.
+NEAREST_MARGIN = 1e-6
+
+
+@numba.njit(cache=True)
+def _first_sweep_test(
+    ftype_m, x1, nus, xm_m, msign_m, max_depth, outside_tol, z0, k, done, valid, vout,
+    vdist, vgap, vz, num, wm,
+):  # fmt: skip
+    """The tests of :func:`pair_points`' first sweep that do not depend on the best so
+    far, for the projection of x1 onto the master facet xm_m (nm, d), recorded in slot
+    k: done[k]; valid[k], and where valid vout[k] = max(ζ-distance outside, INSIDE_TOL),
+    vdist[k] = |g|, vgap[k] = g, vz[k] = ζ."""
+    zeta = vz[k]
+    project_in(x1, xm_m, ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+    done[k] = True
+    valid[k] = False
+    out = _outside(ftype_m, zeta)
+    if out > outside_tol:
+        return
+    unit_normal_in(xm_m, ftype_m, msign_m, zeta, num, wm)
+    if not faces(nus, num):
+        return
+    g = gap_only_in(x1, xm_m, ftype_m, msign_m, zeta, wm)
+    if g < -max_depth:
+        return
+    valid[k] = True
+    vout[k] = max(out, INSIDE_TOL)
+    vdist[k] = abs(g)
+    vgap[k] = g
+
+
+@numba.njit(cache=True)
+def _pair_nearest(
+    ftype_m, x1, nus, xm, mbox, msign, mkey, cand, lo, hi, max_depth, reach, outside_tol,
+    z0, num, wm, dbox, order, done, valid, vout, vdist, vgap, vz,
+):  # fmt: skip
+    """The first sweep of :func:`pair_points` for one slave point (x1 (d,), unit normal
+    nus (d,)) and its candidates ``cand[lo:hi]``, projecting only the master facets it
+    must. Returns the slot k of the winner (its facet ``cand[lo + k]``, ζ ``vz[k]``, gap
+    ``vgap[k]``), or −1 where the sweep pairs nothing (the caller then runs both sweeps).
+
+    The result is that of the sweep in the candidates' own order, where every
+    candidate whose bounding box lies within the pruning distance is projected: the
+    projections are the same (the same start, state-independent tests, recorded per
+    slot by :func:`_first_sweep_test`), only fewer are made.
+
+    1. Nearest first: the candidates sorted by the distance of x1 to their bounding
+       boxes (``dbox``, squared) and swept with :func:`pair_points`' pruning, which,
+       once the best contains the point, projects only the facets as near as its |g|.
+    2. Where that winner W contains the point, the sweep in the candidates' order is
+       certain to end at W when: W is within its own pruning distance; every valid
+       projected candidate before W in that order loses to W in :func:`_better` and,
+       had it been the best when W's turn came, would not have pruned W; every valid
+       one after W does not beat W; and every candidate within ``reach`` not projected
+       lies beyond W's |g| + PAIR_TIE_TOL reach by NEAREST_MARGIN reach (those nearer
+       are projected now and checked as the others): its |g| then exceeds W's by more
+       than the tie, so it loses to W whenever it is met, and W, once met, prunes it.
+    3. Otherwise (a tie, a point that no facet contains: in step 1 the best never
+       contained it, so every candidate within ``reach`` was projected) the sweep in
+       the candidates' order is replayed from the recorded projections, projecting
+       the few it reaches that step 1 did not.
+
+    mbox (nmf, 2, d): the master facets' bounding boxes (lowest, highest coordinates).
+    Work arrays dbox, vout, vdist, vgap (float), order (int64), done, valid (bool) hold
+    at least hi − lo entries, vz (≥ hi − lo, km).
+    """
+    d = x1.shape[0]
+    K = hi - lo
+    for k in range(K):
+        m = cand[lo + k]
+        e2 = 0.0
+        for c in range(d):
+            e = max(mbox[m, 0, c] - x1[c], x1[c] - mbox[m, 1, c], 0.0)
+            e2 += e * e
+        dbox[k] = e2
+        done[k] = False
+        valid[k] = False
+        # insertion sort by box distance (stable; a few dozen candidates)
+        j = k
+        while j > 0 and dbox[order[j - 1]] > e2:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = k
+    tie = PAIR_TIE_TOL * reach
+    # 1. nearest first
+    kb = -1
+    best_dist, best_out = np.inf, np.inf
+    for j in range(K):
+        k = order[j]
+        limit = best_dist + tie if best_out <= INSIDE_TOL else np.inf
+        if dbox[k] > min(limit, reach) ** 2:
+            continue
+        m = cand[lo + k]
+        _first_sweep_test(
+            ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done, valid,
+            vout, vdist, vgap, vz, num, wm,
+        )  # fmt: skip
+        if valid[k] and _better(
+            vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[cand[lo + max(kb, 0)]], tie
+        ):
+            kb, best_out, best_dist = k, vout[k], vdist[k]
+    if kb < 0:
+        return -1
+    # 2. certain?
+    certain = best_out <= INSIDE_TOL and dbox[kb] <= min(best_dist + tie, reach) ** 2
+    if certain:
+        w = cand[lo + kb]
+        far = (best_dist + tie + NEAREST_MARGIN * reach) ** 2
+        for k in range(K):
+            m = cand[lo + k]
+            if m == w or dbox[k] > reach**2:
+                continue
+            if not done[k]:
+                if dbox[k] > far:
+                    continue
+                _first_sweep_test(
+                    ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done,
+                    valid, vout, vdist, vgap, vz, num, wm,
+                )  # fmt: skip
+            if not valid[k]:
+                continue
+            if k < kb:
+                beats = _better(best_out, best_dist, mkey[w], vout[k], vdist[k], mkey[m], tie)
+                prunes = vout[k] <= INSIDE_TOL and dbox[kb] > min(vdist[k] + tie, reach) ** 2
+                if not beats or prunes:
+                    certain = False
+                    break
+            elif _better(vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[w], tie):
+                certain = False
+                break
+    if certain:
+        return kb
+    # 3. the sweep in the candidates' order, replayed
+    kb = -1
+    best_dist, best_out = np.inf, np.inf
+    for k in range(K):
+        limit = best_dist + tie if best_out <= INSIDE_TOL else np.inf
+        if dbox[k] > min(limit, reach) ** 2:
+            continue
+        m = cand[lo + k]
+        if not done[k]:
+            _first_sweep_test(
+                ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done,
+                valid, vout, vdist, vgap, vz, num, wm,
+            )  # fmt: skip
+        if not valid[k] or vout[k] > best_out + INSIDE_TOL:
+            continue
+        if _better(
+            vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[cand[lo + max(kb, 0)]], tie
+        ):
+            kb, best_out, best_dist = k, vout[k], vdist[k]
+    return kb
+
+
 @numba.njit(cache=True)
 def pair_points(
     ftype_s,
@@ -220,6 +380,7 @@ def pair_points(
     qp_zeta,
     qp_g,
     outside_tol,
+    nearest_first=False,
 ):
     """Pair every slave quadrature point with its closest valid master facet (or none: -1).
 
@@ -233,6 +394,13 @@ def pair_points(
     outside a facet accepted when no candidate contains the projection (OUTSIDE_TOL;
     NODE_OUTSIDE_TOL for node integration). Outputs qp_m (nsf, nq), qp_zeta
     (nsf, nq, km), qp_g (nsf, nq).
+
+    With ``nearest_first`` the first sweep of each point projects only the candidates
+    it must (:func:`_pair_nearest`: nearest first, then a check that the sweep in the
+    candidates' order ends at the same facet, or that sweep replayed from the
+    projections made): the same result, bit for bit, where the candidates are many (the
+    t_n pairings of friction reach 2 h: 25–36 master facets per slave facet on a 3D
+    block, where a point now takes 2.3 projections on average instead of 11.6).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -251,6 +419,24 @@ def pair_points(
     Nm, dNm, ddNm = np.empty(nm), np.empty((nm, km)), np.empty((nm, km, km))
     zc, xa, xb = np.empty(km), np.empty(d), np.empty(d)
     wm, ws = work(ftype_m), work(ftype_s)  # no allocation per point
+    kmax = 0
+    mbox = np.empty((xm.shape[0] if nearest_first else 0, 2, d))
+    if nearest_first:
+        for f in range(nsf):
+            kmax = max(kmax, cand_off[f + 1] - cand_off[f])
+        # the master facets' bounding boxes, as the sweep below computes them
+        for m in range(xm.shape[0]):
+            for c in range(d):
+                lo = xm[m, 0, c]
+                hi = lo
+                for a in range(1, xm.shape[1]):
+                    lo = min(lo, xm[m, a, c])
+                    hi = max(hi, xm[m, a, c])
+                mbox[m, 0, c] = lo
+                mbox[m, 1, c] = hi
+    box2, vout, vdist, vgap = np.empty(kmax), np.empty(kmax), np.empty(kmax), np.empty(kmax)
+    vz, order = np.empty((kmax, km)), np.empty(kmax, np.int64)
+    done, valid = np.empty(kmax, np.bool_), np.empty(kmax, np.bool_)
     for f in range(nsf):
         for q in range(nq):
             qp_m[f, q] = -1
@@ -260,6 +446,18 @@ def pair_points(
             xi = qp_xi[f, q]
             _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
             unit_normal_in(xs[f], ftype_s, ssign[f], xi, nus, ws)
+            if nearest_first:
+                k = _pair_nearest(
+                    ftype_m, x1, nus, xm, mbox, msign, mkey, cand, cand_off[f],
+                    cand_off[f + 1], max_depth[f], reach[f], outside_tol, z0, num, wm, box2,
+                    order, done, valid, vout, vdist, vgap, vz,
+                )  # fmt: skip
+                if k >= 0:
+                    qp_m[f, q] = cand[cand_off[f] + k]
+                    qp_g[f, q] = vgap[k]
+                    for a in range(km):
+                        qp_zeta[f, q, a] = vz[k, a]
+                    continue
             # prefer facets containing the projection (closest |g|); failing that, the facet
             # whose projection lies least outside it (≤ outside_tol in ζ): a point near a
             # concave kink of the deformed master projects just outside both neighbours;
