@@ -1112,6 +1112,59 @@ def test_batched_block_insertion_equals_one_call_per_block():
         rec.setValuesRCV(R, R, V, addv=PETSc.InsertMode.INSERT_VALUES)
 
 
+@pytest.mark.parametrize("chunk, calls", [(1, 5), (80, 3), (1 << 22, 1)])
+def test_row_block_insertion_equals_one_call_per_block(chunk, calls):
+    """contact.add_row_blocks (padded ragged rectangular blocks A[R_i, U_i] += K_i, one
+    setValuesRCV per chunk; the rows-of-S^I friction tangent of the constrained recovery,
+    kernels.friction.node_tangent_rows) against the same blocks added by one setValues
+    each and against a dense NumPy sum: rows R_i ⊂ columns U_i, dofs repeated across
+    nodes, a node without dofs, one with columns but no rows, a −1 dof (skipped); chunk 1
+    and 80 (the padded blocks are 6 × 6) give 5 and 3 setValuesRCV calls for the 5
+    nonempty blocks, the default one (serial)."""
+    rng = np.random.default_rng(11)
+    n = 30
+    nu = np.array([4, 0, 6, 3, 1, 5, 2])
+    nr = np.array([2, 0, 6, 0, 1, 3, 1])  # node 1: no dofs; node 3: columns, no rows
+    U_list, R_list = [], []
+    for a, b in zip(nu, nr, strict=True):
+        Ui = np.sort(rng.choice(n, a, replace=False))  # a small n: repeats across nodes
+        U_list.append(Ui)
+        R_list.append(np.sort(rng.choice(Ui, b, replace=False)))
+    R_list[5][R_list[5] == U_list[5][0]] = -1  # a constrained dof (−1, skipped)
+    U_list[5][0] = -1
+    blocks = [rng.standard_normal((b, a)) for a, b in zip(nu, nr, strict=True)]
+    u_off = np.concatenate([[0], np.cumsum(nu)])
+    r_off = np.concatenate([[0], np.cumsum(nr)])
+    k_off = np.concatenate([[0], np.cumsum(nu * nr)])
+    U, R = np.concatenate(U_list).astype(np.int64), np.concatenate(R_list).astype(np.int64)
+    K = np.concatenate([b.ravel() for b in blocks])
+    assert len(set(U.tolist())) < U.size  # repeated dofs across nodes
+
+    A = _open_matrix(n)
+    counted = []
+
+    class Counting:  # forwards setValuesRCV to A, counting the calls
+        def setValuesRCV(self, rows, cols, vals, addv):
+            counted.append(rows.shape[0])
+            A.setValuesRCV(rows, cols, vals, addv=addv)
+
+    contact.add_row_blocks(Counting(), u_off, U, r_off, R, k_off, K, chunk=chunk)
+    assert len(counted) == calls and sum(counted) == 5
+    B = _open_matrix(n)
+    ref = np.zeros((n, n))
+    for Ri, Ui, Ki in zip(R_list, U_list, blocks, strict=True):
+        if Ri.size and Ui.size:
+            B.setValues(
+                Ri.astype(PETSc.IntType), Ui.astype(PETSc.IntType), Ki,
+                addv=PETSc.InsertMode.ADD_VALUES,
+            )  # fmt: skip
+        _add_dense(ref, Ri, Ui, Ki)
+    dense = _dense(A, n)
+    assert np.allclose(dense, _dense(B, n), rtol=0, atol=1e-13)
+    assert np.allclose(dense, ref, rtol=0, atol=1e-13)
+    assert np.count_nonzero(ref) > 20  # the blocks reach the matrix
+
+
 #: a small frictional press of the patch2d generator (quads, segment integration)
 FRICTIONAL_PATCH = {
     "kinematics": "finite",
