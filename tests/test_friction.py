@@ -389,7 +389,8 @@ def test_node_tangents_kernel_matches_reference(d):
     """kernels.friction.node_tangents (numba, all nodes at once) against the NumPy
     reference friction.node_tangent, one node at a time: random frames, slips, D, Pd, kN,
     S-weights, frame derivatives and B rows, with constrained dofs (−1) and repeated
-    dofs, a node without frame facets and one whose B row is empty. The occurrences carry
+    dofs, a node without frame facets, one whose B row is empty and one whose S-weights'
+    dofs are all constrained (no rows in the rows-only form). The occurrences carry
     ns + 1 facet nodes (the master frames' layout pads the smaller facets with −1)."""
     from dolfinx_mortar.kernels.friction import node_tangent_rows, node_tangents
 
@@ -402,6 +403,7 @@ def test_node_tangents_kernel_matches_reference(d):
     s_dof = rng.integers(-1, ndof, (s_off[-1], d))
     s_w = rng.standard_normal(s_off[-1])
     a, S = rng.standard_normal((n, m, d)), rng.standard_normal((n, d))
+    s_dof[s_off[3] : s_off[4]] = -1  # node 3: every S-weight dof constrained, no rows
     AT, tau = rng.uniform(0.5, 2.0, n), rng.standard_normal((n, m))
     nodes = np.array([4, 0, 2, 3])
     D = rng.standard_normal((nodes.size, m, m))
@@ -443,6 +445,8 @@ def test_node_tangents_kernel_matches_reference(d):
         assert np.array_equal(K2[k2[i] : k2[i + 1]].reshape(Ri.size, nu), K_i[rows])
         others = np.setdiff1d(np.arange(nu), rows)
         assert others.size and not K_i[others].any(), i
+    assert r_off[3] == r_off[4] and k2[3] == k2[4]  # node 3 (listed last): no rows
+    assert np.all(np.diff(r_off)[:3] > 0)
 
 
 @pytest.mark.parametrize("case", ["hertz2d-P2", "hertz3d-P1"])

@@ -486,13 +486,6 @@ def _node_dofs(node, s_off, s_dof, f_off, f_dofs, b_lo, b_hi, b_idx):
 
 
 @numba.njit(cache=True)
-def _s_weight_dofs(node, s_off, s_dof):
-    """Sorted unique dofs ≥ 0 of one node's S-weights."""
-    u = np.unique(s_dof[s_off[node] : s_off[node + 1]].ravel())
-    return u[u >= 0]
-
-
-@numba.njit(cache=True)
 def _node_slip_rates(
     i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_lo, b_hi, b_idx,
     b_val,
@@ -642,37 +635,58 @@ def _tangent_blocks(
 ):
     """The one body of :func:`node_tangents` (``all_rows``: every row of U_i, R_i = U_i)
     and :func:`node_tangent_rows` (the rows of the node's S-weights): returns (u_off, U,
-    r_off, R, k_off, K), K_i the (nr, nu) block row-major (numba)."""
+    r_off, R, k_off, K), K_i the (nr, nu) block row-major (numba). The rows are marked
+    in U_i (``searchsorted`` of the S-weights' dofs, U_i sorted) rather than sorted apart:
+    R_i = U_i[marked], in U_i's order (session 54, BENCHMARKS.md §66)."""
     k = nodes.size
     d = a.shape[2]
     dofs = [
         _node_dofs(nodes[i], s_off, s_dof, f_off, f_dofs, b_off[i], b_off[i + 1], b_idx)
         for i in range(k)
     ]
-    rows = [dofs[i] if all_rows else _s_weight_dofs(nodes[i], s_off, s_dof) for i in range(k)]
     u_off = np.zeros(k + 1, np.int64)
+    for i in range(k):
+        u_off[i + 1] = u_off[i] + dofs[i].size
+    # pos[u_off[i] : u_off[i] + nr_i]: the positions in U_i of node i's rows, ascending
+    pos = np.empty(u_off[k], np.int64)
+    mark = np.zeros(u_off[k], np.bool_)
     r_off = np.zeros(k + 1, np.int64)
     k_off = np.zeros(k + 1, np.int64)
     for i in range(k):
-        u_off[i + 1] = u_off[i] + dofs[i].size
-        r_off[i + 1] = r_off[i] + rows[i].size
-        k_off[i + 1] = k_off[i] + dofs[i].size * rows[i].size
+        Ui, b0 = dofs[i], u_off[i]
+        nu, nr = Ui.size, 0
+        if all_rows:
+            for j in range(nu):
+                pos[b0 + j] = j
+            nr = nu
+        else:
+            node = nodes[i]
+            for e in range(s_off[node], s_off[node + 1]):
+                for c in range(d):
+                    if s_dof[e, c] >= 0:
+                        mark[b0 + np.searchsorted(Ui, s_dof[e, c])] = True
+            for j in range(nu):
+                if mark[b0 + j]:
+                    pos[b0 + nr] = j
+                    nr += 1
+        r_off[i + 1] = r_off[i] + nr
+        k_off[i + 1] = k_off[i] + nr * nu
     U = np.empty(u_off[k], np.int64)
     R = np.empty(r_off[k], np.int64)
     K = np.zeros(k_off[k])
     for i in range(k):
         node = nodes[i]
-        Ui, Ri = dofs[i], rows[i]
-        nu, nr = Ui.size, Ri.size
-        U[u_off[i] : u_off[i + 1]] = Ui
-        R[r_off[i] : r_off[i + 1]] = Ri
+        Ui, b0 = dofs[i], u_off[i]
+        nu, nr = Ui.size, r_off[i + 1] - r_off[i]
+        U[b0 : u_off[i + 1]] = Ui
         Srow, dt = _node_slip_rates(
             i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA,
             b_off[i], b_off[i + 1], b_idx, b_val,
         )  # fmt: skip
         base = k_off[i]
         for q in range(nr):
-            r = np.searchsorted(Ui, Ri[q])
+            r = pos[b0 + q]
+            R[r_off[i] + q] = Ui[r]
             for j in range(nu):
                 v = 0.0
                 for c in range(d):
