@@ -209,17 +209,7 @@ def mindlin_deresiewicz2d(
     """
     h = hertz2d(P, R_star, E_star)
     a, q0 = h["a"], mu * h["p0"]
-    _slip_fraction(P, Q_star, mu)
-    tol = 1e-12 * mu * P
-    sgn = 1.0 if Q_star >= 0 else -1.0
-    # in the loading direction's frame: Q_star >= 0
-    qs, qq = sgn * Q_star, sgn * Q
-    qm = None if Q_min is None else sgn * Q_min
-    low = -qs if qm is None else qm
-    if qm is not None and not (-qs - tol <= qm <= qs + tol):
-        raise ValueError(f"Q_min = {Q_min} lies outside [-|Q_star|, |Q_star|] = [{-qs}, {qs}]")
-    if not (low - tol <= qq <= qs + tol):
-        raise ValueError(f"Q = {Q} lies outside the loop [{sgn * low}, {Q_star}]")
+    sgn, qs, qq, qm = _md_frame(P, Q_star, Q, mu, Q_min)  # the loading direction's frame
 
     def step(dq):  # q_2mu(x; dq): the Cattaneo solution of dq with 2 mu
         f = min(abs(dq) / (2.0 * mu * P), 1.0)
@@ -320,8 +310,10 @@ def cattaneo_mindlin3d_shift(
 
 
 def _md_frame(P: float, Q_star: float, Q: float, mu: float, Q_min: float | None):
-    """Checks of a Mindlin-Deresiewicz history (as :func:`mindlin_deresiewicz2d`'s) and
-    its forces in the loading direction's frame: (sgn, Q*, Q, Q_min or None)."""
+    """Checks of a Mindlin-Deresiewicz history (line and point contact: ValueError for a
+    ``Q_star`` beyond gross slip, a ``Q_min`` outside [-|Q_star|, |Q_star|], a ``Q`` outside
+    the loop) and its forces in the loading direction's frame, where Q_star >= 0:
+    (sgn, Q*, Q, Q_min or None)."""
     _slip_fraction(P, Q_star, mu)
     tol = 1e-12 * mu * P
     sgn = 1.0 if Q_star >= 0 else -1.0

@@ -201,6 +201,34 @@ def _better(out, dist, key, best_out, best_dist, best_key, tie):
     return False
 
 
+@numba.njit(cache=True)
+def _facet_boxes(xm):
+    """The axis-aligned bounding boxes (nmf, 2, d) of the facets xm (nmf, nodes, d): their
+    lowest and highest coordinates."""
+    nmf, nn, d = xm.shape
+    box = np.empty((nmf, 2, d))
+    for m in range(nmf):
+        for c in range(d):
+            lo = xm[m, 0, c]
+            hi = lo
+            for a in range(1, nn):
+                lo = min(lo, xm[m, a, c])
+                hi = max(hi, xm[m, a, c])
+            box[m, 0, c] = lo
+            box[m, 1, c] = hi
+    return box
+
+
+@numba.njit(cache=True)
+def _box_distance2(box, x):
+    """The squared distance from the point x (d,) to the box (2, d) (0 inside)."""
+    e2 = 0.0
+    for c in range(x.shape[0]):
+        e = max(box[0, c] - x[c], x[c] - box[1, c], 0.0)
+        e2 += e * e
+    return e2
+
+
 #: The margin, relative to ``reach``, by which a master facet that :func:`pair_points`
 #: did not project (its bounding box farther than the winner's |g| + PAIR_TIE_TOL reach)
 #: must lie beyond the winner for the nearest-first order to count as deciding the
@@ -273,14 +301,10 @@ def _pair_nearest(
     Work arrays dbox, vout, vdist, vgap (float), order (int64), done, valid (bool) hold
     at least hi − lo entries, vz (≥ hi − lo, km).
     """
-    d = x1.shape[0]
     K = hi - lo
     for k in range(K):
         m = cand[lo + k]
-        e2 = 0.0
-        for c in range(d):
-            e = max(mbox[m, 0, c] - x1[c], x1[c] - mbox[m, 1, c], 0.0)
-            e2 += e * e
+        e2 = _box_distance2(mbox[m], x1)
         dbox[k] = e2
         done[k] = False
         valid[k] = False
@@ -419,21 +443,11 @@ def pair_points(
     Nm, dNm, ddNm = np.empty(nm), np.empty((nm, km)), np.empty((nm, km, km))
     zc, xa, xb = np.empty(km), np.empty(d), np.empty(d)
     wm, ws = work(ftype_m), work(ftype_s)  # no allocation per point
+    mbox = _facet_boxes(xm)
     kmax = 0
-    mbox = np.empty((xm.shape[0] if nearest_first else 0, 2, d))
     if nearest_first:
         for f in range(nsf):
             kmax = max(kmax, cand_off[f + 1] - cand_off[f])
-        # the master facets' bounding boxes, as the sweep below computes them
-        for m in range(xm.shape[0]):
-            for c in range(d):
-                lo = xm[m, 0, c]
-                hi = lo
-                for a in range(1, xm.shape[1]):
-                    lo = min(lo, xm[m, a, c])
-                    hi = max(hi, xm[m, a, c])
-                mbox[m, 0, c] = lo
-                mbox[m, 1, c] = hi
     box2, vout, vdist, vgap = np.empty(kmax), np.empty(kmax), np.empty(kmax), np.empty(kmax)
     vz, order = np.empty((kmax, km)), np.empty(kmax, np.int64)
     done, valid = np.empty(kmax, np.bool_), np.empty(kmax, np.bool_)
@@ -473,15 +487,7 @@ def pair_points(
                 for j in range(cand_off[f], cand_off[f + 1]):
                     m = cand[j]
                     # cheap rejection: distance from x1 to the facet's bounding box
-                    dbox = 0.0
-                    for c in range(d):
-                        lo = xm[m, 0, c]
-                        hi = lo
-                        for a in range(1, xm.shape[1]):
-                            lo = min(lo, xm[m, a, c])
-                            hi = max(hi, xm[m, a, c])
-                        e = max(lo - x1[c], x1[c] - hi, 0.0)
-                        dbox += e * e
+                    dbox = _box_distance2(mbox[m], x1)
                     # a facet farther than the best one cannot win while the best contains
                     # the point (``_better`` ranks "less outside" first); while the best
                     # lies outside its facet, a farther facet that contains the point must
