@@ -469,7 +469,7 @@ def add_square_blocks(A, u_off, U, k_off, K, chunk: int = 1 << 22) -> None:
 def add_row_blocks(A, u_off, U, r_off, R, k_off, K, chunk: int = 1 << 22) -> None:
     """A[R_i, U_i] += K_i for the ragged rectangular blocks i: columns U[u_off[i]:u_off[i+1]]
     and rows R[r_off[i]:r_off[i+1]] (global dofs, −1 skipped), K_i = K[k_off[i]:k_off[i+1]]
-    the n_r × n_u block in row-major order (:func:`.kernels.friction.node_tangent_rows`;
+    the n_r × n_u block in row-major order (:func:`.kernels.friction.node_tangent_blocks`;
     local). Padded as :func:`add_square_blocks`, one ``setValuesRCV`` per ``chunk``
     entries."""
     nu, nr = np.diff(u_off), np.diff(r_off)
@@ -3061,12 +3061,14 @@ class MortarContact:
                 np.concatenate(cat).astype(np.int64),
                 np.concatenate([np.empty(0)] + [r[1] for r in rows]),
             )
-            if constrained.any():
-                # ∂p^I/∂u of the constrained recovery reaches the whole paired region
-                # (M⁻¹): the rows of S^I only, not the square block (session 53)
-                add_row_blocks(A, *kfriction.node_tangent_rows(*args))
+            # ∂p^I/∂u of the constrained recovery reaches the whole paired region (M⁻¹):
+            # the rows of S^I only there, not the square block (session 53)
+            rows_only = bool(constrained.any())
+            u_off, U, r_off, R, k_off, K = kfriction.node_tangent_blocks(not rows_only, *args)
+            if rows_only:
+                add_row_blocks(A, u_off, U, r_off, R, k_off, K)
             else:
-                add_square_blocks(A, *kfriction.node_tangents(*args))
+                add_square_blocks(A, u_off, U, k_off, K)
             return
         for i, node in enumerate(nodes):  # segment integration: the moving points too
             s, e = self.s_off[node], self.s_off[node + 1]
@@ -3096,7 +3098,7 @@ class MortarContact:
     def _add_slip_rows(self, A, node: int, U: np.ndarray, K: np.ndarray) -> None:
         """A[R, U] += K[R, :] for the friction tangent K = (∂S^I/∂u)ᵀ ∂t^I/∂u (U, U) of one
         node (:func:`.friction.node_tangent`), R the dofs of its S-weights: the only rows
-        that can be nonzero (as :func:`.kernels.friction.node_tangent_rows`; local)."""
+        that can be nonzero (as :func:`.kernels.friction.node_tangent_blocks`; local)."""
         sd = self.s_dof[self.s_off[node] : self.s_off[node + 1]].ravel()
         r = np.flatnonzero(np.isin(U, sd[sd >= 0]))
         if r.size:

@@ -66,7 +66,7 @@ lumped or the constrained normal recovery); the point integrals are in
   (segment integration: also − a_{β,n}·∂S_n and − γ_β ∂A_T, the moving points),
   ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric. The contact term
   computes all nodes at once with the numba kernel
-  :func:`dolfinx_mortar.kernels.friction.node_tangents`; :func:`node_tangent` is its
+  :func:`dolfinx_mortar.kernels.friction.node_tangent_blocks`; :func:`node_tangent` is its
   reference, and still serves segment integration (its moving points).
 """
 

@@ -1116,7 +1116,7 @@ def test_batched_block_insertion_equals_one_call_per_block():
 def test_row_block_insertion_equals_one_call_per_block(chunk, calls):
     """contact.add_row_blocks (padded ragged rectangular blocks A[R_i, U_i] += K_i, one
     setValuesRCV per chunk; the rows-of-S^I friction tangent of the constrained recovery,
-    kernels.friction.node_tangent_rows) against the same blocks added by one setValues
+    kernels.friction.node_tangent_blocks) against the same blocks added by one setValues
     each and against a dense NumPy sum: rows R_i ⊂ columns U_i, dofs repeated across
     nodes, a node without dofs, one with columns but no rows, a −1 dof (skipped); chunk 1
     and 80 (the padded blocks are 6 × 6) give 5 and 3 setValuesRCV calls for the 5

@@ -386,13 +386,13 @@ def test_slip_integrals_match_reference(case, weights):
 
 @pytest.mark.parametrize("d", [2, 3])
 def test_node_tangents_kernel_matches_reference(d):
-    """kernels.friction.node_tangents (numba, all nodes at once) against the NumPy
+    """kernels.friction.node_tangent_blocks (numba, all nodes at once) against the NumPy
     reference friction.node_tangent, one node at a time: random frames, slips, D, Pd, kN,
     S-weights, frame derivatives and B rows, with constrained dofs (−1) and repeated
     dofs, a node without frame facets, one whose B row is empty and one whose S-weights'
     dofs are all constrained (no rows in the rows-only form). The occurrences carry
     ns + 1 facet nodes (the master frames' layout pads the smaller facets with −1)."""
-    from dolfinx_mortar.kernels.friction import node_tangent_rows, node_tangents
+    from dolfinx_mortar.kernels.friction import node_tangent_blocks
 
     rng = np.random.default_rng(7)
     m, nb, n, ndof = d - 1, d + 1, 5, 40
@@ -411,10 +411,11 @@ def test_node_tangents_kernel_matches_reference(d):
     b_off = np.array([0, 7, 7, 12, 20])  # node 0: an empty row
     b_idx = rng.integers(-1, ndof, b_off[-1])
     b_val = rng.standard_normal(b_off[-1])
-    u_off, U, k_off, K = node_tangents(
-        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, fdofs, fdA,
+    u_off, U, r_all, R_all, k_off, K = node_tangent_blocks(
+        True, nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, fdofs, fdA,
         b_off, b_idx, b_val,
     )  # fmt: skip
+    assert np.array_equal(r_all, u_off) and np.array_equal(R_all, U)  # every row
     for i, node in enumerate(nodes):
         sl, pl, bl = (
             slice(o[j], o[j + 1]) for o, j in ((s_off, node), (pair_off, node), (b_off, i))
@@ -429,8 +430,8 @@ def test_node_tangents_kernel_matches_reference(d):
         assert np.allclose(K_i, K_ref, rtol=1e-13, atol=1e-13 * np.abs(K_ref).max()), i
     # the rows-only variant: the same blocks restricted to the rows of the S-weights' dofs,
     # every other row of the square block zero (session 53)
-    u2, U2, r_off, R, k2, K2 = node_tangent_rows(
-        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, fdofs, fdA,
+    u2, U2, r_off, R, k2, K2 = node_tangent_blocks(
+        False, nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, pair_off, fdofs, fdA,
         b_off, b_idx, b_val,
     )  # fmt: skip
     assert np.array_equal(u2, u_off) and np.array_equal(U2, U)

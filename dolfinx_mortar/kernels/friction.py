@@ -491,7 +491,7 @@ def _node_slip_rates(
     b_val,
 ):  # fmt: skip
     """(Srow (d, nu), dt (d, nu)) of listed node i over its sorted dofs Ui: the S-weights
-    ∂S^I/∂u and ∂t^I/∂u (:func:`node_tangents`)."""
+    ∂S^I/∂u and ∂t^I/∂u (:func:`node_tangent_blocks`)."""
     m, d = a.shape[1], a.shape[2]
     nb = f_dofs.shape[1]
     nu = Ui.size
@@ -534,7 +534,8 @@ def _node_slip_rates(
 
 
 @numba.njit(cache=True)
-def node_tangents(
+def node_tangent_blocks(
+    all_rows,
     nodes,
     a,
     S,
@@ -568,76 +569,17 @@ def node_tangents(
     occurrence layout (:class:`dolfinx_mortar.friction.NodalFrames`, ``MasterFrames``):
     f_off (n + 1,) per node, f_dofs (P, nb, d) the dofs of each occurrence's facet nodes,
     fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out.
-    Returns (u_off (k + 1,), U: each node's sorted dofs, k_off (k + 1,), K: each node's
-    (nu, nu) block row-major). Only the rows of the node's S-weights are nonzero
-    (:func:`node_tangent_rows` returns those alone)."""
-    u_off, U, _, _, k_off, K = _tangent_blocks(
-        True,
-        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_off,
-        b_idx, b_val,
-    )  # fmt: skip
-    return u_off, U, k_off, K
 
-
-@numba.njit(cache=True)
-def node_tangent_rows(
-    nodes,
-    a,
-    S,
-    AT,
-    tau,
-    D,
-    Pd,
-    kN,
-    s_off,
-    s_dof,
-    s_w,
-    f_off,
-    f_dofs,
-    fdA,
-    b_off,
-    b_idx,
-    b_val,
-):
-    """:func:`node_tangents` restricted to the rows that can be nonzero, those of the
-    node's S-weights (the rows of ∂S^I/∂u): the same arguments; returns (u_off, U as
-    there, r_off (k + 1,), R: each node's sorted S-weight dofs ⊂ U_i, k_off (k + 1,), K:
-    each node's (nr, nu) block row-major). For a B row that reaches far beyond the
-    node's facets (the constrained normal recovery's ∂p^I/∂u, through M⁻¹) this is
-    nr × nu instead of nu × nu entries (session 53)."""
-    return _tangent_blocks(
-        False,
-        nodes, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA, b_off,
-        b_idx, b_val,
-    )  # fmt: skip
-
-
-@numba.njit(cache=True)
-def _tangent_blocks(
-    all_rows,
-    nodes,
-    a,
-    S,
-    AT,
-    tau,
-    D,
-    Pd,
-    kN,
-    s_off,
-    s_dof,
-    s_w,
-    f_off,
-    f_dofs,
-    fdA,
-    b_off,
-    b_idx,
-    b_val,
-):
-    """The one body of :func:`node_tangents` (``all_rows``: every row of U_i, R_i = U_i)
-    and :func:`node_tangent_rows` (the rows of the node's S-weights): returns (u_off, U,
-    r_off, R, k_off, K), K_i the (nr, nu) block row-major (numba). The rows are marked
-    in U_i (``searchsorted`` of the S-weights' dofs, U_i sorted) rather than sorted apart:
-    R_i = U_i[marked], in U_i's order (session 54, BENCHMARKS.md §66)."""
+    Returns (u_off (k + 1,), U: each node's sorted dofs U_i, r_off (k + 1,), R: each
+    node's rows R_i ⊂ U_i, k_off (k + 1,), K: each node's (nr, nu) block row-major).
+    Only the rows of the node's S-weights (those of ∂S^I/∂u) can be nonzero: with
+    ``all_rows`` R_i = U_i, the square block (the lumped recovery:
+    :func:`dolfinx_mortar.contact.add_square_blocks` takes u_off, U, k_off, K); without,
+    R_i = those rows alone, nr × nu entries instead of nu × nu where B reaches far beyond
+    the node's facets (the constrained normal recovery's ∂p^I/∂u through M⁻¹, session
+    53; :func:`dolfinx_mortar.contact.add_row_blocks`). The rows are marked in U_i
+    (``searchsorted`` of the S-weights' dofs) rather than sorted apart: R_i = U_i[marked],
+    in U_i's order (session 54, BENCHMARKS.md §66)."""
     k = nodes.size
     d = a.shape[2]
     dofs = [
