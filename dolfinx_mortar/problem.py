@@ -454,7 +454,8 @@ class ContactProblem:
             self._dirichlet.append(
                 _Dirichlet(name, comps, np.asarray(path, float), consts, bcs, by_comp)
             )
-        self._fields = []  # (function, field, components) of add_dirichlet_field
+        self._fields = []  # (function, field, component, name) of add_dirichlet_field
+        self._field_points = None  # field_values(): per call, (field, comps, x, held)
         x = mesh.geometry.x[:, :gdim]
         box = (
             np.concatenate([-x.min(axis=0), x.max(axis=0)])
@@ -591,6 +592,7 @@ class ContactProblem:
         self._bodies = None  # (cell_body, held, gram) of bodies_held(): the conditions changed
         self._unheld = None  # unheld_motions(): the conditions changed
         self._free_fit = None  # free_rigid_motion(): the conditions changed
+        self._field_points = None  # field_values(): the claimed dofs changed
         if self.linear_bulk is not None:
             self.linear_bulk.set_bcs(self.bcs)
         # global index of each local dof, -1 where a Dirichlet condition holds (PETSc ignores
@@ -650,7 +652,7 @@ class ContactProblem:
             dofs = fem.locate_dofs_topological((self.V.sub(c), Vc), fdim, facets)
             gc = fem.Function(Vc)
             bcs.append(fem.dirichletbc(gc, dofs, self.V.sub(c)))
-            self._fields.append((gc, field, c))
+            self._fields.append((gc, field, c, name))
         nowned = compat.owned_dof_count(self.V)
         by_comp = []
         for c in range(gdim):
@@ -932,7 +934,7 @@ class ContactProblem:
         return out
 
     def _set_fields(self, t: float) -> None:
-        for gc, field, c in self._fields:
+        for gc, field, c, _ in self._fields:
             gc.interpolate(lambda x, field=field, c=c: field(t, x)[c])
 
     def add_contact(self, term) -> None:
@@ -997,7 +999,7 @@ class ContactProblem:
             self.linear_bulk.destroy()
         for term in self.contacts:
             term.destroy()
-        for f in [self.u, *(gc for gc, _, _ in self._fields)]:
+        for f in [self.u, *(gc for gc, *_ in self._fields)]:
             compat.destroy_vector_wrapper(f)
 
     def set_time(self, t: float) -> None:
@@ -1021,6 +1023,49 @@ class ContactProblem:
         vals = [interpolate_path(d.path, t) for d in self._dirichlet if d.constants]
         vals += [interpolate_path(path, t) for _, path, _ in self._tractions]
         return np.concatenate(vals) if vals else np.zeros(0)
+
+    @property
+    def has_dirichlet_fields(self) -> bool:
+        """Whether some condition is a field of :meth:`add_dirichlet_field` (local: the
+        same on every rank, add_dirichlet_field being collective)."""
+        return bool(self._fields)
+
+    def field_values(self, t: float) -> np.ndarray:
+        """The displacements (length) that the :meth:`add_dirichlet_field` fields prescribe
+        at time ``t`` at this rank's owned nodes, shape (n, gdim): one row per node and
+        field (the nodes of each call's boundary whose dofs it holds: those that no earlier
+        condition claims, as :meth:`reactions` counts them), 0 in the components the field
+        does not hold there (local, no communication: each rank evaluates its own nodes;
+        (0, gdim) without fields). Each field is called at these nodes' points only
+        (reference coordinates, shape (3, n)), not interpolated over the mesh as
+        :meth:`set_time` does: the predictor's corner check (``solver._path_bends``) calls
+        it at three times a step."""
+        gdim = self.gdim
+        if self._field_points is None:
+            bs = self.V.dofmap.index_map_bs
+            xyz = self.V.tabulate_dof_coordinates()
+            calls: dict = {}  # (name, field) -> the components it holds
+            for _, field, c, name in self._fields:
+                calls.setdefault((name, id(field)), (name, field, []))[2].append(c)
+            self._field_points = []
+            for name, field, comps in calls.values():
+                dofs = [np.asarray(self._reaction_dofs[name][c], np.int64) for c in comps]
+                nodes = np.unique(np.concatenate(dofs) // bs)
+                held = np.zeros((gdim, nodes.size), bool)
+                for c, d in zip(comps, dofs, strict=True):
+                    held[c, np.searchsorted(nodes, d // bs)] = True
+                x = np.ascontiguousarray(xyz[nodes].T)
+                self._field_points.append((field, comps, x, held))
+        vals = [np.zeros((0, gdim))]
+        for field, comps, x, held in self._field_points:
+            if not x.shape[1]:
+                continue
+            u = field(t, x)
+            v = np.zeros((gdim, x.shape[1]))
+            for c in comps:
+                v[c] = np.broadcast_to(np.asarray(u[c], float), x.shape[1:])
+            vals.append(np.where(held, v, 0.0).T)
+        return np.concatenate(vals)
 
     def increment_norm(self, u_old: np.ndarray) -> float:
         """‖u − u_old‖₂ over the owned dofs (collective); u_old is an array like

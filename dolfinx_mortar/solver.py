@@ -225,11 +225,18 @@ LINE_SEARCH_ATOL = 0.0
 #: Smallest step a cutback may produce, as a fraction of t_end: below it the run stops.
 MIN_STEP_FRACTION = 1e-9
 #: The extrapolated predictor assumes that the prescribed data keep their rate: a step
-#: whose rate of the Dirichlet and traction paths differs from the last step's by more
-#: than this (relative) starts from the converged state. At a corner of the load path
+#: whose rate of the Dirichlet and traction paths, or of a Dirichlet field's displacement
+#: at some node, differs from the last step's by more than this (relative) starts from
+#: the converged state. At a corner of the load path
 #: (peers problem B: the normal approach, then the tangential shift at fixed depth) the
 #: extrapolation would press the body in again by a whole normal increment.
 PATH_RATE_TOL = 0.1
+#: The fields of ``add_dirichlet_field`` count in the check of PATH_RATE_TOL at every
+#: owned node they hold (its displacement vector's rate), except where a node's
+#: increments over both steps are at most this times the mesh extent: the round-off of
+#: a field's value at a point that does not move (a point on the axis of a rotation)
+#: would make every step a corner.
+FIELD_ROUND_OFF = 1e-12
 #: SNES divergence tolerance of a solve started from the extrapolated predictor: the
 #: relative growth of the residual norm that aborts it (the step is then retried from
 #: the converged state). From a far-off start the contact candidates, hence the Jacobian
@@ -1991,22 +1998,54 @@ def _jumped(problem, rates: list) -> bool:
     t1, ‖Δu‖/Δt) of the last two steps, the later one's rate above the ratio times the
     earlier one's, with the load path straight over both (at a corner the rate changes
     with the load: frictionless sliding after a press took 12 iterations instead of 5
-    without the predictor in the step after the corner)."""
+    without the predictor in the step after the corner). Collective where the problem
+    has Dirichlet fields: the corner check runs whenever there are two rates, whatever
+    they are, so that no rank's round-off in the rates decides whether it joins the
+    reduction."""
     if len(rates) < 2:
         return False
     (t0, t1, r0), (_, t2, r1) = rates
-    return r1 > PREDICTOR_JUMP_RATIO * r0 and not _path_bends(problem, t0, t1, t2)
+    bends = _path_bends(problem, t0, t1, t2)
+    return r1 > PREDICTOR_JUMP_RATIO * r0 and not bends
+
+
+def _rates_change(v0, v1, v2, t0: float, t1: float, t2: float, atol: float = 0.0) -> bool:
+    """Whether some value's rate on [t1, t2] differs from its rate on [t0, t1] by more than
+    PATH_RATE_TOL relative to the larger of the two (``v0, v1, v2``: the values at t0, t1,
+    t2, arrays of one shape; where they are 2-D, a row is one vector and its rates compare
+    by their Euclidean norms: a node's displacement). Values whose increments over both
+    intervals are at most ``atol`` (norms) do not count (round-off: a point that does
+    not move)."""
+    v0, v1, v2 = (np.asarray(v, float) for v in (v0, v1, v2))
+    a, b = (v1 - v0) / (t1 - t0), (v2 - v1) / (t2 - t1)
+
+    def size(w):
+        return np.abs(w) if w.ndim == 1 else np.linalg.norm(w, axis=-1)
+
+    change = size(a - b) > PATH_RATE_TOL * np.maximum(size(a), size(b))
+    if atol > 0.0:
+        change &= np.maximum(size(v1 - v0), size(v2 - v1)) > atol
+    return bool(np.any(change))
 
 
 def _path_bends(problem, t0: float, t1: float, t2: float) -> bool:
-    """Whether the rate of some prescribed value on [t1, t2] differs from its rate on
-    [t0, t1] by more than PATH_RATE_TOL relative to the larger of the two (local: the paths
-    are the same on every rank). A problem without ``load_values`` never bends."""
+    """Whether the prescribed data have a corner at t1 (:func:`_rates_change`): the
+    Dirichlet and traction paths (``problem.load_values``, value by value, the same on
+    every rank) or the fields of ``add_dirichlet_field`` (``problem.field_values``: each
+    rank's own nodes, a node's displacement vector by vector, increments up to
+    FIELD_ROUND_OFF × the mesh extent not counted; the ranks' answers combined by a
+    logical-or allreduce over the problem's communicator, so that every rank takes the
+    same decision). Collective where ``problem.has_dirichlet_fields``, local otherwise.
+    A problem without ``load_values`` never bends."""
     if not hasattr(problem, "load_values"):
         return False
-    v0, v1, v2 = (np.asarray(problem.load_values(t), float) for t in (t0, t1, t2))
-    a, b = (v1 - v0) / (t1 - t0), (v2 - v1) / (t2 - t1)
-    return bool(np.any(np.abs(a - b) > PATH_RATE_TOL * np.maximum(np.abs(a), np.abs(b))))
+    ts = (t0, t1, t2)
+    bends = _rates_change(*(problem.load_values(t) for t in ts), *ts)
+    if getattr(problem, "has_dirichlet_fields", False):
+        atol = FIELD_ROUND_OFF * problem.extent
+        local = _rates_change(*(problem.field_values(t) for t in ts), *ts, atol=atol)
+        bends = problem.comm.allreduce(local, op=MPI.LOR) or bends
+    return bends
 
 
 def default_uzawa_max(problem) -> int:
@@ -2030,8 +2069,8 @@ class LoadStepper:
     step has been passed to ``on_step`` already). A step's timings include its failed attempts.
     ``on_step(step_index, result)`` is called after each
     converged step, with the problem holding the converged state. Each step starts from
-    the extrapolated predictor except at a corner of the load path (``problem.load_values``,
-    :data:`PATH_RATE_TOL`) and after a jump (``problem.increment_norm``,
+    the extrapolated predictor except at a corner of the load path (``problem.load_values``
+    and ``problem.field_values``, :data:`PATH_RATE_TOL`) and after a jump (``problem.increment_norm``,
     :data:`PREDICTOR_JUMP_RATIO`). ``uzawa_max`` bounds the Uzawa rounds per step; None
     (the default) takes the largest ``uzawa_max`` of the problem's contact terms (1
     without contact), as a scene run does.

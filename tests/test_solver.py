@@ -607,6 +607,35 @@ def test_a_rate_change_at_a_corner_of_the_load_path_is_no_jump():
     assert predicted == [False, True, False, True]
 
 
+class _FieldRamp(_Problem):
+    """A Dirichlet field ramped up to t = 0.5, then held (the scene's paths are constant):
+    a corner that only ``field_values`` shows, plus a point that does not move whose
+    value is round-off that changes sign every step."""
+
+    comm = MPI.COMM_SELF
+    extent = 1.0
+    has_dirichlet_fields = True
+
+    def load_values(self, t):
+        return np.array([0.0, 2.0])
+
+    def field_values(self, t):
+        return np.array([[min(t, 0.5), 0.0], [1e-16 * (-1) ** round(4 * t), 0.0]])
+
+
+def test_no_predictor_across_a_corner_of_a_dirichlet_field():
+    """A corner of an ``add_dirichlet_field`` path counts as one of the scene's paths (the
+    session-54 probe: 37 Newton iterations from the extrapolation against 12), and the
+    round-off of a point that does not move (below FIELD_ROUND_OFF × the extent) does not
+    make every step a corner."""
+    predicted, _ = _predicted_solves(_FieldRamp(), 4)
+    assert predicted == [False, True, False, True]
+    ts = (0.25, 0.5, 0.75)
+    jitter = [np.array([0.0, 1e-16 * (-1) ** k]) for k in range(3)]
+    assert solver_module._rates_change(*jitter, *ts)  # without the floor: a corner
+    assert not solver_module._rates_change(*jitter, *ts, atol=1e-12)
+
+
 class _Cycling(_Problem):
     """Uzawa rounds whose multiplier change cycles (0.3, 0.4, 0.3, ...) and never settles."""
 
@@ -2110,3 +2139,77 @@ def test_round_text_reads_an_uzawa_round():
     assert solver_module._round_text(info) == (
         "a:b: change 2e-12, tangential change 0.0002, largest penetration 2.6e-19; c:d: change 0.5"
     )
+
+
+def _turn(theta, x, centre=(0.5, 1.0)):
+    """The displacement (2, n) of a rigid rotation by ``theta`` (rad) about ``centre``."""
+    dx, dy = x[0] - centre[0], x[1] - centre[1]
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([(c - 1.0) * dx - s * dy, s * dx + (c - 1.0) * dy])
+
+
+@pytest.mark.mpi
+def test_the_corner_check_reads_dirichlet_fields(patch2d_api):
+    """``_path_bends`` sees a corner of an add_dirichlet_field path (press, then slide),
+    not a straight one (the slide alone; a linearised rotation, as demo_twist3d's); a rigid
+    rotation by 22.5° a step is a corner at every step (each node's rate turns by 22.5°:
+    a relative change of 2 sin(11.25°) = 0.39 > PATH_RATE_TOL), by 1° a step none (0.017;
+    compared dof by dof, the y rate of the node above the centre, quadratic in the angle,
+    changed by 0.67 even so). The values are the field's at the owned nodes it holds: one
+    row per node of the top over the ranks."""
+    from dolfinx_mortar import ContactProblem
+
+    def press_slide(t, x):
+        u = np.array([0.1 * max(t - 1.0, 0.0), -0.01 * min(t, 1.0)])
+        return np.repeat(u[:, None], x.shape[1], axis=1)
+
+    def linear_twist(t, x):
+        return 0.01 * t * np.stack([-(x[1] - 1.0), x[0] - 0.5])
+
+    bends = solver_module._path_bends
+    problem = ContactProblem(patch2d_api, materials=_MATS, dirichlet=[_DBC[0]])
+    problem.add_dirichlet_field("upper_top", press_slide)
+    assert problem.has_dirichlet_fields
+    n = problem.comm.allreduce(len(problem.field_values(0.0)))
+    assert n == 4 + 1  # patch2d n_upper = 4: 5 nodes on the top
+    assert bends(problem, 0.5, 1.0, 1.5)
+    assert not bends(problem, 0.0, 0.5, 1.0) and not bends(problem, 1.0, 1.5, 2.0)
+    problem.destroy()
+    for field, corners in [
+        (linear_twist, [False, False]),
+        (lambda t, x: _turn(np.radians(22.5) * t, x), [True, True]),
+        (lambda t, x: _turn(np.radians(1.0) * t, x), [False, False]),
+    ]:
+        problem = ContactProblem(patch2d_api, materials=_MATS, dirichlet=[_DBC[0]])
+        problem.add_dirichlet_field("upper_top", field)
+        assert [bends(problem, t, t + 1.0, t + 2.0) for t in (0.0, 3.0)] == corners
+        problem.destroy()
+
+
+@pytest.mark.mpi
+def test_a_field_corner_on_one_rank_is_a_corner_on_every_rank(patch2d_api):
+    """Each rank evaluates the field at its own nodes: a field whose path bends only on the
+    first rank that holds nodes of it (straight on the others, which hold nodes too: on 2
+    ranks upper_bottom is split) makes ``_path_bends`` True on every rank (a logical-or
+    allreduce over the problem's communicator); a rank-local answer (True, False here
+    without it) would let the ranks start the step from different predictors."""
+    from dolfinx_mortar import ContactProblem
+
+    who = {"rank": -1}
+
+    def field(t, x):
+        ramp = min(t, 1.0) if MPI.COMM_WORLD.rank == who["rank"] else t
+        return np.stack([0.0 * x[0], np.full_like(x[0], -0.01 * ramp)])
+
+    problem = ContactProblem(patch2d_api, materials=_MATS, dirichlet=[_DBC[0]])
+    problem.add_dirichlet_field("upper_bottom", field)
+    comm = problem.comm
+    holders = comm.allgather(len(problem.field_values(0.0)) > 0)
+    assert sum(holders) == min(comm.size, 2), holders
+    who["rank"] = holders.index(True)
+    ts = (0.5, 1.0, 1.5)
+    local = solver_module._rates_change(*(problem.field_values(t) for t in ts), *ts)
+    assert comm.allgather(local) == [r == who["rank"] for r in range(comm.size)]
+    assert comm.allgather(solver_module._path_bends(problem, *ts)) == [True] * comm.size
+    assert not solver_module._path_bends(problem, 1.0, 1.5, 2.0)
+    problem.destroy()
