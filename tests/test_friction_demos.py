@@ -104,6 +104,41 @@ def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp):
     assert m["wrong_state"] == 0
 
 
+@pytest.mark.mpi
+def test_friction_patch2d_deformable_master(shared_tmp):
+    """Mode "deformable" (demo_friction_patch's docstring): the upper block, the master,
+    slides over the held, deforming lower block (ν = 0.3: both stretch along the
+    interface), its interface free. Exact: p_N = p0, |p_T| = μ p0 at every slave node in
+    every step. Segment integration: the press step and the normal force of every step
+    are exact, the dissipation of the steps after the first sliding one within 1.8 %
+    (4 steps; 8: 6e-5) of μ p0 L × the step's slide; the slave nodes
+    that the master's ends cover in part miss by a FIRST-ORDER term in the step (the
+    current code: 1.79 with 4 sliding steps, 0.89 with 8; a consistent method would meet
+    round-off there: tighten this test when it does). The wholly covered nodes: 0.44 %
+    and 0.39 %."""
+    m = {}
+    for n in (4, 8):
+        out = str(shared_tmp / f"fpatch2d-deformable-{n}")
+        m[n] = demo_friction_patch.main(
+            ["--mode", "deformable", "--integration", "segment", "--slide-steps", str(n)]
+            + ["--out", out]
+        )
+        assert m[n]["press_p_err"] <= 1e-8 and m[n]["press_q"] <= 1e-8, m[n]
+        assert m[n]["press_nodes_on"] == m[n]["slave_nodes_on"] == 6
+        assert m[n]["states"] == [2] and m[n]["q_sign"] in ([-1], [1])
+        assert m[n]["force_normal_err"] <= 1e-8, m[n]["force"]
+        # |p_T| = μ p_N at every slipping node: the tangential error is the normal one
+        assert m[n]["q_err"] == pytest.approx(m[n]["p_err"], rel=1e-6, abs=1e-9)
+        assert m[n]["p_err_inner"] <= 1e-2, m[n]["p_err_inner"]
+        assert m[n]["slave_nodes_inner"] == 2
+        # μ p0 L × the slide of each step (SLIDE / n), after the first sliding step
+        assert m[n]["dissipation"][2:] == pytest.approx([0.05 / n] * (n - 1), rel=2e-2)
+        assert m[n]["cutbacks"] == 0 and m[n]["max_newton_per_solve"] <= 8, m[n]
+    # first order in the step: halving it halves the error
+    ratio = m[8]["p_err"] / m[4]["p_err"]
+    assert 0.4 <= ratio <= 0.6, (m[4]["p_err"], m[8]["p_err"])
+
+
 def _assert_cattaneo(m: dict, c_elements: float, l2_q: float, l2_p: float) -> None:
     """The Cattaneo–Mindlin demo's metrics ``m`` against the analytic solution: stick-zone
     half-width within ``c_elements`` slave elements, L2(q) ≤ ``l2_q``, L2(p) ≤ ``l2_p``;
