@@ -127,6 +127,9 @@ def test_friction_patch2d_deformable_master(shared_tmp):
         assert m[n]["press_nodes_on"] == m[n]["slave_nodes_on"] == 6
         assert m[n]["states"] == [2] and m[n]["q_sign"] in ([-1], [1])
         assert m[n]["force_normal_err"] <= 1e-8, m[n]["force"]
+        # the master drags the slave along +x: μ p0 L = 1 (2.0 % low with 4 steps, 3e-6 with
+        # 8: not understood, see CHANGELOG session 55)
+        assert 0.97 <= m[n]["force"][0] <= 1.0 + 1e-8, m[n]["force"]
         # |p_T| = μ p_N at every slipping node: the tangential error is the normal one
         assert m[n]["q_err"] == pytest.approx(m[n]["p_err"], rel=1e-6, abs=1e-9)
         assert m[n]["p_err_inner"] <= 1e-2, m[n]["p_err_inner"]
