@@ -46,8 +46,9 @@ out while its active set moves (GEOMETRIC_TANGENT_AT_FIRST_CONTACT).
 
 With ``friction > 0`` the tangential part (METHOD.md §1, §2, §4; the node-level
 formulas in :mod:`dolfinx_mortar.friction`, the point integrals in
-:mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (∂S^I/∂u)ᵀ t^I and its exact
-non-symmetric tangent, tangential multipliers to the Uzawa rounds, a slip history
+:mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (G^I)ᵀ t^I (G^I the force
+weights: the traction acts on the master at the current projection ζ,
+FORCE_AT_CURRENT_PROJECTION) and its exact non-symmetric tangent, tangential multipliers to the Uzawa rounds, a slip history
 (u_n, λ_T = τ_n) committed per step and the chattering control of FREEZE_AFTER. With
 ``friction = 0`` none of it is created.
 """
@@ -369,6 +370,21 @@ PIN_CARRY_TOL = 1e-3
 #: instead of 1. The rule also holds in any solve whose iterate has an active node deeper
 #: than DEEP_PENETRATION_TOL × h_I, the first Jacobian of the solve included (see below).
 GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
+#: Where the tangential traction acts on the master (session 55): True, at the CURRENT
+#: projection ζ of each slave point (the force weights G of R_T = Σ_I (G^I)ᵀ t^I, with
+#: the geometric tangent block of ζ's motion, :func:`.kernels.friction.force_geometric_blocks`,
+#: and with segment integration the master rows at ζ(ξ) of the moving points); False, at
+#: ζ_n (G = W, the S-weights of the slip), as before session 55 (docs/method-notes.md,
+#: "Where the traction acts on the master"). The slip, its history and the return
+#: mapping do not depend on it. The first held step after a gross-slip slide moved the
+#: forces by 1.0e-2 |F| (2D) with ζ_n, 4.5e-4 with ζ (BENCHMARKS.md §48, §70).
+#: Opt-in (False by default) since the change costs Newton iterations on the ironing
+#: path: demo_ironing2d's corner snap (t = 1.36) took 18 + 12 + 1 instead of 18 + 6 + 1 (the
+#: full-step round after the pins grew ‖R‖ at its first step, solver.ROUND_FULL_STEP_GROWTH,
+#: and restarted with l2), over issue 4's 25 per step (tests/test_friction_demos.py::
+#: test_ironing2d_snap_of_the_dragged_corner); with that growth allowed to 3× the snap
+#: took 18 + 5 + 1, but the step at t = 1.52 then 12 + 17 + 3 + 1 (BENCHMARKS.md §70).
+FORCE_AT_CURRENT_PROJECTION = False
 #: Deep penetration (in units of the nodal facet size h_I): an active node with mixed gap
 #: γ^I < −DEEP_PENETRATION_TOL h_I marks an iterate far from equilibrium, where p = ε|γ|
 #: is 5 E* (auto penalty) or more, and the geometric part of the tangent is left out while
@@ -1118,6 +1134,7 @@ class MortarContact:
         #: never changed in place, and mostly the same between Newton solves
         self._couplings_memo = None
         self._no_couplings = (np.empty(0, np.int64), np.empty(0, np.int64))
+        self._geometric_on = True  # the last Jacobian kept the geometric blocks
         log.info(
             "contact %s: %d slave nodes, penalty %s in [%.4g, %.4g] (E* = %.4g), %s recovery, %s integration",
             self.name,
@@ -1865,11 +1882,13 @@ class MortarContact:
                 if self._hist_vec is not None:  # master frames, the first search at a new t_n
                     self._carry_history()
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
-        cap = nsf * nq * self.node_of.shape[1] * (ns + nm)
+        current = self.force_at_current
+        cap = nsf * nq * self.node_of.shape[1] * (ns + (2 if current else 1) * nm)
         e_node = np.empty(cap, np.int64)
         e_key = np.empty(cap, np.int64)
         e_dof = np.empty((cap, d), np.int64)
         e_w = np.empty(cap)
+        e_g = np.empty(cap)
         self.AT, self.S, self.S_n = np.zeros(n), np.zeros((n, d)), np.zeros((n, d))
         self.dual_on = self._dual_facets()
         ne = 0
@@ -1886,6 +1905,8 @@ class MortarContact:
                 self.qp_m,
                 self.qp_mn,
                 self.qp_zn,
+                self.qp_zeta,
+                current,
                 self.node_of,
                 self.node_touching,
                 self.t_weights,
@@ -1901,8 +1922,9 @@ class MortarContact:
                 e_key,
                 e_dof,
                 e_w,
+                e_g,
             )
-        # merge the entries of each (node, block): S^I = Σ_k W_k x_k
+        # merge the entries of each (node, block): S^I = Σ_k W_k x_k, R_T = Σ_I (G^I)ᵀ t^I
         order = np.lexsort((e_key[:ne], e_node[:ne]))
         en, ek = e_node[order], e_key[order]
         start = np.ones(ne, bool)
@@ -1910,6 +1932,7 @@ class MortarContact:
         first = np.flatnonzero(start)
         self.s_node, self.s_key, self.s_dof = en[first], ek[first], e_dof[order][first]
         self.s_w = np.add.reduceat(e_w[order], first) if ne else np.empty(0)
+        self.s_g = np.add.reduceat(e_g[order], first) if ne else np.empty(0)
         self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
         self.frame_a, self.frame_n, _ = self._frames_at(self.xs, self.xm, False)
         self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
@@ -2059,6 +2082,12 @@ class MortarContact:
         )
         sigma[~hasT] = 0.0
         return sigma
+
+    @property
+    def force_at_current(self) -> bool:
+        """Whether the tangential traction acts on the master at the current projection ζ
+        (FORCE_AT_CURRENT_PROJECTION), else at ζ_n."""
+        return FORCE_AT_CURRENT_PROJECTION
 
     @property
     def frame_dA(self) -> np.ndarray:
@@ -2523,9 +2552,10 @@ class MortarContact:
         """Add this pair's residual to ``b`` (the global PETSc residual vector of the
         displacement space, force units) with global indices and ADD_VALUES: the normal
         part R_c = −Σ_I p^I B^I and, with friction, the tangential part
-        R_T = Σ_I (∂S^I/∂u)ᵀ t^I (t^I the nodal tangential traction vector, S^I = Σ_k W_k
-        x_k the node's mortar slip integral). Nodes with t^I = 0 add nothing; the
-        consistent recoveries may give t^I ≠ 0 at nodes the nodal law calls open, and
+        R_T = Σ_I (G^I)ᵀ t^I (t^I the nodal tangential traction vector, G^I its force
+        weights: those of the node's mortar slip integral S^I = Σ_k W_k x_k on the slave,
+        and on the master at the current projection ζ, :attr:`force_at_current`). Nodes
+        with t^I = 0 add nothing; the consistent recoveries may give t^I ≠ 0 at nodes the nodal law calls open, and
         those add theirs.
 
         Both are evaluated at the contact state of the last :meth:`update` (current
@@ -2545,10 +2575,10 @@ class MortarContact:
             res_idx[keep].astype(PETSc.IntType), res_val[keep], addv=PETSc.InsertMode.ADD_VALUES
         )
         if self.frictional:
-            # R_T = Σ_I (∂S^I/∂u)ᵀ t^I (the consistent recoveries may give t^I ≠ 0 at nodes
+            # R_T = Σ_I (G^I)ᵀ t^I (the consistent recoveries may give t^I ≠ 0 at nodes
             # the nodal law calls open)
             act = np.any(self.t_vec != 0.0, axis=1)[self.s_node]
-            vals = self.t_vec[self.s_node[act]] * self.s_w[act, None]
+            vals = self.t_vec[self.s_node[act]] * self.s_g[act, None]
             if masked:
                 idx = self.s_dof[act]
             else:
@@ -2614,6 +2644,7 @@ class MortarContact:
         res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
         drop = self._drop_geometric_tangent()  # collective: called at every Jacobian
         geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
+        self._geometric_on = geometric  # the friction's geometric block follows
         if not geometric:
             hess_val[:] = 0.0
         rows = np.flatnonzero(res_idx.max(axis=1) >= 0)
@@ -2931,8 +2962,10 @@ class MortarContact:
         keys.append(np.unique((srow // self.bs) * nb + S.indices // self.bs))
 
     def _add_tangential_jacobian(self, A, c_off, c_idx, c_val) -> None:
-        """K_T = Σ_I (∂S^I/∂u)ᵀ ∂t^I/∂u (friction module docstring), non-symmetric.
-        ``_jacobians`` counts this Jacobian already (:meth:`add_jacobian`)."""
+        """K_T = Σ_I (G^I)ᵀ ∂t^I/∂u (friction module docstring; G^I the force weights,
+        = ∂S^I/∂u where the traction acts at ζ_n) and, with the traction at the current
+        projection, the geometric block of ζ's motion (:meth:`_add_force_geometric`);
+        non-symmetric. ``_jacobians`` counts this Jacobian already (:meth:`add_jacobian`)."""
         if self.frozen is None:  # the chattering control's freeze is still ahead
             norm = np.linalg.norm(self.tau_law, axis=1)
             dirs = self.tau_law / np.maximum(norm, 1e-300)[:, None]
@@ -2997,6 +3030,7 @@ class MortarContact:
                         dirs = np.full_like(dirs, np.nan)
                 self.frozen = (states, dirs)
         self._learned_t = np.empty(0, np.int64)
+        self._add_force_geometric(A)
         mot = None
         mixed = self.tangential_recovery != "lumped" and not self._no_contact
         if self._seg_motion is not None:
@@ -3054,6 +3088,7 @@ class MortarContact:
                 self.s_off,
                 self.s_dof,
                 self.s_w,
+                self.s_g,
                 fo,
                 fdofs,
                 self.frame_dA,
@@ -3088,6 +3123,7 @@ class MortarContact:
                 rows[i][0],
                 rows[i][1],
                 self._moving_rows(mot, node),
+                self.s_g[s:e],
             )
             if U.size and constrained.any():
                 self._add_slip_rows(A, node, U, K)
@@ -3095,8 +3131,45 @@ class MortarContact:
                 idx = U.astype(PETSc.IntType)
                 A.setValues(idx, idx, K, addv=PETSc.InsertMode.ADD_VALUES)
 
+    def _add_force_geometric(self, A) -> None:
+        """The geometric tangent block of the traction at the current projection (local):
+        Σ_q Σ_I (−w_q J₀ Ψ_I) t^I ⊗ ∂_γN^m_b(ζ_q) ∂ζ_q^γ/∂u on the current master facet's
+        rows (:func:`.kernels.friction.force_geometric_blocks`; with segment integration
+        at fixed ξ_q, the points' own motion is :meth:`_segment_slip_motion`'s). Only where
+        :attr:`force_at_current`, and left out with the normal part's geometric block
+        (:meth:`_drop_geometric_tangent`, DEEP_PENETRATION_TOL): kept, the second press
+        step of demo_cattaneo2d took 13 Newton iterations instead of 9 (study54-S)."""
+        if not (self.force_at_current and self._geometric_on) or not self.slave.num_facets:
+            return
+        rows, cols, K = kfriction.force_geometric_blocks(
+            self.ftype,
+            self.master.ftype,
+            self.ftype_phi,
+            self.xs,
+            self.xm,
+            self.qp_xi,
+            self.qp_w,
+            self.qp_m,
+            self.qp_mn,
+            self.qp_zeta,
+            self.node_of,
+            self.node_touching,
+            self.t_weights,
+            self.dual_on,
+            self.slave.dofs,
+            self.master.dofs,
+            self.t_vec,
+        )
+        if rows.shape[0]:
+            A.setValuesRCV(
+                rows.astype(PETSc.IntType),
+                cols.astype(PETSc.IntType),
+                K,
+                addv=PETSc.InsertMode.ADD_VALUES,
+            )
+
     def _add_slip_rows(self, A, node: int, U: np.ndarray, K: np.ndarray) -> None:
-        """A[R, U] += K[R, :] for the friction tangent K = (∂S^I/∂u)ᵀ ∂t^I/∂u (U, U) of one
+        """A[R, U] += K[R, :] for the friction tangent K = (G^I)ᵀ ∂t^I/∂u (U, U) of one
         node (:func:`.friction.node_tangent`), R the dofs of its S-weights: the only rows
         that can be nonzero (as :func:`.kernels.friction.node_tangent_blocks`; local)."""
         sd = self.s_dof[self.s_off[node] : self.s_off[node + 1]].ravel()
@@ -3132,10 +3205,14 @@ class MortarContact:
             dS_n^I = d_n dA_T^I + w Ψ_I ∂_βd_n dξ^β   (the t_n gap vector d_n, S_n's weights),
             dW_Ia = N_a dA_T^I + w Ψ_I ∂_βN_a dξ^β,
             dW_Ib = −(N^m_b dA_T^I + w Ψ_I ∂_β[N^m_b(ζ_n)] dξ^β),
+            dG_Ib = −(N^m_b(ζ) dA_T^I + w Ψ_I ∂_β[N^m_b(ζ)] dξ^β)   (the current facet's b),
 
         summed over the points of each (slave facet, master facet) by
-        :func:`.kernels.friction.slip_motion_blocks`. Adds Σ_I t^I ⊗ dW_I (the variation of
-        the residual weights, R_T = Σ_I Wᵀ t^I) to ``A``. For nodal ``values`` (each (N, m),
+        :func:`.kernels.friction.slip_motion_blocks`. Adds Σ_I t^I ⊗ dG_I (the variation of
+        the residual's force weights G, R_T = Σ_I Gᵀ t^I, through the moving points: slave
+        part dW_Ia, master part dG_Ib at the current projection ζ(ξ) of the moving point,
+        ∂ζ/∂ξ at fixed nodes; dW_Ib where the traction acts at ζ_n, :attr:`force_at_current`)
+        to ``A``; the part of ζ's motion at fixed ξ is :meth:`_add_force_geometric`'s. For nodal ``values`` (each (N, m),
         all nodes, global numbering), also (∂M v)^I = v_h dA_T^I + w Ψ_I ∂_β v_h dξ^β with
         v_h = Σ_J Φ_J v^J, or v^I on a facet whose block of M is lumped
         (:meth:`_tangential_mass`): the consistent tangential recoveries need them.
@@ -3147,6 +3224,7 @@ class MortarContact:
         summed per node as CSR ``dsig_rows`` (n·m, ndof), ``dAT_rows`` (n, ndof).
         """
         dxi, dw = self._seg_motion
+        current = self.force_at_current
         n_rows = dw.shape[0]
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
         k, m = d - 1, d - 1
@@ -3155,6 +3233,7 @@ class MortarContact:
         dgn, dgxin = np.zeros((n_rows, d)), np.zeros((n_rows, k, d))
         Ns, dNs = np.zeros((n_rows, ns)), np.zeros((n_rows, ns, k))
         Nm, dNm = np.zeros((n_rows, nm)), np.zeros((n_rows, nm, k))
+        Nc, dNc = np.zeros((n_rows, nm)), np.zeros((n_rows, nm, k))
         psi, dpsi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
         phi, dphi = np.zeros((n_rows, nphi)), np.zeros((n_rows, nphi, k))
         if n_rows:
@@ -3170,6 +3249,7 @@ class MortarContact:
                 self.qp_m,
                 self.qp_mn,
                 self.qp_zn,
+                self.qp_zeta,
                 self.t_weights,
                 self.dual_on,
                 dg,
@@ -3180,6 +3260,8 @@ class MortarContact:
                 dNs,
                 Nm,
                 dNm,
+                Nc,
+                dNc,
                 psi,
                 dpsi,
                 phi,
@@ -3227,8 +3309,7 @@ class MortarContact:
             dgxin,
             Ns,
             dNs,
-            Nm,
-            dNm,
+            *((Nc, dNc) if current else (Nm, dNm)),
             psi,
             dpsi,
             vh,
@@ -3239,14 +3320,15 @@ class MortarContact:
             tw,
             dMv,
         )
-        # Σ_I t^I ⊗ dW_I: rows [slave facet dofs, t_n master facet dofs], columns the
-        # local dofs [slave facet, current master facet]
+        # Σ_I t^I ⊗ dG_I: rows [slave facet dofs, master facet dofs: the current one where
+        # the traction acts at ζ, else the t_n one], columns the local dofs [slave facet,
+        # current master facet]
         f2, rest = np.divmod(k2, nmf * nmf)
         m2, mn2 = np.divmod(rest, nmf)
         _add_blocks(
             A,
             np.arange(k2.size),
-            np.concatenate([self.slave.dofs[f2], self.master.dofs[mn2]], axis=1),
+            np.concatenate([self.slave.dofs[f2], self.master.dofs[m2 if current else mn2]], axis=1),
             np.concatenate([self.slave.dofs[f2], self.master.dofs[m2]], axis=1),
             tw,
         )
@@ -3300,7 +3382,8 @@ class MortarContact:
         return dofs, rows[:, dofs].toarray(), at[:, dofs].toarray()[0], self.sigma_t[node]
 
     def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val, mot=None) -> None:
-        """K_T = Σ_I (∂S^I/∂u)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] for the consistent tangential
+        """K_T = Σ_I (G^I)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] (G^I the force weights, ∂S^I/∂u
+        where the traction acts at ζ_n; :attr:`force_at_current`) for the consistent tangential
         recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
         ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α (:meth:`_slip_since_t_n`: a_n·S_n is constant at
         fixed points) and ∂p^K = −(row of the normal recovery). The rows ∂σ^K and ∂p^K of
@@ -3322,14 +3405,15 @@ class MortarContact:
         for node in np.flatnonzero(hasT):
             s, e = self.s_off[node], self.s_off[node + 1]
             ps, pe = fo[node], fo[node + 1]
-            U, _, Srow, Frow = fr.node_rows(
+            U, pos, Srow, Frow = fr.node_rows(
                 self.s_dof[s:e],
                 self.s_w[s:e],
                 fdofs[ps:pe].reshape(-1, d),
                 self.frame_dA[ps:pe].reshape(-1, m, d, d),
             )
             nu = U.size
-            local_rows[node] = (U, Srow[:, :nu], Frow[:, :, :nu])
+            Grow = fr.weight_rows(pos, self.s_dof[s:e], self.s_g[s:e], nu)
+            local_rows[node] = (U, Grow, Frow[:, :, :nu])
             Gr = self.frame_a[node] @ Srow[:, :nu] + np.einsum(
                 "c,acu->au", self.S[node], Frow[:, :, :nu]
             )
@@ -3373,13 +3457,13 @@ class MortarContact:
             dtau = dtau + sp.csr_matrix(rec.TF[own]) @ gathered(trip_f, N * m)
         dtau = dtau.tocsr()
         keys, nb = [], int(self.ranges[-1])
-        for node, (U, Srow, Frow) in local_rows.items():
+        for node, (U, Grow, Frow) in local_rows.items():
             rows = dtau[node * m : (node + 1) * m]
             V = np.union1d(rows.indices, U)
             dt = self.frame_a[node].T @ rows[:, V].toarray()
             jU = np.searchsorted(V, U)
             dt[:, jU] += np.einsum("a,acu->cu", self.tau[node], Frow)
-            K = Srow.T @ dt
+            K = Grow.T @ dt
             A.setValues(
                 U.astype(PETSc.IntType),
                 V.astype(PETSc.IntType),

@@ -57,14 +57,21 @@ lumped or the constrained normal recovery); the point integrals are in
   Φ = |τ^tr| − μ p_N; stick (Φ ≤ 0) τ = τ^tr, slip τ = μ p_N τ^tr/|τ^tr|; open
   nodes (p_N = 0) τ = 0. λ_T is the tangential multiplier: the traction of the
   last converged step, then the Uzawa iterates.
-- **Residual** R_T = Σ_I (∂S^I/∂u)ᵀ t^I with t^I = τ_α a_α^I (the traction resisting
-  slip; the master pushes the slave with −t^I per unit reference area). The
-  variation of the frame is not part of the weak form (as the paper omits the
+- **Residual** R_T = Σ_I (G^I)ᵀ t^I with t^I = τ_α a_α^I (the traction resisting
+  slip; the master pushes the slave with −t^I per unit reference area) and G^I the
+  node's force weights (session 55): on the slave those of S^I (w J₀ Ψ_I N_a), on the
+  master −w J₀ Ψ_I N^m_b(ζ) at the CURRENT projection ζ of each point (the continuum's
+  δg_T at the current closest point), or at ζ_n, G^I = ∂S^I/∂u (before session 55):
+  ``contact.FORCE_AT_CURRENT_PROJECTION``.
+  The variation of the frame is not part of the weak form (as the paper omits the
   variation of a_αβ); it IS part of the tangent, through t^I(u).
-- **Tangent** (:func:`node_tangent`): K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u, with
+- **Tangent** (:func:`node_tangent`): K_I = (G^I)ᵀ ∂t^I/∂u, with
   ∂t = a_αᵀ ∂τ_α + τ_α ∂a_α, ∂τ = D ∂γ + P ∂p_N, ∂γ_β = (a_β·∂S + S·∂a_β)/A_T
   (segment integration: also − a_{β,n}·∂S_n and − γ_β ∂A_T, the moving points),
-  ∂p_N = −(ε_N/A) B^I: exact (no term dropped) and non-symmetric. The contact term
+  ∂p_N = −(ε_N/A) B^I; with G at ζ also the geometric block of ζ's motion,
+  Σ_q Σ_I (−w Ψ_I) t^I ⊗ ∂_γN^m_b(ζ_q) ∂ζ_q^γ/∂u
+  (:func:`dolfinx_mortar.kernels.friction.force_geometric_blocks`, left out with the
+  normal part's geometric block). Exact (no term dropped) and non-symmetric. The contact term
   computes all nodes at once with the numba kernel
   :func:`dolfinx_mortar.kernels.friction.node_tangent_blocks`; :func:`node_tangent` is its
   reference, and still serves segment integration (its moving points).
@@ -538,8 +545,22 @@ def node_rows(s_dofs, s_w, f_dofs, f_dA, extra=None):
     return U, pos, Srow, Frow
 
 
-def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val, moving=None):
-    """K_I = (∂S/∂u)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring).
+def weight_rows(pos, s_dofs: np.ndarray, s_g: np.ndarray, nu: int) -> np.ndarray:
+    """The rows (d, nu) of one node's weights ``s_g`` (E,) on its dofs s_dofs (E, d),
+    ``pos`` of :func:`node_rows` mapping dofs to columns (dropped dofs left out): the test
+    rows G^I of R_T = Σ_I (G^I)ᵀ t^I (the force weights, session 55)."""
+    d = s_dofs.shape[1]
+    G = np.zeros((d, nu + 1))
+    for c in range(d):
+        np.add.at(G[c], pos(s_dofs[:, c]), s_g)
+    return G[:, :nu]
+
+
+def node_tangent(
+    a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_val, moving=None, s_g=None
+):
+    """K_I = (G^I)ᵀ ∂t/∂u of one node over the union of its dofs (module docstring), G^I
+    the force weights ``s_g`` (E,) on s_dofs (the test rows of R_T; None: G = ∂S/∂u).
 
     a (m, d) frame; S (d,) weighted slip; AT area; tau (m,), D (m, m), Pd (m,) from
     :func:`return_mapping`; kN = ε_N/A (∂p_N = −kN B); s_dofs, s_w, f_dofs, f_dA as
@@ -568,5 +589,6 @@ def node_tangent(a, S, AT, tau, D, Pd, kN, s_dofs, s_w, f_dofs, f_dA, b_idx, b_v
         dgam -= np.outer(moving[3] / AT, at_row / AT)
     dtau = D @ dgam - np.outer(Pd, kN * Brow)
     dt = a.T @ dtau + np.einsum("a,acu->cu", tau, Frow)
-    K = Srow[:, :nu].T @ dt[:, :nu]
+    G = Srow[:, :nu] if s_g is None else weight_rows(pos, s_dofs, s_g, nu)
+    K = G.T @ dt[:, :nu]
     return U, K

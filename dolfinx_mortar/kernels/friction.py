@@ -25,7 +25,14 @@ dual basis on the facets flagged in ``use_dual``: ``tangential_weights``):
 and the constant weights W^I_k of S^I = Σ_k W^I_k x_k over the slave facet nodes
 (W = w J₀ Ψ_I N_a) and the old master facet nodes (W = −w J₀ Ψ_I N^m_b(ζ_n)), one
 entry per (node I, point, facet node): ``e_node``, ``e_key`` (global block of
-node k), ``e_dof`` (its d global dofs, −1 where constrained), ``e_w``.
+node k), ``e_dof`` (its d global dofs, −1 where constrained), ``e_w``. The same entries
+carry the force weights ``e_g`` (session 55), the test rows G^I of the residual
+R_T = Σ_I (G^I)ᵀ t^I: slave part W's, master part −w J₀ Ψ_I N^m_b(ζ) at the point's
+CURRENT projection (facet qp_m, ζ = qp_zeta), so that the traction acts where the slave
+point is now, not at the t_n material point one step's slip behind (``at_current``
+False: G = W, as before session 55). One layout for both: MortarContact merges
+the entries per (node, block) into s_node, s_key, s_dof, s_w, s_g.
+:func:`force_geometric_blocks` gives the tangent block of ζ's motion.
 
 With element and node integration the weights, hence S_n, are constant in u. With
 segment integration the points move with u; :func:`slip_point_terms` gives the pieces of
@@ -99,6 +106,8 @@ def slip_integrals(
     qp_m,
     qp_mn,
     qp_zn,
+    qp_zeta,
+    at_current,
     node_of,
     node_ok,
     dual,
@@ -114,9 +123,18 @@ def slip_integrals(
     e_key,
     e_dof,
     e_w,
+    e_g,
 ):
     """Fill A_T (n,), S (n, d), S_n (n, d) and the weight entries; returns the number of
     entries.
+
+    Each entry carries two weights: e_w, the S-weight W (S^I = Σ_k W_k x_k), and e_g, the
+    force weight G of the traction's residual R_T = Σ_I (G^I)ᵀ t^I (session 55). G's slave
+    part is W's, w J₀ Ψ_I N_a; its master part is −w J₀ Ψ_I N^m_b(ζ) at the CURRENT
+    projection (facet qp_m, qp_zeta (nsf, nq, km)) where ``at_current``, else at ζ_n on
+    m_n (G = W, the force on the master material point the slip is measured from, as
+    before session 55). With ``at_current`` the master entries come twice: (W, 0) on
+    the t_n facet m_n and (0, G) on the current facet m.
 
     S_n = Σ_q w_q J₀ Ψ_I(ξ_q) d_n(ξ_q) are the same S-weights applied to the t_n
     coordinates, d_n(ξ) = x¹_n(ξ) − x²_n(ζ_n; m_n) the point's t_n gap vector (module
@@ -133,7 +151,7 @@ def slip_integrals(
     segment integration decided once per step attempt, see DUAL_KEEP_TOL); elsewhere
     Ψ = Φ, so that no A_T^I comes from the negative part of Ψ alone; skeys (nsf, ns),
     mkeys (nmf, nm) global blocks; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs.
-    Entry arrays must hold nsf·nq·nphi·(ns + nm) rows (e_dof: (…, d)).
+    Entry arrays must hold nsf·nq·nphi·(ns + 2 nm) rows (e_dof: (…, d)).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -145,6 +163,7 @@ def slip_integrals(
     dN = np.empty((ns, ks))
     ddN = np.empty((ns, ks, ks))
     Nm = np.empty(nm)
+    Nc = np.empty(nm)
     dNm = np.empty((nm, km))
     ddNm = np.empty((nm, km, km))
     Phi = np.empty(9)
@@ -166,6 +185,8 @@ def slip_integrals(
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
+            if at_current:
+                shape(ftype_m, qp_zeta[f, q], Nc, dNm, ddNm)
             _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for c in range(d):
                 s = 0.0
@@ -193,6 +214,7 @@ def slip_integrals(
                     for c in range(d):
                         e_dof[e, c] = sdofs[f, a * d + c]
                     e_w[e] = wphi * N[a]
+                    e_g[e] = wphi * N[a]
                     e += 1
                 for b in range(nm):
                     e_node[e] = node
@@ -200,8 +222,133 @@ def slip_integrals(
                     for c in range(d):
                         e_dof[e, c] = mdofs[mn, b * d + c]
                     e_w[e] = -wphi * Nm[b]
+                    e_g[e] = 0.0 if at_current else -wphi * Nm[b]
                     e += 1
+                if at_current:
+                    m = qp_m[f, q]
+                    for b in range(nm):
+                        e_node[e] = node
+                        e_key[e] = mkeys[m, b]
+                        for c in range(d):
+                            e_dof[e, c] = mdofs[m, b * d + c]
+                        e_w[e] = 0.0
+                        e_g[e] = -wphi * Nc[b]
+                        e += 1
     return e
+
+
+@numba.njit(cache=True)
+def force_geometric_blocks(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_mn,
+    qp_zeta,
+    node_of,
+    node_ok,
+    dual,
+    use_dual,
+    sdofs,
+    mdofs,
+    t,
+):
+    """The geometric part of the tangential tangent with the force weights at the current
+    projection (:func:`slip_integrals`' e_g, ``at_current``): the master rows of
+    R_T = Σ_I (G^I)ᵀ t^I move with ζ_q, so at fixed t
+
+        ∂R_T/∂u ∋ Σ_q Σ_I (−w_q J₀ Ψ_I(ξ_q)) t^I ⊗ ∂_γN^m_b(ζ_q) ∂ζ_q^γ/∂u
+
+    on the rows of the current master facet m = qp_m[f, q], with ∂ζ/∂u the derivative of
+    the closest-point projection (:func:`.gap.projection_derivative`: ∂ζ/∂x¹ N_a over the
+    slave facet's nodes, ∂ζ/∂x^m_b over m's). The points and nodes are those of the
+    S-weights (paired now and at t_n, node_ok); inputs as :func:`slip_integrals`, t (n, d)
+    the nodal traction vectors.
+
+    Returns rows (P, nm·d) (the current master facet's dofs), cols (P, (ns + nm)·d) (the
+    slave facet's, then m's) and K (P, nm·d, (ns + nm)·d), one block per point with
+    Σ_I Ψ_I t^I ≠ 0 (dofs −1: constrained, for ``setValuesRCV``)."""
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = node_of.shape[1]
+    ks = tdim(ftype_s)
+    km = tdim(ftype_m)
+    nr, nc = nm * d, (ns + nm) * d
+    P = 0
+    for f in range(nsf):
+        for q in range(nq):
+            if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0 and qp_w[f, q] != 0.0:
+                P += 1
+    rows = np.empty((P, nr), np.int64)
+    cols = np.empty((P, nc), np.int64)
+    K = np.zeros((P, nr, nc))
+    N = np.empty(ns)
+    dN = np.empty((ns, ks))
+    ddN = np.empty((ns, ks, ks))
+    Nm = np.empty(nm)
+    dNm = np.empty((nm, km))
+    ddNm = np.empty((nm, km, km))
+    Phi = np.empty(9)
+    Psi = np.empty(9)
+    dPsi = np.empty((9, ks))
+    dP = np.empty((9, ks))
+    ddP = np.empty((9, ks, ks))
+    x1 = np.empty(d)
+    tq = np.empty(d)
+    dz = np.empty((km, d * (1 + nm)))
+    dzl = np.empty((km, nc))
+    p = 0
+    for f in range(nsf):
+        for q in range(nq):
+            m = qp_m[f, q]
+            if m < 0 or qp_mn[f, q] < 0 or qp_w[f, q] == 0.0:
+                continue
+            _weights(ftype_phi, qp_xi[f, q], use_dual[f], dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
+            tq[:] = 0.0
+            for i in range(nphi):
+                node = node_of[f, i]
+                if node < 0 or not node_ok[node]:
+                    continue
+                for c in range(d):
+                    tq[c] -= qp_w[f, q] * Psi[i] * t[node, c]
+            nz = False
+            for c in range(d):
+                nz = nz or tq[c] != 0.0
+            if not nz:
+                continue
+            shape(ftype_s, qp_xi[f, q], N, dN, ddN)
+            shape(ftype_m, qp_zeta[f, q], Nm, dNm, ddNm)
+            for c in range(d):
+                s = 0.0
+                for a in range(ns):
+                    s += N[a] * xs[f, a, c]
+                x1[c] = s
+            projection_derivative(x1, xm[m], ftype_m, qp_zeta[f, q], dz)
+            for ga in range(km):
+                for a in range(ns):
+                    for c in range(d):
+                        dzl[ga, a * d + c] = dz[ga, c] * N[a]
+                for j in range(nm * d):
+                    dzl[ga, ns * d + j] = dz[ga, d + j]
+            for j in range(ns * d):
+                cols[p, j] = sdofs[f, j]
+            for j in range(nm * d):
+                cols[p, ns * d + j] = mdofs[m, j]
+                rows[p, j] = mdofs[m, j]
+            for b in range(nm):
+                for j in range(nc):
+                    v = 0.0
+                    for ga in range(km):
+                        v += dNm[b, ga] * dzl[ga, j]
+                    for c in range(d):
+                        K[p, b * d + c, j] = tq[c] * v
+            p += 1
+    return rows[:p], cols[:p], K[:p]
 
 
 @numba.njit(cache=True)
@@ -218,6 +365,7 @@ def slip_point_terms(
     qp_m,
     qp_mn,
     qp_zn,
+    qp_zeta,
     dual,
     use_dual,
     dg,
@@ -228,6 +376,8 @@ def slip_point_terms(
     dNs,
     Nm,
     dNm,
+    Nc,
+    dNc,
     psi,
     dpsi,
     phi,
@@ -250,7 +400,10 @@ def slip_point_terms(
     vector, whose weighted sum is S_n of :func:`slip_integrals`);
 
     Ns, dNs (ns,), (ns, k): the slave shape functions and their ξ-derivatives at ξ;
-    Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; psi, dpsi (nphi,),
+    Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; Nc (nm,):
+    N^m_b(ζ) at the point's CURRENT projection ζ = qp_zeta on facet qp_m and dNc (nm, k):
+    ∂N^m_b(ζ)/∂ξ_β through ζ at fixed nodes, ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β(ξ) in the current
+    configuration (the force weights' master part, :func:`slip_integrals`' e_g); psi, dpsi (nphi,),
     (nphi, k): the weight functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
     :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
     Rows of points that enter no slip integral (not paired at t_n, weight 0) have
@@ -277,6 +430,9 @@ def slip_point_terms(
     dP = np.empty((9, k))
     ddP = np.empty((9, k, k))
     x1n = np.empty(d)
+    x1 = np.empty(d)
+    Nq = np.empty(nm)
+    dNq = np.empty((nm, km))
     dzeta = np.empty((km, d * (1 + nm)))
     dz = np.empty((km, k))
     row = -1
@@ -328,6 +484,30 @@ def slip_point_terms(
                     for ga in range(km):
                         s += dNb[b, ga] * dz[ga, be]
                     dNm[row, b, be] = s
+            # the current projection: N^m(ζ), ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β
+            m = qp_m[f, q]
+            shape(ftype_m, qp_zeta[f, q], Nq, dNq, ddNb)
+            for c in range(d):
+                x1[c] = 0.0
+                for a in range(ns):
+                    x1[c] += N[a] * xs[f, a, c]
+            projection_derivative(x1, xm[m], ftype_m, qp_zeta[f, q], dzeta)
+            for ga in range(km):
+                for be in range(k):
+                    s = 0.0
+                    for c in range(d):
+                        xb = 0.0
+                        for a in range(ns):
+                            xb += dN[a, be] * xs[f, a, c]
+                        s += dzeta[ga, c] * xb
+                    dz[ga, be] = s
+            for b in range(nm):
+                Nc[row, b] = Nq[b]
+                for be in range(k):
+                    s = 0.0
+                    for ga in range(km):
+                        s += dNq[b, ga] * dz[ga, be]
+                    dNc[row, b, be] = s
             for c in range(d):
                 s = 0.0
                 sn = 0.0
@@ -389,14 +569,16 @@ def slip_motion_blocks(
         dAT[g1[r], i] += dA,    dS[g1[r], i, c] += Δg_c dA + w Ψ_i ∂_βΔg_c dξ^β,
         dSn[g1[r], i, c] += d_n,c dA + w Ψ_i ∂_βd_n,c dξ^β   (S_n's weights move too),
         tw[g2[r], a·d + c] += t_c (N_a dA + w Ψ_i ∂_βN_a dξ^β)            (slave node a),
-        tw[g2[r], (ns + b)·d + c] −= t_c (N^m_b dA + w Ψ_i ∂_β[N^m_b] dξ^β) (t_n master node b),
+        tw[g2[r], (ns + b)·d + c] −= t_c (N^m_b dA + w Ψ_i ∂_β[N^m_b] dξ^β) (master node b),
         dMv[v, g1[r], i, α] += v_h,α dA + w Ψ_i ∂_β v_h,α dξ^β          ((∂M v)^I per value v),
 
     t = t_vec[slot_node[r, i]]. Inputs: g1, g2 (n,) group numbers (rows of a group share
     their local dofs: (facet, master) and (facet, master, t_n master)); slot_node (n, nphi);
     used (n,) bool; t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
     :func:`.segment.segment_derivatives`; dg … dpsi (dgn, dgxin: d_n, ∂d_n/∂ξ) from
-    :func:`slip_point_terms`; vh
+    :func:`slip_point_terms`, Nm, dNm there its N^m(ζ_n) or, for the force weights at the
+    current projection (session 55), its Nc, dNc: the caller picks the master rows' facet
+    (m_n or the current m); vh
     (nv, n, nphi, m), dvh (nv, n, nphi, k, m): the interpolated nodal values of the
     consistent tangential recoveries as seen by slot i (nv = 0: none). Outputs (added to):
     dS, dSn (G1, nphi, d, nloc), dAT (G1, nphi, nloc), tw (G2, (ns + nm)·d, nloc), dMv
@@ -547,6 +729,7 @@ def node_tangent_blocks(
     s_off,
     s_dof,
     s_w,
+    s_g,
     f_off,
     f_dofs,
     fdA,
@@ -554,7 +737,7 @@ def node_tangent_blocks(
     b_idx,
     b_val,
 ):
-    """The nodal friction tangents K_I = (∂S^I/∂u)ᵀ ∂t^I/∂u of the listed nodes, packed
+    """The nodal friction tangents K_I = (G^I)ᵀ ∂t^I/∂u of the listed nodes, packed
     (numba; :func:`dolfinx_mortar.friction.node_tangent` is the NumPy reference, one node
     at a time, and the module docstring there has the equations):
 
@@ -565,14 +748,16 @@ def node_tangent_blocks(
     nodes (k,): node indices into a (n, m, d) frames, S (n, d) weighted slips, AT (n,),
     tau (n, m); per listed node D (k, m, m), Pd (k, m), kN (k,) and the row B as CSR
     b_off (k + 1,), b_idx, b_val (global dofs, any order, repeats summed). s_off (n + 1,),
-    s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e); the frames'
+    s_dof (E, d), s_w (E,): the S-weights of each node (S = Σ_e w_e x_e), s_g (E,) its
+    force weights, the test rows G^I of R_T = Σ_I (G^I)ᵀ t^I (:func:`slip_integrals`' e_g;
+    G = W = ∂S^I/∂u where the traction acts at ζ_n); the frames'
     occurrence layout (:class:`dolfinx_mortar.friction.NodalFrames`, ``MasterFrames``):
     f_off (n + 1,) per node, f_dofs (P, nb, d) the dofs of each occurrence's facet nodes,
     fdA (P, nb, m, d, d) ∂a_α/∂x per facet node. Dofs < 0 (constrained) are left out.
 
     Returns (u_off (k + 1,), U: each node's sorted dofs U_i, r_off (k + 1,), R: each
     node's rows R_i ⊂ U_i, k_off (k + 1,), K: each node's (nr, nu) block row-major).
-    Only the rows of the node's S-weights (those of ∂S^I/∂u) can be nonzero: with
+    Only the rows of the node's weight entries (those of G^I) can be nonzero: with
     ``all_rows`` R_i = U_i, the square block (the lumped recovery:
     :func:`dolfinx_mortar.contact.add_square_blocks` takes u_off, U, k_off, K); without,
     R_i = those rows alone, nr × nu entries instead of nu × nu where B reaches far beyond
@@ -621,10 +806,15 @@ def node_tangent_blocks(
         Ui, b0 = dofs[i], u_off[i]
         nu, nr = Ui.size, r_off[i + 1] - r_off[i]
         U[b0 : u_off[i + 1]] = Ui
-        Srow, dt = _node_slip_rates(
+        _, dt = _node_slip_rates(
             i, node, Ui, a, S, AT, tau, D, Pd, kN, s_off, s_dof, s_w, f_off, f_dofs, fdA,
             b_off[i], b_off[i + 1], b_idx, b_val,
         )  # fmt: skip
+        Grow = np.zeros((d, nu))
+        for e in range(s_off[node], s_off[node + 1]):
+            for c in range(d):
+                if s_dof[e, c] >= 0:
+                    Grow[c, np.searchsorted(Ui, s_dof[e, c])] += s_g[e]
         base = k_off[i]
         for q in range(nr):
             r = pos[b0 + q]
@@ -632,7 +822,7 @@ def node_tangent_blocks(
             for j in range(nu):
                 v = 0.0
                 for c in range(d):
-                    v += Srow[c, r] * dt[c, j]
+                    v += Grow[c, r] * dt[c, j]
                 K[base + q * nu + j] = v
     return u_off, U, r_off, R, k_off, K
 
@@ -654,9 +844,12 @@ def slip_integrals_reference(
     node_ok,
     dual,
     use_dual,
+    qp_zeta=None,
 ):
-    """NumPy reference of :func:`slip_integrals`: returns (A_T, S, S_n, W) with W a dict
-    {(node, slave|master, facet, local node): weight} (for tests)."""
+    """NumPy reference of :func:`slip_integrals`: returns (A_T, S, S_n, W, G) with W the
+    S-weights and G the force weights, dicts {(node, slave|master, facet, local node):
+    weight} (for tests); G's master part at the current projection ``qp_zeta`` on qp_m
+    (``at_current``), or G = W where ``qp_zeta`` is None."""
     from .shape import REFERENCE_NODES
 
     d = xs.shape[2]
@@ -664,7 +857,7 @@ def slip_integrals_reference(
     AT = np.zeros(n_nodes)
     S = np.zeros((n_nodes, d))
     Sn = np.zeros((n_nodes, d))
-    W = {}
+    W, G = {}, {}
 
     def sh(ftype, xi):
         n = REFERENCE_NODES[ftype].shape[0]
@@ -694,7 +887,12 @@ def slip_integrals_reference(
                 for a in range(N.size):
                     key = (node, "s", f, a)
                     W[key] = W.get(key, 0.0) + wphi * N[a]
+                    G[key] = G.get(key, 0.0) + wphi * N[a]
                 for b in range(Nm.size):
                     key = (node, "m", mn, b)
                     W[key] = W.get(key, 0.0) - wphi * Nm[b]
-    return AT, S, Sn, W
+                m, Nc = (mn, Nm) if qp_zeta is None else (qp_m[f, q], sh(ftype_m, qp_zeta[f, q]))
+                for b in range(Nc.size):
+                    key = (node, "m", m, b)
+                    G[key] = G.get(key, 0.0) - wphi * Nc[b]
+    return AT, S, Sn, W, G
