@@ -47,10 +47,11 @@ out while its active set moves (GEOMETRIC_TANGENT_AT_FIRST_CONTACT).
 With ``friction > 0`` the tangential part (METHOD.md §1, §2, §4; the node-level
 formulas in :mod:`dolfinx_mortar.friction`, the point integrals in
 :mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (G^I)ᵀ t^I (G^I the force
-weights: the traction acts on the master at the current projection ζ,
-FORCE_AT_CURRENT_PROJECTION) and its exact non-symmetric tangent, tangential multipliers to the Uzawa rounds, a slip history
-(u_n, λ_T = τ_n) committed per step and the chattering control of FREEZE_AFTER. With
-``friction = 0`` none of it is created.
+weights: the traction acts on the master at the t_n projections ζ_n, G = ∂S/∂u, or with
+FORCE_AT_CURRENT_PROJECTION at the current ones) and its exact non-symmetric tangent,
+tangential multipliers to the Uzawa rounds, a slip history (u_n, λ_T = τ_n) committed
+per step and the chattering control of FREEZE_AFTER. With ``friction = 0`` none of it is
+created.
 """
 
 from __future__ import annotations
@@ -2554,9 +2555,10 @@ class MortarContact:
         part R_c = −Σ_I p^I B^I and, with friction, the tangential part
         R_T = Σ_I (G^I)ᵀ t^I (t^I the nodal tangential traction vector, G^I its force
         weights: those of the node's mortar slip integral S^I = Σ_k W_k x_k on the slave,
-        and on the master at the current projection ζ, :attr:`force_at_current`). Nodes
-        with t^I = 0 add nothing; the consistent recoveries may give t^I ≠ 0 at nodes the nodal law calls open, and
-        those add theirs.
+        and on the master at ζ_n, or at the current projection ζ where
+        :attr:`force_at_current`). Nodes with t^I = 0 add nothing; the consistent
+        recoveries may give t^I ≠ 0 at nodes the nodal law calls open, and those add
+        theirs.
 
         Both are evaluated at the contact state of the last :meth:`update` (current
         coordinates, pairing, p^I, t^I), not at ``b``'s or the problem's ``u`` now. Each
@@ -3212,9 +3214,10 @@ class MortarContact:
         the residual's force weights G, R_T = Σ_I Gᵀ t^I, through the moving points: slave
         part dW_Ia, master part dG_Ib at the current projection ζ(ξ) of the moving point,
         ∂ζ/∂ξ at fixed nodes; dW_Ib where the traction acts at ζ_n, :attr:`force_at_current`)
-        to ``A``; the part of ζ's motion at fixed ξ is :meth:`_add_force_geometric`'s. For nodal ``values`` (each (N, m),
-        all nodes, global numbering), also (∂M v)^I = v_h dA_T^I + w Ψ_I ∂_β v_h dξ^β with
-        v_h = Σ_J Φ_J v^J, or v^I on a facet whose block of M is lumped
+        to ``A``; the part of ζ's motion at fixed ξ is :meth:`_add_force_geometric`'s.
+        For nodal ``values`` (each (N, m), all nodes, global numbering), also
+        (∂M v)^I = v_h dA_T^I + w Ψ_I ∂_β v_h dξ^β with v_h = Σ_J Φ_J v^J, or v^I on a
+        facet whose block of M is lumped
         (:meth:`_tangential_mass`): the consistent tangential recoveries need them.
 
         Returns the entries e = (facet, master facet, node I): ``node`` (E,), ``cols``
@@ -3383,8 +3386,8 @@ class MortarContact:
 
     def _add_mixed_tangential_jacobian(self, A, c_off, c_idx, c_val, mot=None) -> None:
         """K_T = Σ_I (G^I)ᵀ [a^Iᵀ ∂τ^I + τ^I_α ∂a^I_α] (G^I the force weights, ∂S^I/∂u
-        where the traction acts at ζ_n; :attr:`force_at_current`) for the consistent tangential
-        recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
+        where the traction acts at ζ_n; :attr:`force_at_current`) for the consistent
+        tangential recoveries, ∂τ = Tsig ∂σ + Tp ∂p (:func:`.recovery.recover_tangential`), with
         ∂σ^K_α = a^K_α·∂S^K + S^K·∂a^K_α (:meth:`_slip_since_t_n`: a_n·S_n is constant at
         fixed points) and ∂p^K = −(row of the normal recovery). The rows ∂σ^K and ∂p^K of
         every node are gathered (collective); non-symmetric.
