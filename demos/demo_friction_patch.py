@@ -47,8 +47,12 @@ sides x = 0 and x = L.
   of the traction at the current projection (element integration only) the errors no
   longer depend on N (element: 0.353 → 0.432 from N = 4 to 8 now, 0.506 and 0.506 with
   the prototype; element integration's quadrature of the partly covered end facets
-  dominates there: 2.9 in the press step already). 3D: the press step to 1.7e-9; the
-  sliding steps stall the Uzawa rounds and cut back (not in the tests).
+  dominates there: 2.9 in the press step already). 3D (segment, 2 / 4 / 8 sliding steps):
+  the press step to 1.1e-10, Uzawa rounds at most 4 per step, no cutback, the wholly
+  covered nodes 0.73 %, 0.35 %, 0.16 %, the partly covered ones 0.21 and 0.15 with 4 and 8
+  steps (with 2, 1.0: a sliver node, pure penalty, at p_N = 6e-4). The master's edges
+  y = 0, L lie on slave node rows: the nodes beyond them are sliver nodes
+  (``contact.SEGMENT_SLIVER_FRACTION``; before session 55 they stalled every sliding step).
 
 Both to round-off with ``--integration segment``, to the quadrature error of the
 element rule with ``element``: ≤ 2 % on quadrilaterals, triangles and hexahedra, 6.9 %

@@ -198,6 +198,18 @@ PARTIAL_FACET_TOL = 1e-4
 #: the other rounds (patch3d diagonal slide). 0.25 puts both of these slivers on the
 #: penalty side; docs/method-notes.md, "Sliver nodes".
 SLIVER_FRACTION = 0.25
+#: Segment integration: the same rule below this fraction (session 55). Its A^I is exact
+#: and continuous in the slide, but a master edge that lies on a line of slave facet edges
+#: (structured meshes: demo_friction_patch 3D deformable, the master's edges y = 0, L on
+#: the slave's node rows) pairs the nodes beyond that line over a strip of round-off or
+#: discretization-error width, 1e-11 to 1e-6 of their full weight: their λ^I moved by
+#: O(1) per round without converging (plain Uzawa contracts there by about 1 − 5 A^I/full
+#: with the auto penalty) and the exact update's GMRES stalled at 2e-3 on them, so every
+#: sliding step stalled and was cut back. The nodes that a master end sweeps onto are
+#: paired over 2e-3 and more of their weight after a step's slide (the same demo, 4
+#: steps), which the exact update converges: 1e-3 leaves those augmented
+#: (docs/method-notes.md, "Sliver nodes").
+SEGMENT_SLIVER_FRACTION = 1e-3
 #: A slave facet paired over less than 1 − this of itself lies across the master surface's
 #: edge (:meth:`MortarContact.edge_facets_in_contact`; the paired fraction is exact to
 #: round-off).
@@ -960,19 +972,25 @@ class MortarContact:
             (fidx[first], self.mixed[iidx[first]]) if n else (np.empty(0, int), np.empty(0, int))
         )
 
-        # element integration: each node's full weight ∫Φ_I dA₀ over its whole slave
-        # support (every point paired), against which a sliver of paired area is told
-        # (:meth:`sliver_nodes`); None for node and segment integration
+        # element and segment integration: each node's full weight ∫Φ_I dA₀ over its
+        # whole slave support (every point paired; the element rule), against which a
+        # sliver of paired area is told (:meth:`sliver_nodes`); None for node integration
         self.full_area = None
-        if integration == "element":
+        if integration != "node":
             self.full_area = np.zeros(n)
+            qp_xi, qp_w = (self.qp_xi, self.qp_w) if integration == "element" else (None, None)
+            if integration == "segment":
+                qp_xi = np.zeros((nsf, self.rule[1].size, self.rule[0].shape[1]))
+                qp_w = np.zeros((nsf, self.rule[1].size))
+                if nsf:
+                    kmortar.reference_weights(self.ftype, self.slave.X, *self.rule, qp_xi, qp_w)
             if nsf:
                 kmortar.nodal_integrals(
                     self.ftype_phi,
-                    self.qp_xi,
-                    self.qp_w,
-                    np.zeros(self.qp_w.shape, np.int64),
-                    np.zeros(self.qp_w.shape),
+                    qp_xi,
+                    qp_w,
+                    np.zeros(qp_w.shape, np.int64),
+                    np.zeros(qp_w.shape),
                     self.node_of,
                     self.full_area,
                     np.zeros(n),
@@ -3770,14 +3788,16 @@ class MortarContact:
     def sliver_nodes(self) -> np.ndarray:
         """(n_nodes,) bool: the owned slave nodes of element integration whose paired
         weight A^I at the last contact update is positive but below
-        :data:`SLIVER_FRACTION` of their full weight ∫Φ_I dA₀ (``full_area``) (local).
+        :data:`SLIVER_FRACTION` of their full weight ∫Φ_I dA₀ (``full_area``), with
+        segment integration below :data:`SEGMENT_SLIVER_FRACTION` of it (local).
         Such a node takes no augmentation: its multiplier target is λ^I = 0 (pure
         penalty, p̂^I = ⟨−ε g^I⟩), it enters neither the exact update nor the scale of
         the relative multiplier change, and its penetration is still reported. All
-        False for node and segment integration and for pure penalty (``uzawa_tol = 0``)."""
+        False for node integration and for pure penalty (``uzawa_tol = 0``)."""
         if self.full_area is None or self.uzawa_tol == 0.0:
             return np.zeros(self.lmbda.shape, bool)
-        return self.has_area & (self.A < SLIVER_FRACTION * self.full_area)
+        fraction = SEGMENT_SLIVER_FRACTION if self.integration == "segment" else SLIVER_FRACTION
+        return self.has_area & (self.A < fraction * self.full_area)
 
     def _clear_unloaded(
         self, unloaded: bool, tau_law: np.ndarray | None, info: dict, converged: bool
