@@ -3786,7 +3786,7 @@ class MortarContact:
         return False, info
 
     def sliver_nodes(self) -> np.ndarray:
-        """(n_nodes,) bool: the owned slave nodes of element integration whose paired
+        """(n_nodes,) bool: the owned slave nodes of element or segment integration whose paired
         weight A^I at the last contact update is positive but below
         :data:`SLIVER_FRACTION` of their full weight ∫Φ_I dA₀ (``full_area``), with
         segment integration below :data:`SEGMENT_SLIVER_FRACTION` of it (local).
