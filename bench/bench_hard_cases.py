@@ -30,10 +30,12 @@ cases, which take seconds each):
   second reversal cut back once (BENCHMARKS §42);
 - ``block3d_over_corner`` (session 42): a hexahedral block (patch3d, 3 × 3 × 2 on 8 × 8 ×
   2, margin 1.5) pressed by 0.02, then dragged by (2.0, 2.1) in one step over the
-  master's corner (finite strain, segment integration, frictionless). Beyond t ≈ 1.86
-  the solver reaches no solution (the Uzawa rounds stall; element integration stalls
-  there too): the expected outcome is a clean stop, which the run crept towards in ever
-  shorter steps before they were bounded by the load step (BENCHMARKS §43);
+  master's corner (finite strain, segment integration, frictionless). Until session 55
+  the Uzawa rounds stalled beyond t ≈ 1.86 and the case was an expected clean stop (it
+  crept towards it in ever shorter steps before they were bounded by the load step,
+  BENCHMARKS §43): the slave nodes beyond the master's edges were paired over slivers of
+  their weight whose multipliers never converged. With segment integration's sliver
+  nodes (``contact.SEGMENT_SLIVER_FRACTION``) it completes: 8 steps, 6 cutbacks;
 - ``block3d_slide`` / ``block3d_slide_si`` (session 42): a hexahedral block (patch3d,
   5 × 5 × 2 on 16 × 16 × 2, margin 1.5) pressed by 0.02, then dragged by (1.3, 0.9) in
   one step (finite strain, segment integration, frictionless), in the demos' units and
@@ -119,7 +121,7 @@ CASES = {
     "block3d_over_corner": (
         "block3d_over_corner",
         None,
-        "3D block dragged over the master's corner (segment): a clean stop",
+        "3D block dragged over the master's corner (segment)",
     ),
     "block3d_slide": ("block3d_slide", None, "3D block dragged by (1.3, 0.9) in one step"),
     "block3d_slide_si": (
@@ -128,9 +130,6 @@ CASES = {
         "the same in SI units (metres, E = 1e11 Pa)",
     ),
 }
-#: cases whose expected outcome is a clean stop (exit status 1, summary.json "failed" with
-#: every finished step), not a completed run
-EXPECTED_STOPS = ("block3d_over_corner",)
 #: ε h/E* of hertz2d's "auto" penalty is 100: ε = κ · E*/h with E*/h = 109.89/0.1
 HERTZ2D_E_STAR_OVER_H = 200.0 / (2.0 * (1.0 - 0.3**2)) / 0.1
 KAPPA_EXPONENTS = (0, 2, 4, 6)
@@ -407,11 +406,7 @@ def write_markdown(rows, path, command: str) -> None:
     failed = [r for r in rows if not r["completed"]]
     if failed:
         lines += ["", "Cases that did not complete:", ""]
-        lines += [
-            f"- {r['case']} (exit {r['exit_code']}"
-            f"{'; expected: a clean stop' if r['case'] in EXPECTED_STOPS else ''}): {r['error']}"
-            for r in failed
-        ]
+        lines += [f"- {r['case']} (exit {r['exit_code']}): {r['error']}" for r in failed]
     Path(path).write_text("\n".join(lines) + "\n")
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import importlib.util
+import json
 import math
 from pathlib import Path
 
@@ -160,18 +161,26 @@ def test_hard_cases_quick(hard, tmp_path):
             assert r["max_dev"] <= 2e-2, r
 
 
-def test_hard_case_over_the_corner_stops_cleanly(hard, tmp_path):
-    """The sweep's expected clean stop (``bench/scenes/block3d_over_corner.toml``): no
-    solution the solver reaches beyond t ≈ 1.86, so the run stops once a cutback would
-    make a step shorter than 2^-6 of the load step, with its 6 converged steps kept (it
-    crept for 49 steps before; BENCHMARKS §43), and the report says that stop was
-    expected."""
+def test_hard_case_over_the_corner_completes(hard, tmp_path):
+    """``bench/scenes/block3d_over_corner.toml`` (a block pressed by 0.02, then dragged
+    in one load step until it hangs over the master's corner, segment integration) was
+    the sweep's expected clean stop until session 55: beyond t ≈ 1.86 the slave nodes
+    past the master's edges were paired over slivers of their weight (round-off to 1e-6
+    of it), whose multipliers no Uzawa round converged (BENCHMARKS §43, §71). As sliver
+    nodes (``contact.SEGMENT_SLIVER_FRACTION``) they keep pure penalty, and the run
+    completes: t = 2 in 8 steps (measured 6 cutbacks), the normal force falling as the
+    block leaves the master (2.90 pressed, 0.67 at the end), no deep penetration."""
     (row,) = hard.main(["--cases", "block3d_over_corner", "--out", str(tmp_path)])
-    assert not row["completed"] and row["exit_code"] == 1, row
-    assert row["steps"] == 6, row
-    assert "shorter than 1/2^6 of the load step" in row["error"], row["error"]
+    assert row["completed"] and row["exit_code"] == 0, row
+    assert row["cutbacks"] <= 6 and row["max_penetration"] < 1e-8, row
     md = (tmp_path / "hard_cases.md").read_text()
-    assert "block3d_over_corner (exit 1; expected: a clean stop)" in md, md
+    assert "did not complete" not in md, md
+    summary = json.loads((tmp_path / "runs" / "block3d_over_corner" / "summary.json").read_text())
+    steps = summary["steps"]
+    assert steps[-1]["t"] == 2.0 and all(s["converged"] for s in steps)
+    fz = [s["contact_force"]["upper_bottom:lower_top"][2] for s in steps]
+    assert 2.8 < fz[0] < 3.0 and 0.5 < fz[-1] < 0.8, fz  # pressed, then over the corner
+    assert all(b < a + 1e-6 for a, b in zip(fz, fz[1:], strict=False)), fz  # it only falls
 
 
 @pytest.mark.parametrize("recovery,l2", [("constrained", 0.025), ("unconstrained", 0.032)])
