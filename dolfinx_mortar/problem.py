@@ -1250,6 +1250,53 @@ class ContactProblem:
             # residual here; NaN on this rank's rows makes the norm NaN on every rank
             b.array_w[:] = np.nan
 
+    def nonfinite_cause(self, x: PETSc.Vec) -> str:
+        """What makes R(x) non-finite, for messages (collective; u becomes x and the
+        contact terms are updated there): "the Newton iterate itself", "a contact facet of
+        zero size" (:attr:`~dolfinx_mortar.contact.MortarContact.degenerate`), "the bulk
+        residual at inverted elements (det F = … at X = … in region …)" (finite
+        kinematics; :meth:`min_det_F`), "the bulk residual", "the contact residual of
+        pair …", or "" where every part is finite. The bulk part without the Dirichlet
+        conditions and each contact term's part are assembled apart (one assembly each).
+        A neo-Hookean region has ln J and J^(−2/3) in its stress: a line search's trial
+        point that inverts an element (det F <= 0) makes its rows NaN, which the solver
+        answers with its "bt" restart (:data:`~dolfinx_mortar.solver._NONFINITE`)."""
+        self._check_alive()
+        comm = self.comm
+
+        def any_rank(flag: bool) -> bool:
+            return bool(comm.allreduce(int(flag), op=MPI.MAX))
+
+        if any_rank(not np.all(np.isfinite(x.array_r))):
+            return "the Newton iterate itself"
+        self.ensure_contact_at(x)
+        if any(getattr(term, "degenerate", False) for term in self.contacts):
+            return "a contact facet of zero size in the deformed state"
+        b = self.u.vector.duplicate()
+        try:
+            if self.linear_bulk is not None:
+                self.linear_bulk.residual(x, b, False)
+            else:
+                with b.localForm() as bl:
+                    bl.set(0.0)
+                assemble_vector(b, self.F_form)
+                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            if any_rank(not np.all(np.isfinite(b.array_r))):
+                if not self.small_strain:
+                    det = self.min_det_F()
+                    if det.value <= 0.0:
+                        return f"the bulk residual at inverted elements ({det.describe()})"
+                return "the bulk residual"
+            for term in self.contacts:
+                b.zeroEntries()
+                term.add_residual(b, masked=False)
+                b.assemble()
+                if any_rank(not np.all(np.isfinite(b.array_r))):
+                    return f"the contact residual of pair {getattr(term, 'name', '?')}"
+        finally:
+            b.destroy()
+        return ""
+
     def residual_round_off(self) -> float:
         """The round-off level f of the assembled residual at the current state u: the norm
         below which no iterate's ‖R‖ can go (force units, the norm of ``residual_norms``;

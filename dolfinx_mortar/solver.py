@@ -924,11 +924,12 @@ class NewtonSolver:
                 # restart from the last finite iterate: drop the norms after it
                 norms = [r for r in norms if np.isfinite(r)]
                 its = len(norms) - 1
+                cause = self._nonfinite_cause(x)
                 self._finite_x.copy(x)
                 self.backtracked_solves += 1
                 reason, more = self._continue(x, "bt", target / norms[-1], s.max_it)
                 parts = parts[:1] if tried[0] else []
-                parts.append((its, "to the last finite residual"))
+                parts.append((its, f"to the last finite residual{cause}"))
                 its, norms = its + len(more), norms + more
                 parts.append((len(more), "with line search bt from there"))
             if (
@@ -971,6 +972,20 @@ class NewtonSolver:
             return out
         finally:
             self.timings["linear_solve"] += _ksp_time() - t_ksp0
+
+    def _nonfinite_cause(self, x: PETSc.Vec) -> str:
+        """The text " (the next one non-finite: <what>)" for the iterate x of a solve
+        stopped on a non-finite residual (collective; ``problem.nonfinite_cause``; "" where
+        the problem has none or every part is finite at x), also logged. Seen so far: the
+        bulk at elements inverted by a line search's trial point (slide_one_step2d.toml
+        with the unconstrained tangential recovery: det F <= 0 at each of its 29
+        non-finite residuals, the contact part finite at all)."""
+        describe = getattr(self.problem, "nonfinite_cause", None)
+        what = describe(x) if describe is not None else ""
+        if not what:
+            return ""
+        log.info("Non-finite residual at a Newton iterate: %s", what)
+        return f" (the next one non-finite: {what})"
 
     def _run(self, x: PETSc.Vec, reuse: bool) -> int:
         """One SNES solve from x (the solve's start, ``_start``), in place (collective);

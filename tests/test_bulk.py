@@ -608,3 +608,42 @@ def test_min_det_F_of_homogeneous_and_corner_folded_states(block_msh):
         assert "det F = -0.2 at X = (2, 1) in region 'body'; 1 of 72 points" in det.describe()
     finally:
         problem.destroy()
+
+
+@pytest.mark.mpi
+def test_nonfinite_cause_names_inverted_elements(block_msh):
+    """ContactProblem.nonfinite_cause, which the solver's message of a solve stopped on a
+    non-finite residual quotes: on the 2 × 1 block of 3 × 3 Q1 cells (neo-Hookean, whose
+    stress has ln J), u = (F₀ − I)X with F₀ the mirror y → −y inverts every cell: the bulk
+    residual is NaN, and the cause names det F = −1 at all 72 points; for a stretch every
+    part is finite (""); a NaN in the iterate is named before any assembly. On 1–3 ranks."""
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(2, n=3, quads=True)
+    data = _table(msh, 2, "neo-hookean", "finite", 0.0)
+    problem, _ = prepare(parse_scene(data, msh.parent), MPI.COMM_WORLD)
+    x = problem.u.vector.copy()
+    try:
+        for F0, cause in (
+            ([[1.2, 0.1], [0.0, 0.9]], ""),
+            (
+                [[1.0, 0.0], [0.0, -1.0]],
+                "the bulk residual at inverted elements (det F = -1 at X = (",
+            ),
+        ):
+            H = np.array(F0) - np.eye(2)
+            problem.u.interpolate(lambda x, H=H: H @ x[:2])
+            problem.u.vector.copy(x)
+            b = x.duplicate()
+            problem.residual(x, b, apply_bcs=False)
+            assert np.all(np.isfinite(b.array_r)) == (cause == "")
+            b.destroy()
+            what = problem.nonfinite_cause(x)
+            assert what.startswith(cause) and (cause == "") == (what == ""), what
+            if cause:
+                assert "in region 'body'; 72 of 72 points checked have det F <= 0)" in what
+        x.array[:] = np.nan
+        assert problem.nonfinite_cause(x) == "the Newton iterate itself"
+    finally:
+        x.destroy()
+        problem.destroy()

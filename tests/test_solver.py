@@ -1171,6 +1171,35 @@ def test_a_nan_residual_restarts_with_backtracking(cubic_vectors):
     assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
 
 
+class _CubicWithNamedHole(_CubicWithHole):
+    """... that names what is non-finite, as ContactProblem.nonfinite_cause does."""
+
+    def __init__(self, x0):
+        super().__init__(x0)
+        self.asked_at = []
+
+    def nonfinite_cause(self, x):
+        self.asked_at.append(x.array.copy())
+        return "the hole (x >= 8)" if np.any(x.array >= 8.0) else ""
+
+
+def test_a_failed_restart_after_a_nan_names_the_cause(cubic_vectors):
+    """From x = 0.5 the full step lands at 11, in the hole; the bt restart from x = 0.5 is
+    cut at max_it = 2. The error names what was non-finite, from the problem's
+    ``nonfinite_cause`` asked once, at the NaN iterate (11)."""
+    problem = _CubicWithNamedHole(0.5)
+    settings = SolverSettings(line_search="basic", max_it=2, prefix="test_nan_named_")
+    with NewtonSolver(problem, settings) as newton:
+        with pytest.raises(ConvergenceError) as err:
+            newton.solve()
+        assert newton.backtracked_solves == 1
+    assert (
+        "0 to the last finite residual (the next one non-finite: the hole (x >= 8)), "
+        "then 2 with line search bt from there" in str(err.value)
+    )
+    assert len(problem.asked_at) == 1 and np.allclose(problem.asked_at[0], 11.0)
+
+
 def test_no_restart_without_rescue(cubic_vectors):
     """rescue=False (a start from the predictor): the NaN fails the solve at once."""
     problem = _CubicWithHole(0.5)
