@@ -352,6 +352,48 @@ def force_geometric_blocks(
 
 
 @numba.njit(cache=True)
+def _master_shape_along_xi(
+    ftype_m, zeta, xm_f, xs_f, N, dN, Nb, dNb, ddNb, x1, dzeta, dz, Nout, dNout
+):
+    r"""The master shape functions at the projection ζ of a slave point and their
+    derivatives along the slave parameters ξ_β at fixed nodes (one configuration):
+    x¹(ξ) = Σ_a N_a(ξ) xs_f[a] (N (ns,), dN (ns, k) at ξ; xs_f (ns, d)) projected at ζ
+    (km,) on the master facet xm_f (nm, d),
+
+        Nout_b = N^m_b(ζ),   dNout_bβ = ∂_γN^m_b(ζ) ∂ζ^γ/∂ξ_β,
+        ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β   (:func:`.gap.projection_derivative`),
+
+    Nout (nm,), dNout (nm, k) written. Scratch: Nb (nm,), dNb (nm, km), ddNb (nm, km, km),
+    x1 (d,), dzeta (km, d (1 + nm)), dz (km, k)."""
+    ns, d = xs_f.shape
+    k = dN.shape[1]
+    km = dz.shape[0]
+    nm = Nb.shape[0]
+    shape(ftype_m, zeta, Nb, dNb, ddNb)
+    for c in range(d):
+        x1[c] = 0.0
+        for a in range(ns):
+            x1[c] += N[a] * xs_f[a, c]
+    projection_derivative(x1, xm_f, ftype_m, zeta, dzeta)
+    for ga in range(km):
+        for be in range(k):
+            s = 0.0
+            for c in range(d):
+                xb = 0.0
+                for a in range(ns):
+                    xb += dN[a, be] * xs_f[a, c]
+                s += dzeta[ga, c] * xb
+            dz[ga, be] = s
+    for b in range(nm):
+        Nout[b] = Nb[b]
+        for be in range(k):
+            s = 0.0
+            for ga in range(km):
+                s += dNb[b, ga] * dz[ga, be]
+            dNout[b, be] = s
+
+
+@numba.njit(cache=True)
 def slip_point_terms(
     ftype_s,
     ftype_m,
@@ -429,10 +471,7 @@ def slip_point_terms(
     dPsi = np.empty((9, k))
     dP = np.empty((9, k))
     ddP = np.empty((9, k, k))
-    x1n = np.empty(d)
     x1 = np.empty(d)
-    Nq = np.empty(nm)
-    dNq = np.empty((nm, km))
     dzeta = np.empty((km, d * (1 + nm)))
     dz = np.empty((km, k))
     row = -1
@@ -450,7 +489,6 @@ def slip_point_terms(
             if mn < 0 or qp_w[f, q] == 0.0:
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
-            shape(ftype_m, qp_zn[f, q], Nb, dNb, ddNb)
             _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             for i in range(nphi):
                 psi[row, i] = Psi[i]
@@ -458,56 +496,20 @@ def slip_point_terms(
                 for be in range(k):
                     dpsi[row, i, be] = dPsi[i, be]
                     dphi[row, i, be] = dP[i, be]
-            # ∂ζ_n/∂ξ_β = (∂ζ_n/∂x¹_n) x¹_n,β
-            for c in range(d):
-                x1n[c] = 0.0
-                for a in range(ns):
-                    x1n[c] += N[a] * xs_n[f, a, c]
-            projection_derivative(x1n, xm_n[mn], ftype_m, qp_zn[f, q], dzeta)
-            for ga in range(km):
-                for be in range(k):
-                    s = 0.0
-                    for c in range(d):
-                        xb = 0.0
-                        for a in range(ns):
-                            xb += dN[a, be] * xs_n[f, a, c]
-                        s += dzeta[ga, c] * xb
-                    dz[ga, be] = s
             for a in range(ns):
                 Ns[row, a] = N[a]
                 for be in range(k):
                     dNs[row, a, be] = dN[a, be]
-            for b in range(nm):
-                Nm[row, b] = Nb[b]
-                for be in range(k):
-                    s = 0.0
-                    for ga in range(km):
-                        s += dNb[b, ga] * dz[ga, be]
-                    dNm[row, b, be] = s
-            # the current projection: N^m(ζ), ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β
-            m = qp_m[f, q]
-            shape(ftype_m, qp_zeta[f, q], Nq, dNq, ddNb)
-            for c in range(d):
-                x1[c] = 0.0
-                for a in range(ns):
-                    x1[c] += N[a] * xs[f, a, c]
-            projection_derivative(x1, xm[m], ftype_m, qp_zeta[f, q], dzeta)
-            for ga in range(km):
-                for be in range(k):
-                    s = 0.0
-                    for c in range(d):
-                        xb = 0.0
-                        for a in range(ns):
-                            xb += dN[a, be] * xs[f, a, c]
-                        s += dzeta[ga, c] * xb
-                    dz[ga, be] = s
-            for b in range(nm):
-                Nc[row, b] = Nq[b]
-                for be in range(k):
-                    s = 0.0
-                    for ga in range(km):
-                        s += dNq[b, ga] * dz[ga, be]
-                    dNc[row, b, be] = s
+            # N^m(ζ_n) and ∂_β through ζ_n (t_n configuration), N^m(ζ) and ∂_β through ζ
+            # (current configuration, the force weights)
+            _master_shape_along_xi(
+                ftype_m, qp_zn[f, q], xm_n[mn], xs_n[f], N, dN, Nb, dNb, ddNb, x1, dzeta, dz,
+                Nm[row], dNm[row],
+            )  # fmt: skip
+            _master_shape_along_xi(
+                ftype_m, qp_zeta[f, q], xm[qp_m[f, q]], xs[f], N, dN, Nb, dNb, ddNb, x1, dzeta,
+                dz, Nc[row], dNc[row],
+            )  # fmt: skip
             for c in range(d):
                 s = 0.0
                 sn = 0.0
@@ -515,8 +517,8 @@ def slip_point_terms(
                     s += N[a] * xs[f, a, c]
                     sn += N[a] * xs_n[f, a, c]
                 for b in range(nm):
-                    s -= Nb[b] * xm[mn, b, c]
-                    sn -= Nb[b] * xm_n[mn, b, c]
+                    s -= Nm[row, b] * xm[mn, b, c]
+                    sn -= Nm[row, b] * xm_n[mn, b, c]
                 dg[row, c] = s
                 dgn[row, c] = sn
                 for be in range(k):
