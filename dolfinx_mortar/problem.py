@@ -1270,7 +1270,9 @@ class ContactProblem:
         if any_rank(not np.all(np.isfinite(x.array_r))):
             return "the Newton iterate itself"
         self.ensure_contact_at(x)
-        if any(getattr(term, "degenerate", False) for term in self.contacts):
+        # ``degenerate`` is this rank's own: reduced, so that every rank returns here or
+        # none does (the bulk assembly below is collective)
+        if any_rank(any(getattr(term, "degenerate", False) for term in self.contacts)):
             return "a contact facet of zero size in the deformed state"
         b = self.u.vector.duplicate()
         try:
