@@ -1534,11 +1534,30 @@ def _held_patch(dim, integration, frame, out, keep=False):
     return (steps, tables, held[0]) if keep else (steps, tables)
 
 
-@pytest.mark.mpi
-@both_force_points
-@pytest.mark.parametrize("frame", ["slave", "master"])
-@pytest.mark.parametrize("integration", ["element", "segment"])
-@pytest.mark.parametrize("dim", [2, 3])
+def _force_point_cases(at_n=None):
+    """(dim, integration, frame, force_at) cases of the held-step tests, with their marks:
+    the traction at the current projection on every (dim, integration, frame), serially
+    and on 2 ranks (``mpi_not3``, as the ``force_at`` fixture's) except 3D segment
+    integration (serial only: 4–6 s a case on 2 ranks); at ζ_n (the default) on every
+    case, 1–3 ranks, or on the (dim, integration, frame) of ``at_n`` only, serially (the
+    suite's time: a fresh clone took 14 min 45 s with the full grids)."""
+    cases = []
+    for dim in (2, 3):
+        for integration in ("element", "segment"):
+            for frame in ("slave", "master"):
+                serial = dim == 3 and integration == "segment"
+                marks = [pytest.mark.mpi_not3] + ([] if serial else [pytest.mark.mpi])
+                cases.append(pytest.param(dim, integration, frame, "current", marks=marks))
+                if at_n is None:
+                    marks = [pytest.mark.mpi]
+                    cases.append(pytest.param(dim, integration, frame, "t_n", marks=marks))
+    cases += [pytest.param(*case, "t_n") for case in at_n or ()]
+    return cases
+
+
+@pytest.mark.parametrize(
+    "dim,integration,frame,force_at", _force_point_cases(), indirect=["force_at"]
+)
 def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_tmp, force_at):
     """Under a constant load the tractions stay where they are. On this non-matching
     interface the weighted slip a·S of a node at u = u_n was the tangential part of its
@@ -1626,31 +1645,10 @@ def _slide_and_hold(dim, frame, integration, out):
     return summary["steps"]
 
 
-def _held_step_cases():
-    """The cases of :func:`test_the_first_held_step_after_gross_slip`: the traction at the
-    current projection on every (dim, integration, frame), serially and on 2 ranks
-    (``mpi_not3``, as the ``force_at`` fixture's) except 3D segment integration with the
-    master frame (serial only: its 2-rank run took 5 s); at ζ_n
-    (the default's lag, measured 5.1e-3 … 5.3e-3 in every case) one 2D and one 3D case,
-    serial (the suite's time: the full grid of both added 44 s to each parallel run)."""
-    cases = []
-    for dim in (2, 3):
-        for integration in ("element", "segment"):
-            for frame in ("slave", "master"):
-                serial = dim == 3 and integration == "segment" and frame == "master"
-                marks = (
-                    (pytest.mark.mpi_not3,) if serial else (pytest.mark.mpi, pytest.mark.mpi_not3)
-                )
-                cases.append(pytest.param(dim, integration, frame, "current", marks=marks))
-    cases += [
-        pytest.param(2, "element", "slave", "t_n"),
-        pytest.param(3, "segment", "slave", "t_n"),
-    ]
-    return cases
-
-
 @pytest.mark.parametrize(
-    "dim,integration,frame,force_at", _held_step_cases(), indirect=["force_at"]
+    "dim,integration,frame,force_at",
+    _force_point_cases(at_n=[(2, "element", "slave"), (3, "element", "slave")]),
+    indirect=["force_at"],
 )
 def test_the_first_held_step_after_gross_slip(dim, integration, frame, shared_tmp, force_at):
     """Session 55: after a slide in gross slip, holding the load fixed moved the contact
@@ -1659,7 +1657,7 @@ def test_the_first_held_step_after_gross_slip(dim, integration, frame, shared_tm
     ζ_n, one step's slip behind the slave point, and the next step's ζ_n caught up: still
     so by default (``force_at`` "t_n": 5.1e-3 … 5.3e-3 on this patch with a deformable
     master, 2D and 3D, element and segment, either frame; asserted above 1e-3 on two of
-    them, :func:`_held_step_cases`). With the
+    them, :func:`_force_point_cases`). With the
     traction at the current projection ζ (contact.FORCE_AT_CURRENT_PROJECTION = True,
     opt-in; "current") the held state is the slid one: 0 with the slave frame (0 Newton
     iterations), 6.1e-5 (2D) / 3.8e-5 (3D) with the master frame (its basis a^I at the
