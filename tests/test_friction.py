@@ -1462,6 +1462,38 @@ def test_a_3d_slide_with_the_constrained_normal_recovery(tmp_path):
 
 
 # ---------------------------------------------------------------- a held load
+def _patch_scene(d, integration, frame, out, **contact):
+    """The scene data (a dict, as parsed from TOML) of the held-load tests' non-matching
+    frictional patch (patch2d/patch3d, small strain, both blocks E = 100, ν = 0.3, μ = MU),
+    t_end = 3 in 6 steps, rtol 1e-11, output to ``out``; ``contact``: more keys of the
+    pair. The callers add the loads."""
+    params = (
+        dict(L=1.0, H=0.5, n_lower=6, n_upper=5, n_y=2, margin=0.2, quads=True)
+        if d == 2
+        else dict(L=1.0, H=0.5, n_lower=3, n_upper=4, n_y=1, margin=0.2, quads=True)
+    )
+    pair = {
+        "slave": "upper_bottom",
+        "master": "lower_top",
+        "friction": MU,
+        "integration": integration,
+        "tangential_frame": frame,
+        **contact,
+    }
+    return {
+        "kinematics": "small",
+        "mesh": {"generator": f"patch{d}d", "params": params},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [pair],
+        "steps": {"t_end": 3.0, "n": 6},
+        "solver": {"rtol": 1e-11},
+        "output": {"dir": str(out)},
+    }
+
+
 def _held_patch(dim, integration, frame, out, keep=False):
     """The non-matching frictional patch (patch2d/patch3d, small strain, μ = 0.3): both
     blocks' outer faces moved by Dirichlet fields, the upper one pressed by 0.02 and
@@ -1480,33 +1512,7 @@ def _held_patch(dim, integration, frame, out, keep=False):
 
         return f
 
-    params = (
-        dict(L=1.0, H=0.5, n_lower=6, n_upper=5, n_y=2, margin=0.2, quads=True)
-        if d == 2
-        else dict(L=1.0, H=0.5, n_lower=3, n_upper=4, n_y=1, margin=0.2, quads=True)
-    )
-    data = {
-        "kinematics": "small",
-        "mesh": {"generator": f"patch{d}d", "params": params},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": MU,
-                "integration": integration,
-                "tangential_frame": frame,
-                "uzawa_tol": 1e-11,
-                "uzawa_max": 60,
-            }
-        ],
-        "steps": {"t_end": 3.0, "n": 6},
-        "solver": {"rtol": 1e-11},
-        "output": {"dir": str(out)},
-    }
+    data = _patch_scene(d, integration, frame, out, uzawa_tol=1e-11, uzawa_max=60)
 
     held = []
 
@@ -1608,38 +1614,14 @@ def _slide_and_hold(dim, frame, integration, out):
     lift = [0.0] * (d - 1)
     press = lift + [-0.02]
     slide = [0.1] + ([0.05] if d == 3 else []) + [-0.02]
-    params = (
-        dict(L=1.0, H=0.5, n_lower=6, n_upper=5, n_y=2, margin=0.2, quads=True)
-        if d == 2
-        else dict(L=1.0, H=0.5, n_lower=3, n_upper=4, n_y=1, margin=0.2, quads=True)
-    )
-    data = {
-        "kinematics": "small",
-        "mesh": {"generator": f"patch{d}d", "params": params},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": MU,
-                "integration": integration,
-                "tangential_frame": frame,
-            }
-        ],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0.0, *([0.0] * d)], [3.0, *([0.0] * d)]]},
-            {
-                "boundary": "upper_top",
-                "path": [[0.0, *([0.0] * d)], [1.0, *press], [2.0, *slide], [3.0, *slide]],
-            },
-        ],
-        "steps": {"t_end": 3.0, "n": 6},
-        "solver": {"rtol": 1e-11},
-        "output": {"dir": str(out)},
-    }
+    data = _patch_scene(d, integration, frame, out)
+    data["dirichlet"] = [
+        {"boundary": "lower_bottom", "path": [[0.0, *([0.0] * d)], [3.0, *([0.0] * d)]]},
+        {
+            "boundary": "upper_top",
+            "path": [[0.0, *([0.0] * d)], [1.0, *press], [2.0, *slide], [3.0, *slide]],
+        },
+    ]
     summary = run(parse_scene(data, pathlib.Path(".")), MPI.COMM_WORLD, out_dir=out)
     assert summary["status"] == "ok", summary.get("error")
     return summary["steps"]
