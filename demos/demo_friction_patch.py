@@ -86,8 +86,7 @@ SLIDE = 0.05
 
 def scene(dim: int, mode: str, integration: str, refine: int = 0, quads: bool = True) -> dict:
     """Scene dict of the frictional patch test (see the module docstring)."""
-    n_lower, n_upper = (5, 7) if dim == 2 else (4, 5)
-    k = 2**refine
+    counts = (5, 7) if dim == 2 else (4, 5)
     q = Q_STICK if mode == "stick" else MU * P0
     z = dim - 1  # the normal direction
     zero = [0.0] * dim
@@ -124,26 +123,57 @@ def scene(dim: int, mode: str, integration: str, refine: int = 0, quads: bool = 
             dirichlet.append(
                 {"boundary": b, "components": list(range(dim)), "path": [[0, *zero], [1, *zero]]}
             )
+    sc = _patch_scene(
+        f"friction patch {dim}D {mode}, {integration}, refine {refine}",
+        dim,
+        counts,
+        refine,
+        0.0 if mode == "stick" else 0.2,
+        quads,
+        NU,
+        ("upper_bottom", "lower_top"),
+        integration,
+    )
+    sc.update({"dirichlet": dirichlet, "traction": top + side, "steps": {"t_end": 1.0, "n": 2}})
+    return sc
+
+
+def _patch_scene(
+    title: str,
+    dim: int,
+    counts: tuple,
+    refine: int,
+    margin: float,
+    quads: bool,
+    nu: float,
+    pair: tuple,
+    integration: str,
+) -> dict:
+    """The part of a patch scene dict that every mode shares: the patch mesh (``counts``:
+    elements along x of the lower and upper blocks, times 2**refine), both blocks elastic
+    (E, ``nu``), one frictional pair (``pair``: slave, master) with the auto penalty and
+    tight Uzawa rounds, and the contact fields in the output."""
+    k = 2**refine
     return {
-        "title": f"friction patch {dim}D {mode}, {integration}, refine {refine}",
+        "title": title,
         "kinematics": "small",
         "mesh": {
             "generator": f"patch{dim}d",
             "params": {
                 "L": L,
                 "H": H,
-                "n_lower": n_lower * k,
-                "n_upper": n_upper * k,
+                "n_lower": counts[0] * k,
+                "n_upper": counts[1] * k,
                 "n_y": 3 * k,
-                "margin": 0.0 if mode == "stick" else 0.2,
+                "margin": margin,
                 "quads": quads,
             },
         },
-        "material": cm.elastic(("lower", "upper"), E, NU),
+        "material": cm.elastic(("lower", "upper"), E, nu),
         "contact": [
             {
-                "slave": "upper_bottom",
-                "master": "lower_top",
+                "slave": pair[0],
+                "master": pair[1],
                 "friction": MU,
                 "integration": integration,
                 "penalty": "auto",
@@ -151,9 +181,6 @@ def scene(dim: int, mode: str, integration: str, refine: int = 0, quads: bool = 
                 "uzawa_max": 40,
             }
         ],
-        "dirichlet": dirichlet,
-        "traction": top + side,
-        "steps": {"t_end": 1.0, "n": 2},
         "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
     }
 
@@ -228,8 +255,6 @@ def deformable_scene(
 ) -> dict:
     """Scene dict of mode "deformable" (the module docstring); its Dirichlet fields are
     :func:`deformable_setup`'s."""
-    n_lower, n_upper = DEF_COUNTS[dim]
-    k = 2**refine
     z = dim - 1
     zero = [0.0] * dim
 
@@ -248,37 +273,19 @@ def deformable_scene(
                     "path": [[0.0, *zero], [1.0, *zero], [2.0, *vec(z, sign * q)]],
                 }
             )
-    return {
-        "title": f"friction patch {dim}D deformable, {integration}, {n_slide} sliding steps",
-        "kinematics": "small",
-        "mesh": {
-            "generator": f"patch{dim}d",
-            "params": {
-                "L": L,
-                "H": H,
-                "n_lower": n_lower * k,
-                "n_upper": n_upper * k,
-                "n_y": 3 * k,
-                "margin": MARGIN_DEF,
-                "quads": quads,
-            },
-        },
-        "material": cm.elastic(("lower", "upper"), E, NU_DEF),
-        "contact": [
-            {
-                "slave": "lower_top",
-                "master": "upper_bottom",
-                "friction": MU,
-                "integration": integration,
-                "penalty": "auto",
-                "uzawa_tol": 1e-9,
-                "uzawa_max": 40,
-            }
-        ],
-        "traction": traction,
-        "steps": {"t_end": 1.0 + n_slide, "n": 1 + n_slide},
-        "output": {"fields": ["contact_pressure", "tangential_traction", "contact_state"]},
-    }
+    sc = _patch_scene(
+        f"friction patch {dim}D deformable, {integration}, {n_slide} sliding steps",
+        dim,
+        DEF_COUNTS[dim],
+        refine,
+        MARGIN_DEF,
+        quads,
+        NU_DEF,
+        ("lower_top", "upper_bottom"),
+        integration,
+    )
+    sc.update({"traction": traction, "steps": {"t_end": 1.0 + n_slide, "n": 1 + n_slide}})
+    return sc
 
 
 def deformable_setup(dim: int, n_slide: int):
