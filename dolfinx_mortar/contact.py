@@ -3273,6 +3273,7 @@ class MortarContact:
                 self.qp_zeta,
                 self.t_weights,
                 self.dual_on,
+                current,
                 dg,
                 dgxi,
                 dgn,

@@ -410,6 +410,7 @@ def slip_point_terms(
     qp_zeta,
     dual,
     use_dual,
+    current,
     dg,
     dgxi,
     dgn,
@@ -445,7 +446,9 @@ def slip_point_terms(
     Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; Nc (nm,):
     N^m_b(ζ) at the point's CURRENT projection ζ = qp_zeta on facet qp_m and dNc (nm, k):
     ∂N^m_b(ζ)/∂ξ_β through ζ at fixed nodes, ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β(ξ) in the current
-    configuration (the force weights' master part, :func:`slip_integrals`' e_g); psi, dpsi (nphi,),
+    configuration (the force weights' master part, :func:`slip_integrals`' e_g), computed only
+    where ``current`` (bool: the traction acts at ζ, contact.FORCE_AT_CURRENT_PROJECTION;
+    else Nc, dNc are left as they are, one projection derivative per point saved); psi, dpsi (nphi,),
     (nphi, k): the weight functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
     :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
     Rows of points that enter no slip integral (not paired at t_n, weight 0) have
@@ -501,15 +504,16 @@ def slip_point_terms(
                 for be in range(k):
                     dNs[row, a, be] = dN[a, be]
             # N^m(ζ_n) and ∂_β through ζ_n (t_n configuration), N^m(ζ) and ∂_β through ζ
-            # (current configuration, the force weights)
+            # (current configuration, the force weights: only where they act at ζ)
             _master_shape_along_xi(
                 ftype_m, qp_zn[f, q], xm_n[mn], xs_n[f], N, dN, Nb, dNb, ddNb, x1, dzeta, dz,
                 Nm[row], dNm[row],
             )  # fmt: skip
-            _master_shape_along_xi(
-                ftype_m, qp_zeta[f, q], xm[qp_m[f, q]], xs[f], N, dN, Nb, dNb, ddNb, x1, dzeta,
-                dz, Nc[row], dNc[row],
-            )  # fmt: skip
+            if current:
+                _master_shape_along_xi(
+                    ftype_m, qp_zeta[f, q], xm[qp_m[f, q]], xs[f], N, dN, Nb, dNb, ddNb, x1,
+                    dzeta, dz, Nc[row], dNc[row],
+                )  # fmt: skip
             for c in range(d):
                 s = 0.0
                 sn = 0.0
