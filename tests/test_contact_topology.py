@@ -146,9 +146,10 @@ _C_POINTS = {
 }
 
 
-def _c_mesh(path, split: bool) -> None:
+def _c_mesh(path, split: bool, h: float = 0.125) -> None:
     """The C (``split`` False: one body) or the C cut along its mirror line y = 0.55 into
-    two bodies, the same nodes with the back's nodes on the cut doubled (``split``)."""
+    two bodies, the same nodes with the back's nodes on the cut doubled (``split``);
+    element size ``h`` (``bench/bench_self_contact.py`` refines it)."""
     m2, m3 = ("m2u", "m3u") if split else ("m2", "m3")
     blocks = [
         ("lo", ("a0", "a1", "a2", "a3")),
@@ -168,7 +169,7 @@ def _c_mesh(path, split: bool) -> None:
     if split:
         groups |= {"sym_lo": [("m3", "m2")], "sym_up": [("m3u", "m2u")]}
     points = {p: x for p, x in _C_POINTS.items() if split or p not in ("m2u", "m3u")}
-    _write(path, points, blocks, groups, 0.125)
+    _write(path, points, blocks, groups, h)
 
 
 def _c_scene(path, split: bool) -> dict:
