@@ -400,7 +400,10 @@ GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: Measured again in session 56 (BENCHMARKS.md §73): seven tests fail with True, among
 #: them the deformable-master patches' accuracy (3D, 2 steps: the partly covered nodes
 #: 0.9995 instead of 0.24) and the stiff SVK scene of the inversion test; and no rule
-#: on the full steps' growth keeps the ironing demo within 25 per step.
+#: on the full steps' growth keeps the ironing demo within 25 per step. The patches' loss
+#: was a defect, fixed in session 56 (task F, BENCHMARKS.md §75): G dropped the points
+#: paired now but not at t_n, so the master's leading end carried no tangential
+#: traction; G now takes them (3D deformable patch, 2 steps: 0.9995 → 7.2e-4).
 FORCE_AT_CURRENT_PROJECTION = False
 #: Deep penetration (in units of the nodal facet size h_I): an active node with mixed gap
 #: γ^I < −DEEP_PENETRATION_TOL h_I marks an iterate far from equilibrium, where p = ε|γ|
@@ -3302,6 +3305,8 @@ class MortarContact:
         nodes = self.node_of[fr_]
         slot_node = np.where(self.node_touching[np.maximum(nodes, 0)], nodes, -1)
         used = (mn >= 0) & (w != 0.0)  # the points of the slip integrals
+        # the force weights' own points (paired now, not at t_n: slip_integrals)
+        g_only = (mn < 0) & (w != 0.0) & current
         # the nodal values seen by each slot (lumped facets: the slot's own value)
         nv = len(values)
         vh, dvh = np.zeros((nv, n_rows, nphi, m)), np.zeros((nv, n_rows, nphi, k, m))
@@ -3325,6 +3330,7 @@ class MortarContact:
             g2,
             slot_node,
             used,
+            g_only,
             self.t_vec,
             w,
             dxi,
@@ -4508,7 +4514,9 @@ class MortarContact:
           force × length (per unit thickness in 2D); set by :meth:`commit_step`.
         - ``force``: list of ``gdim`` floats, the total force that the master exerts on
           the slave, Σ_I p^I ∫ Φ_I ν dA over the reference slave surface, minus
-          Σ_I A_T^I t^I with friction (force units; per unit thickness in 2D).
+          Σ_I A_T^I t^I with friction (force units; per unit thickness in 2D); with the
+          traction at the current projection (FORCE_AT_CURRENT_PROJECTION) A^I in place
+          of A_T^I (its force weights cover every point paired now).
         - ``active_nodes``: the number of slave nodes with p̂^I > 0.
         - ``stick_nodes``, ``slip_nodes``: the numbers of slave nodes in the output
           states 1 and 2 (:meth:`_output_state`: an active frictionless node, and an
@@ -4521,8 +4529,11 @@ class MortarContact:
         active = self.p_hat > 0
         out = {"max_penetration": self._max_penetration()}
         if self.frictional:
-            # the master pushes the slave with −t^I per unit reference area
-            force = force - np.einsum("n,nc->c", self.AT, self.t_vec)
+            # the master pushes the slave with −t^I per unit reference area, over the
+            # points of the force weights: those of the S-weights (A_T), or with the
+            # traction at ζ every point paired now (A^I: Σ_q w Ψ_I = Σ_q w Φ_I there)
+            area = self.A if self.force_at_current else self.AT
+            force = force - np.einsum("n,nc->c", area, self.t_vec)
             out["dissipation"] = self.dissipation
         state = self._output_state()
         stick = int(np.count_nonzero(state == fr.STICK))

@@ -62,7 +62,9 @@ lumped or the constrained normal recovery); the point integrals are in
   node's force weights (session 55): on the slave those of S^I (w J₀ Ψ_I N_a), on the
   master −w J₀ Ψ_I N^m_b(ζ) at the CURRENT projection ζ of each point (the continuum's
   δg_T at the current closest point), or at ζ_n, G^I = ∂S^I/∂u (before session 55):
-  ``contact.FORCE_AT_CURRENT_PROJECTION``.
+  ``contact.FORCE_AT_CURRENT_PROJECTION``. At ζ, G^I also takes the points paired now
+  but not at t_n (session 56: the strip a master end swept since t_n), which have no
+  S-weight.
   The variation of the frame is not part of the weak form (as the paper omits the
   variation of a_αβ); it IS part of the tangent, through t^I(u).
 - **Tangent** (:func:`node_tangent`): K_I = (G^I)ᵀ ∂t^I/∂u, with

@@ -94,14 +94,19 @@ def _problem(
     return problem
 
 
-def _frictional_state(problem, case):
-    """History u_n (0.85 × the current state, most nodes touching), current state,
-    multipliers with stick and slip."""
+def _frictional_state(problem, case, shift_n=0.0):
+    """History u_n (0.85 × the current state, most nodes touching; the slave body moved
+    by ``shift_n`` more along x), current state, multipliers with stick and slip."""
     term = problem.contacts[0]
     depth = {2: 0.05, 3: 0.04}[problem.gdim]
     body = CASES[case][4][0]
     _set_state(problem, depth, body)
     problem.u.x.array[:] *= 0.85
+    if shift_n:
+        md = problem.mesh_data
+        cells = md.cell_tags.find(md.cell_groups[body])
+        dofs = fem.locate_dofs_topological(problem.V, problem.mesh.topology.dim, cells)
+        problem.u.x.array[dofs * problem.V.dofmap.index_map_bs] += shift_n
     problem.u.vector.copy(term._u_n)
     term._u_n_version += 1
     _set_state(problem, depth, body)
@@ -652,6 +657,38 @@ def test_frictional_tangent_matches_finite_differences(case, integration, recove
         has = term.has_area
         dev = np.abs(term.gamma[has] - term.G[has] / term.A[has]).max(initial=0.0)
         assert MPI.COMM_WORLD.allreduce(float(dev), op=MPI.MAX) > 1e-3 * term.h_mean**2
+    _check_tangent(problem, term)
+
+
+@both_force_points
+@exact_tangent
+@pytest.mark.parametrize("integration", ["element", "segment"])
+def test_frictional_tangent_where_the_master_edge_swept_since_t_n(integration, force_at):
+    """Session 56: slave points paired now but not at t_n (here the slave slid back by
+    0.05 / 0.15 since t_n, over patch3d-Q1's master edge x = L; in a slide, the strip
+    that the master's leading end swept since t_n) have no slip reference, so no
+    S-weight. With the traction at ζ their force weights G are kept (before session 56
+    they were dropped with W: the master's leading strip carried no tangential traction,
+    the 3D deformable patch's row under it read p_N 0.26 … 0.48 of p0 = 2, open with 2
+    steps): per node, G's slave part sums to A^I over every point paired now (A_T^I with
+    ζ_n), and the tangent with their point motion and geometric block still matches
+    central differences (without either: 4.7e-3 … 2.2e-2)."""
+    case = "patch3d-Q1"
+    problem = _problem(case, integration)
+    term = _frictional_state(problem, case, shift_n=0.05 if integration == "segment" else 0.15)
+    new = (term.qp_m >= 0) & (term.qp_mn < 0) & (term.qp_w != 0.0)
+    assert new.sum() >= 10
+    # the slave part of each node's force weights
+    slave_key = np.isin(term.s_key, term.slave.blocks)
+    AG = np.bincount(term.s_node[slave_key], term.s_g[slave_key], minlength=term.AT.size)
+    ok = term.node_touching & (term.AT > 0.0)
+    moved = np.zeros(term.AT.size, bool)
+    nodes = term.node_of[np.nonzero(new)[0]]
+    moved[nodes[nodes >= 0]] = True
+    moved &= ok & (term.A > term.AT * (1 + 1e-3))
+    assert moved.sum() >= 4
+    want = term.A if force_at == "current" else term.AT
+    np.testing.assert_allclose(AG[ok], want[ok], rtol=1e-12, atol=1e-15)
     _check_tangent(problem, term)
 
 

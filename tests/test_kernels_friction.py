@@ -3,7 +3,8 @@ in the slip integrals) against its NumPy reference
 (:func:`dolfinx_mortar.kernels.reference.slip_motion_blocks`, written from the kernel's
 docstring sums), on random rows: 2D and 3D, P1 and P2 slave/master node counts, unused
 rows, slots of nodes that take no part (−1), zero weights, zero tractions, several rows
-per group, with and without the recoveries' nodal values."""
+per group, rows of the force weights only (g_only: paired now, not at t_n, the traction
+at ζ; session 56), with and without the recoveries' nodal values."""
 
 import numpy as np
 import pytest
@@ -35,8 +36,12 @@ def test_slip_motion_blocks_matches_reference(dims, nv):
     slot_node[rng.random(slot_node.shape) < 0.25] = -1
     used = rng.random(n) < 0.8
     used[0] = False
+    # the force weights' own rows (paired now, not at t_n: tw only)
+    g_only = ~used & (rng.random(n) < 0.7)
+    g_only[0] = True
     t_vec = rng.standard_normal((n_nodes, d))
     t_vec[rng.integers(n_nodes)] = 0.0  # an open node
+    slot_node[0, 0] = np.argmax(np.abs(t_vec).sum(axis=1))  # g_only row 0 reaches tw
     w = rng.uniform(0.1, 1.0, n)
     w[1] = 0.0
     dxi, dw = rng.standard_normal((n, k, nloc)), rng.standard_normal((n, nloc))
@@ -46,7 +51,7 @@ def test_slip_motion_blocks_matches_reference(dims, nv):
     Nm, dNm = rng.standard_normal((n, nm)), rng.standard_normal((n, nm, k))
     psi, dpsi = rng.standard_normal((n, nphi)), rng.standard_normal((n, nphi, k))
     vh, dvh = rng.standard_normal((nv, n, nphi, m)), rng.standard_normal((nv, n, nphi, k, m))
-    inputs = (g1, g2, slot_node, used, t_vec, w, dxi, dw, dg, dgxi, dgn, dgxin)
+    inputs = (g1, g2, slot_node, used, g_only, t_vec, w, dxi, dw, dg, dgxi, dgn, dgxin)
     inputs += (Ns, dNs, Nm, dNm, psi, dpsi, vh, dvh)
     # the kernel adds to its outputs
     start = (
@@ -64,7 +69,15 @@ def test_slip_motion_blocks_matches_reference(dims, nv):
         close(a - a0, r)
     assert np.abs(ref[0]).max() > 0.0 and np.abs(ref[1]).max() > 0.0
     assert np.abs(ref[3]).max() > 0.0
+    # the g_only rows reach tw alone: without them tw changes, dS … dMv do not
+    ref0 = kref.slip_motion_blocks(*inputs[:4], np.zeros(n, bool), *inputs[5:], G1, G2)
+    for j, name in ((0, "dS"), (1, "dSn"), (2, "dAT"), (4, "dMv")):
+        np.testing.assert_array_equal(ref[j], ref0[j], err_msg=name)
+    assert np.abs(ref[3] - ref0[3]).max() > 0.0
     # a group no used row reaches stays as it was
-    for g, G, a, a0 in ((g1, G1, out[2], start[2]), (g2, G2, out[3], start[3])):
-        idle = np.setdiff1d(np.arange(G), g[used])
+    for g, G, a, a0, rows in (
+        (g1, G1, out[2], start[2], used),
+        (g2, G2, out[3], start[3], used | g_only),
+    ):
+        idle = np.setdiff1d(np.arange(G), g[rows])
         np.testing.assert_array_equal(a[idle], a0[idle])

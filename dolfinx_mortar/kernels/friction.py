@@ -181,7 +181,39 @@ def slip_integrals(
         dual_f = use_dual[f]
         for q in range(nq):
             mn = qp_mn[f, q]
-            if qp_m[f, q] < 0 or mn < 0 or qp_w[f, q] == 0.0:
+            if qp_m[f, q] < 0 or qp_w[f, q] == 0.0:
+                continue
+            if mn < 0:
+                # paired now, not at t_n (the strip a master end swept since t_n): no
+                # slip reference, so no S-weight; the traction acts there all the same
+                # where it acts at ζ (session 56), G only
+                if not at_current:
+                    continue
+                shape(ftype_s, qp_xi[f, q], N, dN, ddN)
+                shape(ftype_m, qp_zeta[f, q], Nc, dNm, ddNm)
+                _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
+                m = qp_m[f, q]
+                for i in range(nphi):
+                    node = node_of[f, i]
+                    if node < 0 or not node_ok[node]:
+                        continue
+                    wphi = qp_w[f, q] * Psi[i]
+                    for a in range(ns):
+                        e_node[e] = node
+                        e_key[e] = skeys[f, a]
+                        for c in range(d):
+                            e_dof[e, c] = sdofs[f, a * d + c]
+                        e_w[e] = 0.0
+                        e_g[e] = wphi * N[a]
+                        e += 1
+                    for b in range(nm):
+                        e_node[e] = node
+                        e_key[e] = mkeys[m, b]
+                        for c in range(d):
+                            e_dof[e, c] = mdofs[m, b * d + c]
+                        e_w[e] = 0.0
+                        e_g[e] = -wphi * Nc[b]
+                        e += 1
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
@@ -266,7 +298,7 @@ def force_geometric_blocks(
     on the rows of the current master facet m = qp_m[f, q], with ∂ζ/∂u the derivative of
     the closest-point projection (:func:`.gap.projection_derivative`: ∂ζ/∂x¹ N_a over the
     slave facet's nodes, ∂ζ/∂x^m_b over m's). The points and nodes are those of the
-    S-weights (paired now and at t_n, node_ok); inputs as :func:`slip_integrals`, t (n, d)
+    force weights (paired now, whether or not at t_n: ``qp_mn`` is not read; node_ok); inputs as :func:`slip_integrals`, t (n, d)
     the nodal traction vectors.
 
     Returns rows (P, nm·d) (the current master facet's dofs), cols (P, (ns + nm)·d) (the
@@ -282,7 +314,7 @@ def force_geometric_blocks(
     P = 0
     for f in range(nsf):
         for q in range(nq):
-            if qp_m[f, q] >= 0 and qp_mn[f, q] >= 0 and qp_w[f, q] != 0.0:
+            if qp_m[f, q] >= 0 and qp_w[f, q] != 0.0:
                 P += 1
     rows = np.empty((P, nr), np.int64)
     cols = np.empty((P, nc), np.int64)
@@ -306,7 +338,7 @@ def force_geometric_blocks(
     for f in range(nsf):
         for q in range(nq):
             m = qp_m[f, q]
-            if m < 0 or qp_mn[f, q] < 0 or qp_w[f, q] == 0.0:
+            if m < 0 or qp_w[f, q] == 0.0:
                 continue
             _weights(ftype_phi, qp_xi[f, q], use_dual[f], dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
             tq[:] = 0.0
@@ -451,8 +483,10 @@ def slip_point_terms(
     else Nc, dNc are left as they are, one projection derivative per point saved); psi, dpsi (nphi,),
     (nphi, k): the weight functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
     :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
-    Rows of points that enter no slip integral (not paired at t_n, weight 0) have
-    psi = dpsi = 0.
+    Rows of points that enter no slip integral (weight 0, or not paired at t_n) have
+    psi = dpsi = 0, except, where ``current``, the points paired now but not at t_n:
+    they carry the force weights only (:func:`slip_integrals`, session 56), so their psi,
+    dpsi, phi, dphi, Ns, dNs, Nc, dNc are written and dg … dNm are left as they are.
 
     xs, xm current and xs_n (nsf, ns, d), xm_n (nmf, nm, d) t_n coordinates; the other
     inputs as :func:`slip_integrals`.
@@ -489,7 +523,7 @@ def slip_point_terms(
                 psi[row, i] = 0.0
                 for be in range(k):
                     dpsi[row, i, be] = 0.0
-            if mn < 0 or qp_w[f, q] == 0.0:
+            if qp_w[f, q] == 0.0 or (mn < 0 and not current):
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             _weights(ftype_phi, qp_xi[f, q], dual_f, dual[f], nphi, Psi, dPsi, Phi, dP, ddP)
@@ -503,6 +537,12 @@ def slip_point_terms(
                 Ns[row, a] = N[a]
                 for be in range(k):
                     dNs[row, a, be] = dN[a, be]
+            if mn < 0:  # the force weights' own point (current): Nc, dNc; dg … dNm untouched
+                _master_shape_along_xi(
+                    ftype_m, qp_zeta[f, q], xm[qp_m[f, q]], xs[f], N, dN, Nb, dNb, ddNb, x1,
+                    dzeta, dz, Nc[row], dNc[row],
+                )  # fmt: skip
+                continue
             # N^m(ζ_n) and ∂_β through ζ_n (t_n configuration), N^m(ζ) and ∂_β through ζ
             # (current configuration, the force weights: only where they act at ζ)
             _master_shape_along_xi(
@@ -544,6 +584,7 @@ def slip_motion_blocks(
     g2,
     slot_node,
     used,
+    g_only,
     t_vec,
     w,
     dxi,
@@ -580,7 +621,9 @@ def slip_motion_blocks(
 
     t = t_vec[slot_node[r, i]]. Inputs: g1, g2 (n,) group numbers (rows of a group share
     their local dofs: (facet, master) and (facet, master, t_n master)); slot_node (n, nphi);
-    used (n,) bool; t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
+    used (n,) bool: the points of the slip integrals; g_only (n,) bool: the force
+    weights' own points (paired now, not at t_n, the traction at ζ: session 56), whose
+    rows add to tw alone (dA as above); t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
     :func:`.segment.segment_derivatives`; dg … dpsi (dgn, dgxin: d_n, ∂d_n/∂ξ) from
     :func:`slip_point_terms`, Nm, dNm there its N^m(ζ_n) or, for the force weights at the
     current projection (session 55), its Nc, dNc: the caller picks the master rows' facet
@@ -600,7 +643,7 @@ def slip_motion_blocks(
     dA = np.empty(nloc)
     dX = np.empty(nloc)
     for r in range(n):
-        if not used[r]:
+        if not used[r] and not g_only[r]:
             continue
         a1 = g1[r]
         a2 = g2[r]
@@ -614,8 +657,9 @@ def slip_motion_blocks(
                 for be in range(k):
                     s += w[r] * dpsi[r, i, be] * dxi[r, be, j]
                 dA[j] = s
-                dAT[a1, i, j] += s
-            for c in range(d):
+                if used[r]:
+                    dAT[a1, i, j] += s
+            for c in range(d if used[r] else 0):
                 for j in range(nloc):
                     s = dg[r, c] * dA[j]
                     sn = dgn[r, c] * dA[j]
@@ -641,7 +685,7 @@ def slip_motion_blocks(
                     if tc != 0.0:
                         for j in range(nloc):
                             tw[a2, a * d + c, j] += tc * dX[j]
-            for v in range(nv):
+            for v in range(nv if used[r] else 0):
                 for al in range(m):
                     for j in range(nloc):
                         s = vh[v, r, i, al] * dA[j]

@@ -524,6 +524,7 @@ def slip_motion_blocks(
     g2,
     slot_node,
     used,
+    g_only,
     t_vec,
     w,
     dxi,
@@ -551,12 +552,16 @@ def slip_motion_blocks(
     d = dg.shape[1]
     ns, nm, nphi = Ns.shape[1], Nm.shape[1], psi.shape[1]
     nv, m = vh.shape[0], vh.shape[3]
-    sel = (used[:, None] & (slot_node >= 0)).astype(float)  # (n, nphi)
-    wp = w[:, None] * psi * sel  # w Ψ_i
+    # the slip integrals' rows (used) and, for the force weights tw, g_only's too
+    sel_g = ((used | g_only)[:, None] & (slot_node >= 0)).astype(float)  # (n, nphi)
+    sel = (used[:, None] & (slot_node >= 0)).astype(float)
+    wp_g = w[:, None] * psi * sel_g  # w Ψ_i
+    wp = wp_g * sel
     # dA = Ψ_i dw + w ∂_βΨ_i dξ^β
-    dA = sel[:, :, None] * (
+    dA_g = sel_g[:, :, None] * (
         psi[:, :, None] * dw[:, None, :] + w[:, None, None] * np.einsum("rib,rbj->rij", dpsi, dxi)
     )
+    dA = dA_g * sel[:, :, None]
     dgx = np.einsum("rbc,rbj->rcj", dgxi, dxi)  # ∂_βΔg_c dξ^β
     dS_r = dg[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dgx[:, None]
     dgxn = np.einsum("rbc,rbj->rcj", dgxin, dxi)  # ∂_βd_n,c dξ^β (S_n's weights move too)
@@ -564,8 +569,8 @@ def slip_motion_blocks(
     # facet node weights: +(N_a dA + w Ψ ∂_βN_a dξ^β) (slave), −(…N^m_b…) (t_n master)
     Na = np.concatenate([Ns, -Nm], axis=1)
     dNa = np.einsum("rab,rbj->raj", np.concatenate([dNs, -dNm], axis=1), dxi)
-    dX = Na[:, None, :, None] * dA[:, :, None, :] + wp[:, :, None, None] * dNa[:, None]
-    t = t_vec[np.maximum(slot_node, 0)] * sel[:, :, None]  # (n, nphi, d)
+    dX = Na[:, None, :, None] * dA_g[:, :, None, :] + wp_g[:, :, None, None] * dNa[:, None]
+    t = t_vec[np.maximum(slot_node, 0)] * sel_g[:, :, None]  # (n, nphi, d)
     tw_r = np.einsum("ric,riaj->racj", t, dX).reshape(n, (ns + nm) * d, nloc)
     dv = np.einsum("vriba,rbj->vriaj", dvh, dxi)
     dM_r = vh[..., None] * dA[None, :, :, None, :] + wp[None, :, :, None, None] * dv
