@@ -298,8 +298,8 @@ def force_geometric_blocks(
     on the rows of the current master facet m = qp_m[f, q], with ∂ζ/∂u the derivative of
     the closest-point projection (:func:`.gap.projection_derivative`: ∂ζ/∂x¹ N_a over the
     slave facet's nodes, ∂ζ/∂x^m_b over m's). The points and nodes are those of the
-    force weights (paired now, whether or not at t_n: ``qp_mn`` is not read; node_ok); inputs as :func:`slip_integrals`, t (n, d)
-    the nodal traction vectors.
+    force weights (paired now, whether or not at t_n: ``qp_mn`` is not read; node_ok);
+    inputs as :func:`slip_integrals`, t (n, d) the nodal traction vectors.
 
     Returns rows (P, nm·d) (the current master facet's dofs), cols (P, (ns + nm)·d) (the
     slave facet's, then m's) and K (P, nm·d, (ns + nm)·d), one block per point with
@@ -478,10 +478,11 @@ def slip_point_terms(
     Nm (nm,): N^m_b(ζ_n) and dNm (nm, k): ∂N^m_b(ζ_n)/∂ξ_β through ζ_n; Nc (nm,):
     N^m_b(ζ) at the point's CURRENT projection ζ = qp_zeta on facet qp_m and dNc (nm, k):
     ∂N^m_b(ζ)/∂ξ_β through ζ at fixed nodes, ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β(ξ) in the current
-    configuration (the force weights' master part, :func:`slip_integrals`' e_g), computed only
-    where ``current`` (bool: the traction acts at ζ, contact.FORCE_AT_CURRENT_PROJECTION;
-    else Nc, dNc are left as they are, one projection derivative per point saved); psi, dpsi (nphi,),
-    (nphi, k): the weight functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
+    configuration (the force weights' master part, :func:`slip_integrals`' e_g), computed
+    only where ``current`` (bool: the traction acts at ζ,
+    contact.FORCE_AT_CURRENT_PROJECTION; else Nc, dNc are left as they are, one
+    projection derivative per point saved); psi, dpsi (nphi,), (nphi, k): the weight
+    functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
     :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
     Rows of points that enter no slip integral (weight 0, or not paired at t_n) have
     psi = dpsi = 0, except, where ``current``, the points paired now but not at t_n:
@@ -623,8 +624,8 @@ def slip_motion_blocks(
     their local dofs: (facet, master) and (facet, master, t_n master)); slot_node (n, nphi);
     used (n,) bool: the points of the slip integrals; g_only (n,) bool: the force
     weights' own points (paired now, not at t_n, the traction at ζ: session 56), whose
-    rows add to tw alone (dA as above); t_vec (n_nodes, d); w (n,); dxi (n, k, nloc), dw (n, nloc) from
-    :func:`.segment.segment_derivatives`; dg … dpsi (dgn, dgxin: d_n, ∂d_n/∂ξ) from
+    rows add to tw alone (dA as above); t_vec (n_nodes, d); w (n,); dxi (n, k, nloc),
+    dw (n, nloc) from :func:`.segment.segment_derivatives`; dg … dpsi (dgn, dgxin: d_n, ∂d_n/∂ξ) from
     :func:`slip_point_terms`, Nm, dNm there its N^m(ζ_n) or, for the force weights at the
     current projection (session 55), its Nc, dNc: the caller picks the master rows' facet
     (m_n or the current m); vh
