@@ -403,7 +403,9 @@ GEOMETRIC_TANGENT_AT_FIRST_CONTACT = False
 #: on the full steps' growth keeps the ironing demo within 25 per step. The patches' loss
 #: was a defect, fixed in session 56 (task F, BENCHMARKS.md §75): G dropped the points
 #: paired now but not at t_n, so the master's leading end carried no tangential
-#: traction; G now takes them (3D deformable patch, 2 steps: 0.9995 → 7.2e-4).
+#: traction; G now takes them (3D deformable patch, 2 steps: 0.9995 → 7.2e-4). The other
+#: six failures stand after that fix (§75: the ironing snap, the stiff SVK scene, the
+#: unconstrained recovery's slide, an Aitken cutback, the chattering and dissipation tests).
 FORCE_AT_CURRENT_PROJECTION = False
 #: Deep penetration (in units of the nodal facet size h_I): an active node with mixed gap
 #: γ^I < −DEEP_PENETRATION_TOL h_I marks an iterate far from equilibrium, where p = ε|γ|
