@@ -93,6 +93,24 @@ def _weights(ftype_phi, xi, use_dual, dual_f, nphi, Psi, dPsi, Phi, dP, ddP):
 
 
 @numba.njit(cache=True)
+def _put_entries(e, node, keys, dofs, shp, sw, sg, e_node, e_key, e_dof, e_w, e_g):
+    """Write the entries of one node against the n nodes of one facet (:func:`slip_integrals`'
+    layout): keys (n,) their global blocks, dofs (n·d,) their global dofs, shp (n,) their
+    shape values at the point; entry e + b gets (node, keys[b], its d dofs, the S-weight
+    sw·shp[b], the force weight sg·shp[b]). Returns the next free entry index."""
+    d = e_dof.shape[1]
+    for b in range(keys.shape[0]):
+        e_node[e] = node
+        e_key[e] = keys[b]
+        for c in range(d):
+            e_dof[e, c] = dofs[b * d + c]
+        e_w[e] = sw * shp[b]
+        e_g[e] = sg * shp[b]
+        e += 1
+    return e
+
+
+@numba.njit(cache=True)
 def slip_integrals(
     ftype_s,
     ftype_m,
@@ -198,22 +216,12 @@ def slip_integrals(
                     if node < 0 or not node_ok[node]:
                         continue
                     wphi = qp_w[f, q] * Psi[i]
-                    for a in range(ns):
-                        e_node[e] = node
-                        e_key[e] = skeys[f, a]
-                        for c in range(d):
-                            e_dof[e, c] = sdofs[f, a * d + c]
-                        e_w[e] = 0.0
-                        e_g[e] = wphi * N[a]
-                        e += 1
-                    for b in range(nm):
-                        e_node[e] = node
-                        e_key[e] = mkeys[m, b]
-                        for c in range(d):
-                            e_dof[e, c] = mdofs[m, b * d + c]
-                        e_w[e] = 0.0
-                        e_g[e] = -wphi * Nc[b]
-                        e += 1
+                    e = _put_entries(
+                        e, node, skeys[f], sdofs[f], N, 0.0, wphi, e_node, e_key, e_dof, e_w, e_g
+                    )
+                    e = _put_entries(
+                        e, node, mkeys[m], mdofs[m], Nc, 0.0, -wphi, e_node, e_key, e_dof, e_w, e_g
+                    )
                 continue
             shape(ftype_s, qp_xi[f, q], N, dN, ddN)
             shape(ftype_m, qp_zn[f, q], Nm, dNm, ddNm)
@@ -240,32 +248,18 @@ def slip_integrals(
                 for c in range(d):
                     S[node, c] += wphi * dg[c]
                     Sn[node, c] += wphi * dgn[c]
-                for a in range(ns):
-                    e_node[e] = node
-                    e_key[e] = skeys[f, a]
-                    for c in range(d):
-                        e_dof[e, c] = sdofs[f, a * d + c]
-                    e_w[e] = wphi * N[a]
-                    e_g[e] = wphi * N[a]
-                    e += 1
-                for b in range(nm):
-                    e_node[e] = node
-                    e_key[e] = mkeys[mn, b]
-                    for c in range(d):
-                        e_dof[e, c] = mdofs[mn, b * d + c]
-                    e_w[e] = -wphi * Nm[b]
-                    e_g[e] = 0.0 if at_current else -wphi * Nm[b]
-                    e += 1
+                e = _put_entries(
+                    e, node, skeys[f], sdofs[f], N, wphi, wphi, e_node, e_key, e_dof, e_w, e_g
+                )
+                g_n = 0.0 if at_current else -wphi  # the master's G at ζ_n (m_n)
+                e = _put_entries(
+                    e, node, mkeys[mn], mdofs[mn], Nm, -wphi, g_n, e_node, e_key, e_dof, e_w, e_g
+                )
                 if at_current:
                     m = qp_m[f, q]
-                    for b in range(nm):
-                        e_node[e] = node
-                        e_key[e] = mkeys[m, b]
-                        for c in range(d):
-                            e_dof[e, c] = mdofs[m, b * d + c]
-                        e_w[e] = 0.0
-                        e_g[e] = -wphi * Nc[b]
-                        e += 1
+                    e = _put_entries(
+                        e, node, mkeys[m], mdofs[m], Nc, 0.0, -wphi, e_node, e_key, e_dof, e_w, e_g
+                    )
     return e
 
 
