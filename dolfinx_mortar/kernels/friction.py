@@ -93,6 +93,27 @@ def _weights(ftype_phi, xi, use_dual, dual_f, nphi, Psi, dPsi, Phi, dP, ddP):
 
 
 @numba.njit(cache=True)
+def _point_scratch(ns, nm, ks, km):
+    """Work arrays of the friction kernels' point loops: the slave shape functions N (ns,),
+    dN (ns, ks), ddN (ns, ks, ks), the master ones Nm (nm,), dNm (nm, km), ddNm
+    (nm, km, km), and the mixed basis and weight functions Phi, Psi (9,), dPsi, dP (9, ks),
+    ddP (9, ks, ks) (up to 9 nodes)."""
+    return (
+        np.empty(ns),
+        np.empty((ns, ks)),
+        np.empty((ns, ks, ks)),
+        np.empty(nm),
+        np.empty((nm, km)),
+        np.empty((nm, km, km)),
+        np.empty(9),
+        np.empty(9),
+        np.empty((9, ks)),
+        np.empty((9, ks)),
+        np.empty((9, ks, ks)),
+    )
+
+
+@numba.njit(cache=True)
 def _put_entries(e, node, keys, dofs, shp, sw, sg, e_node, e_key, e_dof, e_w, e_g):
     """Write the entries of one node against the n nodes of one facet (:func:`slip_integrals`'
     layout): keys (n,) their global blocks, dofs (n·d,) their global dofs, shp (n,) their
@@ -177,18 +198,8 @@ def slip_integrals(
     nphi = node_of.shape[1]
     ks = tdim(ftype_s)
     km = tdim(ftype_m)
-    N = np.empty(ns)
-    dN = np.empty((ns, ks))
-    ddN = np.empty((ns, ks, ks))
-    Nm = np.empty(nm)
+    N, dN, ddN, Nm, dNm, ddNm, Phi, Psi, dPsi, dP, ddP = _point_scratch(ns, nm, ks, km)
     Nc = np.empty(nm)
-    dNm = np.empty((nm, km))
-    ddNm = np.empty((nm, km, km))
-    Phi = np.empty(9)
-    Psi = np.empty(9)
-    dPsi = np.empty((9, ks))
-    dP = np.empty((9, ks))
-    ddP = np.empty((9, ks, ks))
     dg = np.empty(d)
     dgn = np.empty(d)
     AT[:] = 0.0
@@ -313,17 +324,7 @@ def force_geometric_blocks(
     rows = np.empty((P, nr), np.int64)
     cols = np.empty((P, nc), np.int64)
     K = np.zeros((P, nr, nc))
-    N = np.empty(ns)
-    dN = np.empty((ns, ks))
-    ddN = np.empty((ns, ks, ks))
-    Nm = np.empty(nm)
-    dNm = np.empty((nm, km))
-    ddNm = np.empty((nm, km, km))
-    Phi = np.empty(9)
-    Psi = np.empty(9)
-    dPsi = np.empty((9, ks))
-    dP = np.empty((9, ks))
-    ddP = np.empty((9, ks, ks))
+    N, dN, ddN, Nm, dNm, ddNm, Phi, Psi, dPsi, dP, ddP = _point_scratch(ns, nm, ks, km)
     x1 = np.empty(d)
     tq = np.empty(d)
     dz = np.empty((km, d * (1 + nm)))
@@ -492,17 +493,7 @@ def slip_point_terms(
     nphi = psi.shape[1]
     k = qp_xi.shape[2]
     km = qp_zn.shape[2]
-    N = np.empty(ns)
-    dN = np.empty((ns, k))
-    ddN = np.empty((ns, k, k))
-    Nb = np.empty(nm)
-    dNb = np.empty((nm, km))
-    ddNb = np.empty((nm, km, km))
-    Phi = np.empty(9)
-    Psi = np.empty(9)
-    dPsi = np.empty((9, k))
-    dP = np.empty((9, k))
-    ddP = np.empty((9, k, k))
+    N, dN, ddN, Nb, dNb, ddNb, Phi, Psi, dPsi, dP, ddP = _point_scratch(ns, nm, k, km)
     x1 = np.empty(d)
     dzeta = np.empty((km, d * (1 + nm)))
     dz = np.empty((km, k))
