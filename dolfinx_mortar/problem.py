@@ -1226,15 +1226,7 @@ class ContactProblem:
         self.ensure_contact_at(x)
         self.timings["search"] += perf_counter() - t0
         t0 = perf_counter()
-        if self.linear_bulk is not None:
-            self.linear_bulk.residual(x, b, apply_bcs)
-        else:
-            with b.localForm() as bl:
-                bl.set(0.0)
-            assemble_vector(b, self.F_form)
-            if apply_bcs:
-                apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
-            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._bulk_residual(x, b, apply_bcs)
         self.timings["bulk_assembly"] += perf_counter() - t0
         t0 = perf_counter()
         for term in self.contacts:
@@ -1249,6 +1241,20 @@ class ContactProblem:
             # a facet of zero size in the deformed state (MortarContact.update): no
             # residual here; NaN on this rank's rows makes the norm NaN on every rank
             b.array_w[:] = np.nan
+
+    def _bulk_residual(self, x: PETSc.Vec, b: PETSc.Vec, apply_bcs: bool) -> None:
+        """The bulk part of R(x) into ``b`` (overwritten, ghosts summed; collective): the
+        linear bulk's evaluation or the assembled UFL form, with ``apply_bcs`` the lifting
+        of the Dirichlet conditions (their rows are :meth:`residual`'s to set)."""
+        if self.linear_bulk is not None:
+            self.linear_bulk.residual(x, b, apply_bcs)
+            return
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, self.F_form)
+        if apply_bcs:
+            apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
     def nonfinite_cause(self, x: PETSc.Vec) -> str:
         """What makes R(x) non-finite, for messages (collective; u becomes x and the
@@ -1276,13 +1282,7 @@ class ContactProblem:
             return "a contact facet of zero size in the deformed state"
         b = self.u.vector.duplicate()
         try:
-            if self.linear_bulk is not None:
-                self.linear_bulk.residual(x, b, False)
-            else:
-                with b.localForm() as bl:
-                    bl.set(0.0)
-                assemble_vector(b, self.F_form)
-                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._bulk_residual(x, b, False)
             if any_rank(not np.all(np.isfinite(b.array_r))):
                 if not self.small_strain:
                     det = self.min_det_F()
