@@ -542,6 +542,78 @@ def test_bad_input_cold_jit_cache(workdir, tmp_path_factory):
     assert_bad_input(res, "empty-contact-surface", 1, before, workdir)
 
 
+#: A child that runs the command line's main() on its arguments and prints its exit
+#: status and which of the heavy modules it imported.
+_MAIN_AND_MODULES = (
+    "import sys\n"
+    "from dolfinx_mortar.cli import main\n"
+    "rc = main(sys.argv[1:])\n"
+    "heavy = {'dolfinx', 'gmsh', 'ufl', 'petsc4py', 'dolfinx_mortar.output'}\n"
+    "print(rc, sorted(heavy & set(sys.modules)))\n"
+)
+
+
+@pytest.mark.parametrize(
+    "case_id, command, extra",
+    [
+        ("unknown-key", "check", []),
+        ("E-zero", "run", []),
+        ("toml-syntax", "check", []),
+        (None, "run", ["-dm_ksp_rtol", "nan"]),  # the command line's PETSc options
+    ],
+)
+def test_a_scene_error_is_found_before_dolfinx_and_gmsh_are_imported(
+    workdir, case_id, command, extra
+):
+    """A mistake in the scene file or in the command-line PETSc options is answered
+    before dolfinx and gmsh are imported (session 57): `check bad.toml` took 1.1 s,
+    of which the scene's checks are milliseconds. The same one line, exit 2; dolfinx,
+    ufl, PETSc, gmsh and the output module are not in sys.modules after main()."""
+    if case_id is None:
+        (workdir / "bad.toml").write_text(to_toml(base_scene()))
+    else:
+        write_case(workdir, case_id)
+    before = snapshot(workdir)
+    res = subprocess.run(
+        [sys.executable, "-c", _MAIN_AND_MODULES, command, "bad.toml", *extra],
+        cwd=workdir,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 0 and res.stdout == "2 []\n", where
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dolfinx-mortar: error: "), where
+    if case_id is None:
+        assert ERROR_LINE.match(lines[0]).group("key") == "solver.petsc.ksp_rtol", where
+    elif case_id != "toml-syntax":
+        assert ERROR_LINE.match(lines[0]).group("key") == CASE_BY_ID[case_id][2], where
+    assert snapshot(workdir) == before
+
+
+def test_a_mesh_error_imports_dolfinx_after_the_scene(workdir):
+    """The other side of the fast path: a scene whose error is in the mesh (a group
+    that it lacks) still reads the mesh with dolfinx and gmsh, and says so in one line."""
+    write_case(workdir, "missing-group-dirichlet")
+    res = subprocess.run(
+        [sys.executable, "-c", _MAIN_AND_MODULES, "check", "bad.toml"],
+        cwd=workdir,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    heavy = "['dolfinx', 'dolfinx_mortar.output', 'gmsh', 'petsc4py', 'ufl']"
+    assert res.returncode == 0 and res.stdout == f"2 {heavy}\n", where
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1 and ERROR_LINE.match(lines[0]).group("key") == "dirichlet[0].boundary"
+
+
 def test_missing_scene_file(workdir):
     before = snapshot(workdir)
     res = cli(workdir, "run", "-vv", "absent.toml")
