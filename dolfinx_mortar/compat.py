@@ -26,7 +26,13 @@ def _import_gmshio():
     return gmshio
 
 
-gmshio = keep_sigint_handler(_import_gmshio)
+def _gmshio():
+    """``dolfinx.io.gmshio``, imported on first use with the SIGINT handler kept
+    (:func:`keep_sigint_handler`): it imports gmsh (0.25–0.4 s), which only the mesh
+    loading needs, so that importing this module (and the output and problem modules
+    that import it) does not. Its ``model_to_mesh`` exists only where gmsh imports."""
+    return keep_sigint_handler(_import_gmshio)
+
 
 __all__ = [
     "vector_space",
@@ -175,7 +181,7 @@ def model_to_mesh(model, comm, gdim: int):
     name), so the caller opens the file with gmsh on rank 0 and calls this.
     Returns ``(mesh, cell_tags, facet_tags)``.
     """
-    return gmshio.model_to_mesh(model, comm, 0, gdim=gdim)
+    return _gmshio().model_to_mesh(model, comm, 0, gdim=gdim)
 
 
 def tagged_entities(tags, value: int) -> np.ndarray:

@@ -19,7 +19,7 @@ from . import compat
 from .errors import SceneError, file_problem
 
 # moved to gmsh_session (session 54: dolfinx-free, for `dolfinx-mortar generators`)
-from .gmsh_session import GMSH_OPTIONS, gmsh_model  # noqa: F401
+from .gmsh_session import GMSH_OPTIONS, gmsh_model, import_gmsh  # noqa: F401
 
 log = logging.getLogger(__name__)
 
@@ -313,7 +313,7 @@ def load_mesh(
     error = None
     session = contextlib.ExitStack()  # rank 0: the gmsh model (gmsh_model), closed after
     if comm.rank == 0:
-        import gmsh
+        gmsh = import_gmsh()  # with the SIGINT handler kept (gmsh 4.8 resets it)
 
         try:
             session.enter_context(gmsh_model(gmsh))
