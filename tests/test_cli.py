@@ -2,21 +2,64 @@
 
 The contract (SCENES.md): bad input gives exactly one line
 ``dolfinx-mortar: error: KEY: REASON`` on stderr per rank, exit status 2, no Python
-traceback, and leaves an existing output directory untouched. Every test runs the
-program as a subprocess (``python3 -m dolfinx_mortar``), so none of them may itself
-run under mpirun (no nested MPI): none is marked ``mpi``. The MPI variant launches
-``mpirun -n 2`` itself.
+traceback, and leaves an existing output directory untouched. The tests run the program
+as a subprocess (``python3 -m dolfinx_mortar``), so none of them may itself run under
+mpirun (no nested MPI): none is marked ``mpi``. The MPI variants launch ``mpirun -n 2``
+themselves.
+
+The bad-input matrix (every case of CASES, ``check`` and ``run``: test_bad_input_serial)
+runs in this process instead: ``cli.main([command, scene])``, what ``python3 -m
+dolfinx_mortar`` calls (``sys.exit(main())``), in the case's working directory, its
+stdout and stderr read at the file-descriptor level (``capfd``: C-level writes count),
+the exit status from its return value or SystemExit (a process costs about 1.1 s of
+interpreter start, MPI_Init and imports: as processes the 86 took 90 s of a serial run,
+in this process 1.5 s; CHANGELOG, session 57). The process's
+state is kept from one command to the next and from the files that the xdist worker
+runs after this one, and what a command should leave as it found it is asserted
+unchanged (:func:`_process_state_kept`: loggers, warning filters, signal handlers
+Python's and C's, PETSc's options database, os.environ, sys.argv, the working
+directory, open file descriptors, ...).
+
+What a run in this process does not see, and test_bad_input_subprocess (one case of each
+stage at which input fails, ``check`` and ``run`` between them, each a process of its
+own) does:
+
+- what the interpreter's start does: ``-m`` and ``__main__``, the first imports
+  (PETSc's initialization and its signal handlers, the import-time warning filters:
+  done before the first in-process run, :data:`_WARM_MODULES`), the command line as
+  dolfinx's import hands it to its C++ logging (``cli._import_dolfinx``), MPI_Init's
+  output, and the environment of :func:`_env` (PYTHONUNBUFFERED, no MPI job);
+- what its exit does: output written at interpreter exit (PETSc's warnings of options
+  left unused at PetscFinalize, atexit handlers and weakref finalizers, gmsh's and MPI's
+  finalization, buffered output flushed), and the exit status as the OS reports it;
+- state that one process keeps from a first call: per-process caches (forms and numba
+  kernels compiled once, ffcx's parameter files read once), so that a first call's
+  output (a cold JIT's build log: test_bad_input_cold_jit_cache) shows in one case only.
+
+What a process prints at its start or exit depends on how far the command got (the
+modules it imported, the PETSc options and objects a stage left for the finalizers), so
+the subprocess subset takes a case of each stage: the TOML parser, the scene's values,
+the mesh reader, the mesh and group checks, the contact surfaces after the forms are
+compiled, the penalty rule and the generator's size.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import faulthandler
 import functools
 import json
+import logging
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import threading
+import traceback
+import warnings
 from pathlib import Path
 
 import pytest
@@ -74,6 +117,306 @@ def cli(cwd: Path, *args: str, ranks: int = 0, **env: str) -> subprocess.Complet
         timeout=TIMEOUT,
         stdin=subprocess.DEVNULL,
     )
+
+
+# ------------------------------------------------------------------- in-process runs
+
+# The signals whose handlers the in-process runs check: the standard ones but SIGKILL
+# and SIGSTOP, which cannot be caught (glibc's sigaction refuses its internal 32 and 33).
+_SIGNALS = [s for s in range(1, signal.SIGRTMIN) if s not in (signal.SIGKILL, signal.SIGSTOP)]
+_SIGACTION_BYTES = 152  # sizeof(struct sigaction) of glibc on x86_64 and aarch64
+
+
+def _c_signal_dispositions() -> dict[int, bytes]:
+    """Each signal of _SIGNALS -> its C-level struct sigaction, read with sigaction(2): a
+    handler that C code (gmsh, PETSc, MPI) installs is not seen by signal.getsignal.
+    Empty off Linux."""
+    if not sys.platform.startswith("linux"):
+        return {}
+    libc = ctypes.CDLL(None, use_errno=True)
+    out = {}
+    for s in _SIGNALS:
+        buf = ctypes.create_string_buffer(_SIGACTION_BYTES)
+        if libc.sigaction(s, None, buf) == 0:
+            out[s] = buf.raw
+    return out
+
+
+def _disposition(raw: bytes) -> bytes:
+    """The handler, the first 64 signals of the mask (the kernel's; glibc copies the
+    rest of its 1024-bit mask from uninitialized memory) and the flags of a struct
+    sigaction."""
+    return raw[:16] + raw[136:140]
+
+
+def _open_fds() -> dict[str, str]:
+    """The process's open file descriptors -> what they point to (Linux; empty
+    elsewhere), without the one that listed them."""
+    if not os.path.isdir("/proc/self/fd"):
+        return {}
+    out = {}
+    for fd in os.listdir("/proc/self/fd"):
+        with contextlib.suppress(OSError):  # the listing's own, closed by now
+            out[fd] = os.readlink(f"/proc/self/fd/{fd}")
+    return out
+
+
+#: Loggers whose level a library sets on each call, put back but not asserted unchanged:
+#: ffcx.parameters.get_parameters sets ffcx's to its "verbosity" at each JIT compilation.
+_LIBRARY_SET_LOGGERS = ("ffcx",)
+
+
+def _loggers(library_set: bool = False) -> dict[str, tuple]:
+    """Every logger but the root -> (level, handlers with their levels, propagate,
+    disabled); those of _LIBRARY_SET_LOGGERS only where ``library_set``."""
+    out = {}
+    for name, lg in logging.root.manager.loggerDict.items():
+        if (name in _LIBRARY_SET_LOGGERS) != library_set:
+            continue
+        if isinstance(lg, logging.Logger):
+            handlers = tuple((h, h.level) for h in lg.handlers)
+            out[name] = (lg.level, handlers, lg.propagate, lg.disabled)
+    return out
+
+
+def _package_state() -> dict[str, object]:
+    """The module-level state of dolfinx_mortar that a command may change: the
+    registered laws, the PETSc options the live solvers have loaded (and a host
+    program's that they set aside), whether a stop-signal handler is in force."""
+    from dolfinx_mortar import errors, laws, solver
+
+    return {
+        "laws": dict(laws._LAWS),
+        "stop": dict(errors._stop),
+        "solvers loaded": dict(solver._LOADED),
+        "host options set aside": dict(solver._HOST_OPTIONS),
+    }
+
+
+def _process_state() -> dict[str, object]:
+    """The process-global state that :func:`_process_state_kept` asserts unchanged."""
+    import argparse
+
+    import numpy as np
+    from petsc4py import PETSc
+
+    return {
+        "loggers": _loggers(),
+        "logging.disable": logging.root.manager.disable,
+        "warning filters": list(warnings.filters),
+        "signal handlers": {s: signal.getsignal(s) for s in _SIGNALS},
+        "C-level signal dispositions": {
+            s: _disposition(raw) for s, raw in _c_signal_dispositions().items()
+        },
+        "PETSc options": dict(PETSc.Options().getAll()),
+        "os.environ": dict(os.environ),
+        "sys.argv": list(sys.argv),
+        "sys.path": list(sys.path),
+        "cwd": os.getcwd(),
+        "sys.stdin/stdout/stderr": (sys.stdin, sys.stdout, sys.stderr),
+        "sys.excepthook": sys.excepthook,
+        "faulthandler": faulthandler.is_enabled(),
+        "ArgumentParser.error": argparse.ArgumentParser.error,
+        "numpy errstate": np.geterr(),
+        "dolfinx_mortar": _package_state(),
+        "threads": set(threading.enumerate()),
+        "open file descriptors": _open_fds(),
+    }
+
+
+def _without_leaks(fds: dict[str, str], leaks: tuple[str, ...]) -> dict[str, str]:
+    return {fd: path for fd, path in fds.items() if not (leaks and path.endswith(leaks))}
+
+
+#: The filters pytest puts first in each test's warning filters (its summary shows them);
+#: a fresh interpreter has none of them (no -W, no PYTHONWARNINGS).
+_PYTEST_FILTERS = (
+    ("always", None, DeprecationWarning, None, 0),
+    ("always", None, PendingDeprecationWarning, None, 0),
+)
+
+
+def _warning_to_stderr(message, category, filename, lineno, file=None, line=None):
+    """warnings.showwarning as a fresh interpreter's: the warning on sys.stderr."""
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
+#: The modules whose import changes the process's state (PETSc's C signal handlers, the
+#: warning filters of numpy, scipy and pkg_resources): imported before the in-process
+#: runs take their first snapshot, as a fresh ``python3 -m dolfinx_mortar`` imports them.
+_WARM_MODULES = ("dolfinx", "dolfinx.fem.petsc", "dolfinx.io", "petsc4py.PETSc", "scipy.sparse")
+
+
+@pytest.fixture(scope="module")
+def warm_imports():
+    """Every module of dolfinx_mortar and :data:`_WARM_MODULES`, imported."""
+    import importlib
+    import pkgutil
+
+    import dolfinx_mortar
+
+    for name in _WARM_MODULES:
+        importlib.import_module(name)
+    for info in pkgutil.walk_packages(dolfinx_mortar.__path__, "dolfinx_mortar."):
+        if info.name != "dolfinx_mortar.__main__":
+            importlib.import_module(info.name)
+
+
+@contextlib.contextmanager
+def _process_state_kept(leaks: tuple[str, ...] = ()):
+    """Run the block (a call of ``cli.main``) as a process of its own would run it, and
+    keep the tests that follow in this process (the xdist worker runs other files after
+    this one) from seeing what it changed.
+
+    As in a fresh ``python3``, the block runs with the root logger at WARNING with no
+    handler (pytest's set aside: ``_setup_logging``'s basicConfig(force=True) would close
+    them) and with the interpreter's warning filters and ``warnings.showwarning`` (pytest
+    records the warnings for its summary: a warning the command leaks must reach stderr,
+    as one more line). Afterwards the root logger (level, handlers and their levels) and
+    the warning filters are put back, the handler the command set up closed.
+
+    Asserted unchanged by the block, and put back where changed (but the threads and
+    the file descriptors): the other loggers and ``logging.disable`` (ffcx's level put
+    back, not asserted: :data:`_LIBRARY_SET_LOGGERS`), the warning filters the block ran
+    with, the signal handlers of every signal, Python's and C's (sigaction: gmsh and
+    PETSc install their own), PETSc's options database (a solver's options go with the
+    solver: a failed ``check`` or ``run`` leaves none), os.environ, sys.argv, sys.path,
+    the working directory, sys.stdin/stdout/stderr, sys.excepthook, faulthandler,
+    argparse's ArgumentParser.error (``bench`` swaps it), numpy's floating-point error
+    handling, dolfinx_mortar's module state (:func:`_package_state`), the threads and the
+    open file descriptors, but for a descriptor left open on a file whose name ends with
+    one of ``leaks``: gmsh 4.8 leaves a .msh file that it cannot parse open (case
+    mesh-corrupt), a defect of its own."""
+    root = logging.getLogger()
+    root_level, root_handlers = root.level, list(root.handlers)
+    root_handler_levels = [h.level for h in root_handlers]
+    root.handlers[:] = []
+    root.setLevel(logging.WARNING)
+    library_set = _loggers(library_set=True)
+    c_before = _c_signal_dispositions()
+    try:
+        with warnings.catch_warnings():
+            warnings.filters[:] = [f for f in warnings.filters if f not in _PYTEST_FILTERS]
+            warnings.showwarning = _warning_to_stderr
+            before = _process_state()
+            try:
+                yield
+            finally:
+                after = _process_state()
+    finally:
+        for h in root.handlers:
+            if h not in root_handlers:
+                h.close()
+        root.handlers[:] = root_handlers
+        root.setLevel(root_level)
+        for h, level in zip(root_handlers, root_handler_levels, strict=True):
+            h.setLevel(level)
+    for state in (before, after):
+        state["open file descriptors"] = _without_leaks(state["open file descriptors"], leaks)
+    changed = [k for k in before if after[k] != before[k]]
+    _put_back(before, after, c_before)
+    _put_back_loggers(library_set)
+    detail = "\n".join(f"{k}: {_difference(before[k], after[k])}" for k in changed)
+    assert not changed, f"the command changed the process's {', '.join(changed)}:\n{detail}"
+
+
+def _difference(before, after) -> str:
+    """What differs between two states of :func:`_process_state` (of dicts, the keys)."""
+    if isinstance(before, dict) and isinstance(after, dict):
+        keys = sorted({*before, *after}, key=str)
+        items = [(k, before.get(k, "-"), after.get(k, "-")) for k in keys]
+        return "; ".join(f"{k!r}: {b!r} -> {a!r}" for k, b, a in items if b != a)
+    return f"{before!r} -> {after!r}"
+
+
+def _put_back_loggers(loggers: dict[str, tuple]) -> None:
+    """Set the loggers as :func:`_loggers` gave them."""
+    for name, (level, handlers, propagate, disabled) in loggers.items():
+        lg = logging.getLogger(name)
+        lg.setLevel(level)
+        lg.handlers[:] = [h for h, _ in handlers]
+        for h, hl in handlers:
+            h.setLevel(hl)
+        lg.propagate, lg.disabled = propagate, disabled
+
+
+def _put_back(before: dict, after: dict, c_dispositions: dict[int, bytes]) -> None:
+    """Undo what a command changed of :func:`_process_state` (``before``, ``after``), so
+    far as it can be: the C-level signal dispositions from their structs
+    ``c_dispositions``; not the threads nor the file descriptors."""
+    import argparse
+
+    import numpy as np
+
+    _put_back_loggers(before["loggers"])
+    logging.disable(before["logging.disable"])
+    for s, handler in before["signal handlers"].items():
+        if handler is not None and signal.getsignal(s) != handler:
+            signal.signal(s, handler)
+    now = _c_signal_dispositions()
+    libc = ctypes.CDLL(None, use_errno=True)
+    for s, raw in c_dispositions.items():
+        if _disposition(now.get(s, b"")) != _disposition(raw):
+            libc.sigaction(s, ctypes.create_string_buffer(raw, _SIGACTION_BYTES), None)
+    if after["PETSc options"] != before["PETSc options"]:
+        from petsc4py import PETSc
+
+        opts = PETSc.Options()
+        for key in set(after["PETSc options"]) - set(before["PETSc options"]):
+            opts.delValue(key)
+        for key, value in before["PETSc options"].items():
+            opts.setValue(key, value)
+    for key in set(os.environ) - set(before["os.environ"]):
+        del os.environ[key]
+    os.environ.update(before["os.environ"])
+    sys.argv[:] = before["sys.argv"]
+    sys.path[:] = before["sys.path"]
+    sys.excepthook = before["sys.excepthook"]
+    os.chdir(before["cwd"])
+    sys.stdin, sys.stdout, sys.stderr = before["sys.stdin/stdout/stderr"]
+    argparse.ArgumentParser.error = before["ArgumentParser.error"]
+    np.seterr(**before["numpy errstate"])
+    if after["dolfinx_mortar"] != before["dolfinx_mortar"]:
+        from dolfinx_mortar import errors, laws
+
+        laws._LAWS.clear()
+        laws._LAWS.update(before["dolfinx_mortar"]["laws"])
+        errors._stop.update(before["dolfinx_mortar"]["stop"])
+
+
+def _exit_status(code) -> int:
+    """The exit status of a process that raised SystemExit(code) (as the interpreter
+    sets it; it prints a code that is not an integer on stderr)."""
+    if code is None:
+        return 0
+    if isinstance(code, int):
+        return code
+    sys.stderr.write(f"{code}\n")
+    return 1
+
+
+def cli_in_process(capfd, *args: str, leaks: tuple[str, ...] = ()) -> tuple[int, str, str]:
+    """``python3 -m dolfinx_mortar ARGS`` (that is ``sys.exit(cli.main())``) run in this
+    process, in the working directory (the caller's monkeypatch.chdir), under
+    :func:`_process_state_kept`: (exit status, stdout, stderr), the output read at the
+    file-descriptor level (``capfd``: C-level writes count too). An exception that
+    escapes ``main`` ends as the interpreter ends it: its traceback on stderr, status 1.
+    ``leaks``: see :func:`_process_state_kept`."""
+    from dolfinx_mortar.cli import main
+
+    capfd.readouterr()  # what came before is not the command's
+    with _process_state_kept(leaks):
+        try:
+            rc = main(list(args))
+        except SystemExit as exc:
+            rc = _exit_status(exc.code)
+        except Exception:
+            traceback.print_exc()
+            rc = 1
+        sys.stdout.flush()
+        sys.stderr.flush()
+    out, err = capfd.readouterr()
+    return rc, out, err
 
 
 def snapshot(root: Path) -> dict[str, tuple]:
@@ -478,12 +821,15 @@ def write_case(cwd: Path, case_id: str) -> Path:
     return path
 
 
-def assert_bad_input(res, case_id: str, ranks: int, before: dict, cwd: Path) -> None:
+def assert_bad_input(result, case_id: str, ranks: int, before: dict, cwd: Path) -> None:
+    """The bad-input contract for ``result`` (exit status, stdout, stderr) of case
+    ``case_id`` on ``ranks`` ranks; ``before``: :func:`snapshot` of ``cwd`` before."""
+    returncode, stdout, stderr = result
     _, _, key, reason = CASE_BY_ID[case_id]
-    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
-    assert "Traceback" not in res.stderr + res.stdout, where
-    assert res.returncode == 2, where
-    lines = res.stderr.splitlines()
+    where = f"\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    assert "Traceback" not in stderr + stdout, where
+    assert returncode == 2, where
+    lines = stderr.splitlines()
     assert len(lines) == ranks, f"expected {ranks} line(s) on stderr{where}"
     assert len(set(lines)) == 1, f"ranks disagree{where}"
     if key:
@@ -500,13 +846,53 @@ def assert_bad_input(res, case_id: str, ranks: int, before: dict, cwd: Path) -> 
 # --------------------------------------------------------------------------- bad input
 
 
+def _result(res: subprocess.CompletedProcess) -> tuple[int, str, str]:
+    return res.returncode, res.stdout, res.stderr
+
+
+@pytest.fixture
+def in_process(workdir, monkeypatch, capfd, warm_imports):
+    """``in_process(*args, leaks=())``: the command line ``args`` run in this process in
+    ``workdir`` (:func:`cli_in_process`): (exit status, stdout, stderr)."""
+    monkeypatch.chdir(workdir)
+    return functools.partial(cli_in_process, capfd)
+
+
 @pytest.mark.parametrize("command", ["check", "run"])
 @pytest.mark.parametrize("case_id", CASE_IDS)
-def test_bad_input_serial(workdir, case_id, command):
+def test_bad_input_serial(workdir, in_process, case_id, command):
+    """Every case, in this process (``cli.main``, as ``python3 -m dolfinx_mortar`` calls
+    it; what only a process of its own shows: test_bad_input_subprocess)."""
+    scene = write_case(workdir, case_id)
+    before = snapshot(workdir)
+    leaks = ("garbage.msh",) if case_id == "mesh-corrupt" else ()  # gmsh's (above)
+    result = in_process(command, scene.name, leaks=leaks)
+    assert_bad_input(result, case_id, 1, before, workdir)
+
+
+#: One case of each stage at which input fails, `check` or `run`, run as a process of
+#: its own (the module docstring: what the in-process runs do not see).
+SUBPROCESS_CASES = [
+    ("toml-syntax", "run"),  # the TOML parser
+    ("unknown-key", "check"),  # a scene value: the schema
+    ("E-zero", "run"),  # a scene value: a range
+    ("mesh-corrupt", "check"),  # a mesh that cannot be read
+    ("mesh-nan-node", "run"),  # a mesh check
+    ("mesh-unnamed-group", "check"),  # a group check
+    ("empty-contact-surface", "check"),  # a contact surface, after the forms are compiled
+    ("surfaces-share-nodes", "run"),  # the same
+    ("penalty-far-beyond-auto", "run"),  # the penalty rule
+    ("mesh-generator-too-big", "check"),  # the generator's size
+]
+
+
+@pytest.mark.parametrize("case_id, command", SUBPROCESS_CASES)
+def test_bad_input_subprocess(workdir, case_id, command):
+    """The same as a process of its own (``python3 -m dolfinx_mortar``, serial)."""
     scene = write_case(workdir, case_id)
     before = snapshot(workdir)
     res = cli(workdir, command, scene.name)
-    assert_bad_input(res, case_id, 1, before, workdir)
+    assert_bad_input(_result(res), case_id, 1, before, workdir)
 
 
 @pytest.mark.parametrize(
@@ -529,7 +915,7 @@ def test_bad_input_mpirun(workdir, case_id, command):
     scene = write_case(workdir, case_id)
     before = snapshot(workdir)
     res = cli(workdir, command, scene.name, ranks=2)
-    assert_bad_input(res, case_id, 2, before, workdir)
+    assert_bad_input(_result(res), case_id, 2, before, workdir)
 
 
 def test_bad_input_cold_jit_cache(workdir, tmp_path_factory):
@@ -539,7 +925,7 @@ def test_bad_input_cold_jit_cache(workdir, tmp_path_factory):
     before = snapshot(workdir)
     cache = tmp_path_factory.mktemp("jit_cache")
     res = cli(workdir, "run", scene.name, XDG_CACHE_HOME=str(cache))
-    assert_bad_input(res, "empty-contact-surface", 1, before, workdir)
+    assert_bad_input(_result(res), "empty-contact-surface", 1, before, workdir)
 
 
 #: A child that runs the command line's main() on its arguments and prints its exit
