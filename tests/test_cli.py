@@ -939,6 +939,19 @@ _MAIN_AND_MODULES = (
 )
 
 
+def _main_and_modules(cwd: Path, *args: str) -> subprocess.CompletedProcess:
+    """:data:`_MAIN_AND_MODULES` run on ``args`` in ``cwd`` (a process of its own)."""
+    return subprocess.run(
+        [sys.executable, "-c", _MAIN_AND_MODULES, *args],
+        cwd=cwd,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+
+
 @pytest.mark.parametrize(
     "case_id, command, extra",
     [
@@ -960,15 +973,7 @@ def test_a_scene_error_is_found_before_dolfinx_and_gmsh_are_imported(
     else:
         write_case(workdir, case_id)
     before = snapshot(workdir)
-    res = subprocess.run(
-        [sys.executable, "-c", _MAIN_AND_MODULES, command, "bad.toml", *extra],
-        cwd=workdir,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-        stdin=subprocess.DEVNULL,
-    )
+    res = _main_and_modules(workdir, command, "bad.toml", *extra)
     where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     assert res.returncode == 0 and res.stdout == "2 []\n", where
     lines = res.stderr.splitlines()
@@ -984,15 +989,7 @@ def test_a_mesh_error_imports_dolfinx_after_the_scene(workdir):
     """The other side of the fast path: a scene whose error is in the mesh (a group
     that it lacks) still reads the mesh with dolfinx and gmsh, and says so in one line."""
     write_case(workdir, "missing-group-dirichlet")
-    res = subprocess.run(
-        [sys.executable, "-c", _MAIN_AND_MODULES, "check", "bad.toml"],
-        cwd=workdir,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-        stdin=subprocess.DEVNULL,
-    )
+    res = _main_and_modules(workdir, "check", "bad.toml")
     where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     heavy = "['dolfinx', 'dolfinx_mortar.output', 'gmsh', 'petsc4py', 'ufl']"
     assert res.returncode == 0 and res.stdout == f"2 {heavy}\n", where
