@@ -248,10 +248,17 @@ _WARM_MODULES = ("dolfinx", "dolfinx.fem.petsc", "dolfinx.io", "petsc4py.PETSc",
 
 
 @pytest.fixture(scope="module")
-def warm_imports():
-    """Every module of dolfinx_mortar and :data:`_WARM_MODULES`, imported."""
+def warm_imports(tmp_path_factory):
+    """Every module of dolfinx_mortar and :data:`_WARM_MODULES`, imported, and one C
+    extension built with cffi, as FFCx's JIT builds a form that its cache lacks: the
+    first build imports setuptools (its loggers) and sets ``os.environ["PLAT"]``
+    (distutils' check_environ), state that a process keeps from its first compilation
+    on (with an empty FFCx cache, CI's, the first case that compiled a form changed
+    them: session 57's CI-like run)."""
     import importlib
     import pkgutil
+
+    import cffi
 
     import dolfinx_mortar
 
@@ -260,6 +267,10 @@ def warm_imports():
     for info in pkgutil.walk_packages(dolfinx_mortar.__path__, "dolfinx_mortar."):
         if info.name != "dolfinx_mortar.__main__":
             importlib.import_module(info.name)
+    ffi = cffi.FFI()
+    ffi.cdef("int _dm_warm(void);")
+    ffi.set_source("_dm_warm_jit", "int _dm_warm(void) { return 0; }")
+    ffi.compile(tmpdir=str(tmp_path_factory.mktemp("cffi_warm")))
 
 
 @contextlib.contextmanager
