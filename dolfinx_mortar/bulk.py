@@ -13,7 +13,9 @@ Laws (Lamé constants λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)); units of E):
 The first Piola stress P = ∂ψ/∂F is obtained with ``ufl.diff``; the residual is
 R(u; v) = Σ_regions ∫ P : ∇v dX − Σ_tractions ∫ t̄ · v dA (reference
 configuration; t̄ is the prescribed reference traction vector). Contact terms
-are added outside UFL and never depend on the law.
+are added outside UFL and never depend on the law. The built-in laws take λ and μ as
+constants of the compiled forms (``fem.Constant``, :func:`region_moduli`), not as
+literals: scenes that differ in the moduli alone share one FFCx compilation.
 
 Quadrature degrees are set explicitly: for displacement degree p, linear
 elasticity uses 2(p−1) on simplices (2p on quadrilaterals/hexahedra) and the
@@ -30,6 +32,8 @@ import logging
 
 import numpy as np
 import ufl
+from dolfinx import fem
+from petsc4py import PETSc
 from ufl.algorithms import expand_derivatives
 
 from . import compat
@@ -79,13 +83,15 @@ def inversion_points(model: str, degree: int, cell_name: str, affine: bool) -> n
     return compat.reference_points(cell_name, quadrature_degree(model, degree, simplex, affine))
 
 
-def strain_energy(model: str, E: float, nu: float, F):
+def strain_energy(model: str, E: float, nu: float, F, moduli=None):
     """Stored energy density ψ(F) per unit reference volume (UFL expression); ``model``
-    a built-in hyperelastic law or a registered one."""
+    a built-in hyperelastic law or a registered one. ``moduli``: the Lamé constants
+    (λ, μ) a built-in law uses instead of ``lame(E, nu)`` (UFL constants: see
+    :func:`region_moduli`); a registered law always takes the floats E and ν."""
     psi = registered_law(model)
     if psi is not None:
         return psi(F, E, nu)
-    lmbda, mu = lame(E, nu)
+    lmbda, mu = lame(E, nu) if moduli is None else moduli
     d = F.ufl_shape[0]
     C = F.T * F
     if model == "neo-hookean":
@@ -98,15 +104,29 @@ def strain_energy(model: str, E: float, nu: float, F):
     raise ValueError(f"no strain energy for model {model!r}")
 
 
-def first_piola(model: str, E: float, nu: float, u):
-    """First Piola–Kirchhoff stress P(u) (for linear elasticity: the Cauchy stress σ(ε(u)))."""
+def first_piola(model: str, E: float, nu: float, u, moduli=None):
+    """First Piola–Kirchhoff stress P(u) (for linear elasticity: the Cauchy stress σ(ε(u)));
+    ``moduli`` as :func:`strain_energy`."""
     d = len(u)
     if model == "linear-elastic":
-        lmbda, mu = lame(E, nu)
+        lmbda, mu = lame(E, nu) if moduli is None else moduli
         eps = ufl.sym(ufl.grad(u))
         return lmbda * ufl.tr(eps) * ufl.Identity(d) + 2 * mu * eps
     F = ufl.variable(ufl.Identity(d) + ufl.grad(u))
-    return ufl.diff(strain_energy(model, E, nu, F), F)
+    return ufl.diff(strain_energy(model, E, nu, F, moduli), F)
+
+
+def region_moduli(mesh, model: str, E: float, nu: float):
+    """The Lamé constants (λ, μ) of a region of a built-in law as two ``fem.Constant``
+    on ``mesh`` (units of E), or None for a registered law (its ψ(F, E, ν) takes the
+    floats: it may compute with them as numbers). As constants the moduli are values the
+    compiled kernels read at assembly, not literals of the generated C: scenes that
+    differ in E or ν alone share one compiled form (FFCx's JIT cache), instead of a
+    compilation (seconds; minutes for the 3D P2 laws) for each pair of values.
+    Local (no communication)."""
+    if registered_law(model) is not None:
+        return None
+    return tuple(fem.Constant(mesh, PETSc.ScalarType(m)) for m in lame(E, nu))
 
 
 def check_law(
@@ -202,7 +222,8 @@ def internal_residual(u, v, regions, cell_tags, simplex: bool):
     """Σ_regions ∫ P(u) : ∇v dX.
 
     ``regions`` is a sequence of ``(tag, model, E, nu)``; ``cell_tags`` the
-    dolfinx MeshTags of the cells. Returns a UFL form (rank 1).
+    dolfinx MeshTags of the cells. Returns a UFL form (rank 1); the moduli of the
+    built-in laws enter as constants (:func:`region_moduli`).
     """
     mesh = u.function_space.mesh
     degree = u.function_space.ufl_element().degree()
@@ -211,6 +232,6 @@ def internal_residual(u, v, regions, cell_tags, simplex: bool):
     form = 0
     for tag, model, E, nu in regions:
         q = quadrature_degree(model, degree, simplex, affine)
-        P = first_piola(model, E, nu, u)
+        P = first_piola(model, E, nu, u, region_moduli(mesh, model, E, nu))
         form += ufl.inner(P, ufl.grad(v)) * dx(tag, metadata={"quadrature_degree": q})
     return form

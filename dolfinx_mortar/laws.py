@@ -41,7 +41,9 @@ def register_law(name: str, psi: Callable, replace: bool = False) -> None:
     small-strain Young's modulus and Poisson's ratio, since the contact pairs read their
     E* from them (``penalty = "auto"``; a run warns where the law's moduli at F = I
     differ, :func:`dolfinx_mortar.bulk.check_law`). A law is used with
-    ``kinematics = "finite"``.
+    ``kinematics = "finite"``. E and nu reach ``psi`` as floats, so they are literals of
+    the compiled form: each pair of values compiles it once (FFCx's cache keeps it); the
+    built-in laws take their moduli as constants and compile once for all values.
 
     Call it on every rank before the scene is parsed; a scene keeps the ψ it was parsed
     with, and a run refuses a scene whose law was registered again since

@@ -325,6 +325,55 @@ def test_linear_bulk_equals_assembly(block_msh, dim, quads):
         obj.destroy()
 
 
+def _signature(form) -> bytes:
+    """The signature of a compiled form (FFCx's JIT cache key)."""
+    import cffi
+
+    return cffi.FFI().string(form.ufcx_form.signature)
+
+
+@pytest.mark.parametrize(
+    "model, kinematics",
+    [("linear-elastic", "small"), ("neo-hookean", "finite"), ("saint-venant-kirchhoff", "finite")],
+)
+def test_scenes_differing_in_the_moduli_share_the_compiled_forms(block_msh, model, kinematics):
+    """The built-in laws take λ and μ as constants of the compiled kernels, not literals:
+    two materials that differ in E and ν alone give forms of one signature (one FFCx
+    compilation), and the tangent at u = 0, linear in (λ, μ), is λ K_λ + μ K_μ with the
+    values of each: K(E₂, ν₂) from K of two other materials."""
+    from dolfinx_mortar.runner import prepare
+
+    msh = block_msh(2, n=2, quads=False)
+    moduli = [(E, NU), (3.5 * E, 0.1), (0.25 * E, 0.45)]
+    problems, jacobians = [], []
+    for E_, nu_ in moduli:
+        data = _table(msh, 2, model, kinematics, 1e-3)
+        data["material"][0].update(E=E_, nu=nu_)
+        problem, _ = prepare(parse_scene(data, msh.parent), MPI.COMM_SELF)
+        x = problem.u.vector.copy()
+        x.set(0.0)
+        A = problem.create_matrix()
+        problem.jacobian(x, A)
+        problems.append(problem)
+        jacobians.append(A)
+        x.destroy()
+    for problem in problems[1:]:
+        assert _signature(problem.J_form) == _signature(problems[0].J_form)
+        assert _signature(problem.F_form) == _signature(problems[0].F_form)
+    # K = λ K_λ + μ K_μ: solve for K_λ, K_μ from the first two, predict the third
+    lm = np.array([lame(E_, nu_) for E_, nu_ in moduli])
+    dense = [A.convert("dense").getDenseArray() for A in jacobians]
+    free = np.abs(dense[0] - dense[1]).max(axis=1) > 0  # rows the conditions leave alone
+    ab = np.linalg.solve(lm[:2].T, np.eye(2))  # K_λ = ab[0,0] K₀ + ab[1,0] K₁, ...
+    K_l = ab[0, 0] * dense[0] + ab[1, 0] * dense[1]
+    K_m = ab[0, 1] * dense[0] + ab[1, 1] * dense[1]
+    predicted = lm[2, 0] * K_l + lm[2, 1] * K_m
+    assert free.sum() > 10
+    assert np.allclose(predicted[free], dense[2][free], rtol=0, atol=1e-10 * np.abs(dense[2]).max())
+    for A in jacobians:
+        A.destroy()
+
+
 # ---------------------------------------------------------------- laws of one's own
 def _hand_neo_hooke(F, E_, nu_):
     """The compressible neo-Hookean ψ of bulk.py, written as a user would (plane strain)."""
