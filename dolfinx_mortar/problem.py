@@ -868,6 +868,58 @@ class ContactProblem:
             )
         return out
 
+    def _free_fit_data(self) -> tuple:
+        """The cached data of :meth:`free_rigid_motion` and :meth:`floating` (collective at
+        the first call: a few reductions): the rigid modes at the owned dofs, the body of
+        each owned dof, each body's Gram matrix of the modes over all its dofs, each body's
+        motions that its Dirichlet conditions leave free (columns), and which bodies each
+        contact term's surfaces belong to (n_terms, n_bodies)."""
+        self.bodies_held(np.empty(0, np.int64))
+        cell_body, held, gram = self._bodies
+        nbodies = gram.shape[0]
+        if self._free_fit is None:
+            bs = self.V.dofmap.index_map_bs
+            n_own = self.V.dofmap.index_map.size_local * bs
+            _, block_body = body_labels(self.V)
+            blocks, comps = np.divmod(np.arange(n_own), bs)
+            x = self.V.tabulate_dof_coordinates()[blocks, : self.gdim]
+            scale = max(self.extent, 1e-300)
+            m = rigid_modes((x - self._centre) / scale, comps, self.gdim)
+            body = block_body[blocks]
+            full = np.zeros_like(gram)
+            np.add.at(full, body, m[:, :, None] * m[:, None, :])
+            self.comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)
+            free = []
+            for b in range(nbodies):
+                w, v = np.linalg.eigh(gram[b])
+                free.append(v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)])
+            touches = np.zeros((len(self.contacts), nbodies), np.int64)
+            for k, term in enumerate(self.contacts):
+                touches[k, cell_body[np.asarray(term.body_cells, np.int64)]] = 1
+            self.comm.Allreduce(MPI.IN_PLACE, touches, op=MPI.SUM)
+            self._free_fit = (m, body, full, free, touches > 0)
+        return self._free_fit
+
+    def floating(self, closed: list[bool]) -> np.ndarray:
+        """Per contact term (bool, (n_terms,)), whether a body that its surfaces belong to
+        has rigid motions that its Dirichlet conditions leave free (:meth:`bodies_held`) and
+        is in no pair in contact: ``closed`` says, per term, whether the pair has a node in
+        contact (``touching``, the same on every rank). Nothing then holds the body along
+        those motions: the Jacobian is singular along them, and how far a solve moves it
+        there is the linear solver's round-off (hertz2d's cylinder free in x,
+        ``stick_only_scene``: 2.07 or 0.30 in the same step, as the bulk kernels' last
+        digits changed). Collective at the first call (:meth:`_free_fit_data`), then local."""
+        closed = np.asarray(closed, bool)
+        self.bodies_held(np.empty(0, np.int64))
+        _, held, _ = self._bodies
+        out = np.zeros(len(self.contacts), bool)
+        if np.all(held) or not self.contacts:
+            return out
+        _, _, _, free, touches = self._free_fit_data()
+        loose = np.array([f.shape[1] > 0 for f in free], bool)  # per body
+        loose &= ~touches[closed].any(axis=0)
+        return touches[:, loose].any(axis=1)
+
     def free_rigid_motion(self, du: np.ndarray, tangential: bool = False) -> np.ndarray:
         """Per contact term, how far ``du`` moves the bodies of its pair along the rigid
         motions that their Dirichlet conditions leave free (:meth:`bodies_held`): per body,
@@ -890,28 +942,7 @@ class ContactProblem:
         out = np.zeros(len(self.contacts))
         if np.all(held) or not self.contacts:
             return out
-        if self._free_fit is None:
-            bs = self.V.dofmap.index_map_bs
-            n_own = self.V.dofmap.index_map.size_local * bs
-            _, block_body = body_labels(self.V)
-            blocks, comps = np.divmod(np.arange(n_own), bs)
-            x = self.V.tabulate_dof_coordinates()[blocks, : self.gdim]
-            scale = max(self.extent, 1e-300)
-            m = rigid_modes((x - self._centre) / scale, comps, self.gdim)
-            body = block_body[blocks]
-            full = np.zeros_like(gram)
-            np.add.at(full, body, m[:, :, None] * m[:, None, :])
-            self.comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)
-            free = []
-            for b in range(nbodies):
-                w, v = np.linalg.eigh(gram[b])
-                free.append(v[:, w <= RIGID_MODE_TOL * max(w[-1], 0.0)])
-            touches = np.zeros((len(self.contacts), nbodies), np.int64)
-            for k, term in enumerate(self.contacts):
-                touches[k, cell_body[np.asarray(term.body_cells, np.int64)]] = 1
-            self.comm.Allreduce(MPI.IN_PLACE, touches, op=MPI.SUM)
-            self._free_fit = (m, body, full, free, touches > 0)
-        m, body, full, free, touches = self._free_fit
+        m, body, full, free, touches = self._free_fit_data()
         mdu = np.zeros((nbodies, m.shape[1]))
         np.add.at(mdu, body, m * np.asarray(du)[: len(body), None])
         self.comm.Allreduce(MPI.IN_PLACE, mdu, op=MPI.SUM)

@@ -261,7 +261,9 @@ def test_free_rigid_motion():
     along x; the block is clamped. A step that translates the cylinder by 0.3 along x
     and bends the block moves the pair's bodies 0.3 along their free motions (the fit is
     exact for a rigid motion); a translation along y (the prescribed approach) and the
-    block's deformation count nothing. The same on every rank (1–3)."""
+    block's deformation count nothing. ``floating``: the cylinder floats (nothing holds
+    it along x) where its pair is open, not where it is closed. The same on every rank
+    (1–3)."""
     from pathlib import Path
 
     from conftest import stick_only_scene
@@ -282,6 +284,10 @@ def test_free_rigid_motion():
     assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.3], rtol=1e-12)
     du[on_cyl] = [0.0, -0.2]
     assert np.allclose(problem.free_rigid_motion(du.ravel()), [0.0], atol=1e-12)
+    # ``floating``: the cylinder, free along x, is held by no closed pair while its one
+    # pair is open, and by it where it is closed
+    assert problem.floating([False]).tolist() == [True]
+    assert problem.floating([True]).tolist() == [False]
 
 
 @pytest.mark.parametrize(("gap0", "at_start"), [(0.005, True), (0.0, False)])

@@ -910,6 +910,61 @@ def test_a_solve_whose_free_body_escapes_fails(cubic_vectors, free, h_mean, esca
             assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
 
 
+class _CubicOpen(_Cubic):
+    """The cubic from x = 1 to its root 2, with a contact term open throughout (not in
+    contact at the solve's start nor at its end) whose body is held by contact alone:
+    the solve moves it ``along`` (the problem's ``free_rigid_motion``) along the motions
+    its Dirichlet conditions leave free, and ``floats`` says whether no closed pair
+    holds it (``floating``)."""
+
+    def __init__(self, along, floats):
+        super().__init__(1.0)
+        term = _Term(True, 0.5)
+        term.touching = False
+        term.frictional = True
+        self.contacts = (term,)
+        self.along, self.floats = along, floats
+
+    def free_rigid_motion(self, du, tangential=False):
+        return np.array([self.along])
+
+    def floating(self, closed):
+        assert list(closed) == [False]
+        return np.array([self.floats])
+
+
+@pytest.mark.parametrize(
+    "along,floats,fails",
+    [(0.6, False, True), (0.1, False, False), (0.1, True, True), (0.0, True, True)],
+)
+def test_an_open_pair_whose_free_body_nothing_holds_fails_at_any_motion(
+    cubic_vectors, along, floats, fails
+):
+    """A solve that ends with a pair open, not in contact at its start either, whose
+    body is held by contact alone: where no closed pair holds the body (``floating``),
+    its Jacobian is singular along the free motions and the solve's motion there is the
+    linear solver's round-off, so the solve fails whatever that motion (0.1 and 0: below
+    the ESCAPE_FACETS facet size 0.5); where a closed pair holds the body, only a motion
+    above a facet size fails. stick_only_scene's cut step to t = 0.015625 moved the
+    cylinder 0.303 (0.58 facet sizes) once the bulk kernels took λ and μ as constants
+    (2.07 before): it was accepted, the predictor carried the drift on, and the run
+    ended "ok" with the cylinder 9.26 along x and no node ever in contact."""
+    settings = SolverSettings(rtol=1e-10, atol=1e-14, prefix="test_open_float_")
+    problem = _CubicOpen(along, floats)
+    with NewtonSolver(problem, settings) as newton:
+        if fails:
+            with pytest.raises(ConvergenceError) as info:
+                newton.solve()
+            msg = str(info.value)
+            assert msg.startswith("the solve ended with no node of slave:master in contact")
+            assert f"moved a body held by contact alone by {along:.3g} " in msg
+            assert "the body escaped (a frictional pair holds such motions" in msg
+            assert ("linear solver's round-off" in msg) == floats
+        else:
+            newton.solve()
+            assert np.allclose(problem.u.vector.array, 2.0, rtol=1e-9)
+
+
 def test_a_failed_linear_solve_is_named(cubic_vectors):
     """A singular Jacobian (the cubic at x = 0: J = 0) fails the factorization; the error
     names the SNES reason and the KSP's, so that a user sees the linear solver failed."""
