@@ -318,14 +318,17 @@ def _import_dolfinx(rank: int, verbose: int) -> None:
     arguments keep them, so the file opens as named. The import puts a handler on the
     root logger where it has none (ffcx's ``logging.basicConfig()``); ``main`` sets up
     its logging before, for the scene's checks, and :func:`_setup_logging` runs again
-    here, so that the format and levels are the same whatever the import did."""
-    if "dolfinx" not in sys.modules:
-        argv = sys.argv
-        sys.argv = [a.encode("utf-8", "surrogateescape").decode("utf-8", "replace") for a in argv]
-        try:
-            import dolfinx  # noqa: F401
-        finally:
-            sys.argv = argv
+    after this import, so that the format and levels are the same whatever the import
+    did. Where dolfinx is imported already (a second call, or a program that calls
+    ``main``), nothing is done: ``main``'s own set-up came after that import."""
+    if "dolfinx" in sys.modules:
+        return
+    argv = sys.argv
+    sys.argv = [a.encode("utf-8", "surrogateescape").decode("utf-8", "replace") for a in argv]
+    try:
+        import dolfinx  # noqa: F401
+    finally:
+        sys.argv = argv
     _setup_logging(rank, verbose)
 
 
