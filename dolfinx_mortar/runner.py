@@ -368,6 +368,7 @@ def run(
     }
     writer = OutputWriter(out_dir, problem, summary, scene.output.fields)
     newton = NewtonSolver(problem, settings)
+    summary["modelled"]["linear_solver"] = newton.linear_solver
     # the lock once the set-up has found no error: a refused run touches nothing there
     try:  # SceneError on every rank where another run writes there (it started meanwhile)
         lock = OutputLock(comm, out_dir, key)
@@ -554,6 +555,7 @@ def step_record(problem, res) -> dict:
         "ldlt_fallbacks": res.ldlt_fallbacks,
         "limited_steps": res.limited_steps,
         "state_predictions": res.state_predictions,
+        "linear_iterations": res.linear_iterations,
         "reactions": problem.reactions(),
         "contact_force": {},
         "max_penetration": 0.0,

@@ -393,6 +393,27 @@ def test_bench_contact_cost_runs(tmp_path, material):
     assert len(_read(tmp_path / "c.csv")) == 1
 
 
+def test_bench_linear_solvers_runs(tmp_path):
+    """``bench/bench_linear_solvers.py`` at hertz3d's smallest level with MUMPS and GAMG,
+    each in a process of its own: both finish with the same nodal pressures and contact
+    force (to 1e-8), summary.json names the solver each ran, GMRES takes several Krylov
+    iterations a Newton iteration where MUMPS takes one a solve, and each process's peak
+    memory is read (times and memory are the benchmark's, BENCHMARKS §77)."""
+    rows = _load("bench_linear_solvers").main(
+        ["--solvers", "mumps", "gamg", "--csv", str(tmp_path / "l.csv"), "--out", str(tmp_path)]
+    )
+    assert [(r["solver"], r["status"]) for r in rows] == [("mumps", "ok"), ("gamg", "ok")]
+    mumps, gamg = rows
+    assert mumps["solver_used"] == {"ksp": "preonly", "pc": "cholesky", "factor": "mumps"}
+    assert gamg["solver_used"] == {"ksp": "gmres", "pc": "gamg"}
+    assert mumps["dofs"] == gamg["dofs"] > 1000
+    assert mumps["newton"] <= mumps["linear_iterations"] < gamg["linear_iterations"]
+    assert gamg["linear_iterations"] > 3 * gamg["newton"]
+    assert gamg["dp_rel"] < 1e-8 and gamg["dforce_rel"] < 1e-8
+    assert all(r["peak_rss_mib"] > 50 for r in rows)
+    assert len(_read(tmp_path / "l.csv")) == 2
+
+
 def test_bench_force_scale_runs(tmp_path):
     """``bench/bench_force_scale.py`` at two scales: the demo's units and E × 1e9 (SI
     units for steel) both finish, with the same contact force / scale (BENCHMARKS §25)."""

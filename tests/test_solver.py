@@ -68,6 +68,7 @@ class _Newton:
         self.ldlt_fallbacks = 0
         self.limited_steps = 0
         self.state_predictions = 0
+        self.linear_iterations = 0
         self.all_iterations = 0
 
     def solve(self, rtol=None, dtol=None, rescue=True, reuse=False, force=False, full_steps=False):
