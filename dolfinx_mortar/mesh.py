@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -301,6 +302,47 @@ class _HideGroups:
         return getattr(self._model, name)
 
 
+def _descriptors_on(file) -> set[int] | None:
+    """The file descriptors of this process open on ``file`` (the same device and
+    inode: another path or a hard link to it counts); None where the process's
+    descriptors cannot be listed (no ``/proc/self/fd``: not Linux)."""
+    try:
+        target = os.stat(file)
+        names = os.listdir("/proc/self/fd")
+    except OSError:
+        return None
+    fds = set()
+    for name in names:
+        try:
+            st = os.fstat(int(name))
+        except (OSError, ValueError):  # closed since the listing (the listing's own)
+            continue
+        if (st.st_dev, st.st_ino) == (target.st_dev, target.st_ino):
+            fds.add(int(name))
+    return fds
+
+
+def _close_left_open(file, before: set[int] | None) -> None:
+    """Close the descriptors on ``file`` that a failed ``gmsh.open`` left open: those
+    open on it now and not in ``before`` (:func:`_descriptors_on` before the call).
+
+    gmsh 4.8 (Debian bookworm's 4.8.4) reads a file that it does not recognise as a
+    mesh with its .geo parser (``ParseFile``), whose first syntax error throws out of
+    the parser before its ``fclose``: every failed ``gmsh.open`` of a corrupt or
+    truncated .msh left one descriptor on that file open in the calling process (a
+    sweep over many files, a GUI, ran out of descriptors). Descriptors open before the
+    call (a host's own handle on the same file) are left alone. The leaked ``FILE``
+    keeps its (small) buffer; by gmsh 4.8's source its parser neither reads nor closes
+    it again (it reads through ``gmsh_yyin``, which each parse sets). Does nothing
+    where the descriptors cannot be listed (``before`` None: no /proc). Rank 0, local."""
+    if before is None:
+        return
+    for fd in sorted((_descriptors_on(file) or set()) - before):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+        log.debug("closed descriptor %d on %s that gmsh left open", fd, file)
+
+
 def load_mesh(
     comm, file: Path | None = None, generator: str | None = None, params=None
 ) -> MeshData:
@@ -323,9 +365,11 @@ def load_mesh(
                     raise SceneError("mesh.file", problem)
                 if Path(file).stat().st_size == 0:
                     raise SceneError("mesh.file", f"{file} is empty")
+                before = _descriptors_on(file)
                 try:
                     gmsh.open(str(file))
                 except Exception as exc:  # gmsh raises bare Exceptions
+                    _close_left_open(file, before)  # gmsh 4.8 leaves the file open
                     if Path(file).suffix.lower() != ".msh":
                         raise SceneError(
                             "mesh.file",

@@ -224,10 +224,6 @@ def _process_state() -> dict[str, object]:
     }
 
 
-def _without_leaks(fds: dict[str, str], leaks: tuple[str, ...]) -> dict[str, str]:
-    return {fd: path for fd, path in fds.items() if not (leaks and path.endswith(leaks))}
-
-
 #: The filters pytest puts first in each test's warning filters (its summary shows them);
 #: a fresh interpreter has none of them (no -W, no PYTHONWARNINGS).
 _PYTEST_FILTERS = (
@@ -274,7 +270,7 @@ def warm_imports(tmp_path_factory):
 
 
 @contextlib.contextmanager
-def _process_state_kept(leaks: tuple[str, ...] = ()):
+def _process_state_kept():
     """Run the block (a call of ``cli.main``) as a process of its own would run it, and
     keep the tests that follow in this process (the xdist worker runs other files after
     this one) from seeing what it changed.
@@ -295,9 +291,8 @@ def _process_state_kept(leaks: tuple[str, ...] = ()):
     the working directory, sys.stdin/stdout/stderr, sys.excepthook, faulthandler,
     argparse's ArgumentParser.error (``bench`` swaps it), numpy's floating-point error
     handling, dolfinx_mortar's module state (:func:`_package_state`), the threads and the
-    open file descriptors, but for a descriptor left open on a file whose name ends with
-    one of ``leaks``: gmsh 4.8 leaves a .msh file that it cannot parse open (case
-    mesh-corrupt), a defect of its own."""
+    open file descriptors (a .msh file that gmsh cannot parse too, case mesh-corrupt:
+    gmsh 4.8 left it open; ``mesh.load_mesh`` closes it since session 58)."""
     root = logging.getLogger()
     root_level, root_handlers = root.level, list(root.handlers)
     root_handler_levels = [h.level for h in root_handlers]
@@ -322,8 +317,6 @@ def _process_state_kept(leaks: tuple[str, ...] = ()):
         root.setLevel(root_level)
         for h, level in zip(root_handlers, root_handler_levels, strict=True):
             h.setLevel(level)
-    for state in (before, after):
-        state["open file descriptors"] = _without_leaks(state["open file descriptors"], leaks)
     changed = [k for k in before if after[k] != before[k]]
     _put_back(before, after, c_before)
     _put_back_loggers(library_set)
@@ -406,17 +399,16 @@ def _exit_status(code) -> int:
     return 1
 
 
-def cli_in_process(capfd, *args: str, leaks: tuple[str, ...] = ()) -> tuple[int, str, str]:
+def cli_in_process(capfd, *args: str) -> tuple[int, str, str]:
     """``python3 -m dolfinx_mortar ARGS`` (that is ``sys.exit(cli.main())``) run in this
     process, in the working directory (the caller's monkeypatch.chdir), under
     :func:`_process_state_kept`: (exit status, stdout, stderr), the output read at the
     file-descriptor level (``capfd``: C-level writes count too). An exception that
-    escapes ``main`` ends as the interpreter ends it: its traceback on stderr, status 1.
-    ``leaks``: see :func:`_process_state_kept`."""
+    escapes ``main`` ends as the interpreter ends it: its traceback on stderr, status 1."""
     from dolfinx_mortar.cli import main
 
     capfd.readouterr()  # what came before is not the command's
-    with _process_state_kept(leaks):
+    with _process_state_kept():
         try:
             rc = main(list(args))
         except SystemExit as exc:
@@ -863,7 +855,7 @@ def _result(res: subprocess.CompletedProcess) -> tuple[int, str, str]:
 
 @pytest.fixture
 def in_process(workdir, monkeypatch, capfd, warm_imports):
-    """``in_process(*args, leaks=())``: the command line ``args`` run in this process in
+    """``in_process(*args)``: the command line ``args`` run in this process in
     ``workdir`` (:func:`cli_in_process`): (exit status, stdout, stderr)."""
     monkeypatch.chdir(workdir)
     return functools.partial(cli_in_process, capfd)
@@ -876,8 +868,7 @@ def test_bad_input_serial(workdir, in_process, case_id, command):
     it; what only a process of its own shows: test_bad_input_subprocess)."""
     scene = write_case(workdir, case_id)
     before = snapshot(workdir)
-    leaks = ("garbage.msh",) if case_id == "mesh-corrupt" else ()  # gmsh's (above)
-    result = in_process(command, scene.name, leaks=leaks)
+    result = in_process(command, scene.name)
     assert_bad_input(result, case_id, 1, before, workdir)
 
 
