@@ -101,7 +101,10 @@ def gmsh_model(gmsh):
     host program's session (a Python caller that uses gmsh itself) the session stays:
     the model is removed after, the host's current model is current again, and the
     options in :data:`GMSH_OPTIONS` get their values back. It finalized the host's
-    session before (a helper's probe: its next gmsh call raised). No gmsh call comes
+    session before (a helper's probe: its next gmsh call raised). ``gmsh.open`` in the
+    block (a mesh file) renames the model after the file: the model removed then is the
+    current one, which the block must leave current (``load_mesh`` of a file in a host's
+    session raised "Could find model 'dolfinx_mortar'" until session 58). No gmsh call comes
     before ``initialize`` (:func:`gmsh_initialize`): in gmsh 4.8
     that exited the process now and then."""
     hosted = gmsh_initialize(gmsh)
@@ -121,7 +124,10 @@ def gmsh_model(gmsh):
         yield
     finally:
         if hosted:
-            gmsh.model.setCurrent(name)
+            # gmsh.open (a mesh file) reads into the current model where it is empty, and
+            # names it after the file: the model is ours still, and still current
+            if name in gmsh.model.list():
+                gmsh.model.setCurrent(name)
             gmsh.model.remove()
             if current in gmsh.model.list():
                 gmsh.model.setCurrent(current)

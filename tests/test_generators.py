@@ -917,6 +917,40 @@ def test_load_mesh_keeps_a_host_gmsh_session(model):
     assert not any(name.startswith("dolfinx_mortar") for name in gmsh.model.list())
 
 
+def test_load_mesh_of_a_file_keeps_a_host_gmsh_session(model, tmp_path):
+    """``load_mesh`` of a mesh file in a host program's gmsh session: the mesh is read
+    and the host's models, current model and options stay, with a file that gmsh reads
+    and with one that it cannot read (one SceneError). ``gmsh.open`` renames the empty
+    model it reads into after the file: the clean-up looked for its own name and raised
+    gmsh's bare "Could find model 'dolfinx_mortar'" with a traceback (session 58)."""
+    from dolfinx_mortar.gmsh_session import gmsh_model
+    from dolfinx_mortar.mesh import load_mesh
+
+    gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    gmsh.model.occ.synchronize()
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
+    square = tmp_path / "square.msh"
+    with gmsh_model(gmsh):
+        gmsh.model.occ.addRectangle(0, 0, 0, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [1]), "body")
+        gmsh.model.setPhysicalName(1, gmsh.model.addPhysicalGroup(1, [1, 2, 3, 4]), "edge")
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(square))
+    models = gmsh.model.list()
+    md = load_mesh(MPI.COMM_SELF, file=square)
+    assert md.mesh.topology.index_map(2).size_global > 0
+    assert gmsh.model.list() == models and gmsh.model.getCurrent() == "test"
+    assert gmsh.model.getEntities(3) == [(3, 1)]
+    assert gmsh.option.getNumber("Mesh.MeshSizeMax") == 0.3
+    garbage = tmp_path / "garbage.msh"
+    garbage.write_bytes(b"$MeshFormat\n\x00\xff not a mesh")
+    with pytest.raises(SceneError, match="cannot read"):
+        load_mesh(MPI.COMM_SELF, file=garbage)
+    assert gmsh.model.list() == models and gmsh.model.getCurrent() == "test"
+    assert gmsh.model.getEntities(3) == [(3, 1)]
+
+
 _FIRST_CALL_SCRIPT = r"""
 import sys
 import gmsh
