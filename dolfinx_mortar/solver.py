@@ -1353,11 +1353,12 @@ class NewtonSolver:
 
     @property
     def linear_solver(self) -> dict[str, str]:
-        """The linear solver as PETSc set it up from :attr:`options` at the solver's
-        creation (local): ``{"ksp": KSP type, "pc": PC type}``, plus ``"factor"``, the
-        factorization package, where the PC factorizes (lu, cholesky). summary.json's
-        ``modelled.linear_solver``. An LDLᵀ failure switches a solve to LU afterwards
-        (:attr:`ldlt_fallbacks`); that is not shown here."""
+        """The linear solver that PETSc has set up from :attr:`options` (local; the same
+        on every rank): ``{"ksp": KSP type, "pc": PC type}``, plus ``"factor"``, the
+        factorization package, where the PC factorizes (lu, cholesky, ilu, icc; "petsc"
+        for PETSc's own). summary.json's ``modelled.linear_solver`` is this at the
+        solver's creation: an LDLᵀ failure's switch to LU later (:attr:`ldlt_fallbacks`)
+        is not in it."""
         ksp = self.snes.getKSP()
         pc = ksp.getPC()
         out = {"ksp": str(ksp.getType()), "pc": str(pc.getType())}
