@@ -15,10 +15,10 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from petsc4py import PETSc
 
+from .kernels._numba import numba
 from .layout import FacetArrays, pack, record_width, unpack
 
 

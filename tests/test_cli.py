@@ -1367,6 +1367,42 @@ def test_the_sigint_handler_survives_import_and_mesh_loading(tmp_path):
     assert res.returncode == 0 and res.stdout.strip() == "kept", res.stderr
 
 
+def test_a_host_whose_warnings_are_errors_runs_a_scene(tmp_path):
+    """A host program that turns warnings into errors (``warnings.simplefilter("error")``,
+    as a test suite's ``filterwarnings = error`` does) runs a frictional scene, and its
+    warning filters stay as they were. numba, which a run imports on first use, imports
+    llvmlite, whose import (Debian bookworm's 0.39 on Python 3.11) warns
+    ``DeprecationWarning: path is deprecated. Use files() instead``: the run raised it with
+    a traceback from deep inside the contact module (session 58). A fresh process: numba
+    must not be imported yet."""
+    code = (
+        "import sys, warnings\n"
+        "sys.path.insert(0, sys.argv[1])\n"
+        "from conftest import patch_press_scene\n"
+        "from mpi4py import MPI\n"
+        "from dolfinx_mortar import parse_scene, run\n"
+        "assert 'numba' not in sys.modules, 'imported with the package'\n"
+        "warnings.simplefilter('error')\n"
+        "filters = list(warnings.filters)\n"
+        "scene = parse_scene(patch_press_scene(steps=1, friction=0.3), '.')\n"
+        "summary = run(scene, MPI.COMM_SELF, out_dir='out')\n"
+        "assert summary['status'] == 'ok', summary['error']\n"
+        "assert 'numba' in sys.modules\n"
+        "assert warnings.filters == filters, 'the host filters changed'\n"
+        "print('ran', summary['steps'][-1]['contact_force'])\n"
+    )
+    tests = str(Path(__file__).parent)
+    res = subprocess.run(
+        [sys.executable, "-c", code, tests],
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
+
+
 def test_ctrl_c_stops_a_run_in_one_line(workdir):
     """SIGINT (Ctrl-C) in a run: exit status 130, one line and no traceback, and
     summary.json says "failed", "interrupted by KeyboardInterrupt", with the finished

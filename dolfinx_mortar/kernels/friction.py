@@ -43,9 +43,9 @@ motion of the points.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ._numba import numba
 from .gap import projection_derivative
 from .shape import shape, tdim
 

@@ -31,9 +31,9 @@ use :func:`dolfinx_mortar.kernels.shape.inside`.
 
 import math
 
-import numba
 import numpy as np
 
+from ._numba import numba
 from .shape import INTERVAL1, TRIANGLE1, num_nodes, reference_centre, shape, tdim
 
 #: Facing rule of every pairing (element and node integration: ``mortar.pair_points``,

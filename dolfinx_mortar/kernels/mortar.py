@@ -38,9 +38,9 @@ Local dof vector of a paired point: [slave facet dofs (ns·d), master facet dofs
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ._numba import numba
 from .gap import (
     faces,
     gap_and_derivatives,

@@ -119,9 +119,9 @@ a slave facet needs more than nqmax points, the first nqmax are written and
 
 import math
 
-import numba
 import numpy as np
 
+from ._numba import numba
 from .gap import faces, project, unit_normal
 from .shape import (
     QUAD1,

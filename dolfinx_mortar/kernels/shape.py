@@ -32,8 +32,9 @@ Array conventions of :func:`shape`: ``xi`` (k,), ``N`` (n,), ``dN`` (n, k) with
 arrays may be larger than required; only the leading n (x k x k) block is written.
 """
 
-import numba
 import numpy as np
+
+from ._numba import numba
 
 INTERVAL1 = 0
 INTERVAL2 = 1
