@@ -21,6 +21,9 @@ from .gmsh_session import gmsh_initialize, keep_sigint_handler  # noqa: F401
 
 
 def _import_gmshio():
+    from .gmsh_session import import_gmsh
+
+    import_gmsh()  # first: in any thread (gmsh 4.8's import sets SIGINT: main thread only)
     from dolfinx.io import gmshio
 
     return gmshio

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import signal
+import sys
 import threading
 
 __all__ = ["GMSH_OPTIONS", "gmsh_initialize", "gmsh_model", "import_gmsh", "keep_sigint_handler"]
@@ -134,15 +135,57 @@ def gmsh_model(gmsh):
             for key, value in saved.items():
                 gmsh.option.setNumber(key, value)
         else:
-            keep_sigint_handler(gmsh.finalize)
+            keep_sigint_handler(lambda: _finalize(gmsh))
 
 
-def import_gmsh():
-    """``import gmsh`` with the SIGINT handler kept (:func:`keep_sigint_handler`)."""
+def _in_main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
 
-    def load():
+
+def _finalize(gmsh) -> None:
+    """``gmsh.finalize()``, also outside the main thread: gmsh 4.8's ``finalize`` puts
+    back the SIGINT handler it saw at its import (``gmsh.oldsig``) with ``signal.signal``,
+    which raises ValueError outside the main thread ("signal only works in main thread
+    of the main interpreter", after the session had ended). There it is called with
+    ``oldsig`` None, which ``finalize`` skips; the handler is not gmsh's to set there."""
+    if _in_main_thread() or getattr(gmsh, "oldsig", None) is None:
+        gmsh.finalize()
+        return
+    oldsig, gmsh.oldsig = gmsh.oldsig, None
+    try:
+        gmsh.finalize()
+    finally:
+        gmsh.oldsig = oldsig
+
+
+def _import_gmsh_module():
+    """``import gmsh``, also outside the main thread (local). gmsh 4.8's module sets SIGINT
+    to SIG_DFL when it is imported (``oldsig = signal.signal(...)``), which raises ValueError
+    outside the main thread: a host program that ran the library in a worker thread (a
+    thread pool, a GUI) could not load a mesh. There the import runs with
+    ``signal.signal`` answering the handler in force without setting it (gmsh records
+    it as ``oldsig``; a call of the main thread meanwhile goes through unchanged), and
+    ``signal.signal`` is put back after."""
+    if _in_main_thread() or "gmsh" in sys.modules:
         import gmsh
 
         return gmsh
+    setter = signal.signal
 
-    return keep_sigint_handler(load)
+    def outside_main_thread(signum, handler):
+        if _in_main_thread():
+            return setter(signum, handler)
+        return signal.getsignal(signum)
+
+    signal.signal = outside_main_thread
+    try:
+        import gmsh
+    finally:
+        signal.signal = setter
+    return gmsh
+
+
+def import_gmsh():
+    """``import gmsh`` with the SIGINT handler kept (:func:`keep_sigint_handler`), in any
+    thread (:func:`_import_gmsh_module`)."""
+    return keep_sigint_handler(_import_gmsh_module)

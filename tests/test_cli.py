@@ -1403,6 +1403,56 @@ def test_a_host_whose_warnings_are_errors_runs_a_scene(tmp_path):
     assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
 
 
+def test_a_host_runs_scenes_in_a_worker_thread(tmp_path):
+    """A host program that runs scenes outside its main thread (a thread pool, a GUI's
+    worker): the runs complete, a generator's and a mesh file's, with gmsh imported
+    there first, and the main thread's SIGINT handler stays. gmsh 4.8's module calls
+    ``signal.signal`` when it is imported and in ``gmsh.finalize``, which Python allows
+    in the main thread only: the first run raised ValueError "signal only works in main
+    thread of the main interpreter" from the import, and every later one from the
+    finalize (session 58). A fresh process: gmsh must not be imported yet."""
+    code = (
+        "import signal, sys\n"
+        "from concurrent.futures import ThreadPoolExecutor\n"
+        "sys.path.insert(0, sys.argv[1])\n"
+        "from conftest import patch_press_scene, write_block_msh\n"
+        "from mpi4py import MPI\n"
+        "from dolfinx_mortar import parse_scene, run\n"
+        "def host(signum, frame): pass\n"
+        "signal.signal(signal.SIGINT, host)\n"
+        "assert 'gmsh' not in sys.modules, 'imported with the package'\n"
+        "def go(k):\n"
+        "    data = patch_press_scene(steps=1)\n"
+        "    if k == 1:  # the same mesh from a file (written here, in the main thread)\n"
+        "        data['mesh'] = {'file': 'patch.msh'}\n"
+        "    return run(parse_scene(data, '.'), MPI.COMM_SELF, out_dir=f'out{k}')\n"
+        "with ThreadPoolExecutor(1) as pool:\n"
+        "    first = pool.submit(go, 0).result()\n"
+        "    assert 'gmsh' in sys.modules\n"
+        "    import gmsh\n"
+        "    from dolfinx_mortar import generators\n"
+        "    from dolfinx_mortar.gmsh_session import gmsh_model\n"
+        "    with gmsh_model(gmsh):\n"
+        "        generators.build('patch2d', {'n_lower': 2, 'n_upper': 3, 'n_y': 1})\n"
+        "        gmsh.write('patch.msh')\n"
+        "    second = pool.submit(go, 1).result()\n"
+        "assert signal.getsignal(signal.SIGINT) is host, 'SIGINT'\n"
+        "forces = [s['steps'][-1]['contact_force'] for s in (first, second)]\n"
+        "assert [s['status'] for s in (first, second)] == ['ok', 'ok'], forces\n"
+        "print('ran', forces)\n"
+    )
+    tests = str(Path(__file__).parent)
+    res = subprocess.run(
+        [sys.executable, "-c", code, tests],
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
+
+
 def test_ctrl_c_stops_a_run_in_one_line(workdir):
     """SIGINT (Ctrl-C) in a run: exit status 130, one line and no traceback, and
     summary.json says "failed", "interrupted by KeyboardInterrupt", with the finished
