@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -343,6 +344,48 @@ def _close_left_open(file, before: set[int] | None) -> None:
         log.debug("closed descriptor %d on %s that gmsh left open", fd, file)
 
 
+#: how many bytes of a mesh file :func:`_msh_problem` reads to find its first line
+MSH_HEAD_BYTES = 256
+
+
+def _msh_problem(file) -> str | None:
+    """Why ``file`` is not a gmsh .msh file, or None: a .msh file (format 2.2 or 4.1,
+    ASCII or binary) begins with a section line, ``$MeshFormat`` (or ``$Comments``), at
+    its first byte (gmsh reads one with white space before it as a .geo script too, and
+    fails at the ``$``). gmsh reads any other file as a .geo script and runs it:
+    its option assignments (in a host's gmsh session they outlived the run), ``Mesh``
+    commands, ``SystemCall`` (a shell command) and ``Exit`` (the process ended). Reads
+    the first :data:`MSH_HEAD_BYTES` bytes. Local."""
+    with open(file, "rb") as fh:
+        head = fh.read(MSH_HEAD_BYTES)
+    if head.startswith(b"$"):
+        return None
+    first = head.splitlines()[0] if head.strip() else b""
+    shown = first[:40].decode("utf-8", "replace")
+    if Path(file).suffix.lower() != ".msh":
+        return "only gmsh .msh files are read"
+    return (
+        f"not a gmsh .msh file: it begins {shown!r}, where a .msh file begins with "
+        "$MeshFormat (gmsh would run it as a .geo script)"
+    )
+
+
+@contextlib.contextmanager
+def _alone(file):
+    """A path to ``file`` in a directory of its own (a symbolic link in a temporary
+    directory, removed after), or ``file`` itself where no link can be made. gmsh's
+    ``open`` also merges an options file beside the mesh (``<file>.opt``, .geo syntax:
+    any command, ``SystemCall`` included), whose settings outlived the run in a host's
+    gmsh session; through the link, gmsh finds none. Local."""
+    with tempfile.TemporaryDirectory(prefix="dolfinx_mortar_mesh_") as tmp:
+        link = Path(tmp) / Path(file).name
+        try:
+            link.symlink_to(Path(file).resolve())
+        except OSError:
+            link = Path(file)
+        yield link
+
+
 def load_mesh(
     comm, file: Path | None = None, generator: str | None = None, params=None
 ) -> MeshData:
@@ -365,17 +408,22 @@ def load_mesh(
                     raise SceneError("mesh.file", problem)
                 if Path(file).stat().st_size == 0:
                     raise SceneError("mesh.file", f"{file} is empty")
+                problem = _msh_problem(file)
+                if problem is not None:  # checked first: gmsh runs anything else
+                    raise SceneError("mesh.file", f"cannot read {file}: {problem}")
                 before = _descriptors_on(file)
-                try:
-                    gmsh.open(str(file))
-                except Exception as exc:  # gmsh raises bare Exceptions
-                    _close_left_open(file, before)  # gmsh 4.8 leaves the file open
-                    if Path(file).suffix.lower() != ".msh":
-                        raise SceneError(
-                            "mesh.file",
-                            f"cannot read {file}: only gmsh .msh files are read",
-                        ) from None
-                    raise SceneError("mesh.file", f"cannot read {file}: {exc}") from None
+                with _alone(file) as path:
+                    try:
+                        gmsh.open(str(path))
+                    except Exception as exc:  # gmsh raises bare Exceptions
+                        _close_left_open(file, before)  # gmsh 4.8 leaves the file open
+                        if Path(file).suffix.lower() != ".msh":
+                            raise SceneError(
+                                "mesh.file",
+                                f"cannot read {file}: only gmsh .msh files are read",
+                            ) from None
+                        why = str(exc).replace(str(path), str(file))
+                        raise SceneError("mesh.file", f"cannot read {file}: {why}") from None
                 _contiguous_node_tags(gmsh)
             else:
                 from . import generators

@@ -191,12 +191,12 @@ def test_a_mesh_gmsh_cannot_parse_leaves_no_file_open(tmp_path):
     open: gmsh 4.8 left one per failed load (three loads, three descriptors; a sweep
     over many files ran out). A host's own handle on that file, open before, stays open
     and reads on; a mesh that gmsh reads leaves nothing open either."""
-    path = tmp_path / "garbage.msh"
-    path.write_bytes(bytes(range(256)) * 4 + b"$MeshFormat\n\x00\xff")
+    path = tmp_path / "garbage.msh"  # a .msh header, then what gmsh's reader fails on
+    path.write_bytes(b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n" + bytes(range(256)))
     good = tmp_path / "good.msh"
     good.write_text(_msh(SQUARE, TRIS))
     with open(path, "rb") as host:
-        assert host.read(4) == bytes(range(4))
+        assert host.read(4) == b"$Mes"
         for _ in range(3):
             with pytest.raises(SceneError) as info:
                 load_mesh(MPI.COMM_SELF, file=path)
@@ -204,8 +204,43 @@ def test_a_mesh_gmsh_cannot_parse_leaves_no_file_open(tmp_path):
             assert info.value.reason.startswith(f"cannot read {path}: "), str(info.value)
             assert "\n" not in info.value.reason, str(info.value)  # gmsh's words vary
             assert _descriptors_on(path) == [host.fileno()]
-        assert host.read(4) == bytes(range(4, 8))
+        assert host.read(4) == b"hFor"
         load_mesh(MPI.COMM_SELF, file=good)
         assert _descriptors_on(good) == []
         assert _descriptors_on(path) == [host.fileno()]
     assert _descriptors_on(path) == []
+
+
+def test_a_script_named_msh_is_refused_unrun(tmp_path):
+    """A file that does not begin as a .msh file does (``$MeshFormat``) is refused before
+    gmsh sees it: gmsh ran any other file as a .geo script, whatever its name, so a
+    ``SystemCall`` in a "mesh" ran a shell command (and its option assignments outlived
+    the run in a host's gmsh session). The refusal names the file's first line."""
+    marker = tmp_path / "ran"
+    path = tmp_path / "mesh.msh"
+    path.write_text(f'SystemCall "touch {marker}";\nPoint(1) = {{0, 0, 0}};\n')
+    with pytest.raises(SceneError) as info:
+        load_mesh(MPI.COMM_SELF, file=path)
+    assert info.value.key == "mesh.file", str(info.value)
+    assert info.value.reason.startswith(
+        f"cannot read {path}: not a gmsh .msh file: it begins 'SystemCall"
+    ), str(info.value)
+    assert "$MeshFormat" in info.value.reason
+    assert not marker.exists()
+    # white space before $MeshFormat: gmsh read that as a script too ("syntax error ($)")
+    path.write_text("\n" + _msh(SQUARE, TRIS))
+    with pytest.raises(SceneError, match="not a gmsh .msh file: it begins ''"):
+        load_mesh(MPI.COMM_SELF, file=path)
+
+
+def test_an_options_file_beside_the_mesh_is_not_read(tmp_path):
+    """gmsh's ``open`` merges ``<mesh>.opt`` beside the mesh (.geo syntax: options,
+    ``SystemCall``); ``load_mesh`` reads the mesh through a link in a directory of its
+    own, where there is none: the mesh loads and the options file is not run."""
+    marker = tmp_path / "ran"
+    path = tmp_path / "square.msh"
+    path.write_text(_msh(SQUARE, TRIS))
+    (tmp_path / "square.msh.opt").write_text(f'SystemCall "touch {marker}";\n')
+    data = load_mesh(MPI.COMM_SELF, file=path)
+    assert data.mesh.topology.index_map(2).size_global == 2
+    assert not marker.exists()
