@@ -327,11 +327,13 @@ def _close_left_open(file, before: set[int] | None) -> None:
     """Close the descriptors on ``file`` that a failed ``gmsh.open`` left open: those
     open on it now and not in ``before`` (:func:`_descriptors_on` before the call).
 
-    gmsh 4.8 (Debian bookworm's 4.8.4) reads a file that it does not recognise as a
-    mesh with its .geo parser (``ParseFile``), whose first syntax error throws out of
-    the parser before its ``fclose``: every failed ``gmsh.open`` of a corrupt or
-    truncated .msh left one descriptor on that file open in the calling process (a
-    sweep over many files, a GUI, ran out of descriptors). Descriptors open before the
+    gmsh 4.8 (Debian bookworm's 4.8.4) throws out of its readers before their
+    ``fclose``: its .msh reader at a corrupt section (``$Nodes`` that it cannot read),
+    and its .geo parser (``ParseFile``), which reads any file it does not recognise, at
+    the first syntax error (such files are refused before gmsh since, by
+    :func:`_msh_problem`). Every failed ``gmsh.open`` of a corrupt or truncated .msh
+    left one descriptor on that file open in the calling process (a sweep over many
+    files, a GUI, ran out of descriptors). Descriptors open before the
     call (a host's own handle on the same file) are left alone. The leaked ``FILE``
     keeps its (small) buffer; by gmsh 4.8's source its parser neither reads nor closes
     it again (it reads through ``gmsh_yyin``, which each parse sets). Does nothing
