@@ -1367,6 +1367,21 @@ def test_the_sigint_handler_survives_import_and_mesh_loading(tmp_path):
     assert res.returncode == 0 and res.stdout.strip() == "kept", res.stderr
 
 
+def _run_host_program(code: str, cwd: Path) -> None:
+    """Run ``code``, a host program, in a fresh Python process in ``cwd`` (``sys.argv[1]``
+    is the tests' directory, for conftest's scenes): it must exit 0 and print a line
+    that starts with "ran"."""
+    res = subprocess.run(
+        [sys.executable, "-c", code, str(Path(__file__).parent)],
+        cwd=cwd,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
+
+
 def test_a_host_whose_warnings_are_errors_runs_a_scene(tmp_path):
     """A host program that turns warnings into errors (``warnings.simplefilter("error")``,
     as a test suite's ``filterwarnings = error`` does) runs a frictional scene, and its
@@ -1391,16 +1406,7 @@ def test_a_host_whose_warnings_are_errors_runs_a_scene(tmp_path):
         "assert warnings.filters == filters, 'the host filters changed'\n"
         "print('ran', summary['steps'][-1]['contact_force'])\n"
     )
-    tests = str(Path(__file__).parent)
-    res = subprocess.run(
-        [sys.executable, "-c", code, tests],
-        cwd=tmp_path,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
+    _run_host_program(code, tmp_path)
 
 
 def test_a_host_runs_scenes_in_a_worker_thread(tmp_path):
@@ -1415,7 +1421,7 @@ def test_a_host_runs_scenes_in_a_worker_thread(tmp_path):
         "import signal, sys\n"
         "from concurrent.futures import ThreadPoolExecutor\n"
         "sys.path.insert(0, sys.argv[1])\n"
-        "from conftest import patch_press_scene, write_block_msh\n"
+        "from conftest import patch_press_scene\n"
         "from mpi4py import MPI\n"
         "from dolfinx_mortar import parse_scene, run\n"
         "def host(signum, frame): pass\n"
@@ -1441,16 +1447,7 @@ def test_a_host_runs_scenes_in_a_worker_thread(tmp_path):
         "assert [s['status'] for s in (first, second)] == ['ok', 'ok'], forces\n"
         "print('ran', forces)\n"
     )
-    tests = str(Path(__file__).parent)
-    res = subprocess.run(
-        [sys.executable, "-c", code, tests],
-        cwd=tmp_path,
-        env=_env(),
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert res.returncode == 0 and res.stdout.startswith("ran"), res.stderr[-3000:]
+    _run_host_program(code, tmp_path)
 
 
 def test_ctrl_c_stops_a_run_in_one_line(workdir):
