@@ -3,8 +3,8 @@
 Everything that can be wrong with the input is checked before the output
 directory is touched; a run whose load stepping fails after its cutbacks stops
 with ``status = "failed"`` and keeps every finished step. So does a run whose PETSc
-options PETSc accepted at set-up but refuses in the solve (``snes_max_it = -1``, a MUMPS
-ICNTL out of range): PETSc checks those only there.
+options PETSc accepted at set-up but refuses in the solve (a MUMPS ICNTL out of range,
+``mat_mumps_icntl_7 = 99``): PETSc checks those only there.
 """
 
 from __future__ import annotations
@@ -457,7 +457,7 @@ def _run_steps(scene, comm, problem, writer, newton, progress, setup, round_off,
             log.info("run stopped: %s", exc)
         except PETSc.Error as exc:
             # an option PETSc accepted when the solver was set up but refuses in the solve
-            # (snes_max_it = -1, a MUMPS ICNTL out of range): a clean stop where every rank
+            # (a MUMPS ICNTL out of range: mat_mumps_icntl_7 = 99): a clean stop where every rank
             # failed alike, otherwise the exception (the command line then aborts every rank)
             if not every_rank_arrives(comm, PETSC_ERROR_WAIT):
                 raise

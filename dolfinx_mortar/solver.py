@@ -861,7 +861,9 @@ class NewtonSolver:
         # the residual's round-off floor grows with stiff penalties (the note before
         # contact.SOFT_START_RATIO) and with the size of the forces (ROUND_OFF_ATOL)
         atol = self._atol()
-        self.snes.setTolerances(rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol)
+        self.snes.setTolerances(
+            rtol=s.rtol if rtol is None else max(rtol, s.rtol), atol=atol, max_it=s.max_it
+        )
         self.snes.setForceIteration(force)
         p = self.problem
         p.begin_solve()
@@ -1558,8 +1560,10 @@ def _create_vector(problem):
 
 
 #: SNES tolerances that NewtonSolver sets from [solver] on every solve, and the [solver]
-#: key that sets each
-_TOLERANCE_OPTIONS = {"snes_rtol": "rtol", "snes_atol": "atol"}
+#: key that sets each. snes_max_it was honoured in a step's first solve only, then the
+#: continuations (full steps, "bt") went on to [solver] max_it, and the convergence
+#: history is sized from max_it
+_TOLERANCE_OPTIONS = {"snes_rtol": "rtol", "snes_atol": "atol", "snes_max_it": "max_it"}
 #: SNES types that do one linear solve instead of Newton's method
 _LINEAR_SNES_TYPES = ("ksponly", "ksptransposeonly")
 
