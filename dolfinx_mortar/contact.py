@@ -4617,8 +4617,19 @@ class MortarContact:
         parts = self.comm.gather(table, root=0)
         return np.concatenate(parts) if self.comm.rank == 0 else None
 
-    def fill_fields(self, functions: dict) -> None:
-        """Write nodal contact fields into scalar P_k functions (owned slave nodes only)."""
+    def fill_fields(self, functions: dict, claimed: np.ndarray | None = None) -> None:
+        """Write nodal contact fields into scalar P_k functions (owned slave nodes only;
+        local).
+
+        ``claimed`` (float (m, 2), m the length of the functions' arrays, all −inf before
+        the first pair of a write; updated): at a node of several pairs' slave surfaces
+        (two slave surfaces of one body that meet at a corner) the fields take one pair's
+        values, those of the pair ranked first by (in contact, p̂ > 0; sees a master; its
+        p_N where in contact), the earlier pair on a tie: ``claimed`` holds the rank of
+        the values written so far, and is passed to each pair of the write in turn.
+        Without it, the pair overwrites every node of its surface (before session 59 the
+        last pair always did: a corner node in contact on the first pair showed the
+        second's p_N = 0 and state 0)."""
         local = (self.node_blocks - self.ranges[self.comm.rank]).astype(np.int64)
         p_t, slip, state = self._tangential_output()
         vals = {
@@ -4628,6 +4639,16 @@ class MortarContact:
             "tangential_traction": np.linalg.norm(p_t, axis=1),
             "slip": slip,
         }
+        if claimed is not None:
+            touching = self.p_hat > 0.0
+            rank = np.where(touching, 2.0, np.where(self.has_area, 1.0, 0.0))
+            size = np.where(touching, self.p, -np.inf)
+            old_rank, old_size = claimed[local, 0], claimed[local, 1]
+            take = (rank > old_rank) | ((rank == old_rank) & (size > old_size))
+            local = local[take]
+            vals = {key: v[take] for key, v in vals.items()}
+            claimed[local, 0] = rank[take]
+            claimed[local, 1] = size[take]
         for key, v in vals.items():
             if key in functions:
                 functions[key].x.array[local] = v

@@ -1303,15 +1303,32 @@ class OutputWriter:
                 self._csv_written.append(path)
                 self._guarded(write_contact_csv, path, table, p.gdim)
         if self._contact_functions:
-            for f in self._contact_functions.values():
-                f.x.array[:] = 0.0
-            for term in p.contacts:
-                term.fill_fields(self._contact_functions)
-            for f in self._contact_functions.values():
-                f.x.scatter_forward()
+            functions = self._contact_functions
+            size = next(iter(functions.values())).x.array.size
+            # fields.xdmf: at a node of several slave surfaces, the values of the pair in
+            # which it is in contact (MortarContact.fill_fields' ranking); each
+            # contact_<SLAVE>.xdmf: its own pair's values (one slave surface per pair)
+            claimed = np.full((size, 2), -np.inf)
+            self._fill(functions, [(term, claimed) for term in p.contacts])
+            for f in functions.values():
                 self._xdmf.file.write_function(f, t)
-                for surface in self._surfaces:
-                    surface.write(f, t)
+            if self._surfaces:  # none on curved facets (_start_surfaces)
+                for term, surface in zip(p.contacts, self._surfaces, strict=True):
+                    self._fill(functions, [(term, None)])
+                    for f in functions.values():
+                        surface.write(f, t)
+
+    @staticmethod
+    def _fill(functions: dict, terms) -> None:
+        """Set the contact functions to 0, then to the values of each (term, claimed) of
+        ``terms`` in turn (MortarContact.fill_fields), and update their ghosts
+        (collective)."""
+        for f in functions.values():
+            f.x.array[:] = 0.0
+        for term, claimed in terms:
+            term.fill_fields(functions, claimed)
+        for f in functions.values():
+            f.x.scatter_forward()
 
     def finish(self, status: str, error: str | None = None, timings: dict | None = None) -> None:
         """Close the files and write the final summary (status "ok" or "failed").

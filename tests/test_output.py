@@ -1751,3 +1751,104 @@ def test_the_surface_mesh_gives_each_node_to_a_rank_that_holds_it(shared_tmp):
     x = surface.Q.tabulate_dof_coordinates()
     err = np.abs(g - (1.0 + x[:, 0] + 2.0 * x[:, 1] - 3.0 * x[:, 2])).max(initial=0)
     assert comm.allreduce(err, op=MPI.MAX) < 1e-12
+
+
+def _h5_nodal(xdmf: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(node coordinates (m, 2), values (m,)) of the nodal field ``name`` at the last time
+    stamp of a 2D XDMF file written by dolfinx, read from its h5 with PETSc's HDF5
+    viewer (local, any rank)."""
+    from petsc4py import PETSc
+
+    text = xdmf.read_text()
+
+    def dataset(path: str) -> np.ndarray:
+        h5, where = path.split(":")
+        viewer = PETSc.Viewer().createHDF5(str(xdmf.parent / h5), "r", comm=MPI.COMM_SELF)
+        vec = PETSc.Vec().create(comm=MPI.COMM_SELF)
+        vec.setName(where)  # the dataset's full path
+        vec.load(viewer)
+        values = vec.getArray().copy()
+        vec.destroy()
+        viewer.destroy()
+        return values
+
+    geometry = re.search(r">([^<>]*:/Mesh/mesh/geometry)<", text).group(1)
+    values = re.findall(rf">([^<>]*:/Function/{name}/[^<>]*)<", text)[-1]
+    return dataset(geometry).reshape(-1, 2), dataset(values)
+
+
+@pytest.mark.mpi
+def test_a_node_of_two_slave_surfaces_shows_the_pair_it_touches_in(shared_tmp):
+    """Block A rests on block B (pair A_bottom:B_top) and is pushed against block C
+    (A_right:C_left), whose face starts above A's corner (1, 0.5): that node is a node of
+    both slave surfaces, in contact on the first pair, open on the second (no master).
+    fields.xdmf shows it with the first pair's p_N and state (its CSV's), and each
+    contact_<SLAVE>.xdmf with its own pair's, as its CSV does. Before session 59 the last
+    pair's values overwrote the node in every file: p_N = 0, state 0 (open) there in
+    fields.xdmf and contact_A_bottom.xdmf, where contact_A_bottom_1.csv says p_N = 2.16
+    (h = 0.125), state 2. 1–3 ranks."""
+    from test_contact_topology import _write
+
+    from dolfinx_mortar import parse_scene, run
+
+    points = {
+        "a0": (0.0, 0.5), "a1": (1.0, 0.5), "a2": (1.0, 1.0), "a3": (0.0, 1.0),
+        "b0": (-0.25, 0.0), "b1": (1.5, 0.0), "b2": (1.5, 0.5), "b3": (-0.25, 0.5),
+        "c0": (1.0, 0.75), "c1": (1.5, 0.75), "c2": (1.5, 1.25), "c3": (1.0, 1.25),
+    }  # fmt: skip
+    blocks = [
+        ("A", ("a0", "a1", "a2", "a3")),
+        ("B", ("b0", "b1", "b2", "b3")),
+        ("C", ("c0", "c1", "c2", "c3")),
+    ]
+    groups = {
+        "A_bottom": [("a0", "a1")], "A_right": [("a1", "a2")], "A_top": [("a2", "a3")],
+        "B_top": [("b2", "b3")], "B_bottom": [("b0", "b1")],
+        "C_left": [("c3", "c0")], "C_right": [("c1", "c2")],
+    }  # fmt: skip
+    msh = shared_tmp / "corner.msh"
+    _write(msh, points, blocks, groups, 0.25)
+    out = shared_tmp / "corner_out"
+    scene = {
+        "kinematics": "small",
+        "mesh": {"file": str(msh)},
+        "material": [
+            {"region": b, "model": "linear-elastic", "E": 100.0, "nu": 0.3} for b in "ABC"
+        ],
+        "contact": [
+            {"slave": "A_bottom", "master": "B_top"},
+            {"slave": "A_right", "master": "C_left"},
+        ],
+        "dirichlet": [
+            {"boundary": "B_bottom", "path": [[0.0, 0.0, 0.0]]},
+            {"boundary": "C_right", "path": [[0.0, 0.0, 0.0]]},
+            {"boundary": "A_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.01, -0.01]]},
+        ],
+        "steps": {"t_end": 1.0, "n": 1},
+        "output": {"dir": str(out), "fields": ["contact_pressure", "contact_state"]},
+    }
+    summary = run(parse_scene(scene, shared_tmp), MPI.COMM_WORLD)
+    assert summary["status"] == "ok", summary["error"]
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    rows = {}
+    for slave in ("A_bottom", "A_right"):
+        table = np.genfromtxt(out / f"contact_{slave}_1.csv", delimiter=",", names=True)
+        at = np.flatnonzero(np.hypot(table["x"] - 1.0, table["y"] - 0.5) < 1e-12)
+        assert at.size == 1
+        rows[slave] = table[at[0]]
+    assert rows["A_bottom"]["p_N"] > 1.0 and rows["A_bottom"]["state"] == 2
+    assert rows["A_right"]["p_N"] == 0.0 and rows["A_right"]["state"] == 0
+    for file, slave in (("fields", "A_bottom"), *((f"contact_{s}", s) for s in rows)):
+        for field, column in (("contact_pressure", "p_N"), ("contact_state", "state")):
+            x, values = _h5_nodal(out / f"{file}.xdmf", field)
+            near = np.hypot(x[:, 0] - 1.0, x[:, 1] - 0.5) < 1e-9  # fields: B's node too
+            assert near.any()
+            # the corner node: the only one on a surface file; on the volume, A's, where
+            # B's (a master node) holds 0
+            shown = values[near].max()
+            assert shown == pytest.approx(rows[slave][column], rel=1e-12, abs=1e-12), (
+                file,
+                field,
+                values[near],
+            )
