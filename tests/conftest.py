@@ -11,7 +11,9 @@ from mpi4py import MPI
 
 #: The serial pass's longest test files, longest first (seconds of their tests in the
 #: serial pass of scripts/test.sh beside two helpers' runs, session 56: 632, 153, 111,
-#: 90, 69, 67, 49, 38 of 1347 in all). Under pytest-xdist (``--dist loadfile``: a file
+#: 90, 69, 49, 38 of 1347 in all; test_kernels_segment.py, 67 s then, left the list in
+#: session 59, when its finite differences took 75 s → 13 s beside one helper's runs).
+#: Under pytest-xdist (``--dist loadfile``: a file
 #: per worker at a time, handed out in collection order) they are collected first, the
 #: other files after them in their usual order: a long file handed out late kept one
 #: worker busy while the other had nothing left (longest first: the pass ends nearer
@@ -22,7 +24,6 @@ XDIST_LONG_FILES = (
     "test_bench_scripts.py",
     "test_friction_demos.py",
     "test_uzawa.py",
-    "test_kernels_segment.py",
     "test_bench.py",
     "test_demos.py",
 )

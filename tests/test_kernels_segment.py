@@ -538,19 +538,32 @@ def _fd_derivatives(ftype_s, xs, ss, ftype_m, xm, ms, rule, Xs, h=1e-6):
     args = (ftype_s, xs, Xs, np.asarray(ss, float), ftype_m, xm, np.asarray(ms, float))
     n = segment_derivatives(*args, cand_off, cand, *rule, qp_m, dxi, dw)
     assert n == rows.size
+    # The points of every perturbed geometry, by the node coordinate moved: the points
+    # of a slave facet (or of one master facet) share its perturbations, and the kernel
+    # is deterministic, so each perturbed geometry is run once.
+    perturbed = {}
+
+    def run_perturbed(key, sgn):
+        if (key, sgn) not in perturbed:
+            xs2, xm2 = xs.copy(), xm.copy()
+            side, facet, node, comp = key
+            (xs2 if side == "s" else xm2)[facet, node, comp] += sgn * h
+            c2, xi2, w2, m2 = run(ftype_s, xs2, ss, ftype_m, xm2, ms, rule, Xs=Xs)
+            assert np.array_equal(c2, count) and np.array_equal(m2, qp_m)
+            perturbed[key, sgn] = (xi2, w2)
+        return perturbed[key, sgn]
+
     for r, flat in enumerate(rows):
         f, q = divmod(flat, qp_m.shape[1])
         m = qp_m[f, q]
         for j in range(nloc):
+            if j < ns * d:
+                key = ("s", f, j // d, j % d)
+            else:
+                key = ("m", m, (j - ns * d) // d, j % d)
             pts = []
             for sgn in (1.0, -1.0):
-                xs2, xm2 = xs.copy(), xm.copy()
-                if j < ns * d:
-                    xs2[f, j // d, j % d] += sgn * h
-                else:
-                    xm2[m, (j - ns * d) // d, j % d] += sgn * h
-                c2, xi2, w2, m2 = run(ftype_s, xs2, ss, ftype_m, xm2, ms, rule, Xs=Xs)
-                assert np.array_equal(c2, count) and np.array_equal(m2, qp_m)
+                xi2, w2 = run_perturbed(key, sgn)
                 pts.append((xi2[f, q], w2[f, q]))
             fd_xi = (pts[0][0] - pts[1][0]) / (2 * h)
             fd_w = (pts[0][1] - pts[1][1]) / (2 * h)
