@@ -4652,3 +4652,61 @@ class MortarContact:
         for key, v in vals.items():
             if key in functions:
                 functions[key].x.array[local] = v
+
+    def fill_midsides(self, functions: dict) -> None:
+        """On 6-node triangular slave facets (P2 tetrahedra), whose mixed fields live on the
+        facets' vertices (surface.mixed_nodes: ∫N_vertex = 0), give each midside node of
+        the slave facets in ``functions`` (the scalar P2 functions of :meth:`fill_fields`,
+        filled and with their ghosts updated) the mean of the two vertices of its edge:
+        the value of the fields' linear interpolation there, so that a viewer shows the
+        P1 field they are. Before session 59 the midside nodes held 0, and the pressure
+        seemed to drop to 0 halfway between two contact vertices. Nothing on other
+        facets, whose every node carries the fields.
+
+        Collective (a reverse scatter: a midside node's owner need not hold the slave
+        facet); the functions' ghosts are updated."""
+        if self.ftype != TRIANGLE2 or not functions:
+            return
+        nodes = REFERENCE_NODES[TRIANGLE2]
+        edges = [
+            (m, a, b)
+            for m in range(3, 6)
+            for a in range(3)
+            for b in range(a + 1, 3)
+            if np.allclose(nodes[m], 0.5 * (nodes[a] + nodes[b]))
+        ]
+        first = next(iter(functions.values()))
+        imap = first.function_space.dofmap.index_map
+        lo, n_owned = imap.local_range[0], imap.size_local
+        ghosts = np.asarray(imap.ghosts, dtype=np.int64)
+        order = np.argsort(ghosts)
+
+        def to_local(g):
+            """Local indices (owned, then ghosts) of this rank's global nodes g."""
+            out = g - lo
+            off = (out < 0) | (out >= n_owned)
+            out[off] = n_owned + order[np.searchsorted(ghosts, g[off], sorter=order)]
+            return out
+
+        blocks = self.slave.blocks
+        mid = to_local(np.concatenate([blocks[:, m] for m, _, _ in edges]))
+        ends = [to_local(np.concatenate([blocks[:, e[i]] for e in edges])) for i in (1, 2)]
+        # every rank that holds a slave facet with the edge gives its midside the mean;
+        # the owner takes the mean of those (all equal: the vertices' scattered values)
+        count = first.vector.duplicate()
+        total = first.vector.duplicate()
+        with count.localForm() as c:
+            c.set(0.0)
+            c.array[mid] = 1.0
+        count.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        hit = np.flatnonzero(count.array_r > 0.0)
+        for f in functions.values():
+            values = f.x.array
+            with total.localForm() as t:
+                t.set(0.0)
+                t.array[mid] = 0.5 * (values[ends[0]] + values[ends[1]])
+            total.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            values[hit] = total.array_r[hit] / count.array_r[hit]
+            f.x.scatter_forward()
+        count.destroy()
+        total.destroy()

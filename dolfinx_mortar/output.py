@@ -1321,14 +1321,17 @@ class OutputWriter:
     @staticmethod
     def _fill(functions: dict, terms) -> None:
         """Set the contact functions to 0, then to the values of each (term, claimed) of
-        ``terms`` in turn (MortarContact.fill_fields), and update their ghosts
-        (collective)."""
+        ``terms`` in turn (MortarContact.fill_fields), update their ghosts, and give the
+        midside nodes of 6-node slave facets their edges' means
+        (MortarContact.fill_midsides; collective)."""
         for f in functions.values():
             f.x.array[:] = 0.0
         for term, claimed in terms:
             term.fill_fields(functions, claimed)
         for f in functions.values():
             f.x.scatter_forward()
+        for term, _ in terms:
+            term.fill_midsides(functions)
 
     def finish(self, status: str, error: str | None = None, timings: dict | None = None) -> None:
         """Close the files and write the final summary (status "ok" or "failed").

@@ -1753,9 +1753,9 @@ def test_the_surface_mesh_gives_each_node_to_a_rank_that_holds_it(shared_tmp):
     assert comm.allreduce(err, op=MPI.MAX) < 1e-12
 
 
-def _h5_nodal(xdmf: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(node coordinates (m, 2), values (m,)) of the nodal field ``name`` at the last time
-    stamp of a 2D XDMF file written by dolfinx, read from its h5 with PETSc's HDF5
+def _h5_nodal(xdmf: Path, name: str, gdim: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """(node coordinates (m, gdim), values (m,)) of the nodal field ``name`` at the last
+    time stamp of an XDMF file written by dolfinx, read from its h5 with PETSc's HDF5
     viewer (local, any rank)."""
     from petsc4py import PETSc
 
@@ -1774,7 +1774,7 @@ def _h5_nodal(xdmf: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
 
     geometry = re.search(r">([^<>]*:/Mesh/mesh/geometry)<", text).group(1)
     values = re.findall(rf">([^<>]*:/Function/{name}/[^<>]*)<", text)[-1]
-    return dataset(geometry).reshape(-1, 2), dataset(values)
+    return dataset(geometry).reshape(-1, gdim), dataset(values)
 
 
 @pytest.mark.mpi
@@ -1852,3 +1852,61 @@ def test_a_node_of_two_slave_surfaces_shows_the_pair_it_touches_in(shared_tmp):
                 field,
                 values[near],
             )
+
+
+@pytest.mark.mpi
+def test_p2_tetrahedra_midside_nodes_show_the_mean_of_their_edge(shared_tmp):
+    """On P2 tetrahedra the mixed fields live on the slave facets' vertices (∫N_vertex = 0
+    on a 6-node triangle: no CSV row for a midside node). fields.xdmf gives each midside
+    node of the slave facets the mean of its edge's two vertices (their CSV values), the
+    linear field's value there. Before session 59 they held 0 (a probe: 33 midside nodes
+    at |p_N| ≤ 3e-15 between vertices at 1.5 to 7.0). 1–3 ranks."""
+    from dolfinx_mortar import parse_scene, run
+
+    out = shared_tmp / "p2tet_out"
+    params = {"quads": False, "order": 2, "n_lower": 2, "n_upper": 3, "n_y": 1, "margin": 0.2}
+    scene = {
+        "kinematics": "small",
+        "mesh": {"generator": "patch3d", "params": params},
+        "material": [
+            {"region": b, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for b in ("lower", "upper")
+        ],
+        "contact": [{"slave": "upper_bottom", "master": "lower_top"}],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.02]]},
+        ],
+        "steps": {"t_end": 1.0, "n": 1},
+        "output": {"dir": str(out), "fields": ["contact_pressure"]},
+    }
+    summary = run(parse_scene(scene, shared_tmp), MPI.COMM_WORLD)
+    assert summary["status"] == "ok", summary["error"]
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    table = np.genfromtxt(out / "contact_upper_bottom_1.csv", delimiter=",", names=True)
+    verts = np.column_stack([table["x"], table["y"], table["z"]])
+    p = table["p_N"]
+    assert np.ptp(verts[:, 2]) < 1e-12 and p.min() > 0.0 and p.max() > 1.5 * p.min()
+    x, values = _h5_nodal(out / "fields.xdmf", "contact_pressure", gdim=3)
+    # the midpoints of every two slave vertices closer than the longest facet edge
+    a, b = np.triu_indices(len(verts), 1)
+    length = np.linalg.norm(verts[a] - verts[b], axis=1)
+    close = length < 0.75
+    mids, means = 0.5 * (verts[a] + verts[b])[close], 0.5 * (p[a] + p[b])[close]
+    on = np.abs(x[:, 2] - verts[0, 2]) < 1e-12
+    at_vertex = np.array([np.linalg.norm(verts - y, axis=1).min() < 1e-9 for y in x])
+    checked = 0
+    for y in np.unique(np.round(x[on & ~at_vertex], 9), axis=0):
+        # the slave's node there, and a master node of the lower block's top face (0)
+        # where the two meshes share the point
+        v = values[np.linalg.norm(x - y, axis=1) < 1e-9].max()
+        near = np.linalg.norm(mids - y, axis=1) < 1e-9
+        if v == 0.0 and not near.any():
+            continue  # a master node alone
+        assert near.any(), (y, v)
+        # where two vertex pairs share a midpoint (a quadrilateral's two diagonals), the
+        # node is the midside of one of them
+        assert np.isclose(means[near], v, rtol=1e-12, atol=0.0).any(), (y, v, means[near])
+        checked += 1
+    assert checked >= 20, checked
