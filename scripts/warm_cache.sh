@@ -8,6 +8,15 @@
 # `docker run` of an image built without this step (29 s instead of 4 s for the default
 # Hertz demo on 2 ranks). A failed run prints the tail of its log and the script goes on
 # (exit status 0): what it did not compile is compiled on first use.
+# Session 59 (fresh numba cache, warm FFCx cache, 2-core machine nearly idle): the
+# segment run 78 s, the element run 58 s; they leave 10 signatures to the serial test
+# pass (slip_point_terms, force_geometric_blocks, slip_motion_blocks, facet_mass,
+# paired_fraction, projection_derivative and the kernels they call, inside, gap_only,
+# for the non-default friction options and gap tests), compiled once, by the worker that
+# runs tests/test_friction.py and test_kernels_gap.py (13 s there; the six tests that
+# need them: 14.6 s cold, 3.9 s warm); the other worker, the CLI's subprocesses and the
+# MPI passes load them. A third warm-up job could save at most those ~11 s of one worker,
+# less than the pass's run-to-run spread: not added.
 set -eu
 REPO=$(cd "$(dirname "$0")/.." && pwd -P)  # -P: the path pip records
 . "$REPO/scripts/env.sh"
