@@ -6,6 +6,7 @@ penalties")."""
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,8 +40,70 @@ def _pressures(out_dir, step: int) -> np.ndarray:
     return t["p_N"][np.argsort(t["X"])]
 
 
+class _Warnings(logging.Handler):
+    """The messages of the WARNING records of the logger dolfinx_mortar during a run."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(record.getMessage())
+
+
+def _run_logged(data: dict, out_dir) -> tuple[dict, list[str]]:
+    """_run, with the WARNING messages it logged (as caplog.at_level(WARNING) reads them)."""
+    logger, handler = logging.getLogger("dolfinx_mortar"), _Warnings()
+    level = logger.level
+    logger.setLevel(logging.WARNING)
+    logger.addHandler(handler)
+    try:
+        return _run(data, out_dir), handler.messages
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+# Runs that several tests compare with, made once per module (session 60: the unit
+# HERTZ2D run was made by 5 tests, the others by 2 each; each test reads the summary only).
+@pytest.fixture(scope="module")
+def module_tmp(tmp_path_factory):
+    """A directory of this module with the same path on every rank (collective)."""
+    comm = MPI.COMM_WORLD
+    path = str(tmp_path_factory.mktemp("stiff_penalty")) if comm.rank == 0 else None
+    return Path(comm.bcast(path, root=0))
+
+
+@pytest.fixture(scope="module")
+def unit2d(module_tmp):
+    """HERTZ2D with the auto penalty and Uzawa to 1e-8: (output directory, summary)."""
+    out = module_tmp / "auto"
+    return out, _run(_scene(), out)
+
+
+@pytest.fixture(scope="module")
+def pure_penalty_auto(module_tmp):
+    """HERTZ2D with the auto penalty as pure penalty (uzawa_tol = 0): the summary."""
+    return _run(_scene(penalty="auto", uzawa_tol=0.0), module_tmp / "pure_auto")
+
+
+@pytest.fixture(scope="module")
+def unit3d(module_tmp):
+    """HERTZ3D (the auto penalty): the summary."""
+    from test_contact_parallel import HERTZ3D
+
+    return _run(HERTZ3D, module_tmp / "unit3d")
+
+
+@pytest.fixture(scope="module")
+def small_auto(module_tmp):
+    """HERTZ2D with E and the load times 1e-9 and the default atol ("auto"): the summary
+    and the WARNING messages the run logged."""
+    return _run_logged(_scaled(1e-9), module_tmp / "scaled_small_auto")
+
+
 @pytest.mark.mpi
-def test_a_stiff_penalty_ends_where_the_auto_penalty_does(shared_tmp):
+def test_a_stiff_penalty_ends_where_the_auto_penalty_does(shared_tmp, unit2d):
     """ε = 1e3 × the auto value with Uzawa to 1e-8, force control (the cylinder is held by
     contact only): every step completes without a cutback, goes through its Uzawa rounds
     under ε_soft first (their entries marked ``soft_penalty``), then with ε in at most 2
@@ -48,7 +111,7 @@ def test_a_stiff_penalty_ends_where_the_auto_penalty_does(shared_tmp):
     penalty (the Uzawa solution does not depend on ε). Without the soft pass the same
     scene of the hard-case sweep stopped in its first step after 6 cutbacks (BENCHMARKS
     §10); 1–3 ranks."""
-    auto = _run(_scene(), shared_tmp / "auto")
+    auto_dir, auto = unit2d
     stiff = _run(_scene(penalty=1e3 * EPS_AUTO), shared_tmp / "stiff")
     assert auto["status"] == "ok" and stiff["status"] == "ok", stiff.get("error")
     n = len(auto["steps"])
@@ -62,21 +125,21 @@ def test_a_stiff_penalty_ends_where_the_auto_penalty_does(shared_tmp):
         assert ss["max_penetration"] <= 1e-12
         fa, fs = np.asarray(sa["contact_force"][PAIR]), np.asarray(ss["contact_force"][PAIR])
         assert np.linalg.norm(fs - fa) <= 1e-8 * np.linalg.norm(fa)
-    p_a, p_s = _pressures(shared_tmp / "auto", n), _pressures(shared_tmp / "stiff", n)
+    p_a, p_s = _pressures(auto_dir, n), _pressures(shared_tmp / "stiff", n)
     assert np.count_nonzero(p_a) >= 3
     assert np.max(np.abs(p_s - p_a)) <= 1e-6 * np.max(p_a)
 
 
 @pytest.mark.parametrize("factor", [1e3, 1e4])
-def test_a_stiff_pure_penalty_converges_to_its_own_penetration(tmp_path, factor):
+def test_a_stiff_pure_penalty_converges_to_its_own_penetration(tmp_path, pure_penalty_auto, factor):
     """Pure penalty (uzawa_tol = 0) with ε = 1e3 and 1e4 × auto: every step converges
     without a cutback; the penetration is p/ε, so it falls with ε (measured: the auto run's
     / 960 and / 9600; the auto ε varies with h_I, the stiff one does not), and the contact
     force carries the applied load."""
-    runs = {}
-    for name, eps in (("auto", "auto"), ("stiff", factor * EPS_AUTO)):
-        runs[name] = _run(_scene(penalty=eps, uzawa_tol=0.0), tmp_path / name)
-        assert runs[name]["status"] == "ok", runs[name].get("error")
+    runs = {"auto": pure_penalty_auto}
+    runs["stiff"] = _run(_scene(penalty=factor * EPS_AUTO, uzawa_tol=0.0), tmp_path / "stiff")
+    for run in runs.values():
+        assert run["status"] == "ok", run.get("error")
     last = {k: r["steps"][-1] for k, r in runs.items()}
     assert all(st["cutbacks"] == 0 for st in runs["stiff"]["steps"])
     pen = {k: st["max_penetration"] for k, st in last.items()}
@@ -147,18 +210,18 @@ def test_stiff_normal_and_tangential_penalties_with_friction(tmp_path):
     assert abs(fa[0]) > 0.05 * abs(fa[1])  # the shift carries a tangential force
 
 
-def test_a_stiff_penalty_in_3d(tmp_path):
+def test_a_stiff_penalty_in_3d(tmp_path, unit3d):
     """The coarse quarter-model 3D Hertz (segment integration, force control) with ε = 1e3
     × auto and Uzawa to 1e-8 ends with the auto run's contact force; the second pass of
     each step takes at most 2 Newton iterations (measured: 1)."""
     from test_contact_parallel import HERTZ3D
 
     eps = 1e3 * 100.0 * E_STAR / 0.5  # the scene's contact size is h = 0.5
-    runs = {}
-    for name, pen in (("auto", "auto"), ("stiff", eps)):
-        data = {**HERTZ3D, "contact": [{**HERTZ3D["contact"][0], "penalty": pen}]}
-        runs[name] = _run(data, tmp_path / name)
-        assert runs[name]["status"] == "ok", runs[name].get("error")
+    assert "penalty" not in HERTZ3D["contact"][0]  # unit3d: the auto penalty
+    data = {**HERTZ3D, "contact": [{**HERTZ3D["contact"][0], "penalty": eps}]}
+    runs = {"auto": unit3d, "stiff": _run(data, tmp_path / "stiff")}
+    for run in runs.values():
+        assert run["status"] == "ok", run.get("error")
     pair = "sphere_surface:block_top"
     st = runs["stiff"]["steps"][-1]
     soft = [bool(r[pair].get("soft_penalty")) for r in st["uzawa"]]
@@ -185,14 +248,14 @@ def _scaled(scale: float, atol: float | None = None) -> dict:
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("scale", [1e6, 1e9])
-def test_large_forces_converge_as_the_unit_ones(shared_tmp, scale):
+def test_large_forces_converge_as_the_unit_ones(shared_tmp, unit2d, scale):
     """E and the load times 1e6 or 1e9 (E = 2e11: steel in SI units). The absolute
     tolerance 1e-10 is a force and lies below the residual's round-off level there
     (about 1e-4 at 1e9); the solver raises it to solver.ROUND_OFF_ATOL × the measured
     level. Before, a later Uzawa round hovered at 5 × that level until max_it, and the
     run failed after every cutback. The same iterations as the unit run, ± 1 per step,
     and the contact force / scale to 1e-9."""
-    unit = _run(_scene(), shared_tmp / "unit")
+    unit = unit2d[1]
     big = _run(_scaled(scale), shared_tmp / f"scaled_{scale:g}")
     assert big["status"] == "ok", big.get("error")
     for a, b in zip(unit["steps"], big["steps"], strict=True):
@@ -204,7 +267,7 @@ def test_large_forces_converge_as_the_unit_ones(shared_tmp, scale):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("atol", ["scaled", "auto"])
-def test_small_forces_converge_as_the_unit_ones(shared_tmp, atol):
+def test_small_forces_converge_as_the_unit_ones(shared_tmp, unit2d, request, atol):
     """E and the load times 1e-9, with ``atol`` times 1e-9 as well ("scaled") or the
     default "auto" (1e-10, never looser than rtol × the forces: solver.AUTO_ATOL; a fixed
     1e-10 stopped every solve early and the contact force was 6.5e-4 off). PETSc's "cp"
@@ -215,11 +278,11 @@ def test_small_forces_converge_as_the_unit_ones(shared_tmp, atol):
     force was 8e-4 off. Now the unit run's Uzawa rounds, its Newton iterations ± 1 per
     step, and the contact force / scale to 1e-9."""
     scale = 1e-9
-    unit = _run(_scene(), shared_tmp / "unit")
-    small = _run(
-        _scaled(scale, atol=1e-10 * scale if atol == "scaled" else None),
-        shared_tmp / f"scaled_small_{atol}",
-    )
+    unit = unit2d[1]
+    if atol == "auto":  # the module's run, also read by the explicit-atol test
+        small = request.getfixturevalue("small_auto")[0]
+    else:
+        small = _run(_scaled(scale, atol=1e-10 * scale), shared_tmp / f"scaled_small_{atol}")
     assert small["status"] == "ok", small.get("error")
     for a, b in zip(unit["steps"], small["steps"], strict=True):
         assert b["cutbacks"] == 0
@@ -229,20 +292,20 @@ def test_small_forces_converge_as_the_unit_ones(shared_tmp, atol):
         assert np.linalg.norm(fb / scale - fa) <= 1e-9 * np.linalg.norm(fa), (fa, fb / scale)
 
 
-def test_an_explicit_atol_looser_than_the_forces_is_warned(tmp_path, caplog):
+def test_an_explicit_atol_looser_than_the_forces_is_warned(tmp_path, caplog, small_auto):
     """An explicit ``atol`` is used as given, with one warning where it is looser than
-    rtol × the forces; the default "auto" is never looser, so it logs none."""
+    rtol × the forces; the default "auto" is never looser, so it logs none (the run of
+    test_small_forces_converge_as_the_unit_ones[auto], small_auto, with its warnings)."""
     with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
         _run(_scaled(1e-9, atol=1e-10), tmp_path / "explicit")
     assert sum("exceeds rtol" in r.getMessage() for r in caplog.records) == 1
-    caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="dolfinx_mortar"):
-        _run(_scaled(1e-9), tmp_path / "auto")
-    assert not [r.getMessage() for r in caplog.records if "exceeds rtol" in r.getMessage()]
+    summary, messages = small_auto
+    assert summary["status"] == "ok", summary.get("error")
+    assert not [m for m in messages if "exceeds rtol" in m]
 
 
 @pytest.mark.mpi
-def test_si_units_with_lengths_in_millimetres(shared_tmp):
+def test_si_units_with_lengths_in_millimetres(shared_tmp, unit3d):
     """The coarse quarter-model 3D Hertz in SI units: every length times 1e-3 (R = 8 mm
     given as 0.008 m) and E and the traction times 1e9 (E = 2e11 Pa), so the forces are
     1e3 times the unit run's. The mesh generator sorted its faces with a tolerance below
@@ -270,7 +333,7 @@ def test_si_units_with_lengths_in_millimetres(shared_tmp):
             for t in HERTZ3D["traction"]
         ],
     }
-    unit = _run(HERTZ3D, shared_tmp / "unit3d")
+    unit = unit3d
     run_si = _run(si, shared_tmp / "si3d")
     assert run_si["status"] == "ok", run_si.get("error")
     assert run_si["dofs"] == unit["dofs"], (run_si["dofs"], unit["dofs"])
