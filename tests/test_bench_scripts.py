@@ -215,8 +215,8 @@ def test_hard_cases_with_a_recovery(hard, tmp_path, recovery, l2):
 def test_hard_cases_with_the_exact_update(hard, hard_quick, tmp_path, monkeypatch):
     """``--uzawa-acceleration newton`` rewrites the frictionless lumped pairs with the exact
     multiplier update: the same accuracy in fewer Uzawa rounds (hertz2d from an initial
-    gap under force control: 9 rounds instead of 20, L2 3.63 % either way; the
-    patch test exact with segments). The rewritten scenes differ from the scene files
+    gap under force control: 9 rounds instead of 20, L2 3.63 % either way; 8 rounds in
+    session 60; the patch test exact with segments). The rewritten scenes differ from the scene files
     only in that key (and the output directory), and on these lumped pairs the files'
     "auto" is that update (contact.resolve_acceleration), so the runs are those of the
     quick sweep (hard_quick), whose rows are checked here; the rewrite itself is checked
