@@ -1661,9 +1661,11 @@ def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_t
 
 def _slide_and_hold(dim, frame, integration, out):
     """The non-matching patch (patch2d/patch3d, small strain, μ = 0.3, both blocks
-    E = 100): the upper block pressed by 0.02 (t ≤ 1), slid by
-    0.1 along x (3D: (0.1, 0.05)) over t ∈ [1, 2] in gross slip, then held (t = 2 … 3);
-    6 steps. Returns the summary's steps."""
+    E = 100): the upper block pressed by 0.02 in one step (t = 0.5), slid by 0.1 along x
+    (3D: (0.1, 0.05)) over t ∈ [0.5, 1.5] in gross slip (2 steps), then held (t = 2,
+    2.5); 5 steps. Returns the summary's steps. (The press took 2 steps until session 60:
+    the held steps' figures were the same to the digits quoted in the test, and the run
+    took 8 fewer Newton iterations of 46 on 3D segments, the slowest case.)"""
     from dolfinx_mortar.runner import run
 
     d = dim
@@ -1671,11 +1673,12 @@ def _slide_and_hold(dim, frame, integration, out):
     press = lift + [-0.02]
     slide = [0.1] + ([0.05] if d == 3 else []) + [-0.02]
     data = _patch_scene(d, integration, frame, out)
+    data["steps"] = {"t_end": 2.5, "n": 5}
     data["dirichlet"] = [
-        {"boundary": "lower_bottom", "path": [[0.0, *([0.0] * d)], [3.0, *([0.0] * d)]]},
+        {"boundary": "lower_bottom", "path": [[0.0, *([0.0] * d)], [2.5, *([0.0] * d)]]},
         {
             "boundary": "upper_top",
-            "path": [[0.0, *([0.0] * d)], [1.0, *press], [2.0, *slide], [3.0, *slide]],
+            "path": [[0.0, *([0.0] * d)], [0.5, *press], [1.5, *slide], [2.5, *slide]],
         },
     ]
     summary = run(parse_scene(data, pathlib.Path(".")), MPI.COMM_WORLD, out_dir=out)
@@ -1702,18 +1705,19 @@ def test_the_first_held_step_after_gross_slip(dim, integration, frame, shared_tm
     node's own t_n projection moves with the new t_n)."""
     out = shared_tmp / f"slide_hold{dim}d_{integration}_{frame}_{force_at}"
     steps = _slide_and_hold(dim, frame, integration, out)
-    assert [s["t"] for s in steps] == [0.5, 1.0, 1.5, 2.0, 2.5, 3.0]
+    assert [s["t"] for s in steps] == [0.5, 1.0, 1.5, 2.0, 2.5]
+    assert all(s["cutbacks"] == 0 for s in steps)
     F = [np.array(s["contact_force"]["upper_bottom:lower_top"]) for s in steps]
     # gross slip: the tangential force at the Coulomb limit μ |F_N|
-    assert np.linalg.norm(F[3][:-1]) >= 0.95 * MU * abs(F[3][-1])
-    first = np.linalg.norm(F[4] - F[3]) / np.linalg.norm(F[3])
+    assert np.linalg.norm(F[2][:-1]) >= 0.95 * MU * abs(F[2][-1])
+    first = np.linalg.norm(F[3] - F[2]) / np.linalg.norm(F[2])
     if force_at == "t_n":  # the lag: about one slide step's slip
         assert first >= 1e-3, first
         return
     assert first <= (1e-9 if frame == "slave" else 2e-4), first
-    assert np.linalg.norm(F[5] - F[4]) <= 1e-9 * np.linalg.norm(F[3])
+    assert np.linalg.norm(F[4] - F[3]) <= 1e-9 * np.linalg.norm(F[2])
     if frame == "slave":
-        assert steps[4]["newton_iterations"] == [0], steps[4]["newton_iterations"]
+        assert steps[3]["newton_iterations"] == [0], steps[3]["newton_iterations"]
 
 
 @both_force_points
