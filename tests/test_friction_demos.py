@@ -26,6 +26,33 @@ import demo_tiedcurved2d  # noqa: E402
 import demo_twist3d  # noqa: E402
 import demo_wedge  # noqa: E402
 
+#: the tests whose demo runs write the demo's volume fields (XDMF): the frictional fields
+#: (tangential traction, slip, contact state) on 1–3 ranks; the other tests read the
+#: metrics, the summary and the contact CSVs only
+_WITH_FIELDS = {"test_cattaneo2d"}
+
+
+@pytest.fixture(autouse=True)
+def _no_volume_fields(request, monkeypatch):
+    """The demos' runs without their volume fields (``output.fields = []``; the summary
+    and the contact CSVs are written as before) but in the tests of ``_WITH_FIELDS``:
+    these tests read neither, and in small runs the fields took 25–78 % of a run's time
+    (session 60, the summaries' ``timings.output``: the 2D frictional patch runs). The
+    field output itself is tested in test_output.py."""
+    if request.function.__name__ in _WITH_FIELDS:
+        return
+    import dataclasses
+
+    from dolfinx_mortar import runner
+
+    run = runner.run
+
+    def run_without_fields(scene, *args, **kwargs):
+        output = dataclasses.replace(scene.output, fields=())
+        return run(dataclasses.replace(scene, output=output), *args, **kwargs)
+
+    monkeypatch.setattr(runner, "run", run_without_fields)
+
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("mode", ["stick", "slide"])
