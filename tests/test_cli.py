@@ -940,7 +940,6 @@ def test_bad_input_subprocess(workdir, case_id, command):
         ("mesh-corrupt", "run"),
         ("mesh-nan-node", "check"),
         ("mesh-zero-area-cells", "run"),
-        ("unsorted-path", "run"),
         ("empty-contact-surface", "run"),
         ("surfaces-share-nodes", "run"),
         ("penalty-far-beyond-auto", "check"),
@@ -948,7 +947,9 @@ def test_bad_input_subprocess(workdir, case_id, command):
     ],
 )
 def test_bad_input_mpirun(workdir, case_id, command):
-    """The same under ``mpirun -n 2`` (launched here: this test must not run under mpirun)."""
+    """The same under ``mpirun -n 2`` (launched here: this test must not run under mpirun),
+    a case of each stage (a scene value: unknown-key; unsorted-path, a value that the
+    same ``load_scene`` refuses on every rank, serially only)."""
     scene = write_case(workdir, case_id)
     before = snapshot(workdir)
     res = cli(workdir, command, scene.name, ranks=2)
@@ -1107,7 +1108,10 @@ def test_check_refuses_the_output_dir_that_run_refuses(cli_call, workdir, ranks)
     """``check`` refuses an ``output.dir`` that ``run`` refuses, with the same line on
     every rank, exit 2, nothing written (session 52: ``check`` said ok to a directory
     that is a file); a missing one is created to find out and removed again, and a lock
-    that another run holds is no input error for ``check`` (it is for ``run``)."""
+    that another run holds is no input error for ``check`` (it is for ``run``). On 2
+    ranks `check` of the file in the way, of the missing directory, and `run` of the
+    held one: `run` of the file in the way and `check` of the held one make the same
+    call as those (``check_out_dir``, the lock or not), asserted serially."""
     import fcntl
 
     n = max(ranks, 1)
@@ -1117,11 +1121,11 @@ def test_check_refuses_the_output_dir_that_run_refuses(cli_call, workdir, ranks)
     (workdir / "s.toml").write_text(to_toml(scene))
     before = snapshot(workdir)
     lines = []
-    for command in ("check", "run"):
+    for command in ("check", "run") if not ranks else ("check",):
         res = cli_call(workdir, command, "s.toml", ranks=ranks)
         _one_error_line(res, n, "output.dir", "it exists and is not a directory")
         lines.append(res.stderr)
-    assert lines[0] == lines[1]
+    assert len(set(lines)) == 1
     scene["output"]["dir"] = "new/deep/results"
     (workdir / "s.toml").write_text(to_toml(scene))
     before = snapshot(workdir)
@@ -1133,31 +1137,42 @@ def test_check_refuses_the_output_dir_that_run_refuses(cli_call, workdir, ranks)
     (workdir / "s.toml").write_text(to_toml(scene))
     with open(workdir / "held" / ".dolfinx_mortar.lock", "w") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)  # "another run is writing there"
-        res = cli_call(workdir, "check", "s.toml", ranks=ranks)
-        assert res.returncode == 0 and res.stdout.startswith("s.toml: ok"), res.stderr
+        if not ranks:
+            res = cli_call(workdir, "check", "s.toml")
+            assert res.returncode == 0 and res.stdout.startswith("s.toml: ok"), res.stderr
         res = cli_call(workdir, "run", "s.toml", ranks=ranks)
         _one_error_line(res, n, "output.dir", "another run is writing there")
 
 
+#: (id, a file of the run where a directory is, the reason): the output directories that
+#: cannot take the run's files
+_FILES_IN_THE_WAY = [
+    ("summary", "summary.json", "'out/summary.json' is a directory"),
+    ("fields-h5", "fields.h5", "'out/fields.h5' is a directory"),
+    ("surface-xdmf", "contact_top.xdmf", "'out/contact_top.xdmf' is a directory"),
+    ("csv", "contact_top_1.csv", "'out/contact_top_1.csv' is a directory"),
+    ("hidden-h5", ".fields.h5", "'out/.fields.h5' is a directory"),  # the live series
+    ("read-only", None, "not writable"),
+]
+
+
 @pytest.mark.parametrize(
-    "where, reason",
-    [
-        ("summary.json", "'out/summary.json' is a directory"),
-        ("fields.h5", "'out/fields.h5' is a directory"),
-        ("contact_top.xdmf", "'out/contact_top.xdmf' is a directory"),
-        ("contact_top_1.csv", "'out/contact_top_1.csv' is a directory"),
-        (".fields.h5", "'out/.fields.h5' is a directory"),  # the hidden live series
-        (None, "not writable"),
+    "where, reason, ranks",
+    [pytest.param(w, r, 0, id=f"serial-{i}") for i, w, r in _FILES_IN_THE_WAY]
+    + [
+        pytest.param(w, r, 2, id=f"mpirun2-{i}")
+        for i, w, r in _FILES_IN_THE_WAY
+        if i in ("summary", "read-only")
     ],
-    ids=["summary", "fields-h5", "surface-xdmf", "csv", "hidden-h5", "read-only"],
 )
-@pytest.mark.parametrize("ranks", [0, 2], ids=["serial", "mpirun2"])
 def test_output_dir_that_cannot_take_the_files(cli_call, workdir, where, reason, ranks):
     """An existing output directory that is not writable, or that holds a directory
     where a file of the run goes, is one error line per rank naming ``--out``, exit 2,
     before the mesh is read (a traceback after the set-up: an HDF5 dump, a
     RuntimeError or an IsADirectoryError, exit 1). Read-only: /proc/1 as root (root
-    writes in a chmod 555 directory), a chmod 555 directory otherwise."""
+    writes in a chmod 555 directory), a chmod 555 directory otherwise. Rank 0 decides
+    (``output.check_out_dir`` broadcasts its reason): on 2 ranks one directory in a
+    file's place and the read-only one, every case serially."""
     scene = base_scene()
     scene["contact"] = [_contact()]
     scene["mesh"]["file"] = "absent.msh"  # the mesh is never read
@@ -1213,7 +1228,8 @@ def test_output_dir_that_another_run_holds(cli_call, workdir, ranks):
 
 def test_usage_errors_are_one_line(cli_call, workdir):
     """argparse's usage errors are one ``dolfinx-mortar: error: command line: ...`` line
-    per rank, exit 2 (they printed the usage and a second line)."""
+    per rank, exit 2 (they printed the usage and a second line). Under mpirun, on 3
+    ranks (every rank parses its own command line: one usage error stands for all)."""
     for args, reason in (
         ((), "the following arguments are required: command"),
         (("run",), "the following arguments are required: scene"),
@@ -1227,7 +1243,6 @@ def test_usage_errors_are_one_line(cli_call, workdir):
         (("generators", "extra"), "argument extra (`generators` takes no such argument)"),
     ):
         _one_error_line(cli_call(workdir, *args), 1, "command line", reason)
-    _one_error_line(cli_call(workdir, "run", ranks=2), 2, "command line", "required: scene")
     # every rank prints before any exits (the first to exit made mpirun kill the others:
     # on 3 ranks 5 of 30 such runs lost a line (BENCHMARKS §46), so four runs catch it
     # about one time in two)
@@ -1711,7 +1726,16 @@ def _one_error_line(res, ranks: int, key: str, reason: str) -> None:
 def test_laws_file(cli_call, workdir, ranks):
     """``--laws FILE`` runs a Python file that registers a law on every rank, so that a
     scene run from the command line can name it; without it, or with a file that is
-    missing or raises, the scene is one error line per rank, exit status 2."""
+    missing or raises, the scene is one error line per rank, exit status 2.
+
+    On 2 ranks: the run with the law (the file run on every rank), a file that raises on
+    every rank and one that raises on rank 1 only. The other refusals, asserted serially,
+    are a SceneError raised on every rank by the same calls: a file that is missing, a
+    directory or exits, as the one that raises (``_on_every_rank(comm, load_laws,
+    path)``), and a law that no file registered by the scene's reading, as
+    test_bad_input_mpirun[unknown-key-run]; `check` with the file runs the same
+    ``load_laws`` as `run` (a `check` that says ok on 2 ranks:
+    test_check_refuses_the_output_dir_that_run_refuses[mpirun2])."""
     (workdir / "laws.py").write_text(LAWS_FILE)
     (workdir / "broken.py").write_text("raise RuntimeError('no such law\\nhere')\n")
     scene = base_scene()
@@ -1720,12 +1744,12 @@ def test_laws_file(cli_call, workdir, ranks):
     scene["output"]["dir"] = "law_out"
     (workdir / "law.toml").write_text(to_toml(scene))
     n = max(ranks, 1)
-    res = cli_call(workdir, "check", "law.toml", "--laws", "laws.py", ranks=ranks)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.startswith("law.toml: ok (2D")
-    if not ranks:  # a file named twice runs once (its second run registered another
-        # function: an error); serially, in the serial case only (it was run serially in
-        # the mpirun2 case too: the same run twice)
+    if not ranks:
+        res = cli_call(workdir, "check", "law.toml", "--laws", "laws.py")
+        assert res.returncode == 0, res.stderr
+        assert res.stdout.startswith("law.toml: ok (2D")
+        # a file named twice runs once (its second run registered another function: an
+        # error)
         res = cli_call(workdir, "check", "law.toml", "--laws", "laws.py", "--laws", "laws.py")
         assert res.returncode == 0 and res.stdout.startswith("law.toml: ok (2D"), res.stderr
     res = cli_call(workdir, "run", "law.toml", "--laws", "laws.py", ranks=ranks)
@@ -1734,18 +1758,19 @@ def test_laws_file(cli_call, workdir, ranks):
     assert summary["status"] == "ok" and summary["ranks"] == n
     assert summary["modelled"]["materials"] == {"body": "hand-neo-hooke"}
     assert summary["modelled"]["laws"]["hand-neo-hooke"].endswith(".psi (laws.py)")
-    res = cli_call(workdir, "run", "law.toml", ranks=ranks)
-    _one_error_line(res, n, "material[0].model", "dolfinx_mortar.register_law")
-    res = cli_call(workdir, "check", "law.toml", "--laws", "missing.py", ranks=ranks)
-    _one_error_line(res, n, "--laws", "file not found: missing.py")
-    (workdir / "lawdir").mkdir()  # session 52: it said "file not found"
-    res = cli_call(workdir, "check", "law.toml", "--laws", "lawdir", ranks=ranks)
-    _one_error_line(res, n, "--laws", "lawdir is a directory, not a Python file")
+    if not ranks:
+        res = cli_call(workdir, "run", "law.toml")
+        _one_error_line(res, n, "material[0].model", "dolfinx_mortar.register_law")
+        res = cli_call(workdir, "check", "law.toml", "--laws", "missing.py")
+        _one_error_line(res, n, "--laws", "file not found: missing.py")
+        (workdir / "lawdir").mkdir()  # session 52: it said "file not found"
+        res = cli_call(workdir, "check", "law.toml", "--laws", "lawdir")
+        _one_error_line(res, n, "--laws", "lawdir is a directory, not a Python file")
+        (workdir / "quits.py").write_text("import sys\nsys.exit(0)\n")
+        res = cli_call(workdir, "run", "law.toml", "--laws", "quits.py")
+        _one_error_line(res, n, "--laws", "quits.py failed: SystemExit: 0")
     res = cli_call(workdir, "run", "law.toml", "--laws", "broken.py", ranks=ranks)
     _one_error_line(res, n, "--laws", "broken.py failed: RuntimeError: no such law here")
-    (workdir / "quits.py").write_text("import sys\nsys.exit(0)\n")
-    res = cli_call(workdir, "run", "law.toml", "--laws", "quits.py", ranks=ranks)
-    _one_error_line(res, n, "--laws", "quits.py failed: SystemExit: 0")
     if ranks:  # a file that fails on one rank only: every rank reports it, none waits
         (workdir / "rank1.py").write_text(
             "from mpi4py import MPI\n"
@@ -1837,9 +1862,11 @@ REFUSED_PETSC_OPTIONS = [
 def test_refused_solver_petsc_options(
     cli_call, workdir, option, value, reason, cli_value, cli_reason
 ):
-    """Options of [solver.petsc] that the solver refuses, in the scene (2 ranks; `check`
-    too) or on the command line: one error line per rank naming the key, exit 2,
-    nothing written."""
+    """Options of [solver.petsc] that the solver refuses, in the scene (`run` and `check`)
+    or on the command line: one error line per rank naming the key, exit 2, nothing
+    written. `run` of the scene on 2 ranks for one option of each branch of
+    ``NewtonSolver._refused_option`` (local: each rank finds the same), serially for
+    the others (snes_rtol, snes_max_it: snes_atol's branch)."""
     scene = base_scene()
     scene["solver"] = {"petsc": {option: value}}
     (workdir / "bad.toml").write_text(to_toml(scene))
@@ -1847,7 +1874,8 @@ def test_refused_solver_petsc_options(
     (workdir / "good.toml").write_text(to_toml(scene))
     before = snapshot(workdir)
     key = f"solver.petsc.{option}"
-    _one_error_line(cli_call(workdir, "run", "bad.toml", ranks=2), 2, key, reason)
+    ranks = 2 if option in ("snes_linesearch_maxstep", "snes_atol", "snes_type") else 0
+    _one_error_line(cli_call(workdir, "run", "bad.toml", ranks=ranks), max(ranks, 1), key, reason)
     _one_error_line(cli_call(workdir, "check", "bad.toml"), 1, key, reason)  # said "ok"
     res = cli_call(workdir, "run", "good.toml", f"-dm_{option}", cli_value)
     _one_error_line(res, 1, key, cli_reason)
@@ -2101,7 +2129,8 @@ def test_a_non_finite_first_residual_stops_the_run_cleanly(cli_call, workdir):
 def test_petsc_options_on_the_command_line(cli_call, workdir):
     """``run SCENE -dm_KEY [VALUE]``: PETSc options with the solver prefix override the
     scene's [solver.petsc]; a bare option is a flag; any other extra argument is a usage
-    error (exit 2) and nothing is written."""
+    error (exit 2) and nothing is written (its one line on every rank of an mpirun:
+    test_usage_errors_are_one_line, ``run s.toml --bogus`` on 3 ranks)."""
     scene = base_scene()
     scene["solver"] = {"petsc": {"snes_linesearch_type": "l2"}}
     (workdir / "s.toml").write_text(to_toml(scene))
@@ -2120,10 +2149,6 @@ def test_petsc_options_on_the_command_line(cli_call, workdir):
         m = ERROR_LINE.match(line)
         assert m and m.group("key") == "command line", line
         assert f"unrecognized argument {args[-1]}" in m.group("reason"), line
-    res = cli_call(workdir, "run", "s.toml", "--bogus", ranks=2)  # one line on every rank
-    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
-    lines = res.stderr.splitlines()
-    assert len(lines) == 2 and all(ERROR_LINE.match(ln) for ln in lines), res.stderr
     assert snapshot(workdir) == before
 
 
@@ -2277,7 +2302,9 @@ def test_a_body_free_along_its_frictionless_contact_is_named(cli_call, workdir):
     refused: without a load along x the run completes. Pushed along x by a traction on
     its left face, the run stops (exit 1, no traceback) and the one error line names the
     body and its free motion; it blamed "the pair's surfaces and the bodies' positions"
-    (a probe's 3D Hertz scene whose block symmetry faces were in unnamed groups)."""
+    (a probe's 3D Hertz scene whose block symmetry faces were in unnamed groups).
+    `check` serially (it warns in the same call as `run`, runner.prepare), both runs
+    serially and on 2 ranks."""
     scene = patch_press_scene(lower_bottom=(1,))
     scene["steps"]["max_cutbacks"] = 1
     warning = (
@@ -2288,11 +2315,11 @@ def test_a_body_free_along_its_frictionless_contact_is_named(cli_call, workdir):
     (workdir / "free.toml").write_text(to_toml(scene))
     scene["traction"] = [{"boundary": "lower_left", "path": [[0.0, 0.0, 0.0], [1.0, 0.5, 0.0]]}]
     (workdir / "pushed.toml").write_text(to_toml(scene))
+    res = cli_call(workdir, "check", "free.toml")
+    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+    assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
+    assert res.stderr.count(warning) == 1 and len(res.stderr.splitlines()) == 1, where
     for ranks in (0, 2):
-        res = cli_call(workdir, "check", "free.toml", ranks=ranks)
-        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
-        assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
-        assert res.stderr.count(warning) == 1 and len(res.stderr.splitlines()) == 1, where
         res = cli_call(workdir, "run", "free.toml", "--out", f"free{ranks}", ranks=ranks)
         where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
         assert res.returncode == 0 and res.stderr.count(warning) == 1, where
@@ -2321,7 +2348,8 @@ def test_bodies_joined_by_contact_that_nothing_holds_are_named(cli_call, workdir
     warning; the run stops (the load pushes them along y together: exit 1, no traceback)
     with one error line that names them too. With the lower block clamped, no such
     warning (the upper one held by contact alone against it is a sound scene). Serial and
-    under ``mpirun -n 2``."""
+    under ``mpirun -n 2``; `check free.toml` serially only (its warnings are the run's,
+    runner.prepare: the run asserts them on 2 ranks)."""
     scene = patch_press_scene()
     scene["dirichlet"] = []
     scene["traction"] = [{"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.5]]}]
@@ -2335,17 +2363,20 @@ def test_bodies_joined_by_contact_that_nothing_holds_are_named(cli_call, workdir
         "[[dirichlet]] condition holds these motions of the bodies moving as one, and their "
         "contact (upper_bottom:lower_top) cannot, frictionless or not"
     )
-    res = cli_call(workdir, "check", "free.toml", ranks=ranks)
-    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
-    assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
-    assert res.stderr.count(warning) == 1, where
-    # and each body's own warning, along x (the flat contact holds no x translation)
-    assert res.stderr.count("is free in translation along x: no [[dirichlet]]") == 2, where
-    assert len(res.stderr.splitlines()) == 3, where
+    own = "is free in translation along x: no [[dirichlet]]"  # each body's, along x
+    if not ranks:
+        res = cli_call(workdir, "check", "free.toml")
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 0 and "free.toml: ok" in res.stdout, where
+        assert res.stderr.count(warning) == 1, where
+        # and each body's own warning (the flat contact holds no x translation)
+        assert res.stderr.count(own) == 2, where
+        assert len(res.stderr.splitlines()) == 3, where
     res = cli_call(workdir, "run", "free.toml", "--out", "free", ranks=ranks)
     where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     assert res.returncode == 1 and "Traceback" not in res.stderr, where
     assert res.stderr.count(warning) == 1, where
+    assert res.stderr.count(own) == 2, where  # once each, rank 0's
     (line,) = [x for x in res.stderr.splitlines() if x.startswith("dolfinx-mortar:")]
     assert line.startswith("dolfinx-mortar: run failed: "), where
     assert (
@@ -2367,8 +2398,11 @@ def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(c
     boundary's reaction takes the traction (its y reaction differs from the run without
     it by −t_y × L = 0.5, L = 1 the face's length). `output.fields` naming
     "tangential_traction" in a frictionless run writes no such field: one warning says
-    why. Both said nothing before. `check` and `run`, 1 and 2 ranks: exit 0, each warning
-    once (rank 0's), no traceback."""
+    why. Both said nothing before. `check` and `run` serially, `run` on 2 ranks: exit 0,
+    each warning once (rank 0's), no traceback. (`check` logs them in the same call as
+    `run`, runner.prepare: on 2 ranks `run` shows them once, and
+    test_bodies_joined_by_contact_that_nothing_holds_are_named[mpirun2] runs a `check`
+    that warns on 2 ranks.)"""
     scene = patch_press_scene()
     scene["output"] = {"fields": ["displacement", "tangential_traction"]}
     (workdir / "plain.toml").write_text(to_toml(scene))
@@ -2386,7 +2420,7 @@ def test_a_traction_on_a_prescribed_component_and_an_unwritten_field_are_named(c
     reactions = {}
     for ranks in (0, 2):
         for name in ("plain", "both"):
-            for command in ("check", "run"):
+            for command in ("check", "run") if not ranks else ("run",):
                 out = ("--out", f"{name}{ranks}") if command == "run" else ()
                 res = cli_call(workdir, command, f"{name}.toml", *out, ranks=ranks)
                 where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
@@ -2408,19 +2442,27 @@ def test_a_body_held_by_stick_alone_that_escapes_stops_the_run(cli_call, workdir
     (``conftest.stick_only_scene``): ``check`` warns at set-up, naming the body, the
     motion and the fix; ``run`` stops with one error line (exit 1) that says the body
     escaped, instead of ending "ok" with the cylinder slid 3.0 along x and no node in
-    contact. Serial and under ``mpirun -n 2``."""
+    contact. Serial and under ``mpirun -n 2``; `check` serially only: `run` logs the same
+    warning (runner.prepare), asserted here on 2 ranks."""
     (workdir / "stick.toml").write_text(to_toml(stick_only_scene()))
-    res = cli_call(workdir, "check", "stick.toml", ranks=ranks)
-    where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
-    assert res.returncode == 0, where
-    warned = [line for line in res.stderr.splitlines() if "but for stick" in line]
-    assert len(warned) == 1, where
-    assert "body 'cylinder' is free in translation along x but for stick" in warned[0], where
-    assert "prescribe these components with [[dirichlet]], or start the bodies" in warned[0]
+
+    def warned_once(stderr: str, where: str) -> None:
+        warned = [ln for ln in stderr.splitlines() if "but for stick" in ln]
+        warned = [ln for ln in warned if not ln.startswith("dolfinx-mortar:")]
+        assert len(warned) == 1, where
+        assert "body 'cylinder' is free in translation along x but for stick" in warned[0], where
+        assert "prescribe these components with [[dirichlet]], or start the bodies" in warned[0]
+
+    if not ranks:
+        res = cli_call(workdir, "check", "stick.toml")
+        where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
+        assert res.returncode == 0, where
+        warned_once(res.stderr, where)
     res = cli_call(workdir, "run", "stick.toml", "--out", "out", ranks=ranks)
     where = f"\nstdout:\n{res.stdout}\nstderr:\n{res.stderr}"
     assert "Traceback" not in res.stderr, where
     assert res.returncode == 1, where
+    warned_once(res.stderr, where)
     (line,) = [x for x in res.stderr.splitlines() if x.startswith("dolfinx-mortar:")]
     assert line.startswith("dolfinx-mortar: run failed: step to t = "), where
     assert "failed after 6 cutbacks" in line and "the body escaped" in line, where
