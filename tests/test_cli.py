@@ -16,8 +16,8 @@ interpreter start, MPI_Init and imports: as processes the 86 took 90 s of a seri
 in this process 1.5 s; CHANGELOG, session 57). So does every other serial command of
 the tests that do not need a process of their own (:func:`cli_call`: serially
 :func:`cli_in_process`, under mpirun a process per rank; session 60: the file's test
-time went from 409 s to about 110 s, CHANGELOG). A process of its own stays where only
-one shows the behaviour: the cold JIT cache (``XDG_CACHE_HOME``), the import order
+time went from 509 s to 354 s in two runs side by side, its CPU time down 46 %:
+CHANGELOG). A process of its own stays where only one shows the behaviour: the cold JIT cache (``XDG_CACHE_HOME``), the import order
 (:func:`_main_and_modules`), signals, host programs, a scene file name that is not
 UTF-8 (dolfinx's import reads sys.argv), the verbosity flags (dolfinx's import puts a
 handler on the root logger first, which the runs here set aside), an MPMD launch, and
