@@ -1600,10 +1600,10 @@ def _force_point_cases(at_n=None, current_3d_segments=True):
     and on 2 ranks (``mpi_not3``, as the ``force_at`` fixture's) except 3D segment
     integration (serial only: 4–6 s a case on 2 ranks; not at all without
     ``current_3d_segments``); at ζ_n (the default) on every
-    case, 1–3 ranks, but segment integration in the master frame on 1–2 ranks
-    (``mpi_not3``, session 60: 6.4 s on 2 ranks in 3D; on 3 ranks the held load on
-    segments is the slave frame's, and the master frame's data on the rank that owns the
-    node, its t_n master facet's dofs, is checked by
+    case, 1–3 ranks, but the master frame on 1–2 ranks (``mpi_not3``, session 60: 6.4 s
+    on 2 ranks with 3D segments, 5–8 s on 3 ranks with elements; on 3 ranks the held load
+    is the slave frame's, with each integration in 2D and 3D, and the master frame's data
+    on the rank that owns the node, its t_n master facet's dofs, is checked by
     test_frictional_tangent_in_the_master_frame, hertz3d-P1 segments included), or on the
     (dim, integration, frame) of ``at_n`` only, serially (the suite's time: a fresh clone
     took 14 min 45 s with the full grids)."""
@@ -1617,7 +1617,7 @@ def _force_point_cases(at_n=None, current_3d_segments=True):
                     cases.append(pytest.param(dim, integration, frame, "current", marks=marks))
                 if at_n is None:
                     marks = [pytest.mark.mpi]
-                    if integration == "segment" and frame == "master":
+                    if frame == "master":
                         marks.append(pytest.mark.mpi_not3)
                     cases.append(pytest.param(dim, integration, frame, "t_n", marks=marks))
     cases += [pytest.param(*case, "t_n") for case in at_n or ()]
@@ -1645,7 +1645,7 @@ def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_t
     contact.FORCE_AT_CURRENT_PROJECTION, ``force_at`` "current"): 4e-13 / 3e-12 (slave
     frame, element; segment 5e-13 / 1e-14), 1e-13 / 8.3e-8 (master frame: its basis a^I
     sits at the node's own t_n projection, which the new t_n moves). The steps after the
-    first are compared. 1–3 ranks (but segments in the master frame: 1–2,
+    first are compared. 1–3 ranks (but the master frame: 1–2,
     :func:`_force_point_cases`).
 
     Which case covers what: ζ_n against ζ (the force weights and their tangent), either
