@@ -936,6 +936,7 @@ class MortarContact:
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
         self.mixed = mixed_nodes(self.ftype)
         self.slave = distribute_slave_facets(comm, slave_local, self.mixed, self.ranges)
+        self._midsides = None  # fill_midsides' layout (_midside_layout), made on first use
         #: slave facets over all ranks (each is extracted by the rank owning its cell)
         self.n_global_facets = comm.allreduce(slave_local.num_facets)
         self.master_local = master_local
@@ -4667,6 +4668,33 @@ class MortarContact:
         facet); the functions' ghosts are updated."""
         if self.ftype != TRIANGLE2 or not functions:
             return
+        first = next(iter(functions.values()))
+        mid, ends, hit, count = self._midside_layout(first)
+        total = first.vector.duplicate()
+        for f in functions.values():
+            values = f.x.array
+            with total.localForm() as t:
+                t.set(0.0)
+                t.array[mid] = 0.5 * (values[ends[0]] + values[ends[1]])
+            total.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            values[hit] = total.array_r[hit] / count[hit]
+            f.x.scatter_forward()
+        total.destroy()
+
+    def _midside_layout(self, function) -> tuple:
+        """(mid, (end_a, end_b), hit, count) of :meth:`fill_midsides`, made once per nodal
+        index map (the slave facets do not change during a run; the output writes every
+        step with one function space): the local
+        indices of the slave facets' midside nodes and of their edges' two vertices, one
+        entry per (facet, edge), each as long as ``blocks.shape[0] × 3``; the owned nodes
+        that some rank's slave facet holds as a midside (``hit``); and ``count``, per owned
+        node, the number of such entries over all ranks (length ``size_local``).
+
+        Collective when it is made (a reverse scatter: a midside node's owner need not hold
+        the slave facet); before session 60 it was made at every write."""
+        imap = function.function_space.dofmap.index_map
+        if self._midsides is not None and self._midsides[0] is imap:
+            return self._midsides[1]
         nodes = REFERENCE_NODES[TRIANGLE2]
         edges = [
             (m, a, b)
@@ -4675,8 +4703,6 @@ class MortarContact:
             for b in range(a + 1, 3)
             if np.allclose(nodes[m], 0.5 * (nodes[a] + nodes[b]))
         ]
-        first = next(iter(functions.values()))
-        imap = first.function_space.dofmap.index_map
         lo, n_owned = imap.local_range[0], imap.size_local
         ghosts = np.asarray(imap.ghosts, dtype=np.int64)
         order = np.argsort(ghosts)
@@ -4690,23 +4716,15 @@ class MortarContact:
 
         blocks = self.slave.blocks
         mid = to_local(np.concatenate([blocks[:, m] for m, _, _ in edges]))
-        ends = [to_local(np.concatenate([blocks[:, e[i]] for e in edges])) for i in (1, 2)]
+        ends = tuple(to_local(np.concatenate([blocks[:, e[i]] for e in edges])) for i in (1, 2))
         # every rank that holds a slave facet with the edge gives its midside the mean;
         # the owner takes the mean of those (all equal: the vertices' scattered values)
-        count = first.vector.duplicate()
-        total = first.vector.duplicate()
-        with count.localForm() as c:
+        counter = function.vector.duplicate()
+        with counter.localForm() as c:
             c.set(0.0)
             c.array[mid] = 1.0
-        count.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        hit = np.flatnonzero(count.array_r > 0.0)
-        for f in functions.values():
-            values = f.x.array
-            with total.localForm() as t:
-                t.set(0.0)
-                t.array[mid] = 0.5 * (values[ends[0]] + values[ends[1]])
-            total.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            values[hit] = total.array_r[hit] / count.array_r[hit]
-            f.x.scatter_forward()
-        count.destroy()
-        total.destroy()
+        counter.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        count = counter.array_r.copy()
+        counter.destroy()
+        self._midsides = (imap, (mid, ends, np.flatnonzero(count > 0.0), count))
+        return self._midsides[1]

@@ -1860,7 +1860,8 @@ def test_p2_tetrahedra_midside_nodes_show_the_mean_of_their_edge(shared_tmp):
     on a 6-node triangle: no CSV row for a midside node). fields.xdmf gives each midside
     node of the slave facets the mean of its edge's two vertices (their CSV values), the
     linear field's value there. Before session 59 they held 0 (a probe: 33 midside nodes
-    at |p_N| ≤ 3e-15 between vertices at 1.5 to 7.0). 1–3 ranks."""
+    at |p_N| ≤ 3e-15 between vertices at 1.5 to 7.0). Two steps, the second checked: its
+    write reuses the midside layout made at the first (session 60). 1–3 ranks."""
     from dolfinx_mortar import parse_scene, run
 
     out = shared_tmp / "p2tet_out"
@@ -1877,14 +1878,14 @@ def test_p2_tetrahedra_midside_nodes_show_the_mean_of_their_edge(shared_tmp):
             {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0]]},
             {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.02]]},
         ],
-        "steps": {"t_end": 1.0, "n": 1},
+        "steps": {"t_end": 1.0, "n": 2},
         "output": {"dir": str(out), "fields": ["contact_pressure"]},
     }
     summary = run(parse_scene(scene, shared_tmp), MPI.COMM_WORLD)
     assert summary["status"] == "ok", summary["error"]
     if MPI.COMM_WORLD.rank != 0:
         return
-    table = np.genfromtxt(out / "contact_upper_bottom_1.csv", delimiter=",", names=True)
+    table = np.genfromtxt(out / "contact_upper_bottom_2.csv", delimiter=",", names=True)
     verts = np.column_stack([table["x"], table["y"], table["z"]])
     p = table["p_N"]
     assert np.ptp(verts[:, 2]) < 1e-12 and p.min() > 0.0 and p.max() > 1.5 * p.min()
