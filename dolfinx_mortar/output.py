@@ -1314,7 +1314,8 @@ class OutputWriter:
                 self._xdmf.file.write_function(f, t)
             if self._surfaces:  # none on curved facets (_start_surfaces)
                 for term, surface in zip(p.contacts, self._surfaces, strict=True):
-                    self._fill(functions, [(term, None)])
+                    if len(p.contacts) > 1:  # one pair: its values are fields.xdmf's
+                        self._fill(functions, [(term, None)])
                     for f in functions.values():
                         surface.write(f, t)
 
