@@ -16,7 +16,7 @@ import pytest
 from mpi4py import MPI
 
 from dolfinx_mortar.runner import run
-from dolfinx_mortar.scene import parse_scene
+from dolfinx_mortar.scene import OUTPUT_FIELDS, parse_scene
 
 HERTZ2D = {
     "kinematics": "small",
@@ -107,13 +107,53 @@ SLIDE2D = dict(
 )
 
 
+# 3D friction (session 61): the flat tetrahedral patch (non-matching, 3 × 3 lower and
+# 4 × 4 upper cells in x, 2 in y) pressed by 0.01, then the upper block shifted by 0.008:
+# the centre sticks, the edges slip (20 stick and 5 slip nodes), segment integration;
+# "auto" resolves to the exact Uzawa update (3D frictional, lumped), so its distributed
+# finite-difference products run here too. 4 s serially.
+PATCH3D_FRICTION = {
+    "kinematics": "small",
+    "mesh": {
+        "generator": "patch3d",
+        "params": {"n_lower": 3, "n_upper": 4, "n_y": 2, "quads": False},
+    },
+    "material": [
+        {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+    ],
+    "contact": [
+        {
+            "slave": "upper_bottom",
+            "master": "lower_top",
+            "friction": 0.3,
+            "integration": "segment",
+            "uzawa_tol": 1e-9,
+        }
+    ],
+    "dirichlet": [
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0]]},
+        {
+            "boundary": "upper_top",
+            "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.01], [2.0, 0.008, 0.0, -0.01]],
+        },
+    ],
+    "steps": {"t_end": 2.0, "n": 2},
+}
+
+
 def _with_recovery(data, recovery, **more):
     return dict(data, contact=[dict(data["contact"][0], recovery=recovery, **more)])
 
 
 def _run(data, out, comm, box=None):
-    """Run ``data`` on ``comm``; ``box["problem"]`` receives the problem (if given)."""
-    d = dict(data, output={"dir": str(out), "fields": ["displacement", "contact_pressure"]})
+    """Run ``data`` on ``comm``; ``box["problem"]`` receives the problem (if given). A
+    frictional scene writes every field (the tangential traction, slip and contact state
+    too: their XDMF output on 1–3 ranks), a frictionless one the displacement and the
+    pressure."""
+    fields = ["displacement", "contact_pressure"]
+    if any(pair.get("friction") for pair in data["contact"]):
+        fields = list(OUTPUT_FIELDS)
+    d = dict(data, output={"dir": str(out), "fields": fields})
     setup = None if box is None else (lambda problem: box.update(problem=problem))
     return run(parse_scene(d, pathlib.Path(".")), comm, setup=setup)
 
@@ -140,6 +180,7 @@ PARALLEL_CASES = [
         "upper_surface",
     ),
     ("slide2d", SLIDE2D, "upper_surface"),
+    ("patch3d-friction", PATCH3D_FRICTION, "upper_bottom"),
 ]
 
 
@@ -183,6 +224,12 @@ def serial_runs(request, tmp_path_factory):
 @pytest.mark.mpi
 @pytest.mark.parametrize("name, data, slave", PARALLEL_CASES)
 def test_parallel_equals_serial(shared_tmp, serial_runs, name, data, slave):
+    """Each of PARALLEL_CASES on COMM_WORLD against its serial run: the slave table of the
+    last step (p_N to 1e-8 of its maximum, coordinates to 1e-10, tangential traction,
+    gap, slip and state to 1e-8), the contact force and the reactions to 1e-8. On 3 ranks
+    these comparisons stand for the scenario tests that run serially and on 2 ranks only
+    (``mpi_not3``): 2D and 3D, frictionless and frictional, each normal recovery, the
+    master frame, large sliding, and the 3D frictional exact Uzawa update."""
     comm = MPI.COMM_WORLD
     box = {}
     par = _run(data, shared_tmp / f"{name}_par", comm, box)
@@ -191,6 +238,8 @@ def test_parallel_equals_serial(shared_tmp, serial_runs, name, data, slave):
         assert box["problem"].contacts[0]._exchanges >= 3
     (pair,) = par["modelled"]["contact_pairs"].values()
     assert pair["recovery"] == data["contact"][0].get("recovery", "lumped")
+    if name == "patch3d-friction":  # "auto" is the exact update on a 3D frictional pair
+        assert pair["uzawa_acceleration"] == "newton"
     if pair["tangential_fields"]:
         assert pair["tangential_recovery"] == data["contact"][0].get(
             "tangential_recovery", "lumped"

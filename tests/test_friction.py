@@ -1126,6 +1126,7 @@ def _rotation(d, angle):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.mpi_not3
 def test_no_traction_across_symmetry_planes(dim, shared_tmp):
     """The frictional Hertz half (2D) and quarter (3D) models of the parallel tests, μ =
     0.2: at the slave nodes on a symmetry plane the traction across it is zero, as in
@@ -1133,7 +1134,9 @@ def test_no_traction_across_symmetry_planes(dim, shared_tmp):
     the 2D axis node slipped with the full Coulomb traction μ p_N, and with the dual
     weights and plain Uzawa updates its multiplier drifted by a constant step per round
     until the step failed ("Uzawa augmentation stalled"); that run is the 2D case here.
-    1–3 ranks."""
+    Serially and on 2 ranks (``mpi_not3``, session 61: on 3 ranks test_contact_parallel
+    compares these scenes' frictional runs with serial ones, the symmetry planes' frames
+    included)."""
     from test_contact_parallel import HERTZ2D, HERTZ3D
 
     from dolfinx_mortar.runner import run
@@ -1221,6 +1224,7 @@ def _roller_scene(case: str, out) -> dict:
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", ["cross2d", "stack3d"])
+@pytest.mark.mpi_not3
 def test_roller_wall_beside_a_sliding_master_is_no_symmetry_plane(case, shared_tmp):
     """A slave block on a roller wall (u_x = 0 on x = 0 for the whole path) beside which
     the master slides: the wall is no symmetry plane (the master is not held there), so
@@ -1231,7 +1235,8 @@ def test_roller_wall_beside_a_sliding_master_is_no_symmetry_plane(case, shared_t
     3D plane y = 0, where both bodies are held, stays one. Tolerance: 2 p/E N = 2e-3 N
     (p/E = 1e-3 the strain scale): the interface tilts by O(p/E) and turns the force's
     components by as much (measured |F_x − μN| = 1.6e-4 N (2D) and 7.7e-4 N (3D),
-    |F_y| = 1.9e-4 N; ten times less with E = 1e4). 1–3 ranks."""
+    |F_y| = 1.9e-4 N; ten times less with E = 1e4). Serially and on 2 ranks (``mpi_not3``,
+    session 61)."""
     from dolfinx_mortar.runner import run
 
     comm = MPI.COMM_WORLD
@@ -1599,11 +1604,11 @@ def _force_point_cases(at_n=None, current_3d_segments=True):
     the traction at the current projection on every (dim, integration, frame), serially
     and on 2 ranks (``mpi_not3``, as the ``force_at`` fixture's) except 3D segment
     integration (serial only: 4–6 s a case on 2 ranks; not at all without
-    ``current_3d_segments``); at ζ_n (the default) on every
-    case, 1–3 ranks, but the master frame on 1–2 ranks (``mpi_not3``, session 60: 6.4 s
-    on 2 ranks with 3D segments, 5–8 s on 3 ranks with elements; on 3 ranks the held load
-    is the slave frame's, with each integration in 2D and 3D, and the master frame's data
-    on the rank that owns the node, its t_n master facet's dofs, is checked by
+    ``current_3d_segments``); at ζ_n (the default) on every case, serially and on 2 ranks
+    (``mpi_not3``: the master frame since session 60, the slave frame since session 61,
+    when these runs took 15 s of the 3-rank pass; on 3 ranks test_contact_parallel
+    compares 2D and 3D frictional runs with serial ones, and the master frame's data on
+    the rank that owns the node, its t_n master facet's dofs, is checked by
     test_frictional_tangent_in_the_master_frame, hertz3d-P1 segments included), or on the
     (dim, integration, frame) of ``at_n`` only, serially (the suite's time: a fresh clone
     took 14 min 45 s with the full grids)."""
@@ -1616,9 +1621,7 @@ def _force_point_cases(at_n=None, current_3d_segments=True):
                 if current_3d_segments or not serial:
                     cases.append(pytest.param(dim, integration, frame, "current", marks=marks))
                 if at_n is None:
-                    marks = [pytest.mark.mpi]
-                    if frame == "master":
-                        marks.append(pytest.mark.mpi_not3)
+                    marks = [pytest.mark.mpi, pytest.mark.mpi_not3]
                     cases.append(pytest.param(dim, integration, frame, "t_n", marks=marks))
     cases += [pytest.param(*case, "t_n") for case in at_n or ()]
     return cases
@@ -1645,8 +1648,7 @@ def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_t
     contact.FORCE_AT_CURRENT_PROJECTION, ``force_at`` "current"): 4e-13 / 3e-12 (slave
     frame, element; segment 5e-13 / 1e-14), 1e-13 / 8.3e-8 (master frame: its basis a^I
     sits at the node's own t_n projection, which the new t_n moves). The steps after the
-    first are compared. 1–3 ranks (but the master frame: 1–2,
-    :func:`_force_point_cases`).
+    first are compared. Serially and on 2 ranks (:func:`_force_point_cases`).
 
     Which case covers what: ζ_n against ζ (the force weights and their tangent), either
     frame (the master frame's basis), element against segment integration (the slip
@@ -1750,6 +1752,7 @@ def test_the_first_held_step_after_gross_slip(dim, integration, frame, shared_tm
 @pytest.mark.mpi
 @pytest.mark.parametrize("frame", ["slave", "master"])
 @pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.mpi_not3
 def test_incremental_objectivity_on_a_held_step(dim, frame, shared_tmp, force_at):
     """A rigid rotation superposed on a held step of a converged frictional run (the
     non-matching patch of :func:`_held_patch`, at its last converged state): the slip

@@ -3,15 +3,15 @@
 Like ``test_demos.py``: each demo's ``main(argv)`` runs in-process and returns its
 metrics (the same on every rank); the ``mpi`` tests also run under mpirun.
 
-The 2D demos' analytic checks (the frictional patch tests, the wedge, the tied curved
-interface, Mindlin–Deresiewicz unloading) run serially and on 2 ranks (``mpi_not3``, the
-2-core budget, session 60): on 3 ranks a 2D frictional run equals the serial one to 1e-8
+The demos' analytic checks run serially and on 2 ranks, not on 3 (``mpi_not3``, the
+2-core budget: the 2D ones since session 60, Cattaneo–Mindlin's loading since session
+61): on 3 ranks frictional runs equal the serial ones to 1e-8
 (test_contact_parallel.test_parallel_equals_serial: p_N, the tangential traction, slip
 and stick/slip states of Cattaneo–Mindlin with the lumped and constrained recoveries and
-the master frame; a frictional slide beyond the ghost margin in
+the master frame, and of a 3D frictional patch, their frictional XDMF fields written; a
+frictional slide beyond the ghost margin in
 test_a_one_step_slide_beyond_the_ghost_margin_keeps_coulomb_friction), so their 3-rank
-runs repeated the serial checks. test_cattaneo2d (the frictional fields on 3 ranks) stays on
-1–3 ranks.
+runs repeated the serial checks.
 """
 
 from __future__ import annotations
@@ -35,6 +35,8 @@ import demo_ironing3d  # noqa: E402
 import demo_tiedcurved2d  # noqa: E402
 import demo_twist3d  # noqa: E402
 import demo_wedge  # noqa: E402
+
+pytestmark = pytest.mark.mpi_not3  # the module docstring
 
 #: the tests whose demo runs write the demo's volume fields (XDMF): the frictional fields
 #: (tangential traction, slip, contact state) on 1–3 ranks; the other tests read the
@@ -65,7 +67,6 @@ def _no_volume_fields(request, monkeypatch):
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_not3
 @pytest.mark.parametrize("mode", ["stick", "slide"])
 @pytest.mark.parametrize(
     "integration,tol,frame",
@@ -143,7 +144,6 @@ def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp):
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_not3
 def test_friction_patch2d_deformable_master(shared_tmp):
     """Mode "deformable" (demo_friction_patch's docstring): the upper block, the master,
     slides over the held, deforming lower block (ν = 0.3: both stretch along the
@@ -279,7 +279,6 @@ def test_cattaneo2d_meets_the_issue_targets_at_a_over_27(shared_tmp):
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_not3
 @pytest.mark.parametrize("mu,integration", [(0.3, "element"), (0.5, "segment")])
 def test_wedge_gross_slip_ratio(shared_tmp, mu, integration):
     out = str(shared_tmp / f"wedge-{mu}-{integration}")
@@ -380,7 +379,6 @@ def test_ironing2d_first_press_step_without_cutback(shared_tmp, monkeypatch):
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_not3
 def test_tied_curved_converges(shared_tmp):
     """Non-flat patch test: the L2 stress error falls at least like h^1.5 over three
     refinements (measured 1.83, 2.02, 1.83), every interior node sticks on the two finest
@@ -455,7 +453,6 @@ def test_tied_curved_refine_starts_the_levels(tmp_path):
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_not3
 def test_cattaneo2d_unloading_mindlin_deresiewicz(shared_tmp):
     """History dependence (stick memory, slip reversal, multipliers carried over steps):
     the Cattaneo–Mindlin contact sheared to Q* ≈ 0.47 μP, then unloaded to Q ≈ 0.11 μP

@@ -168,6 +168,7 @@ def test_an_overlap_beyond_the_reach_stops_the_run(shrink_msh, shared_tmp, caplo
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_a_shallow_overlap_runs_without_a_warning(shrink_msh, shared_tmp, caplog):
     out = shared_tmp / "shallow"
     summary, warnings = _run(shrink_msh(0.06), out, caplog)
@@ -177,6 +178,7 @@ def test_a_shallow_overlap_runs_without_a_warning(shrink_msh, shared_tmp, caplog
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_nodes_pulled_into_reach_by_the_others_run_ok(shrink_msh, shared_tmp, caplog):
     """The counter-case: 4 nodes start beyond the reach (warned), the first step pairs
     them, and the run ends "ok" with Lamé's pressure at every node."""
@@ -190,6 +192,7 @@ def test_nodes_pulled_into_reach_by_the_others_run_ok(shrink_msh, shared_tmp, ca
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("delta", [0.1, 0.15])
+@pytest.mark.mpi_not3
 def test_a_frictional_shrink_fit_converges(shrink_msh, shared_tmp, caplog, delta):
     """μ = 0.3 (session 52): the exact answer is a radial fit, all stick with τ = 0.
     Before, the first iterates (p = ε δ ≈ 8400 at u = 0, then 2600 at the nodes the

@@ -14,6 +14,9 @@ from mpi4py import MPI
 from test_contact_parallel import HERTZ2D
 
 PAIR = "cylinder_surface:block_top"
+#: serially and on 2 ranks, not on 3 (``mpi_not3``, session 61: the 2-core budget; on 3
+#: ranks test_contact_parallel compares such runs with serial ones to 1e-8)
+pytestmark = pytest.mark.mpi_not3
 #: E* of HERTZ2D's two bodies (E = 200, ν = 0.3, plane strain) and the auto penalty's
 #: value at its contact size h = 0.25: 100 E*/h
 E_STAR = 200.0 / (2.0 * (1.0 - 0.3**2))
@@ -110,7 +113,7 @@ def test_a_stiff_penalty_ends_where_the_auto_penalty_does(shared_tmp, unit2d):
     Newton iterations, and ends with the nodal pressures and the contact force of the auto
     penalty (the Uzawa solution does not depend on ε). Without the soft pass the same
     scene of the hard-case sweep stopped in its first step after 6 cutbacks (BENCHMARKS
-    §10); 1–3 ranks."""
+    §10). Serially and on 2 ranks (``pytestmark``)."""
     auto_dir, auto = unit2d
     stiff = _run(_scene(penalty=1e3 * EPS_AUTO), shared_tmp / "stiff")
     assert auto["status"] == "ok" and stiff["status"] == "ok", stiff.get("error")

@@ -290,6 +290,7 @@ def test_the_exact_update_needs_the_lumped_tangential_recovery(tmp_path):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("recovery", ["unconstrained", "constrained"])
+@pytest.mark.mpi_not3
 def test_the_exact_update_with_a_mixed_normal_recovery(recovery, tmp_path_factory):
     """``uzawa_acceleration = "newton"`` on a frictionless pair with the unconstrained or
     constrained recovery (session 47: the finite-difference update of
@@ -335,6 +336,7 @@ def test_the_exact_update_with_a_mixed_normal_recovery(recovery, tmp_path_factor
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_the_frictional_exact_update_with_the_constrained_recovery(tmp_path_factory):
     """The frictional exact update (``_exact_multipliers_fd``) on a pair with the
     constrained normal recovery and the lumped tangential one (session 47; before, a
@@ -402,6 +404,7 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_the_frictional_exact_update_in_3d(tmp_path_factory):
     """In 3D, ``"auto"`` is the exact update on a frictional pair too since session 41
     (Aitken before: the finite-difference products cost a 3D search each): the 3D
@@ -560,13 +563,15 @@ def test_the_exact_update_reads_its_options_under_the_solver_prefix(
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("weights", ["standard", "dual"])
+@pytest.mark.mpi_not3
 def test_a_slip_reversal_freezes_the_states(weights, shared_tmp):
     """Chattering control: a node whose slip direction flips between two consecutive
     Jacobians is frozen in stick and the states freeze at once (contact, the slip
     reversal of ``_add_tangential_jacobian``). On the frictional Hertz half model (exact
     update) the third node slipped ±μ p_N in turn at every iterate until the freeze after
     FREEZE_AFTER Jacobians: the second step took 15 (standard) and 22 (dual) Newton
-    iterations; now 7 (serial). 1–3 ranks."""
+    iterations; now 7 (serial). Serially and on 2 ranks (``mpi_not3``, session 61: on 3
+    ranks test_contact_parallel compares frictional runs with serial ones)."""
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
@@ -824,6 +829,7 @@ def _press_lift_touch(friction: float, recovery: str) -> dict:
 @pytest.mark.parametrize(
     "friction, recovery", [(0.0, "constrained"), (0.3, "constrained"), (0.3, "lumped")]
 )
+@pytest.mark.mpi_not3
 def test_open_contact_keeps_no_multipliers(friction, recovery, tmp_path_factory, monkeypatch):
     """A round in which no node of the pair carries pressure (p̂ = 0 everywhere) counted
     as converged and returned before the update, so λ (and λ_T) kept the values of the
@@ -835,7 +841,8 @@ def test_open_contact_keeps_no_multipliers(friction, recovery, tmp_path_factory,
     recovery, μ = 0 and 0.3; lumped 10 + 1) to push the blocks λ/ε apart and release
     them again; now λ = λ_T = 0 while open and that step takes 4 + 1 + 1 (lumped 4). The
     contact opens completely, so the second press starts from no history and ends in the
-    first press's state: the same force at t = 3 as at t = 1. 1–3 ranks."""
+    first press's state: the same force at t = 3 as at t = 1. Serially and on 2 ranks
+    (``mpi_not3``, session 61)."""
     from dolfinx_mortar.contact import MortarContact
 
     seen = []
@@ -923,8 +930,10 @@ def test_the_chattering_control_counts_each_jacobian_once(tmp_path_factory, monk
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory):
-    """1–3 ranks. A soft block (E = 10, ν = 0.45) pressed by 0.05 and slid by 0.5 over
+    """Serially and on 2 ranks (``mpi_not3``, session 61). A soft block (E = 10, ν = 0.45)
+    pressed by 0.05 and slid by 0.5 over
     a same-size block with element integration and μ = 0.3: the slave's leading corner
     node slides off the master's edge, paired over 0.24 or 0.024 of its weight as one
     Gauss point enters or leaves the master. With λ per unit paired area the rounds
@@ -998,21 +1007,17 @@ def _grazing(integration: str, friction: float, scale_e: float = 1.0, scale_l: f
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 @pytest.mark.parametrize(
     "integration, friction, scale_e, scale_l",
     [
         ("segment", 0.3, 1.0, 1.0),
         ("element", 0.3, 1.0, 1.0),
-        # frictionless: serially and on 2 ranks, not on 3 (mpi_not3, session 60: the
-        # touch and the release of the normal part, and the collective round-off floor,
-        # are those of the frictional runs above, which run on 3 ranks; the suite's time)
-        pytest.param("segment", 0.0, 1.0, 1.0, marks=pytest.mark.mpi_not3),
-        pytest.param("element", 0.0, 1.0, 1.0, marks=pytest.mark.mpi_not3),
-        # SI units (m, Pa) of a model in mm and MPa: serially and on 2 ranks, not on 3
-        # (mpi_not3: the units' scaling is the same on every rank, which the 3-rank runs
-        # of the unit scenes above and the 2-rank runs of these check; the suite's time)
-        pytest.param("element", 0.3, 1e8, 1e-3, marks=pytest.mark.mpi_not3),
-        pytest.param("segment", 0.0, 1e8, 1e-3, marks=pytest.mark.mpi_not3),
+        ("segment", 0.0, 1.0, 1.0),
+        ("element", 0.0, 1.0, 1.0),
+        # SI units (m, Pa) of a model in mm and MPa
+        ("element", 0.3, 1e8, 1e-3),
+        ("segment", 0.0, 1e8, 1e-3),
     ],
 )
 def test_a_contact_closing_or_opening_at_a_step_end_converges(
@@ -1026,7 +1031,9 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     p̂ is at most contact.UNLOADED_ROUND_OFF × that round-off counts as converged (as at
     p̂ = 0): the touch takes one round, the frictionless release 2, no cutback, and the
     second press ends as the first. The same in other units (E × 1e8, lengths × 1e-3).
-    1–3 ranks (the frictionless runs and the other units 1–2).
+    Serially and on 2 ranks (``mpi_not3``: the round-off floor is reduced over the ranks,
+    which test_contact_parallel.test_residual_round_off_is_collective_and_leaves_the_state
+    checks on 3 ranks).
 
     The frictional release (session 53): a node whose p was round-off stuck with |τ| up
     to the slip tolerance SLIP_TOL ε_T h_I (5.5e-7, against μp ≈ 5e-11) and dropped to
