@@ -231,15 +231,14 @@ def test_hertz3d(shared_tmp):
     assert min(m["newton_order"]) >= 1.8, m["newton_order_text"]
 
 
-@pytest.mark.mpi
-@pytest.mark.mpi_not3
+@pytest.mark.mpi2
 def test_hertz3d_p2(shared_tmp):
     """``--order 2``: P2 tetrahedra, the slave facets' mixed fields on their vertices (the
     vertex functions of a 6-node triangle integrate to zero). Measured on 1–3 ranks: p0
     −1.0 %, radius +1.8 %, L2 10.8 % (P1: +3.8 %, −2.8 %, 30.9 %), the load met to 1e-5
-    (the curved top), orders ≥1.96, ≥2.02. Serially and on 2 ranks (``mpi_not3``, session
-    61: 9 s of the 3-rank pass; on 3 ranks P2 tetrahedra are the frictional tangent
-    tests' hertz3d-P2 case)."""
+    (the curved top), orders ≥1.96, ≥2.02. On 2 ranks only (``mpi2``, session 61: 8 s
+    serially, 9 s on 3 ranks; serially and on 3 ranks P2 tetrahedra are the frictional
+    tangent tests' hertz3d-P2 case)."""
     m = demo_hertz3d.main(["--order", "2", "--out", str(shared_tmp / "hertz3d_p2")])
     assert abs(m["P_measured"] / demo_hertz3d.P - 1.0) <= 1e-3, m["P_measured"]
     assert abs(m["p0_err"]) <= 0.02, m["p0_err"]
@@ -261,14 +260,13 @@ def test_hertz3d_constrained(shared_tmp):
     assert m["negative"] == 0
 
 
-@pytest.mark.mpi
-@pytest.mark.mpi_not3
+@pytest.mark.mpi2
 def test_recoveries_demo(shared_tmp):
     """Three recoveries × two integrations on hertz2d: every run is accurate, lumped and
     constrained give no negative nodal pressure, unconstrained shows the negative
-    pressures at the contact edge that METHOD.md §3 predicts. Serially and on 2 ranks
-    (``mpi_not3``, the 2-core budget: 15–23 s of the 3-rank pass): each recovery's nodal
-    pressures and force on 3 ranks are checked against the serial run's to 1e-8 in
+    pressures at the contact edge that METHOD.md §3 predicts. On 2 ranks only (``mpi2``,
+    the 2-core budget: 8 s serially, 15–23 s on 3 ranks): each recovery's nodal pressures
+    and force on 2 and 3 ranks are checked against the serial run's to 1e-8 in
     test_contact_parallel.test_parallel_equals_serial (hertz2d, element integration)."""
     out = shared_tmp / "recoveries"
     r = demo_recoveries.main(["--out", str(out)])

@@ -21,10 +21,6 @@ from mpi4py import MPI
 from dolfinx_mortar.runner import run
 from dolfinx_mortar.scene import parse_scene
 
-#: serially and on 2 ranks, not on 3 (``mpi_not3``, session 61: the 2-core budget; on 3
-#: ranks test_contact_parallel compares such runs with serial ones to 1e-8)
-pytestmark = pytest.mark.mpi_not3
-
 BENCH = pathlib.Path(__file__).resolve().parents[1] / "bench" / "bench_turning_slip.py"
 MU, P0, E, H, R, N = 0.3, 2.0, 100.0, 0.5, 0.3, 8
 
@@ -105,12 +101,12 @@ def _check(steps, tabs):
     assert W < MU * P0 * np.linalg.norm(np.diff(P, axis=0), axis=1).sum() * (1.0 - 1e-4)
 
 
-@pytest.mark.mpi
+@pytest.mark.mpi2
 def test_a_turning_slip_follows_the_backward_euler_direction(shared_tmp):
     """Every slide step: all 9 nodes slip with |τ| = μ p_N (1e-9), |F_T| = μ F_N (1e-8),
     the force and every nodal traction along −d_k (1e-7 rad; d_k is 1.04–1.06° from the
-    chord Δu_k), and the drive's work Σ R_top·Δu_top = μ F_N Σ d_k·Δu_k (1e-8). Serially and
-    on 2 ranks (``pytestmark``), each against the reference above (not against the serial
-    output)."""
+    chord Δu_k), and the drive's work Σ R_top·Δu_top = μ F_N Σ d_k·Δu_k (1e-8). On 2 ranks
+    only (``mpi2``, session 61: 4 s serially), against the reference above (not against a
+    serial output)."""
     steps, tabs = _turning_circle(shared_tmp / "turning", MPI.COMM_WORLD)
     _check(steps, tabs)
