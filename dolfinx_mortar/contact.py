@@ -1262,7 +1262,7 @@ class MortarContact:
         if not nsf or not sel.any():
             return depth
         ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
-        xi = np.ascontiguousarray(np.broadcast_to(ref, (nsf,) + ref.shape), dtype=float)
+        xi = np.broadcast_to(np.asarray(ref, float), (nsf,) + ref.shape).copy()
         node = self.node_of
         use = (node >= 0) & sel[np.maximum(node, 0)]
         reach = np.full(nsf, self.margin)
@@ -1272,7 +1272,7 @@ class MortarContact:
         kmortar.pair_points(
             self.ftype, self.master.ftype, self.xs, self.slave.sign, xi, use.astype(float),
             self.xm, self.master.sign, self.master_key, off, idx, np.full(nsf, np.inf),
-            reach, pm, pz, pg, self.outside_tol,
+            reach, pm, pz, pg, self.outside_tol, False,
         )  # fmt: skip
         f, i = np.nonzero(use & (pm >= 0))
         np.fmin.at(depth, node[f, i], -pg[f, i])
@@ -1450,7 +1450,7 @@ class MortarContact:
         if dual is not None:
             self.t_weights, self.t_facet_area = dual
         else:
-            self.t_weights = np.ascontiguousarray(np.broadcast_to(np.eye(nphi), (nsf, nphi, nphi)))
+            self.t_weights = np.broadcast_to(np.eye(nphi), (nsf, nphi, nphi)).copy()
             self.t_facet_area = np.full(nsf, np.inf)
         self.lmbda_t = np.zeros((n, d - 1))  # tangential multiplier = traction history τ_n
         self.lmbda_t_committed = np.zeros((n, d - 1))
@@ -1777,6 +1777,7 @@ class MortarContact:
                 self.qp_zeta,
                 self.qp_g,
                 self.outside_tol,
+                False,
             )
             if self.qp_pinned is not None and self._pin_exchange == self._exchanges:
                 self._apply_pins()
@@ -2052,7 +2053,7 @@ class MortarContact:
         mn, zn = np.full(n, -1, np.int64), np.zeros((n, km))
         if nsf:
             ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
-            xi = np.ascontiguousarray(np.broadcast_to(ref, (nsf,) + ref.shape), dtype=float)
+            xi = np.broadcast_to(np.asarray(ref, float), (nsf,) + ref.shape).copy()
             w = (self.node_of >= 0).astype(float)
             pm = np.full((nsf, nphi), -1, np.int64)
             pz, pg = np.zeros((nsf, nphi, km)), np.zeros((nsf, nphi))
@@ -2060,7 +2061,7 @@ class MortarContact:
             kmortar.pair_points(
                 self.ftype, self.master.ftype, xs_n, self.slave.sign, xi, w, xm_n,
                 self.master.sign, self.master_key, off, idx, reach, reach, pm, pz, pg,
-                self.outside_tol,
+                self.outside_tol, False,
             )  # fmt: skip
             f, i = np.nonzero((self.node_of >= 0) & (pm >= 0))
             order = np.lexsort((np.abs(pg[f, i]), self.node_of[f, i]))

@@ -1890,3 +1890,63 @@ def test_a_slide_from_stick_gets_the_slip_tangent_first(tmp_path):
     assert last["slip_nodes"] == 5
     f = last["contact_force"]["upper_bottom:lower_top"]
     assert np.allclose(f, [-0.6, 2.0], rtol=0, atol=1e-8), f
+
+
+def test_a_one_facet_slave_compiles_no_read_only_kernel_variant(tmp_path):
+    """numba compiles a kernel once per argument type, and a read-only array is another
+    type than a writable one. ``np.ascontiguousarray(np.broadcast_to(a, (1, ...)))``
+    returns the read-only broadcast view itself (it is contiguous), so a rank with one
+    slave facet passed read-only arrays (the standard tangential weights, the master
+    frame's reference points) and compiled second variants of pair_points (1 MB),
+    slip_integrals, slip_point_terms and their callees: 15 s of the 2-rank test pass in
+    session 61, where a partition left one facet on a rank. ``pair_points``'
+    ``nearest_first`` is passed at every call (omitted, it was a third variant). Here a
+    one-facet slave (patch2d, n_upper = 1) with friction, the standard tangential
+    weights and the master frame: no kernel has a read-only variant, and pair_points
+    one."""
+    import numba
+
+    from dolfinx_mortar.kernels import friction as kfriction
+    from dolfinx_mortar.kernels import gap as kgap
+    from dolfinx_mortar.kernels import mortar as kmortar
+    from dolfinx_mortar.kernels import segment as ksegment
+    from dolfinx_mortar.kernels import shape as kshape
+    from dolfinx_mortar.runner import run
+
+    data = {
+        "kinematics": "small",
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 1, "n_y": 1}},
+        "material": [
+            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
+            for r in ("lower", "upper")
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "friction": MU,
+                "tangential_weights": "standard",
+                "tangential_frame": "master",
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.002, -0.01]]},
+        ],
+        "steps": {"n": 1},
+        "output": {"dir": str(tmp_path), "fields": []},
+    }
+    summary = run(parse_scene(data, pathlib.Path(".")), MPI.COMM_SELF)
+    assert summary["status"] == "ok", summary.get("error")
+    (pair,) = summary["modelled"]["contact_pairs"].values()
+    assert pair["slave_facets"] == 1
+    read_only = [
+        f"{module.__name__}.{name}: {sig}"
+        for module in (kfriction, kgap, kmortar, ksegment, kshape)
+        for name, f in vars(module).items()
+        if isinstance(f, numba.core.registry.CPUDispatcher)
+        for sig in f.signatures
+        if "readonly" in str(sig)
+    ]
+    assert not read_only, read_only
+    assert len(kmortar.pair_points.signatures) == 1, kmortar.pair_points.signatures

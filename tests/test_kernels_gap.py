@@ -455,7 +455,7 @@ def _pair_one(ftype_s, xs, xi, ftype_m, xm, msign):
     kmortar.pair_points(
         ftype_s, ftype_m, xs[None], ssign, np.asarray(xi, float)[None, None], np.ones((1, 1)),
         xm, msign, kmortar.facet_keys(xm), np.array([0, nmf]), np.arange(nmf), np.full(1, 1.0), np.full(1, 10.0),
-        qp_m, qp_zeta, qp_g, kmortar.OUTSIDE_TOL,
+        qp_m, qp_zeta, qp_g, kmortar.OUTSIDE_TOL, False,
     )  # fmt: skip
     return int(qp_m[0, 0]), float(qp_g[0, 0])
 

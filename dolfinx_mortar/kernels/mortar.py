@@ -404,7 +404,7 @@ def pair_points(
     qp_zeta,
     qp_g,
     outside_tol,
-    nearest_first=False,
+    nearest_first,
 ):
     """Pair every slave quadrature point with its closest valid master facet (or none: -1).
 
