@@ -1913,29 +1913,13 @@ def test_a_one_facet_slave_compiles_no_read_only_kernel_variant(tmp_path):
     from dolfinx_mortar.kernels import shape as kshape
     from dolfinx_mortar.runner import run
 
-    data = {
-        "kinematics": "small",
-        "mesh": {"generator": "patch2d", "params": {"n_lower": 2, "n_upper": 1, "n_y": 1}},
-        "material": [
-            {"region": r, "model": "linear-elastic", "E": 100.0, "nu": 0.3}
-            for r in ("lower", "upper")
-        ],
-        "contact": [
-            {
-                "slave": "upper_bottom",
-                "master": "lower_top",
-                "friction": MU,
-                "tangential_weights": "standard",
-                "tangential_frame": "master",
-            }
-        ],
-        "dirichlet": [
-            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
-            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.002, -0.01]]},
-        ],
-        "steps": {"n": 1},
-        "output": {"dir": str(tmp_path), "fields": []},
-    }
+    data = _patch_scene(2, "element", "master", tmp_path, tangential_weights="standard")
+    data["mesh"]["params"].update(n_lower=2, n_upper=1, n_y=1, margin=0.0)
+    data["dirichlet"] = [
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+        {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.002, -0.01]]},
+    ]
+    data["steps"] = {"n": 1}
     summary = run(parse_scene(data, pathlib.Path(".")), MPI.COMM_SELF)
     assert summary["status"] == "ok", summary.get("error")
     (pair,) = summary["modelled"]["contact_pairs"].values()
