@@ -1251,6 +1251,14 @@ class MortarContact:
         x, d, h = min((f for _, f in found if f is not None), key=lambda f: f[0])
         return count, x, d, h
 
+    def _mixed_node_points(self, nsf: int) -> np.ndarray:
+        """The reference coordinates of the mixed nodes on each of ``nsf`` slave facets,
+        (nsf, nphi, k), as the pairing kernel's points (local). A writable copy: a
+        one-facet broadcast view is read-only, and numba compiles a kernel variant of its
+        own for a read-only argument."""
+        ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
+        return np.broadcast_to(np.asarray(ref, float), (nsf,) + ref.shape).copy()
+
     def _node_depths(self, sel: np.ndarray) -> np.ndarray:
         """The depth −g of the owned nodes ``sel`` ((n,) bool) below the nearest master
         facet of the current search layer that faces them, the projection extended
@@ -1261,8 +1269,7 @@ class MortarContact:
         nsf, nphi = self.node_of.shape
         if not nsf or not sel.any():
             return depth
-        ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
-        xi = np.broadcast_to(np.asarray(ref, float), (nsf,) + ref.shape).copy()
+        xi = self._mixed_node_points(nsf)
         node = self.node_of
         use = (node >= 0) & sel[np.maximum(node, 0)]
         reach = np.full(nsf, self.margin)
@@ -2052,8 +2059,7 @@ class MortarContact:
         n, km = self.node_blocks.size, self.gdim - 1
         mn, zn = np.full(n, -1, np.int64), np.zeros((n, km))
         if nsf:
-            ref = REFERENCE_NODES[self.ftype][self.mixed]  # (nphi, k)
-            xi = np.broadcast_to(np.asarray(ref, float), (nsf,) + ref.shape).copy()
+            xi = self._mixed_node_points(nsf)
             w = (self.node_of >= 0).astype(float)
             pm = np.full((nsf, nphi), -1, np.int64)
             pz, pg = np.zeros((nsf, nphi, km)), np.zeros((nsf, nphi))
