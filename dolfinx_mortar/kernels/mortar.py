@@ -496,7 +496,13 @@ def pair_points(
                     limit = best_dist + tie if best_out <= INSIDE_TOL else np.inf
                     if dbox > min(limit, reach[f]) ** 2:
                         continue
-                    project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+                    k = j - cand_off[f]
+                    if nearest_first and done[k]:
+                        # the same projection, made by _pair_nearest for this point
+                        for a in range(km):
+                            zeta[a] = vz[k, a]
+                    else:
+                        project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
                     if out > best_out + INSIDE_TOL or (sweep == 0 and out > outside_tol):
                         continue
