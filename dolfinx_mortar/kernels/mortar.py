@@ -269,7 +269,7 @@ def _first_sweep_test(
 @numba.njit(cache=True)
 def _pair_nearest(
     ftype_m, x1, nus, xm, mbox, msign, mkey, cand, lo, hi, max_depth, reach, outside_tol,
-    z0, num, wm, dbox, order, done, valid, vout, vdist, vgap, vz,
+    z0, num, wm, dbox, order, done, valid, vout, vdist, vgap, vz, forder,
 ):  # fmt: skip
     """The first sweep of :func:`pair_points` for one slave point (x1 (d,), unit normal
     nus (d,)) and its candidates ``cand[lo:hi]``, projecting only the master facets it
@@ -298,18 +298,24 @@ def _pair_nearest(
        the few it reaches that step 1 did not.
 
     mbox (nmf, 2, d): the master facets' bounding boxes (lowest, highest coordinates).
+    forder (≥ hi − lo,) int64: the slots 0 … hi − lo − 1 in the order step 1 inserts them
+    into its sort (:func:`pair_points` passes the slave facet's own nearest-first order,
+    by the box distances from the facet's centroid: the points' orders differ little
+    from it, and the insertion sort has little to move). Which of equally near
+    candidates comes first does not change the result, only which projections are made.
     Work arrays dbox, vout, vdist, vgap (float), order (int64), done, valid (bool) hold
     at least hi − lo entries, vz (≥ hi − lo, km).
     """
     K = hi - lo
-    for k in range(K):
+    for i in range(K):
+        k = forder[i]
         m = cand[lo + k]
         e2 = _box_distance2(mbox[m], x1)
         dbox[k] = e2
         done[k] = False
         valid[k] = False
-        # insertion sort by box distance (stable; a few dozen candidates)
-        j = k
+        # insertion sort by box distance (a few dozen candidates, nearly in order)
+        j = i
         while j > 0 and dbox[order[j - 1]] > e2:
             order[j] = order[j - 1]
             j -= 1
@@ -451,7 +457,21 @@ def pair_points(
     box2, vout, vdist, vgap = np.empty(kmax), np.empty(kmax), np.empty(kmax), np.empty(kmax)
     vz, order = np.empty((kmax, km)), np.empty(kmax, np.int64)
     done, valid = np.empty(kmax, np.bool_), np.empty(kmax, np.bool_)
+    forder, fc = np.empty(kmax, np.int64), np.empty(d)
     for f in range(nsf):
+        if nearest_first:  # the facet's own nearest-first order (_pair_nearest's forder)
+            lo, hi = cand_off[f], cand_off[f + 1]
+            for c in range(d):
+                fc[c] = 0.0
+                for a in range(ns):
+                    fc[c] += xs[f, a, c] / ns
+            for i in range(hi - lo):
+                box2[i] = _box_distance2(mbox[cand[lo + i]], fc)
+                j = i
+                while j > 0 and box2[forder[j - 1]] > box2[i]:
+                    forder[j] = forder[j - 1]
+                    j -= 1
+                forder[j] = i
         for q in range(nq):
             qp_m[f, q] = -1
             qp_g[f, q] = 0.0
@@ -464,7 +484,7 @@ def pair_points(
                 k = _pair_nearest(
                     ftype_m, x1, nus, xm, mbox, msign, mkey, cand, cand_off[f],
                     cand_off[f + 1], max_depth[f], reach[f], outside_tol, z0, num, wm, box2,
-                    order, done, valid, vout, vdist, vgap, vz,
+                    order, done, valid, vout, vdist, vgap, vz, forder,
                 )  # fmt: skip
                 if k >= 0:
                     qp_m[f, q] = cand[cand_off[f] + k]
