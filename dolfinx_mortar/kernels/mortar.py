@@ -430,7 +430,11 @@ def pair_points(
     candidates' order ends at the same facet, or that sweep replayed from the
     projections made): the same result, bit for bit, where the candidates are many (the
     t_n pairings of friction reach 2 h: 25–36 master facets per slave facet on a 3D
-    block, where a point now takes 2.3 projections on average instead of 11.6).
+    block, where a point now takes 2.3 projections on average instead of 11.6). A point
+    it pairs with nothing (no valid projection: every candidate within ``reach`` was
+    projected) runs both sweeps below on those projections, recorded per slot, instead of
+    making them again, twice (6 % of the points of the 3D friction patch's t_n pairings,
+    whose projections made again were 39 % of all).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
