@@ -616,6 +616,48 @@ def test_affine_projection_in_closed_form(ftype):
     assert np.all(np.isfinite(z))
 
 
+def test_quad1_surface_unrolled_equals_the_generic_path():
+    """kernels.gap._surface / _surface_in of a QUAD1 facet (session 62: unrolled over its
+    4 nodes, kernels.gap._surface_quad1) against the generic path, kernels.shape.shape
+    then the sums over the nodes in node order from 0.0 (here in Python floats, the
+    same IEEE operations): N, dN, ddN, S, A and SS bit for bit (signed zeros included)
+    on a warped quad, inside and far outside the reference square; _surface_in leaves
+    SS as it was."""
+    from dolfinx_mortar.kernels.gap import _surface, _surface_in, work
+
+    rng = np.random.default_rng(62)
+    xm = REFERENCE_NODES[QUAD1] @ np.array([[0.7, 0.1, 0.05], [-0.2, 0.9, 0.1]])
+    xm = xm + rng.uniform(-0.1, 0.1, xm.shape) + np.array([0.3, -0.2, 1.5])
+    N, dN, ddN, S, A, SS = work(QUAD1)[:6]
+    N0, dN0, ddN0 = np.empty(4), np.empty((4, 2)), np.empty((4, 2, 2))
+    points = [(0.5, 0.5), (0.0, 0.0), (1.0, 1.0), (1.0, -0.0), (-0.0, 2.0)]
+    points += [tuple(z) for z in rng.uniform(-3.0, 4.0, (300, 2))]
+    for zeta in np.array(points):
+        shape(QUAD1, zeta, N0, dN0, ddN0)
+        S0 = [sum_in_order(N0, xm[:, i]) for i in range(3)]
+        A0 = [[sum_in_order(dN0[:, al], xm[:, i]) for i in range(3)] for al in range(2)]
+        SS0 = [
+            [[sum_in_order(ddN0[:, al, be], xm[:, i]) for i in range(3)] for be in range(2)]
+            for al in range(2)
+        ]
+        SS[...] = 7.0
+        _surface_in(xm, QUAD1, zeta, N, dN, ddN, S, A, SS)
+        assert np.all(SS == 7.0)
+        for got, want in ((N, N0), (dN, dN0), (ddN, ddN0), (S, S0), (A, A0)):
+            np.testing.assert_array_equal(got.view(np.int64), np.array(want).view(np.int64))
+        _surface(xm, QUAD1, zeta, N, dN, ddN, S, A, SS)
+        for got, want in ((N, N0), (dN, dN0), (ddN, ddN0), (S, S0), (A, A0), (SS, SS0)):
+            np.testing.assert_array_equal(got.view(np.int64), np.array(want).view(np.int64))
+
+
+def sum_in_order(c, x):
+    """Σ_a c[a] x[a] in Python floats, from 0.0 in the order of a (the kernels' sums)."""
+    s = 0.0
+    for a in range(len(c)):
+        s += float(c[a]) * float(x[a])
+    return s
+
+
 def _quad_grid(n, lo, hi, z):
     """QUAD1 facets of an n × n grid of [lo, hi]², heights z(x, y): (n², 4, 3)."""
     t = np.linspace(lo, hi, n + 1)
