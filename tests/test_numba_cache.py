@@ -1,0 +1,77 @@
+"""The numba cache of the package's kernels is keyed to all of the kernel sources
+(kernels/_numba.py): a cached kernel holds the code of the kernels it calls, so an edit
+of one kernel file must make every kernel compile again, not only those of that file."""
+
+import importlib
+import os
+
+import pytest
+
+from dolfinx_mortar.kernels import _numba
+from dolfinx_mortar.kernels._numba import numba
+
+#: every module with numba kernels (``kernels.shape`` the module: the package exports a
+#: function of that name too)
+MODULES = [
+    importlib.import_module(f"dolfinx_mortar.{name}")
+    for name in ("kernels.friction", "kernels.gap", "kernels.mortar", "kernels.segment",
+                 "kernels.shape", "search")
+]  # fmt: skip
+
+
+def _dispatchers(module):
+    return [
+        f
+        for name, f in sorted(vars(module).items())
+        if isinstance(f, numba.core.registry.CPUDispatcher) and f.__module__ == module.__name__
+    ]
+
+
+@pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__.rsplit(".", 1)[1])
+def test_every_kernel_is_cached_against_every_kernel_source(module):
+    kernels = _dispatchers(module)
+    assert kernels, module.__name__
+    sources = {p.name for p in _numba.KERNEL_DIR.glob("*.py")}
+    for f in kernels:
+        cache = f._cache
+        assert type(cache._impl.locator).__name__.startswith("Package"), f.__name__
+        stamp = cache._cache_file._source_stamp
+        assert stamp == _numba.source_stamp(module.__file__), f.__name__
+        names = {os.path.basename(entry[0]) for entry in stamp}
+        assert sources <= names, (f.__name__, sources - names)
+        assert os.path.basename(module.__file__) in names
+
+
+def test_the_stamp_changes_with_any_kernel_source(tmp_path, monkeypatch):
+    """Touching another kernel file (a newer mtime, as an edit or an update of the
+    package gives it) changes the stamp of a kernel in this file; a file outside the
+    package is left to numba's own locators."""
+    pkg = tmp_path / "pkg"
+    kdir = pkg / "kernels"
+    kdir.mkdir(parents=True)
+    for name in ("a.py", "b.py"):
+        (kdir / name).write_text("x = 1\n")
+    monkeypatch.setattr(_numba, "KERNEL_DIR", kdir)
+    monkeypatch.setattr(_numba, "_PACKAGE_DIR", pkg)
+    before = _numba.source_stamp(kdir / "a.py")
+    st = os.stat(kdir / "b.py")
+    os.utime(kdir / "b.py", ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    after = _numba.source_stamp(kdir / "a.py")
+    assert before != after
+    assert [e[0] for e in after] == ["kernels/a.py", "kernels/b.py"]
+    (kdir / "b.py").write_text("x = 22\n")  # the same time, another size
+    os.utime(kdir / "b.py", ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    assert _numba.source_stamp(kdir / "a.py") != after
+    outside = tmp_path / "host.py"
+    outside.write_text("def f():\n    return 1\n")
+    assert not _numba._in_package(str(outside))
+    assert _numba._in_package(str(kdir / "a.py"))
+
+
+def test_the_package_locators_are_installed_once():
+    from numba.core import caching
+
+    _numba._install()
+    ours = [c for c in caching.CacheImpl._locator_classes if getattr(c, "_dolfinx_mortar", 0)]
+    assert len(ours) == 3
+    assert caching.CacheImpl._locator_classes[: len(ours)] == ours
