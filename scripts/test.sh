@@ -49,10 +49,10 @@ fi
 workers=${DM_TEST_WORKERS:-$workers}
 run_pytest "pytest -m 'not mpi2' (serial, -n $workers)" timeout 2400 $PY -m pytest -q \
     -p no:cacheprovider -n "$workers" --dist loadfile --durations=10 -m "not mpi2" tests
+# Under mpirun, tests/conftest.py selects the tests of each size (mpi_marks: on 2 ranks
+# -m 'mpi or mpi2', on 3 -m 'mpi and not mpi_not3'), and says which.
 for n in 2 3; do
-    marks="mpi and not mpi_not3"
-    if [ "$n" -eq 2 ]; then marks="mpi or mpi2"; fi
-    run_pytest "pytest -m '$marks' (mpirun -n $n)" \
-        timeout 1500 mpirun -n $n $PY -m mpi4py -m pytest -q -p no:cacheprovider -m "$marks" tests
+    run_pytest "pytest (mpirun -n $n, tests/conftest.py's mpi_marks)" \
+        timeout 1500 mpirun -n $n $PY -m mpi4py -m pytest -q -p no:cacheprovider tests
 done
 echo "test.sh: all passed"

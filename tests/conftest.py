@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -27,6 +28,27 @@ XDIST_LONG_FILES = (
     "test_bench.py",
     "test_demos.py",
 )
+
+
+def mpi_marks(size: int) -> str:
+    """The marker expression of a run on ``size`` > 1 ranks (pyproject's markers): on 2
+    ranks every ``mpi`` and ``mpi2`` test, on 3 or more the ``mpi`` tests but the
+    ``mpi_not3`` ones. The other tests are serial: run on every rank, each would repeat
+    the serial run in the ranks' shared folders (a test's output lock then fails it)."""
+    return "mpi or mpi2" if size == 2 else "mpi and not mpi_not3"
+
+
+def pytest_configure(config):
+    """Under mpirun, a command line without ``-m`` selects :func:`mpi_marks`' tests
+    (scripts/test.sh's MPI passes rely on it), and rank 0 says so on stderr."""
+    size = MPI.COMM_WORLD.size
+    if size > 1 and not config.option.markexpr:
+        config.option.markexpr = mpi_marks(size)
+        if MPI.COMM_WORLD.rank == 0:
+            sys.stderr.write(
+                f"conftest: {size} ranks, the tests selected by -m {mpi_marks(size)!r} "
+                "(give -m to choose others)\n"
+            )
 
 
 def pytest_collection_modifyitems(config, items):

@@ -1,6 +1,7 @@
 """The MPI runs' guard (tests/_mpi_guard.py): a test that fails on one rank only ends the
 run with the failure printed, instead of hanging in the other ranks' next collective.
-Runs ``mpirun -n 2`` itself on a throw-away test file, so it is not marked ``mpi``."""
+Runs ``mpirun -n 2`` itself on a throw-away test file, so those tests are not marked
+``mpi``; the default marker selection under mpirun is checked on 1–3 ranks."""
 
 from __future__ import annotations
 
@@ -10,6 +11,9 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+from conftest import mpi_marks
+from mpi4py import MPI
 from test_cli import _env
 
 SKEWED = """
@@ -81,3 +85,19 @@ def test_a_failure_on_every_rank_does_not_abort(tmp_path):
     assert proc.returncode == 1, proc.stderr
     assert "1 failed, 1 passed" in proc.stdout, proc.stdout
     assert "aborting the run" not in proc.stderr
+
+
+@pytest.mark.mpi
+def test_under_mpirun_a_command_line_without_m_selects_the_mpi_tests(request):
+    """tests/conftest.py's ``mpi_marks``: on 2 ranks every mpi and mpi2 test, on 3 the
+    mpi tests but the mpi_not3 ones (scripts/test.sh's MPI passes give no -m); serially,
+    and wherever the command line gives -m, the expression is the command line's."""
+    assert mpi_marks(2) == "mpi or mpi2"
+    assert mpi_marks(3) == mpi_marks(4) == "mpi and not mpi_not3"
+    size = MPI.COMM_WORLD.size
+    args = request.config.invocation_params.args
+    given = any(a == "-m" or a.startswith("-m") and not a.startswith("--") for a in args)
+    if size > 1 and not given:
+        assert request.config.option.markexpr == mpi_marks(size)
+    elif size == 1 and not given:
+        assert request.config.option.markexpr == ""
