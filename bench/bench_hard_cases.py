@@ -35,7 +35,7 @@ cases, which take seconds each):
   crept towards it in ever shorter steps before they were bounded by the load step,
   BENCHMARKS §43): the slave nodes beyond the master's edges were paired over slivers of
   their weight whose multipliers never converged. With segment integration's sliver
-  nodes (``contact.SEGMENT_SLIVER_FRACTION``) it completes: 8 steps, 6 cutbacks;
+  nodes (``uzawa.SEGMENT_SLIVER_FRACTION``) it completes: 8 steps, 6 cutbacks;
 - ``block3d_slide`` / ``block3d_slide_si`` (session 42): a hexahedral block (patch3d,
   5 × 5 × 2 on 16 × 16 × 2, margin 1.5) pressed by 0.02, then dragged by (1.3, 0.9) in
   one step (finite strain, segment integration, frictionless), in the demos' units and

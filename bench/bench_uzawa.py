@@ -22,7 +22,7 @@ from dataclasses import replace
 
 from mpi4py import MPI
 
-import dolfinx_mortar.contact as contact
+from dolfinx_mortar import contact, uzawa
 from dolfinx_mortar.runner import run
 from dolfinx_mortar.scene import load_scene
 
@@ -66,8 +66,8 @@ def main(argv=None):
     ap.add_argument(
         "--acceleration",
         nargs="+",
-        choices=contact.ACCELERATIONS,
-        default=[a for a in contact.ACCELERATIONS if a != "newton"],
+        choices=uzawa.ACCELERATIONS,
+        default=[a for a in uzawa.ACCELERATIONS if a != "newton"],
         help="multiplier updates to compare [all but newton, which a frictional pair takes "
         "with the lumped tangential recovery only: auto resolves to it on lumped pairs]",
     )

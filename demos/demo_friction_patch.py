@@ -52,7 +52,7 @@ sides x = 0 and x = L.
   covered nodes 0.73 %, 0.35 %, 0.16 %, the partly covered ones 0.21 and 0.15 with 4 and 8
   steps (with 2, 1.0: a sliver node, pure penalty, at p_N = 6e-4). The master's edges
   y = 0, L lie on slave node rows: the nodes beyond them are sliver nodes
-  (``contact.SEGMENT_SLIVER_FRACTION``; before session 55 they stalled every sliding step).
+  (``uzawa.SEGMENT_SLIVER_FRACTION``; before session 55 they stalled every sliding step).
 
 Both to round-off with ``--integration segment``, to the quadrature error of the
 element rule with ``element``: ≤ 2 % on quadrilaterals, triangles and hexahedra, 6.9 %

@@ -10,6 +10,11 @@ with ``MatSetValuesLocal`` works unchanged). The couplings of every contact Jaco
 are checked against the matrix's pattern before its values go in, and grow the
 pattern in place where they are new (:class:`RecordedValues`,
 :meth:`MatrixPattern.grow`): PETSc would otherwise reallocate inside ``MatSetValues``.
+
+The contact Jacobians go in as ragged blocks, padded to a common width with dof −1
+(which PETSc skips) and inserted with one ``setValuesRCV`` per batch
+(:func:`add_outer_blocks`, :func:`add_square_blocks`, :func:`add_row_blocks`,
+:func:`add_keyed_blocks`).
 """
 
 from __future__ import annotations
@@ -389,3 +394,102 @@ class RecordedValues:
             A.setValues(rows, cols, values, addv=ADD)
         self._calls = []
         self._batches = []
+
+
+def add_keyed_blocks(A: PETSc.Mat, key, rows, cols, vals) -> None:
+    """A[rows_e, cols_e] += vals_e (global indices, −1 ignored) for the entries e, with
+    rows (E, r), cols (E, c), vals (E, r, c); entries with equal ``key`` (E,) have the same
+    rows and columns and are summed first; the sums that are not all zero go in with one
+    ``setValuesRCV`` (local)."""
+    if not key.size:
+        return
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    start = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+    sums = np.add.reduceat(vals[order], start, axis=0)
+    nz = np.any(sums != 0.0, axis=(1, 2))
+    sums, first = sums[nz], order[start][nz]
+    if first.size:
+        r = rows[first].astype(PETSc.IntType)
+        c = r if cols is rows else cols[first].astype(PETSc.IntType)
+        A.setValuesRCV(r, c, sums, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def padded_rows(off, sel, *data):
+    """The ragged rows ``sel`` of CSR arrays sharing the offsets ``off``, padded to the
+    longest row (local): for each flat array in ``data``, a (sel.size, width) array with
+    −1 (integer data: a dof PETSc skips) or 0 (real data) after each row's entries."""
+    n_sel = off[sel + 1] - off[sel]
+    row = np.repeat(np.arange(sel.size), n_sel)
+    pos = np.arange(row.size) - np.repeat(np.cumsum(n_sel) - n_sel, n_sel)
+    src = np.repeat(off[sel], n_sel) + pos
+    width = int(n_sel.max(initial=0))
+    out = []
+    for d in data:
+        integer = np.issubdtype(d.dtype, np.integer)
+        a = np.full((sel.size, width), -1 if integer else 0, PETSc.IntType if integer else d.dtype)
+        a[row, pos] = d[src]
+        out.append(a)
+    return out
+
+
+def _chunks(sel, off, chunk: int):
+    """``sel`` split so that each part's padded square blocks hold about ``chunk`` entries."""
+    width = int((off[sel + 1] - off[sel]).max(initial=1))
+    step = max(1, chunk // width**2)
+    return [sel[lo : lo + step] for lo in range(0, sel.size, step)]
+
+
+def add_outer_blocks(A, c_off, c_idx, c_val, coef, chunk: int = 1 << 22) -> None:
+    """A += Σ_I coef_I B^I ⊗ B^I over the nodes with coef_I > 0, B^I the CSR row
+    c_idx[c_off[I]:c_off[I+1]] (global dofs) with values c_val (local). The rows are
+    padded to the longest one with dof −1 (skipped by PETSc) and inserted with one
+    ``setValuesRCV`` per ``chunk`` entries instead of one ``setValues`` per node."""
+    nodes = np.flatnonzero((coef > 0.0) & (np.diff(c_off) > 0))
+    for sel in _chunks(nodes, c_off, chunk):
+        idx, val = padded_rows(c_off, sel, c_idx, c_val)
+        blocks = coef[sel, None, None] * val[:, :, None] * val[:, None, :]
+        A.setValuesRCV(idx, idx, blocks, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def add_square_blocks(A, u_off, U, k_off, K, chunk: int = 1 << 22) -> None:
+    """A[U_i, U_i] += K_i for the ragged blocks i: dofs U[u_off[i]:u_off[i+1]] (global,
+    −1 skipped), K_i = K[k_off[i]:k_off[i+1]] the n_i × n_i block in row-major order
+    (local). Padded as :func:`add_outer_blocks`, one ``setValuesRCV`` per ``chunk``
+    entries instead of one ``setValues`` per block."""
+    n = np.diff(u_off)
+    for sel in _chunks(np.flatnonzero(n > 0), u_off, chunk):
+        (idx,) = padded_rows(u_off, sel, U)
+        width = idx.shape[1]
+        sq = n[sel] ** 2
+        blk = np.repeat(np.arange(sel.size), sq)
+        local = np.arange(blk.size) - np.repeat(np.cumsum(sq) - sq, sq)  # 0 … n_i² − 1
+        side = np.repeat(n[sel], sq)
+        blocks = np.zeros((sel.size, width, width))
+        blocks[blk, local // side, local % side] = K[np.repeat(k_off[sel], sq) + local]
+        A.setValuesRCV(idx, idx, blocks, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def add_row_blocks(A, u_off, U, r_off, R, k_off, K, chunk: int = 1 << 22) -> None:
+    """A[R_i, U_i] += K_i for the ragged rectangular blocks i: columns U[u_off[i]:u_off[i+1]]
+    and rows R[r_off[i]:r_off[i+1]] (global dofs, −1 skipped), K_i = K[k_off[i]:k_off[i+1]]
+    the n_r × n_u block in row-major order (:func:`.kernels.friction.node_tangent_blocks`;
+    local). Padded as :func:`add_square_blocks`, one ``setValuesRCV`` per ``chunk``
+    entries."""
+    nu, nr = np.diff(u_off), np.diff(r_off)
+    sel_all = np.flatnonzero((nu > 0) & (nr > 0))
+    if not sel_all.size:
+        return
+    wc, wr = int(nu[sel_all].max()), int(nr[sel_all].max())
+    step = max(1, chunk // (wc * wr))
+    for lo in range(0, sel_all.size, step):
+        sel = sel_all[lo : lo + step]
+        (cols,) = padded_rows(u_off, sel, U)
+        (rows,) = padded_rows(r_off, sel, R)
+        n = nr[sel] * nu[sel]
+        blk = np.repeat(np.arange(sel.size), n)
+        local = np.arange(blk.size) - np.repeat(np.cumsum(n) - n, n)
+        side = np.repeat(nu[sel], n)
+        blocks = np.zeros((sel.size, rows.shape[1], cols.shape[1]))
+        blocks[blk, local // side, local % side] = K[np.repeat(k_off[sel], n) + local]
+        A.setValuesRCV(rows, cols, blocks, addv=PETSc.InsertMode.ADD_VALUES)

@@ -206,7 +206,7 @@ def exact_update_applies(friction: float, recovery: str, tangential_recovery: st
     lumped tangential one. "auto" resolves to "newton" only on the pairs with the lumped
     normal recovery among them (:func:`exact_update_default`), and on the others a step
     whose Aitken rounds are predicted to take too many switches to it
-    (``contact.AUTO_EXACT_BOUND``)."""
+    (``uzawa.AUTO_EXACT_BOUND``)."""
     return recovery in RECOVERIES and (friction == 0.0 or tangential_recovery == "lumped")
 
 
@@ -215,7 +215,7 @@ def exact_update_default(friction: float, recovery: str, tangential_recovery: st
     applies (:func:`exact_update_applies`) and the normal recovery is lumped (the mixed
     recoveries take it on request, and with "auto" in a step whose Aitken rounds contract
     slowly, session 52: docs/method-notes.md, "The exact update with the mixed normal
-    recoveries"; :func:`dolfinx_mortar.contact.resolve_acceleration`)."""
+    recoveries"; :func:`dolfinx_mortar.uzawa.resolve_acceleration`)."""
     return recovery == "lumped" and exact_update_applies(friction, recovery, tangential_recovery)
 
 
@@ -334,7 +334,7 @@ class ContactPair:
         ``"newton"`` (the exact update of the multipliers; with friction, pairs with the
         lumped tangential recovery only) or ``"auto"`` (default: ``"newton"`` on the
         pairs with the lumped recovery where it applies, ``"aitken"`` on the other pairs;
-        :func:`dolfinx_mortar.contact.resolve_acceleration`).
+        :func:`dolfinx_mortar.uzawa.resolve_acceleration`).
     """
 
     slave: str

@@ -177,7 +177,7 @@ def test_hard_case_over_the_corner_completes(hard, tmp_path):
     the sweep's expected clean stop until session 55: beyond t ≈ 1.86 the slave nodes
     past the master's edges were paired over slivers of their weight (round-off to 1e-6
     of it), whose multipliers no Uzawa round converged (BENCHMARKS §43, §71). As sliver
-    nodes (``contact.SEGMENT_SLIVER_FRACTION``) they keep pure penalty, and the run
+    nodes (``uzawa.SEGMENT_SLIVER_FRACTION``) they keep pure penalty, and the run
     completes: t = 2 in 8 steps (measured 6 cutbacks), the normal force falling as the
     block leaves the master (2.90 pressed, 0.67 at the end), no deep penetration."""
     (row,) = hard.main(["--cases", "block3d_over_corner", "--out", str(tmp_path)])
@@ -218,12 +218,12 @@ def test_hard_cases_with_the_exact_update(hard, hard_quick, tmp_path, monkeypatc
     gap under force control: 9 rounds instead of 20, L2 3.63 % either way; 8 rounds in
     session 60; the patch test exact with segments). The rewritten scenes differ from the scene files
     only in that key (and the output directory), and on these lumped pairs the files'
-    "auto" is that update (contact.resolve_acceleration), so the runs are those of the
+    "auto" is that update (uzawa.resolve_acceleration), so the runs are those of the
     quick sweep (hard_quick), whose rows are checked here; the rewrite itself is checked
     without a run (session 60: the two runs repeated the quick sweep's)."""
     import tomllib
 
-    from dolfinx_mortar.contact import resolve_acceleration
+    from dolfinx_mortar.uzawa import resolve_acceleration
 
     cases = ["hertz2d_gap", "patch2d_ratio4_segment"]
     monkeypatch.setattr(hard, "run_cli", lambda scene, out_dir, timeout: (0, 0.0, ""))
@@ -299,7 +299,7 @@ def test_newton_diagnostics_hertz2d(tmp_path, mesh):
     # (its converged norms are 2e-13 … 6e-13), and at t = 1/4 the quotient multiplies that
     # by 16. The last iterate's remainder is that noise alone: quad 7.9e-12, 2.5e-12,
     # 6.7e-13 (session 24, LDLᵀ), 1.1e-11, 2.1e-12, 5.4e-13 with the Uzawa multipliers of
-    # the exact update's forcing (contact.EXACT_FORCING), which differ at 1e-10.
+    # the exact update's forcing (uzawa.EXACT_FORCING), which differ at 1e-10.
     smooth = [max(q) / min(q) < 1.01 or max(q) - min(q) < 3e-11 for _, _, _, q, _ in log]
     assert smooth[-2:] == [True, True], log  # the quadratic regime
     assert sum(smooth) >= 3, log

@@ -7,7 +7,7 @@ of Newton's tolerance and Uzawa's multiplier changes: the frictional patch below
 and the frictionless one too (changes of 5e-6 to 1.5e-5 against uzawa_tol = 1e-8). Each
 pair now keeps its coordinates relative to an origin o near its slave surface
 (:func:`dolfinx_mortar.surface.pair_origin`), and the frictional exact update's
-difference step has a floor above the nodal law's round-off (contact.EXACT_FD_ROUND_OFF).
+difference step has a floor above the nodal law's round-off (uzawa.EXACT_FD_ROUND_OFF).
 """
 
 from __future__ import annotations

@@ -1068,7 +1068,7 @@ def test_round_state_brings_back_multipliers_and_carried_states():
     """MortarContact.round_state after an Uzawa update, then resume_round after the
     step began again: the multipliers, the acceleration's history and, with
     carry_states, the states the next solve starts frozen with are those of the round."""
-    from dolfinx_mortar.contact import UzawaAcceleration
+    from dolfinx_mortar.uzawa import UzawaAcceleration
 
     problem = _problem("hertz2d-P1", penalty_t=1e3)
     term = _frictional_state(problem, "hertz2d-P1")

@@ -190,7 +190,7 @@ def test_friction_patch3d_deformable_master_slides_without_cutback(shared_tmp):
     to 1e-6 of their full weight. Augmented, their multipliers moved by O(1) per round
     without converging, and the exact update's GMRES stalled on them: the press step took
     7 Uzawa rounds, every sliding step stalled and was cut back (session 55). They are now
-    sliver nodes (contact.SEGMENT_SLIVER_FRACTION = 1e-3): measured 4, 3, 3 rounds, no
+    sliver nodes (uzawa.SEGMENT_SLIVER_FRACTION = 1e-3): measured 4, 3, 3 rounds, no
     cutback, press exact to 1e-10, the wholly covered nodes 0.73 %; the nodes that the
     master's ends cover in part 0.24 (first order in the step, as in 2D; 0.21 and 0.15 with
     4 and 8 steps). On 2 ranks only (mpi2): 36 s serially."""

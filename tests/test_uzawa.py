@@ -1,4 +1,4 @@
-"""The accelerated Uzawa update (contact.UzawaAcceleration) on model fixed-point maps.
+"""The accelerated Uzawa update (uzawa.UzawaAcceleration) on model fixed-point maps.
 
 A Uzawa round at fixed active and stick/slip sets is an affine map x ↦ Mx + c of the
 stacked multipliers, with the spectrum of M in [0, 1). The vector is distributed: each
@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from dolfinx_mortar.contact import ACCELERATIONS, UzawaAcceleration
+from dolfinx_mortar import uzawa
+from dolfinx_mortar.uzawa import ACCELERATIONS, UzawaAcceleration
 
 N = 60
 
@@ -372,9 +373,10 @@ def test_auto_is_the_exact_update_where_it_applies(tmp_path):
     "aitken" where one is not lumped; the resolved
     update is what the pair reports (summary.json ``modelled``); an unknown name is a
     SceneError (a ValueError) of the Python API, as in a scene."""
-    from dolfinx_mortar.contact import MortarContact, resolve_acceleration
+    from dolfinx_mortar.contact import MortarContact
     from dolfinx_mortar.runner import prepare
     from dolfinx_mortar.scene import SceneError, parse_scene
+    from dolfinx_mortar.uzawa import resolve_acceleration
 
     assert resolve_acceleration("auto", 0.0, "lumped") == "newton"
     assert resolve_acceleration("auto", 0.2, "lumped") == "newton"
@@ -460,28 +462,27 @@ def test_the_forcing_of_the_exact_update():
     assert forcing(pair, 1e-10, 1.0) == pytest.approx(1e-9)  # the first round: tight
     assert forcing(pair, 1e-6, 1.0) == 1e-6  # not tighter than the fixed tolerance
     assert forcing(pair, 1e-10, 1e-7) == pytest.approx(1e-2)
-    assert forcing(pair, 1e-10, 5e-9) == contact.EXACT_FORCING  # never looser
+    assert forcing(pair, 1e-10, 5e-9) == uzawa.EXACT_FORCING  # never looser
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(contact, "EXACT_FORCING", 0.0)
+        mp.setattr(uzawa, "EXACT_FORCING", 0.0)
         assert forcing(pair, 1e-10, 1e-7) == 1e-10
 
 
 @pytest.mark.parametrize("friction", [0.0, 0.2])
 def test_the_forced_exact_update_takes_fewer_products(friction, tmp_path, monkeypatch):
-    """The exact update with its forcing (contact.EXACT_FORCING) against the fixed
+    """The exact update with its forcing (uzawa.EXACT_FORCING) against the fixed
     tolerances (forcing off): the same rounds and Newton iterations, the last round's
     change within the Uzawa tolerance, the same contact force to 1e-7, and fewer GMRES
     products in all (serial; measured 11 against 14 without friction, 21 against 22
     with it, where the first rounds' changes are far above the tolerance and keep the
     fixed one)."""
-    from dolfinx_mortar import contact
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
-    default = contact.EXACT_FORCING
+    default = uzawa.EXACT_FORCING
     out, products = {}, {}
     for forcing in (default, 0.0):
-        monkeypatch.setattr(contact, "EXACT_FORCING", forcing)
+        monkeypatch.setattr(uzawa, "EXACT_FORCING", forcing)
         d = tmp_path / f"forcing_{forcing:g}"
         out[forcing] = run(parse_scene(_hertz("newton", friction=friction), d), MPI.COMM_WORLD, d)
         assert out[forcing]["status"] == "ok"
@@ -510,13 +511,12 @@ def test_a_failed_exact_update_falls_back_to_the_plain_one(friction, tmp_path, m
     rounds still converge to the Uzawa tolerance (serial). The forcing is switched off
     (the fixed tolerances): with it, a round whose change is near the Uzawa tolerance
     asks GMRES for 0.1 only, which one product can meet."""
-    from dolfinx_mortar import contact
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
-    monkeypatch.setattr(contact, "EXACT_UPDATE_MAX_IT", 1)
-    monkeypatch.setattr(contact, "EXACT_FD_MAX_IT", 1)
-    monkeypatch.setattr(contact, "EXACT_FORCING", 0.0)
+    monkeypatch.setattr(uzawa, "EXACT_UPDATE_MAX_IT", 1)
+    monkeypatch.setattr(uzawa, "EXACT_FD_MAX_IT", 1)
+    monkeypatch.setattr(uzawa, "EXACT_FORCING", 0.0)
     out = run(parse_scene(_hertz("newton", friction=friction), tmp_path), MPI.COMM_WORLD, tmp_path)
     assert out["status"] == "ok"
     for st in out["steps"]:
@@ -537,11 +537,10 @@ def test_the_exact_update_reads_its_options_under_the_solver_prefix(
     its file, and ``ksp_max_it = 1`` makes every update fail over to the plain one, as
     the library's own limit of one product does (the test above). They were set as
     ``dm_uzawa_newton_`` but never read (serial)."""
-    from dolfinx_mortar import contact
     from dolfinx_mortar.runner import run
     from dolfinx_mortar.scene import parse_scene
 
-    monkeypatch.setattr(contact, "EXACT_FORCING", 0.0)
+    monkeypatch.setattr(uzawa, "EXACT_FORCING", 0.0)
     monitor = tmp_path / "gmres.txt"
     data = _hertz("newton", friction=friction)
     petsc = {"uzawa_newton_ksp_monitor": f"ascii:{monitor}", "uzawa_newton_ksp_max_it": 1}
@@ -660,7 +659,7 @@ def test_slow_rounds_rule():
     AUTO_EXACT_ROUNDS = 5, AUTO_EXACT_WINDOW = 3, AUTO_EXACT_BOUND = 10): from the 5th
     round on, with r the mean contraction of the last 3 rounds, slow when r ≥ 1 or when
     the rounds so far plus log(tol/change)/log(r) exceed 10."""
-    from dolfinx_mortar.contact import (
+    from dolfinx_mortar.uzawa import (
         AUTO_EXACT_BOUND,
         AUTO_EXACT_ROUNDS,
         AUTO_EXACT_WINDOW,
@@ -716,7 +715,7 @@ def test_a_slow_constrained_3d_press_switches_to_the_exact_update(tmp_path_facto
         ],
         "steps": {"t_end": 1.0, "n": 2, "max_cutbacks": 0},
     }
-    from dolfinx_mortar.contact import AUTO_EXACT_ROUNDS
+    from dolfinx_mortar.uzawa import AUTO_EXACT_ROUNDS
 
     summary = _run_scene(data, tmp_path_factory, "auto_switch")
     pair = summary["modelled"]["contact_pairs"]["upper_bottom:lower_top"]
@@ -943,7 +942,7 @@ def test_sliver_nodes_at_the_masters_edge_take_no_augmentation(tmp_path_factory)
     node slides off the master's edge, paired over 0.24 or 0.024 of its weight as one
     Gauss point enters or leaves the master. With λ per unit paired area the rounds
     2-cycled (multiplier changes 0.43 ↔ 6.8, the exact update's λ 21 → 451 → 15) and the
-    run stopped at t ≈ 1.48; the sliver node now stays pure penalty (contact.SLIVER_FRACTION)
+    run stopped at t ≈ 1.48; the sliver node now stays pure penalty (uzawa.SLIVER_FRACTION)
     and every step converges without a cutback. Checked against statics: the two blocks'
     reactions balance, and the sliding block's friction force is within the Coulomb bound
     |F_x| ≤ μ |F_y|."""
@@ -1033,7 +1032,7 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     change, measured against that p̂, was round-off over round-off: the touch took 2–5
     rounds (μ = 0.3: 5), the frictionless release 5–6, the frictional release stopped
     ("Uzawa augmentation stalled", multiplier changes 0.08 … 5e2). A pair whose largest
-    p̂ is at most contact.UNLOADED_ROUND_OFF × that round-off counts as converged (as at
+    p̂ is at most uzawa.UNLOADED_ROUND_OFF × that round-off counts as converged (as at
     p̂ = 0): the touch takes one round, the frictionless release 2, no cutback, and the
     second press ends as the first. The same in other units (E × 1e8, lengths × 1e-3).
     Serially and on 2 ranks (``mpi_not3``: the round-off floor is reduced over the ranks,

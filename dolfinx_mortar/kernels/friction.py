@@ -795,10 +795,10 @@ def node_tangent_blocks(
     node's rows R_i ⊂ U_i, k_off (k + 1,), K: each node's (nr, nu) block row-major).
     Only the rows of the node's weight entries (those of G^I) can be nonzero: with
     ``all_rows`` R_i = U_i, the square block (the lumped recovery:
-    :func:`dolfinx_mortar.contact.add_square_blocks` takes u_off, U, k_off, K); without,
+    :func:`dolfinx_mortar.assembly.add_square_blocks` takes u_off, U, k_off, K); without,
     R_i = those rows alone, nr × nu entries instead of nu × nu where B reaches far beyond
     the node's facets (the constrained normal recovery's ∂p^I/∂u through M⁻¹, session
-    53; :func:`dolfinx_mortar.contact.add_row_blocks`). The rows are marked in U_i
+    53; :func:`dolfinx_mortar.assembly.add_row_blocks`). The rows are marked in U_i
     (``searchsorted`` of the S-weights' dofs) rather than sorted apart: R_i = U_i[marked],
     in U_i's order (session 54, BENCHMARKS.md §66)."""
     k = nodes.size
