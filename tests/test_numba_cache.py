@@ -40,6 +40,9 @@ def test_every_kernel_is_cached_against_every_kernel_source(module):
         names = {os.path.basename(entry[0]) for entry in stamp}
         assert sources <= names, (f.__name__, sources - names)
         assert os.path.basename(module.__file__) in names
+        # the data files of each entry named by its key (a race-free name)
+        assert isinstance(cache._cache_file, _numba.KeyedIndexDataCacheFile), f.__name__
+        assert cache._cache_file.keyed, f.__name__
 
 
 def test_the_stamp_changes_with_any_kernel_source(tmp_path, monkeypatch):
@@ -75,3 +78,43 @@ def test_the_package_locators_are_installed_once():
     ours = [c for c in caching.CacheImpl._locator_classes if getattr(c, "_dolfinx_mortar", 0)]
     assert len(ours) == 3
     assert caching.CacheImpl._locator_classes[: len(ours)] == ours
+
+
+def _race(cache_path, stamp, keyed):
+    """Two processes save two signatures A and B of one function into an empty index at
+    once: both read the index before either writes it; B's index goes in first, then A's
+    index and data, then B's data (numba's save writes the index, then the data). Returns
+    what a later process loads for A and for B."""
+
+    cls = _numba.KeyedIndexDataCacheFile if keyed else _numba.KeyedIndexDataCacheFile.__base__
+    p_a, p_b = (cls(str(cache_path), "k.f-1.py311", stamp) for _ in range(2))
+    assert getattr(p_a, "keyed", False) == keyed
+    for p in (p_a, p_b):
+        p._load_index = lambda: {}  # each read the index while it was empty
+    deferred = []
+    save_b = p_b._save_data
+    p_b._save_data = lambda name, data: deferred.append((name, data))
+    p_b.save(("B",), "code for B")  # B's index, its data held back
+    p_a.save(("A",), "code for A")  # A's index (over B's) and data
+    save_b(*deferred.pop())  # B's data, last
+    later = cls(str(cache_path), "k.f-1.py311", stamp)
+    return later.load(("A",)), later.load(("B",))
+
+
+def test_two_processes_saving_two_signatures_at_once_keep_each_its_code(tmp_path, monkeypatch):
+    """numba names the data files 1, 2, … by the first number free in the index each
+    process read: two processes that save different signatures of one function at once
+    both take number 1, and A's index entry can name B's code (numba's class: a later
+    process loads "code for B" for A). The package's KeyedIndexDataCacheFile names each
+    data file by its key: A loads A's code, B is not in the index (the last index
+    written wins), so B compiles again; nothing loads another signature's code."""
+    stamp = (("kernels/f.py", 1.0, 10),)
+    stock, keyed = tmp_path / "stock", tmp_path / "keyed"
+    for d in (stock, keyed):
+        d.mkdir()
+    assert _race(stock, stamp, keyed=False) == ("code for B", None)  # numba's hazard
+    monkeypatch.setattr(_numba, "PACKAGE_CACHE_PATHS", {str(keyed)})
+    assert _race(keyed, stamp, keyed=True) == ("code for A", None)
+    names = sorted(p.name for p in keyed.iterdir())
+    assert len(names) == 3 and names[-1] == "k.f-1.py311.nbi", names  # A's, B's, index
+    assert _numba.KeyedIndexDataCacheFile(str(tmp_path), "x", stamp).keyed is False

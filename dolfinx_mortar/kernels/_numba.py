@@ -29,8 +29,22 @@ against :func:`source_stamp`, the times and sizes of all the kernel sources
 every kernel compile afresh, once. numba's own choice of the cache folder is kept (the
 locators below wrap numba's ``NUMBA_CACHE_DIR``, in-tree ``__pycache__`` and user-wide
 ones); other packages' functions are cached as numba does it.
+
+**Processes that compile at once.** numba names a function's data files 1, 2, … in the
+order its signatures are saved, each process choosing the first number that its read
+of the index leaves free. Two processes that save two different signatures of one
+function at the same time (the ranks of a first job on a cold cache, the two runs of
+``scripts/warm_cache.sh``; 9 of the package's functions are cached with 2 to 4
+signatures: readonly or writable arrays, literal or variable integers) both choose
+number 1, and the index of one can end up naming the data of the other: a later process
+then loads, for one signature, the machine code compiled for another (numba issue
+#10128 reports segmentation faults from such a race). Here the data file of each of the
+package's cache entries is named by a hash of its key (:class:`KeyedIndexDataCacheFile`),
+so different signatures never share a file; a race can still drop an entry from the
+index (the last writer's index wins), which costs one more compile and nothing else.
 """
 
+import hashlib
 import os
 import warnings
 from pathlib import Path
@@ -41,12 +55,15 @@ with warnings.catch_warnings():
     import numba
     from numba.core import caching
 
-__all__ = ["KERNEL_DIR", "numba", "source_stamp"]
+__all__ = ["KERNEL_DIR", "KeyedIndexDataCacheFile", "numba", "source_stamp"]
 
 #: The folder of the kernel sources, whose compiled code kernels share.
 KERNEL_DIR = Path(__file__).resolve().parent
 #: The package's folder: its files' numba functions are cached against source_stamp.
 _PACKAGE_DIR = KERNEL_DIR.parent
+#: The cache folders of the package's functions (as their locators give them): their
+#: data files are named by key (:class:`KeyedIndexDataCacheFile`)
+PACKAGE_CACHE_PATHS: set[str] = set()
 
 
 def source_stamp(py_file: str | os.PathLike) -> tuple:
@@ -80,13 +97,50 @@ def _package_locator(base: type) -> type:
         def from_function(cls, py_func, py_file):
             if not _in_package(py_file):
                 return None
-            return super().from_function(py_func, py_file)
+            locator = super().from_function(py_func, py_file)
+            if locator is not None:
+                PACKAGE_CACHE_PATHS.add(locator.get_cache_path())
+            return locator
 
         def get_source_stamp(self):
             return source_stamp(self._py_file)
 
     PackageLocator.__name__ = PackageLocator.__qualname__ = f"Package{base.__name__}"
     return PackageLocator
+
+
+class KeyedIndexDataCacheFile(caching.IndexDataCacheFile):
+    """numba's index and data files of one function's cache, with the data file of each
+    entry of the package's functions named ``<base>.<hash of its key>.nbc`` instead of
+    ``<base>.<n>.nbc`` (local). numba creates these objects for every cached function;
+    one whose folder is not one of :data:`PACKAGE_CACHE_PATHS` (another package's)
+    saves as numba does. The index format is numba's, and so is loading: an index
+    written by numba itself (numbered names) is read as it is."""
+
+    def __init__(self, cache_path, filename_base, source_stamp):
+        super().__init__(cache_path, filename_base, source_stamp)
+        #: whether the data files are named by key (a folder of the package's functions)
+        self.keyed = cache_path in PACKAGE_CACHE_PATHS
+        self._base = filename_base
+
+    def keyed_name(self, key) -> str:
+        """The data file's name of the entry ``key`` (numba's (signature, target,
+        bytecode hashes)); numba's type names are unique, so the key's repr is too."""
+        digest = hashlib.sha256(repr(key).encode()).hexdigest()[:24]
+        return f"{self._base}.{digest}.nbc"
+
+    def save(self, key, data):
+        """numba's save, the data file named by key where :attr:`keyed`: the index takes
+        the entry, then the data file is written whole (``os.replace``). A process that
+        reads the index in between finds no data file yet and compiles."""
+        if not self.keyed:
+            return super().save(key, data)
+        overloads = self._load_index()
+        name = self.keyed_name(key)
+        if overloads.get(key) != name:
+            overloads[key] = name
+            self._save_index(overloads)
+        self._save_data(name, data)
 
 
 def _install() -> None:
@@ -109,6 +163,8 @@ def _install() -> None:
     for c in ours:
         c._dolfinx_mortar = True
     classes[:0] = ours
+    # numba's Cache looks the class up when it creates a function's cache
+    caching.IndexDataCacheFile = KeyedIndexDataCacheFile
 
 
 _install()
