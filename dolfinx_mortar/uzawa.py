@@ -97,6 +97,19 @@ EXACT_DU_MAX = 1.0
 #: the pressures of a loaded contact are many orders above (the same patch: 1.27, 1e10
 #: times the floor).
 UNLOADED_ROUND_OFF = 1e3
+#: A step whose exact updates 2-cycle: where the relative multiplier changes c of the
+#: last four rounds repeat two rounds apart, |c_n − c_{n−2}| ≤ CYCLE_TOL c_n and
+#: |c_{n−1} − c_{n−3}| ≤ CYCLE_TOL c_{n−1}, the round's exact update is damped,
+#: λ ← λ + CYCLE_DAMPING (λ_exact − λ) (λ_T and δu alike; :func:`_two_cycle`). Newton on
+#: the rounds' map overshoots across a change of the active set and lands where the next
+#: update overshoots back: `block3d_over_corner` (a 3D block dragged in one step until it
+#: hangs over the master's corner, finite strain, segment integration) cycled with
+#: changes 0.27, 0.082, 0.27, 0.082, … at t = 2 from every start, until the stall rule
+#: cut the step back, 6 times (8 steps). One half step breaks the cycle (0.082, then
+#: 0.13, 7e-4, converged): the step from t = 1 takes 10 rounds, no cutback (session 63;
+#: docs/method-notes.md, "A 2-cycle of the exact updates").
+CYCLE_TOL = 0.05
+CYCLE_DAMPING = 0.5
 #: Element integration: a slave node whose paired weight A^I is below this fraction of its
 #: full weight ∫Φ_I dA₀ (its whole slave support paired) is a sliver node
 #: (:meth:`UzawaRounds.sliver_nodes`): it takes no augmentation (λ^I = 0, pure penalty)
@@ -218,6 +231,17 @@ def _slow_rounds(changes: list[float], tol: float) -> bool:
     if not ratio < 1.0:
         return True
     return n + w * math.log(tol / changes[-1]) / math.log(ratio) > AUTO_EXACT_BOUND
+
+
+def _two_cycle(changes: list[float]) -> bool:
+    """Whether the last four relative multiplier changes of a step's rounds (``changes``,
+    dimensionless, one per round) repeat two rounds apart within :data:`CYCLE_TOL`: the
+    rounds 2-cycle (local; the changes are global, so the answer is the same on every
+    rank)."""
+    if len(changes) < 4:
+        return False
+    c = changes[-4:]
+    return abs(c[3] - c[1]) <= CYCLE_TOL * c[3] and abs(c[2] - c[0]) <= CYCLE_TOL * c[2]
 
 
 def _gmres(
@@ -486,8 +510,8 @@ class UzawaRounds:
         if done:
             self._clear_unloaded(unloaded, tau_law if self.frictional else None, info, True)
             return changed == 0, info
+        self._round_changes.append(max(rel, rel_t))
         if self._auto_exact:
-            self._round_changes.append(max(rel, rel_t))
             if self.uzawa_acceleration.method == "aitken" and _slow_rounds(
                 self._round_changes, self.uzawa_tol
             ):
@@ -512,11 +536,20 @@ class UzawaRounds:
                 rtol = self._forcing(EXACT_FD_RTOL, max(rel, rel_t))
                 law_now = (fstate, tau_law) if self.frictional else (None, None)
                 lam, lam_t = self._exact_multipliers_fd(*law_now, info, rtol)
-                self.lmbda = lam
-                if self.frictional:
-                    self.lmbda_t = lam_t
             else:
-                self.lmbda = self._exact_multipliers(d, info, self._forcing(EXACT_UPDATE_RTOL, rel))
+                rtol = self._forcing(EXACT_UPDATE_RTOL, rel)
+                lam, lam_t = self._exact_multipliers(d, info, rtol), None
+            if _two_cycle(self._round_changes):
+                # the exact updates 2-cycle: half the step (CYCLE_DAMPING)
+                lam = self.lmbda + CYCLE_DAMPING * (lam - self.lmbda)
+                if lam_t is not None:
+                    lam_t = self.lmbda_t + CYCLE_DAMPING * (lam_t - self.lmbda_t)
+                if self.displacement_update is not None:
+                    self.displacement_update = CYCLE_DAMPING * self.displacement_update
+                info["exact_update"] = info.get("exact_update", "") + ", damped (a 2-cycle)"
+            self.lmbda = lam
+            if lam_t is not None:
+                self.lmbda_t = lam_t
             self._clear_unloaded(unloaded, None, info, False)
             return False, info
         # the stacked multipliers x = [λ, λ_T] and their change f = T(x) − x

@@ -689,6 +689,23 @@ def test_slow_rounds_rule():
     assert _slow_rounds(changes, 1e-6)
 
 
+def test_two_cycle_rule():
+    """uzawa._two_cycle (session 63): the exact update of a round is damped where the
+    last four relative changes repeat two rounds apart within CYCLE_TOL = 5 %. The
+    rounds of block3d_over_corner at t = 2 (2-cycling until the stall rule): damped at
+    their 7th round, not before; a contraction, a 3-cycle and near misses are not."""
+    from dolfinx_mortar.uzawa import CYCLE_DAMPING, CYCLE_TOL, _two_cycle
+
+    assert (CYCLE_TOL, CYCLE_DAMPING) == (0.05, 0.5)
+    corner = [0.757, 0.5731, 0.0579, 0.2704, 0.0819, 0.2697, 0.0819]
+    assert [_two_cycle(corner[:k]) for k in range(1, 8)] == [False] * 6 + [True]
+    assert not _two_cycle([1.0, 0.1, 1e-2, 1e-3, 1e-4])  # a contraction
+    assert not _two_cycle([0.3, 0.1, 0.05, 0.3, 0.1, 0.05])  # a 3-cycle
+    assert not _two_cycle([0.27, 0.082, 0.27 * 1.06, 0.082])  # 6 % apart
+    assert not _two_cycle([0.27, 0.082, 0.27, 0.082 * 0.94])
+    assert _two_cycle([0.27, 0.082, 0.27 * 1.04, 0.082 * 0.96])
+
+
 @pytest.mark.mpi2
 def test_a_slow_constrained_3d_press_switches_to_the_exact_update(tmp_path_factory):
     """ "auto" on a pair with a mixed normal recovery is Aitken, switching to the exact
