@@ -22,6 +22,15 @@ size of the master ghost layer (``ghost_master_facets_max``: the master facets a
 receives, on the rank that receives most) against the master facets its candidate search
 takes from it (``candidate_master_facets_max``) and the master surface's size
 (``master_facets``).
+
+``--quadrature-degree N`` sets the degree of the pair's slave facet rule (element
+integration: the rule on every slave facet; segment: the rule per segment), which is a
+:class:`~dolfinx_mortar.contact.MortarContact` argument and not a scene key: the bench
+sets ``contact.DEFAULT_QUADRATURE_DEGREE`` to N for every facet type while it builds the
+problem. Left out, the default degree of the facet type (P1 triangles: 4, 6 points)::
+
+    /usr/bin/python3 bench/bench_contact_cost.py --material linear-elastic --h0 0.06 \
+        --levels 0 --repeat 5 --quadrature-degree 6
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ from dolfinx import fem
 from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
+from dolfinx_mortar import contact
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 
@@ -94,7 +104,13 @@ def run_level(args, level: int, comm) -> dict:
     """Time search, contact and bulk assembly at one mesh level (collective)."""
     h = args.h0 / 2**level
     data, body = scene(args.generator, h, args.integration, args.material)
-    problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
+    default = dict(contact.DEFAULT_QUADRATURE_DEGREE)
+    if args.quadrature_degree is not None:  # a MortarContact argument, not a scene key
+        contact.DEFAULT_QUADRATURE_DEGREE.update(dict.fromkeys(default, args.quadrature_degree))
+    try:
+        problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
+    finally:
+        contact.DEFAULT_QUADRATURE_DEGREE.update(default)
     term = problem.contacts[0]
     push(problem, body, 0.08 if args.generator == "hertz3d" else 0.05)  # Hertz approach a²/R
     x = problem.u.vector
@@ -128,6 +144,7 @@ def run_level(args, level: int, comm) -> dict:
         "generator": args.generator,
         "material": args.material,
         "integration": args.integration,
+        "quadrature_points": int(term.rule[1].size),  # of the slave facet rule
         "level": level,
         "h_contact": h,
         "ranks": comm.size,
@@ -165,6 +182,12 @@ def main(argv=None):
     ap.add_argument("--integration", default="element", choices=["element", "segment"])
     ap.add_argument("--material", default="neo-hookean", choices=["neo-hookean", "linear-elastic"])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument(
+        "--quadrature-degree",
+        type=int,
+        default=None,
+        help="degree of the slave facet rule (default: the facet type's, P1 triangles 4)",
+    )
     ap.add_argument("--csv", default="bench/out/contact_cost.csv")
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD

@@ -459,6 +459,21 @@ def test_bench_contact_cost_runs(tmp_path, material):
     assert len(_read(tmp_path / "c.csv")) == 1
 
 
+def test_bench_contact_cost_quadrature_degree(tmp_path):
+    """``--quadrature-degree 6`` puts the 12-point rule on hertz3d's slave triangles (the
+    default, degree 4, has 6: BENCHMARKS §83) and leaves the package's default as it was."""
+    from dolfinx_mortar import contact
+
+    default = dict(contact.DEFAULT_QUADRATURE_DEGREE)
+    bench = _load("bench_contact_cost")
+    args = ["--material", "linear-elastic", "--levels", "0", "--repeat", "1"]
+    rows = bench.main([*args, "--quadrature-degree", "6", "--csv", str(tmp_path / "c.csv")])
+    assert rows[0]["quadrature_points"] == 12 and rows[0]["active_nodes"] > 0
+    assert contact.DEFAULT_QUADRATURE_DEGREE == default
+    rows = bench.main([*args, "--csv", str(tmp_path / "d.csv")])
+    assert rows[0]["quadrature_points"] == 6
+
+
 def test_bench_linear_solvers_runs(tmp_path):
     """``bench/bench_linear_solvers.py`` at hertz3d's smallest level with MUMPS and GAMG,
     each in a process of its own: both finish with the same nodal pressures and contact
