@@ -2296,18 +2296,21 @@ class MortarContact(UzawaRounds):
         return scale
 
     def _add_jacobian(self, A: PETSc.Mat) -> None:
-        res_idx, _, hess_val, b_count, _, sdofs, mdofs = self._terms(True)
+        # the Hessian blocks, summed per (slave facet, master facet) pair, and the rows
+        # B^I of the nodes with a tangent coefficient, in one pass over the points
+        # (kernels.mortar.jacobian_terms; BENCHMARKS.md §83)
+        sdofs, mdofs = self.slave.dofs, self.master.dofs
+        h_idx, h_val, c_off, c_idx, c_val = self._jacobian_terms(self.kcoef, sdofs, mdofs, True)
         drop = self._drop_geometric_tangent()  # collective: called at every Jacobian
         geometric = GEOMETRIC_TANGENT_AT_FIRST_CONTACT or not drop
         self._geometric_on = geometric  # the friction's geometric block follows
         if not geometric:
-            hess_val[:] = 0.0
-        rows = np.flatnonzero(res_idx.max(axis=1) >= 0)
-        if rows.size:  # every paired point's block in one call
-            idx = res_idx[rows].astype(PETSc.IntType)
-            A.setValuesRCV(idx, idx, hess_val[rows], addv=PETSc.InsertMode.ADD_VALUES)
+            h_val[:] = 0.0
+        rows = np.flatnonzero(h_idx.max(axis=1, initial=-1) >= 0)
+        if rows.size:  # every pair's block in one call
+            idx = h_idx[rows].astype(PETSc.IntType)
+            A.setValuesRCV(idx, idx, h_val[rows], addv=PETSc.InsertMode.ADD_VALUES)
         # B^I ⊗ B^I of the nodes with a tangent coefficient
-        c_off, c_idx, c_val = self._b_rows(self.kcoef, sdofs, mdofs, b_count)
         self._dp_rows = None
         add_outer_blocks(A, c_off, c_idx, c_val, self.kcoef)
         self._seg_motion = self._seg_c_rows = None
@@ -2477,28 +2480,29 @@ class MortarContact(UzawaRounds):
         Dp = sp.csr_matrix((d_vals[keep], (rows, cols[keep])), shape=shape)
         return Cg, Dp
 
-    def _b_rows(self, mask, sdofs, mdofs, b_count=None):
+    def _b_rows(self, mask, sdofs, mdofs):
         """Rows B^I = ∂G^I/∂u of the owned nodes with mask > 0, as CSR (c_off, c_idx, c_val)
         with sorted global dofs (constrained dofs dropped)."""
-        if b_count is None:
+        return self._jacobian_terms(mask, sdofs, mdofs, False)[2:]
+
+    def _jacobian_terms(self, mask, sdofs, mdofs, want_hess: bool):
+        """:func:`.kernels.mortar.jacobian_terms` at the state of the last :meth:`update`:
+        (h_idx, h_val, c_off, c_idx, c_val), the Hessian blocks per (slave facet, master
+        facet) pair (none unless ``want_hess``) and the compressed rows B^I of the owned
+        nodes with mask > 0 (local)."""
+        if not self.slave.num_facets:
             nloc = (self.slave.nodes_per_facet + self.master.nodes_per_facet) * self.gdim
-            paired = np.count_nonzero(self.qp_m >= 0, axis=1)
-            fi, ii = np.nonzero(self.node_of >= 0)
-            nodes = self.node_of[fi, ii]
-            sel = mask[nodes] > 0.0
-            b_count = np.zeros(self.node_blocks.size, np.int64)
-            np.add.at(b_count, nodes[sel], nloc * paired[fi[sel]])
-        b_off = np.zeros(b_count.size + 1, np.int64)
-        np.cumsum(b_count, out=b_off[1:])
-        b_idx = np.empty(b_off[-1], np.int64)
-        b_val = np.empty(b_off[-1])
-        if self.slave.num_facets:
-            kmortar.node_rows(*self._point_args(sdofs, mdofs), mask, b_off, b_idx, b_val)
-        c_off = np.zeros_like(b_off)
-        c_idx = np.empty_like(b_idx)
-        c_val = np.empty_like(b_val)
-        kmortar.compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
-        return c_off, c_idx, c_val
+            c_off = np.zeros(self.node_blocks.size + 1, np.int64)
+            return (
+                np.empty((0, nloc), np.int64),
+                np.empty((0, nloc, nloc)),
+                c_off,
+                np.empty(0, np.int64),
+                np.empty(0),
+            )
+        return kmortar.jacobian_terms(
+            *self._point_args(sdofs, mdofs), self.p, np.asarray(mask, float), bool(want_hess)
+        )
 
     def _add_mixed_jacobian(self, A, sdofs, mdofs) -> None:
         """Σ_I d_I a^I ⊗ c^I, a^I = Σ_J L_IJ B^J, c^I = Σ_K R_IK B^K

@@ -1,5 +1,6 @@
 """The point kernels of :mod:`dolfinx_mortar.kernels.mortar` that build the contact residual
-and tangent (``contact_terms``, ``node_rows``, ``compress_rows``, ``point_xi_terms``)
+and tangent (``contact_terms``, ``node_rows``, ``compress_rows``, ``jacobian_terms``,
+``point_xi_terms``)
 against their NumPy references in :mod:`dolfinx_mortar.kernels.reference` (written from
 the kernels' docstring equations, with the AD gap derivatives), on random but valid
 configurations: 2D and 3D, P1 and P2 facets, unpaired points (−1), zero weights, nodes not
@@ -192,6 +193,37 @@ def test_node_rows_and_compress_rows_match_reference(ftypes):
     ]
     close(back, dense)
     assert (b_idx < 0).any() and c_off[-1] < b_off[-1]
+
+
+@pytest.mark.parametrize("want_hess", [True, False])
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_jacobian_terms_matches_reference(ftypes, want_hess):
+    """The one-pass tangent terms: the Hessian blocks of contact_terms summed per (slave
+    facet, master facet) pair and the compressed rows B^I of node_rows, against the
+    reference (the per-point references summed); the scenes hold pairs of several points,
+    of which some have p_w = 0, and facets paired with several master facets."""
+    args, p, kcoef = scene(*ftypes, seed=200 + sum(ftypes), nq=7)
+    h_idx, h_val, c_off, c_idx, c_val = kmortar.jacobian_terms(*args, p, kcoef, want_hess)
+    r_idx, r_val, rc_off, rc_idx, rc_val = kref.jacobian_terms(*args, p, kcoef, want_hess)
+    np.testing.assert_array_equal(h_idx, r_idx)
+    close(h_val, r_val, RTOL_HESS)
+    np.testing.assert_array_equal(c_off, rc_off)
+    np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
+    close(c_val[: c_off[-1]], rc_val)
+    # the blocks are the kernel's own per-point blocks (contact_terms) summed per pair
+    res_idx, _, hess_val, _, _ = run_contact_terms(args, p, kcoef, True)
+    live = (res_idx >= 0).any(axis=1)
+    assert c_off[-1] > 0
+    if want_hess:
+        assert 0 < h_idx.shape[0] < live.sum()  # some pairs of several points
+        qp_m = args[8]
+        fr, qr = np.nonzero(qp_m >= 0)
+        key = fr * args[4].shape[0] + qp_m[fr, qr]
+        hkey = list(dict.fromkeys(key[hess_val.any(axis=(1, 2))]))  # first-row order
+        for b, k in enumerate(hkey):
+            close(h_val[b], hess_val[key == k].sum(axis=0), RTOL_HESS)
+    else:
+        assert h_idx.shape == (0, res_idx.shape[1]) and h_val.shape[0] == 0
 
 
 def _compressed(b_off, b_idx, b_val):

@@ -688,6 +688,33 @@ def _local_derivatives(
 
 
 @numba.njit(cache=True)
+def _local_gradient(ftype_s, ftype_m, xs_f, xm_m, sign, xi, zeta, dg_loc, dg, x1, N, dN, ddN, wm):
+    """∂g/∂u of one point with respect to its local dofs [slave facet, master facet]
+    (dg_loc) and to y = [x1, xm] (dg), as :func:`_local_derivatives` gives them, bit for
+    bit, without the gap and its Hessian: ∂g/∂x1 = ν(ζ), ∂g/∂x^m_a = −N_a(ζ) ν(ζ)
+    (:func:`.gap.gap_and_derivatives`; ν from :func:`.gap.unit_normal_in`, the same
+    operations). wm: the work arrays of :func:`.gap.work` for ftype_m."""
+    ns = xs_f.shape[0]
+    nm = xm_m.shape[0]
+    d = xs_f.shape[1]
+    _slave_point(ftype_s, xs_f, xi, N, dN, ddN, x1)
+    nu = wm[6]
+    unit_normal_in(xm_m, ftype_m, sign, zeta, nu, wm)
+    Nm = wm[0]
+    for i in range(d):
+        dg[i] = nu[i]
+    for a in range(nm):
+        for i in range(d):
+            dg[d + a * d + i] = -Nm[a] * nu[i]
+    nsd = ns * d
+    for a in range(ns):
+        for c in range(d):
+            dg_loc[a * d + c] = N[a] * dg[c]
+    for j in range(nm * d):
+        dg_loc[nsd + j] = dg[d + j]
+
+
+@numba.njit(cache=True)
 def _workspace(ftype_s, ns, nm, d, want_hess):
     """Work arrays of the point loops: slave shape functions (N, dN, ddN), mixed shape
     functions (Phi, dP, ddP; up to 9 nodes), the slave point x1, the gap derivatives with
@@ -767,6 +794,7 @@ def contact_terms(
     N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
         ftype_s, ns, nm, d, np.bool_(True)
     )
+    wm = work(ftype_m)
     row = -1
     for f in range(nsf):
         for q in range(nq):
@@ -787,24 +815,42 @@ def contact_terms(
             pw *= qp_w[f, q]
             if pw == 0.0:
                 continue
-            _local_derivatives(
-                ftype_s,
-                ftype_m,
-                xs[f],
-                xm[m],
-                msign[m],
-                qp_xi[f, q],
-                qp_zeta[f, q],
-                want_jac,
-                dg_loc,
-                d2g_loc,
-                dg,
-                d2g,
-                x1,
-                N,
-                dN,
-                ddN,
-            )
+            if want_jac:
+                _local_derivatives(
+                    ftype_s,
+                    ftype_m,
+                    xs[f],
+                    xm[m],
+                    msign[m],
+                    qp_xi[f, q],
+                    qp_zeta[f, q],
+                    want_jac,
+                    dg_loc,
+                    d2g_loc,
+                    dg,
+                    d2g,
+                    x1,
+                    N,
+                    dN,
+                    ddN,
+                )
+            else:  # the residual: no Hessian of the gap
+                _local_gradient(
+                    ftype_s,
+                    ftype_m,
+                    xs[f],
+                    xm[m],
+                    msign[m],
+                    qp_xi[f, q],
+                    qp_zeta[f, q],
+                    dg_loc,
+                    dg,
+                    x1,
+                    N,
+                    dN,
+                    ddN,
+                    wm,
+                )
             for c in range(d):
                 force[c] += pw * dg[c]
             for j in range(ns * d):
@@ -901,6 +947,223 @@ def node_rows(
                 for j in range(nloc):
                     b_val[o + j] = wphi * dg_loc[j]
                 fill[node] += nloc
+
+
+@numba.njit(cache=True)
+def _add_point_hessian(ns, nm, d, wq, N, d2g, h):
+    """h += wq T^T d2g T (nloc × nloc) for one point, T the map of the local dofs
+    [slave facet, master facet] to y = [x1, xm] (x1 = Σ_a N_a x_a; :func:`_local_derivatives`)."""
+    nsd = ns * d
+    nmd = nm * d
+    for a in range(ns):
+        wa = wq * N[a]
+        for b in range(ns):
+            wab = wa * N[b]
+            for c in range(d):
+                for c2 in range(d):
+                    h[a * d + c, b * d + c2] += wab * d2g[c, c2]
+        for c in range(d):
+            for j in range(nmd):
+                h[a * d + c, nsd + j] += wa * d2g[c, d + j]
+                h[nsd + j, a * d + c] += wa * d2g[d + j, c]
+    for i in range(nmd):
+        for j in range(nmd):
+            h[nsd + i, nsd + j] += wq * d2g[d + i, d + j]
+
+
+@numba.njit(cache=True)
+def jacobian_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    p,
+    mask,
+    want_hess,
+):
+    """The tangent's point terms in one pass, summed per (slave facet, master facet) pair:
+    the Hessian blocks of :func:`contact_terms` and the compressed rows B^I of
+    :func:`node_rows` and :func:`compress_rows`.
+
+    The leading arguments are those of :func:`contact_terms`; p (n_nodes,) the nodal
+    pressures, mask (n_nodes,) the nodes whose rows B^I are wanted (mask > 0: kcoef for
+    the B^I ⊗ B^I term). The paired points of a slave facet f with the same master facet
+    m (a group) share their local dofs [sdofs[f], mdofs[m]], so their terms are summed
+    before they leave the kernel: one Hessian block per group instead of one per point
+    (hertz3d, P1 triangles: 3.1 points a block at degree 6, 1.8 at degree 4), and nloc
+    entries per group in a row B^I before compression.
+
+    Returns (h_idx, h_val, c_off, c_idx, c_val):
+
+    * h_idx (nh, nloc) the dofs [sdofs[f], mdofs[m]] and h_val (nh, nloc, nloc)
+      −Σ_q p_w ∂²g/∂u² over the group's points, for every group with a point of p_w ≠ 0
+      (p_w as in :func:`contact_terms`), in the order of their first such point
+      ((facet, point) order); (0, nloc) and (0, nloc, nloc) unless ``want_hess``. The
+      blocks are those of :func:`contact_terms`' rows with p_w ≠ 0 summed per group.
+    * c_off (n_nodes + 1,), c_idx, c_val: the rows B^I of the owned nodes with mask > 0 as
+      :func:`compress_rows` gives them (sorted dofs ≥ 0, each once; c_idx and c_val are
+      longer than c_off[-1]), the same rows as :func:`node_rows` (the paired points of
+      every facet of I, weight 0 included) compressed; values to round-off (the points of
+      a group are summed first).
+    """
+    nsf, ns, d = xs.shape
+    nq = qp_xi.shape[1]
+    nm = xm.shape[1]
+    nphi = node_of.shape[1]
+    nloc = (ns + nm) * d
+    nsd = ns * d
+    n_nodes = mask.shape[0]
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
+        ftype_s, ns, nm, d, np.bool_(False)
+    )
+    wm = work(ftype_m)
+    # pass 1: the groups of each facet, p_w, the Hessian blocks and the rows' lengths
+    gid = np.full((nsf, nq), -1, np.int64)  # group of the point within its facet
+    gm = np.empty((nsf, nq), np.int64)  # master facet of the group
+    ngrp = np.zeros(nsf, np.int64)
+    hslot = np.full((nsf, nq), -1, np.int64)  # Hessian block of the group
+    pws = np.zeros((nsf, nq))
+    need = np.zeros(nsf, np.bool_)
+    b_count = np.zeros(n_nodes, np.int64)
+    nh = 0
+    for f in range(nsf):
+        ng = 0
+        for q in range(nq):
+            m = qp_m[f, q]
+            if m < 0:
+                continue
+            g = -1
+            for t in range(ng):
+                if gm[f, t] == m:
+                    g = t
+                    break
+            if g < 0:
+                g = ng
+                gm[f, g] = m
+                ng += 1
+            gid[f, q] = g
+            if want_hess:
+                shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+                pw = 0.0
+                for i in range(nphi):
+                    node = node_of[f, i]
+                    if node >= 0:
+                        pw += p[node] * Phi[i]
+                pw *= qp_w[f, q]
+                pws[f, q] = pw
+                if pw != 0.0 and hslot[f, g] < 0:
+                    hslot[f, g] = nh
+                    nh += 1
+        ngrp[f] = ng
+        for i in range(nphi):
+            node = node_of[f, i]
+            if node >= 0 and mask[node] > 0.0:
+                need[f] = True
+                b_count[node] += ng * nloc
+    h_idx = np.empty((nh, nloc), np.int64)
+    h_val = np.zeros((nh, nloc, nloc))
+    b_off = np.zeros(n_nodes + 1, np.int64)
+    for r in range(n_nodes):
+        b_off[r + 1] = b_off[r] + b_count[r]
+    b_idx = np.empty(b_off[n_nodes], np.int64)
+    b_val = np.zeros(b_off[n_nodes])
+    fill = b_off[:-1].copy()
+    base = np.empty(nphi, np.int64)  # where facet f's groups start in the row of its node i
+    # pass 2: the derivatives of the points that add to a block or a row
+    for f in range(nsf):
+        ng = ngrp[f]
+        if ng == 0:
+            continue
+        for g in range(ng):
+            s = hslot[f, g]
+            if s >= 0:
+                for j in range(nsd):
+                    h_idx[s, j] = sdofs[f, j]
+                for j in range(nloc - nsd):
+                    h_idx[s, nsd + j] = mdofs[gm[f, g], j]
+        if need[f]:
+            for i in range(nphi):
+                node = node_of[f, i]
+                base[i] = -1
+                if node < 0 or mask[node] <= 0.0:
+                    continue
+                base[i] = fill[node]
+                fill[node] += ng * nloc
+                for g in range(ng):
+                    o = base[i] + g * nloc
+                    for j in range(nsd):
+                        b_idx[o + j] = sdofs[f, j]
+                    for j in range(nloc - nsd):
+                        b_idx[o + nsd + j] = mdofs[gm[f, g], j]
+        for q in range(nq):
+            g = gid[f, q]
+            if g < 0:
+                continue
+            m = qp_m[f, q]
+            pw = pws[f, q]
+            s = hslot[f, g] if pw != 0.0 else -1
+            if s < 0 and not need[f]:
+                continue
+            if s >= 0:
+                _local_derivatives(
+                    ftype_s,
+                    ftype_m,
+                    xs[f],
+                    xm[m],
+                    msign[m],
+                    qp_xi[f, q],
+                    qp_zeta[f, q],
+                    np.bool_(False),
+                    dg_loc,
+                    d2g_loc,
+                    dg,
+                    d2g,
+                    x1,
+                    N,
+                    dN,
+                    ddN,
+                )
+                _add_point_hessian(ns, nm, d, -pw, N, d2g, h_val[s])
+            else:  # a row B^I only: no Hessian of the gap
+                _local_gradient(
+                    ftype_s,
+                    ftype_m,
+                    xs[f],
+                    xm[m],
+                    msign[m],
+                    qp_xi[f, q],
+                    qp_zeta[f, q],
+                    dg_loc,
+                    dg,
+                    x1,
+                    N,
+                    dN,
+                    ddN,
+                    wm,
+                )
+            if need[f]:
+                shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+                for i in range(nphi):
+                    if base[i] < 0:
+                        continue
+                    wphi = qp_w[f, q] * Phi[i]
+                    o = base[i] + g * nloc
+                    for j in range(nloc):
+                        b_val[o + j] += wphi * dg_loc[j]
+    c_off = np.zeros(n_nodes + 1, np.int64)
+    c_idx = np.empty_like(b_idx)
+    c_val = np.empty_like(b_val)
+    compress_rows(b_off, b_idx, b_val, c_off, c_idx, c_val)
+    return h_idx, h_val, c_off, c_idx, c_val
 
 
 @numba.njit(cache=True)

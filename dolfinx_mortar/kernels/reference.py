@@ -2,7 +2,7 @@ r"""Slow, obviously-correct NumPy/SciPy reference implementations of the contact
 
 Used by the tests to validate the numba kernels of :mod:`.shape` and :mod:`.gap`, the
 point kernels of :mod:`.mortar` (:func:`facet_mass`, :func:`contact_terms`,
-:func:`node_rows`, :func:`compress_rows`, :func:`point_xi_terms`) and
+:func:`node_rows`, :func:`compress_rows`, :func:`jacobian_terms`, :func:`point_xi_terms`) and
 :func:`.friction.slip_motion_blocks` (:func:`slip_motion_blocks`; the other references
 of :mod:`.friction` live there); same conventions (see :mod:`dolfinx_mortar.kernels.gap`).
 The point kernels' references are written from the kernels' docstring equations, with the
@@ -460,6 +460,60 @@ def node_rows(
     b_idx = np.concatenate([np.zeros(0, np.int64)] + [v for row in idx for v in row])
     b_val = np.concatenate([np.zeros(0)] + [v for row in val for v in row])
     return b_off, b_idx.astype(np.int64), b_val
+
+
+def jacobian_terms(
+    ftype_s,
+    ftype_m,
+    ftype_phi,
+    xs,
+    xm,
+    msign,
+    qp_xi,
+    qp_w,
+    qp_m,
+    qp_zeta,
+    sdofs,
+    mdofs,
+    node_of,
+    p,
+    mask,
+    want_hess,
+):
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.jacobian_terms`, from the
+    references of :func:`contact_terms`, :func:`node_rows` and :func:`compress_rows`: the
+    Hessian blocks of the rows with p_w ≠ 0 summed per (slave facet, master facet) pair,
+    in the order of each pair's first such row, and the compressed rows B^I of the nodes
+    with mask > 0. Returns (h_idx, h_val, c_off, c_idx, c_val)."""
+    args = (ftype_s, ftype_m, ftype_phi, xs, xm, msign, qp_xi, qp_w, qp_m, qp_zeta)
+    args += (sdofs, mdofs, node_of)
+    nloc = (xs.shape[1] + xm.shape[1]) * xs.shape[2]
+    h_idx, h_val = np.zeros((0, nloc), np.int64), np.zeros((0, nloc, nloc))
+    if want_hess:
+        r_hess = contact_terms(*args, p, mask, True)[2]
+        fr, qr = _paired_rows(qp_m)
+        pws = np.array(
+            [
+                qp_w[f, q]
+                * (
+                    np.where(node_of[f] >= 0, p[np.maximum(node_of[f], 0)], 0.0)
+                    @ shape(ftype_phi, qp_xi[f, q])[0]
+                )
+                for f, q in zip(fr, qr, strict=True)
+            ]
+        )
+        rows = np.flatnonzero(pws != 0.0)
+        key = fr[rows] * xm.shape[0] + qp_m[fr[rows], qr[rows]]
+        _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+        order = np.argsort(first)  # the groups in the order of their first row
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        h_val = np.zeros((order.size, nloc, nloc))
+        np.add.at(h_val, rank[inv.ravel()], r_hess[rows])
+        f1 = fr[rows][first[order]]
+        h_idx = np.concatenate([sdofs[f1], mdofs[qp_m[f1, qr[rows][first[order]]]]], axis=1)
+    c_off, c_idx, c_val = compress_rows(*node_rows(*args, mask))
+    return h_idx.astype(np.int64), h_val, c_off, c_idx, c_val
 
 
 def compress_rows(b_off, b_idx, b_val):
