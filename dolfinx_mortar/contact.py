@@ -135,7 +135,9 @@ INTEGRATIONS = ("element", "segment", "node")
 #: closest-point gap has a kink and Newton stalls; degree 7 on P1 lines/quads also keeps
 #: the element-integration patch test within 2 % (1.9 % worst in 3D, 0.5 % in 2D). On P1
 #: triangles (tetrahedra) degree 4 (6 points) does not: 5–7 % on the structured patch,
-#: up to 10.5 % on gmsh ones (docs/method-notes.md, "Default quadrature").
+#: up to 10.5 % on gmsh ones; degree 6 would (1.2–1.4 % structured), but the hertz3d demo
+#: then reads a Newton order ≥ 1.77 in its first step (docs/method-notes.md, "Default
+#: quadrature"; BENCHMARKS.md §84).
 DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
 #: ``penalty = "auto"``: ε_N^I = AUTO_PENALTY_FACTOR · E* / h_I (h_I: mean size of the
 #: slave facets around node I, E* the plane-strain effective modulus of the two bodies).
