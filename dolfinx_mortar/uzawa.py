@@ -527,26 +527,26 @@ class UzawaRounds:
                 # led to a 30-iteration solve that crawled on a kink; with the plain one
                 # 22; hertz2d_nu049_p1's released nodes: the same iterations either way)
                 info["exact_update"] = "plain (states changed)"
-                self.lmbda = np.maximum(self.p_hat, 0.0)
-                if self.frictional:
-                    self.lmbda_t = tau_law.copy()
-            elif self.frictional or self.recovery != "lumped":
-                # the finite-difference update: friction, or the mixed normal recoveries
-                # (p̂ = ⟨λ − ε M⁻¹G⟩ and p from the recovery's own solve)
-                rtol = self._forcing(EXACT_FD_RTOL, max(rel, rel_t))
-                law_now = (fstate, tau_law) if self.frictional else (None, None)
-                lam, lam_t = self._exact_multipliers_fd(*law_now, info, rtol)
+                lam = np.maximum(self.p_hat, 0.0)
+                lam_t = tau_law.copy() if self.frictional else None
             else:
-                rtol = self._forcing(EXACT_UPDATE_RTOL, rel)
-                lam, lam_t = self._exact_multipliers(d, info, rtol), None
-            if _two_cycle(self._round_changes):
-                # the exact updates 2-cycle: half the step (CYCLE_DAMPING)
-                lam = self.lmbda + CYCLE_DAMPING * (lam - self.lmbda)
-                if lam_t is not None:
-                    lam_t = self.lmbda_t + CYCLE_DAMPING * (lam_t - self.lmbda_t)
-                if self.displacement_update is not None:
-                    self.displacement_update = CYCLE_DAMPING * self.displacement_update
-                info["exact_update"] = info.get("exact_update", "") + ", damped (a 2-cycle)"
+                if self.frictional or self.recovery != "lumped":
+                    # the finite-difference update: friction, or the mixed normal
+                    # recoveries (p̂ = ⟨λ − ε M⁻¹G⟩ and p from the recovery's own solve)
+                    rtol = self._forcing(EXACT_FD_RTOL, max(rel, rel_t))
+                    law_now = (fstate, tau_law) if self.frictional else (None, None)
+                    lam, lam_t = self._exact_multipliers_fd(*law_now, info, rtol)
+                else:
+                    rtol = self._forcing(EXACT_UPDATE_RTOL, rel)
+                    lam, lam_t = self._exact_multipliers(d, info, rtol), None
+                if _two_cycle(self._round_changes):
+                    # the exact updates 2-cycle: half the step (CYCLE_DAMPING)
+                    lam = self.lmbda + CYCLE_DAMPING * (lam - self.lmbda)
+                    if lam_t is not None:
+                        lam_t = self.lmbda_t + CYCLE_DAMPING * (lam_t - self.lmbda_t)
+                    if self.displacement_update is not None:
+                        self.displacement_update = CYCLE_DAMPING * self.displacement_update
+                    info["exact_update"] = info.get("exact_update", "") + ", damped (a 2-cycle)"
             self.lmbda = lam
             if lam_t is not None:
                 self.lmbda_t = lam_t
