@@ -2156,7 +2156,9 @@ class MortarContact(UzawaRounds):
         )
 
     # ------------------------------------------------------------------ assembly
-    def _terms(self, want_jac: bool, masked: bool = True):
+    def _terms(self, masked: bool = True):
+        """The residual's entries per paired point and the contact force
+        (:func:`.kernels.mortar.contact_terms`): (res_idx, res_val, force, sdofs, mdofs)."""
         nsf = self.qp_w.shape[0]
         ns, nm, d = self.slave.nodes_per_facet, self.master.nodes_per_facet, self.gdim
         nloc = (ns + nm) * d
@@ -2169,22 +2171,16 @@ class MortarContact(UzawaRounds):
         npaired = int(np.count_nonzero(self.qp_m >= 0))
         res_idx = np.full((npaired, nloc), -1, np.int64)
         res_val = np.zeros((npaired, nloc))
-        hess_val = np.zeros((npaired if want_jac else 1, nloc, nloc))
-        b_count = np.zeros(self.node_blocks.size, np.int64)
         force = np.zeros(d)
         if nsf:
             kmortar.contact_terms(
                 *self._point_args(sdofs, mdofs),
                 self.p,
-                self.kcoef,
-                want_jac,
                 res_idx,
                 res_val,
-                hess_val,
-                b_count,
                 force,
             )
-        return res_idx, res_val, hess_val, b_count, force, sdofs, mdofs
+        return res_idx, res_val, force, sdofs, mdofs
 
     def _point_args(self, sdofs, mdofs) -> tuple:
         """The leading arguments shared by the point kernels (see kernels/mortar.py)."""
@@ -2226,7 +2222,7 @@ class MortarContact(UzawaRounds):
         constrained ones included (``ContactProblem.residual(..., apply_bcs=False)``:
         the reactions, which need the contact force on those dofs too).
         """
-        res_idx, res_val, _, _, _, _, _ = self._terms(False, masked)
+        res_idx, res_val, _, _, _ = self._terms(masked)
         keep = res_idx >= 0
         b.setValues(
             res_idx[keep].astype(PETSc.IntType), res_val[keep], addv=PETSc.InsertMode.ADD_VALUES
@@ -3495,7 +3491,7 @@ class MortarContact(UzawaRounds):
         The nodes are the mixed-field nodes of the slave surface, each counted on its
         owning rank.
         """
-        force = self._terms(False)[4]
+        force = self._terms()[2]
         active = self.p_hat > 0
         out = {"max_penetration": self._max_penetration()}
         if self.frictional:

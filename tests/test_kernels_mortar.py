@@ -1,6 +1,5 @@
 """The point kernels of :mod:`dolfinx_mortar.kernels.mortar` that build the contact residual
-and tangent (``contact_terms``, ``node_rows``, ``compress_rows``, ``jacobian_terms``,
-``point_xi_terms``)
+and tangent (``contact_terms``, ``jacobian_terms``, ``compress_rows``, ``point_xi_terms``)
 against their NumPy references in :mod:`dolfinx_mortar.kernels.reference` (written from
 the kernels' docstring equations, with the AD gap derivatives), on random but valid
 configurations: 2D and 3D, P1 and P2 facets, unpaired points (−1), zero weights, nodes not
@@ -134,84 +133,108 @@ def scene(ftype_s, ftype_m, ftype_phi, seed, nsf=3, nmf=3, nq=5):
     return args + (sdofs, mdofs, node_of), p, kcoef
 
 
-def run_contact_terms(args, p, kcoef, want_jac):
+def run_contact_terms(args, p):
     xs, xm, qp_m = args[3], args[4], args[8]
     nloc = (xs.shape[1] + xm.shape[1]) * xs.shape[2]
     n = int(np.count_nonzero(qp_m >= 0))
     res_idx = np.full((n, nloc), -7, np.int64)
     res_val = np.zeros((n, nloc))
-    hess_val = np.zeros((n if want_jac else 1, nloc, nloc))
-    b_count = np.zeros(p.size, np.int64)
     force = np.zeros(xs.shape[2])
-    kmortar.contact_terms(*args, p, kcoef, want_jac, res_idx, res_val, hess_val, b_count, force)
-    return res_idx, res_val, hess_val, b_count, force
+    kmortar.contact_terms(*args, p, res_idx, res_val, force)
+    return res_idx, res_val, force
 
 
-@pytest.mark.parametrize("want_jac", [True, False])
 @pytest.mark.parametrize("ftypes", CASES, ids=IDS)
-def test_contact_terms_matches_reference(ftypes, want_jac):
+def test_contact_terms_matches_reference(ftypes):
+    """The residual's entries and the force; the Hessian blocks of the same scenes are
+    checked through jacobian_terms (test_jacobian_terms_on_contact_terms_scenes)."""
     args, p, kcoef = scene(*ftypes, seed=sum(ftypes) + 10 * ftypes[0])
-    res_idx, res_val, hess_val, b_count, force = run_contact_terms(args, p, kcoef, want_jac)
-    r_idx, r_val, r_hess, r_count, r_force = kref.contact_terms(*args, p, kcoef, want_jac)
+    res_idx, res_val, force = run_contact_terms(args, p)
+    r_idx, r_val, _, r_force = kref.contact_terms(*args, p)
     np.testing.assert_array_equal(res_idx, r_idx)
-    np.testing.assert_array_equal(b_count, r_count)
     close(res_val, r_val)
     close(force, r_force)
-    if want_jac:
-        close(hess_val, r_hess, RTOL_HESS)
     # the cases exercise every branch: rows with p_w = 0 (res_idx −1) and constrained dofs
     live = (res_idx >= 0).any(axis=1)
     assert live.sum() >= 3 and (~live).sum() >= 3
     assert (res_idx[live] < 0).any()
-    assert (b_count > 0).any() and (b_count == 0).any()
 
 
-@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
-def test_node_rows_and_compress_rows_match_reference(ftypes):
-    """B^I rows: with the offsets of contact_terms' b_count (the reference's, compared with
-    the kernel's in test_contact_terms_matches_reference), node_rows fills them entry for
-    entry as the reference; compressed, the row is the dense sum of the entries per dof ≥ 0."""
-    args, p, kcoef = scene(*ftypes, seed=100 + sum(ftypes))
-    b_count = kref.contact_terms(*args, p, kcoef, False)[3]
-    r_off, r_idx, r_val = kref.node_rows(*args, kcoef)
-    b_off = np.concatenate([[0], np.cumsum(b_count)]).astype(np.int64)
-    np.testing.assert_array_equal(b_off, r_off)
-    b_idx = np.full(b_off[-1], -7, np.int64)
-    b_val = np.full(b_off[-1], np.nan)
-    kmortar.node_rows(*args, kcoef, b_off, b_idx, b_val)
-    np.testing.assert_array_equal(b_idx, r_idx)
-    close(b_val, r_val)
-    c_off, c_idx, c_val = _compressed(b_off, b_idx, b_val)
-    ndof = 1 + max(b_idx.max(initial=0), 0)
-    dense = np.zeros((b_count.size, ndof))
-    row = np.repeat(np.arange(b_count.size), b_count)
-    keep = b_idx >= 0
-    np.add.at(dense, (row[keep], b_idx[keep]), b_val[keep])
-    back = np.zeros_like(dense)
-    back[np.repeat(np.arange(b_count.size), np.diff(c_off)), c_idx[: c_off[-1]]] = c_val[
-        : c_off[-1]
-    ]
-    close(back, dense)
-    assert (b_idx < 0).any() and c_off[-1] < b_off[-1]
-
-
-@pytest.mark.parametrize("want_hess", [True, False])
-@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
-def test_jacobian_terms_matches_reference(ftypes, want_hess):
-    """The one-pass tangent terms: the Hessian blocks of contact_terms summed per (slave
-    facet, master facet) pair and the compressed rows B^I of node_rows, against the
-    reference (the per-point references summed); the scenes hold pairs of several points,
-    of which some have p_w = 0, and facets paired with several master facets."""
-    args, p, kcoef = scene(*ftypes, seed=200 + sum(ftypes), nq=7)
-    h_idx, h_val, c_off, c_idx, c_val = kmortar.jacobian_terms(*args, p, kcoef, want_hess)
+def check_jacobian_terms(args, p, kcoef, want_hess):
+    """jacobian_terms against its reference (the per-point references summed per pair and
+    compressed); returns the kernel's (h_idx, h_val, c_off, c_idx, c_val)."""
+    out = kmortar.jacobian_terms(*args, p, kcoef, want_hess)
+    h_idx, h_val, c_off, c_idx, c_val = out
     r_idx, r_val, rc_off, rc_idx, rc_val = kref.jacobian_terms(*args, p, kcoef, want_hess)
     np.testing.assert_array_equal(h_idx, r_idx)
     close(h_val, r_val, RTOL_HESS)
     np.testing.assert_array_equal(c_off, rc_off)
     np.testing.assert_array_equal(c_idx[: c_off[-1]], rc_idx)
     close(c_val[: c_off[-1]], rc_val)
-    # the blocks are the kernel's own per-point blocks (contact_terms) summed per pair
-    res_idx, _, hess_val, _, _ = run_contact_terms(args, p, kcoef, True)
+    return out
+
+
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_jacobian_terms_on_contact_terms_scenes(ftypes):
+    """The Hessian blocks and rows B^I of jacobian_terms on the scenes of
+    test_contact_terms_matches_reference (where contact_terms' own Hessian blocks, before
+    session 63, were checked against the reference), and with one point per (slave facet,
+    master facet) pair: every block is then one point's, checked without a sum."""
+    args, p, kcoef = scene(*ftypes, seed=sum(ftypes) + 10 * ftypes[0])
+    check_jacobian_terms(args, p, kcoef, True)
+    qp_m = args[8].copy()
+    for f in range(qp_m.shape[0]):  # unpair the repeats of a master facet within a facet
+        seen = set()
+        for q in range(qp_m.shape[1]):
+            if qp_m[f, q] in seen:
+                qp_m[f, q] = -1
+            elif qp_m[f, q] >= 0:
+                seen.add(qp_m[f, q])
+    one = args[:8] + (qp_m,) + args[9:]
+    h_idx = check_jacobian_terms(one, p, kcoef, True)[0]
+    live = (kref.contact_terms(*one, p)[0] >= 0).any(axis=1)
+    assert h_idx.shape[0] == live.sum() > 0  # one block per live point
+
+
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_rows_and_compress_rows_match_reference(ftypes):
+    """B^I rows with the kcoef mask: compress_rows of the reference's uncompressed rows is
+    the reference's compression and the dense sum of the entries per dof ≥ 0, and
+    jacobian_terms' rows are those (the scenes of node_rows' test before session 63)."""
+    args, p, kcoef = scene(*ftypes, seed=100 + sum(ftypes))
+    b_off, b_idx, b_val = kref.node_rows(*args, kcoef)
+    c_off, c_idx, c_val = _compressed(b_off, b_idx, b_val)
+    n_nodes = kcoef.size
+    ndof = 1 + max(b_idx.max(initial=0), 0)
+    dense = np.zeros((n_nodes, ndof))
+    row = np.repeat(np.arange(n_nodes), np.diff(b_off))
+    keep = b_idx >= 0
+    np.add.at(dense, (row[keep], b_idx[keep]), b_val[keep])
+    back = np.zeros_like(dense)
+    back[np.repeat(np.arange(n_nodes), np.diff(c_off)), c_idx[: c_off[-1]]] = c_val[: c_off[-1]]
+    close(back, dense)
+    assert (b_idx < 0).any() and c_off[-1] < b_off[-1]
+    assert (np.diff(b_off) > 0).any() and (np.diff(b_off) == 0).any()
+    # only the masked nodes' rows; and with the Hessian blocks or without, the same rows
+    for want_hess in (False, True):
+        k_off, k_idx, k_val = check_jacobian_terms(args, p, kcoef, want_hess)[2:]
+        np.testing.assert_array_equal(k_off, c_off)
+        np.testing.assert_array_equal(k_idx[: k_off[-1]], c_idx[: c_off[-1]])
+        close(k_val[: k_off[-1]], c_val[: c_off[-1]])
+
+
+@pytest.mark.parametrize("want_hess", [True, False])
+@pytest.mark.parametrize("ftypes", CASES, ids=IDS)
+def test_jacobian_terms_matches_reference(ftypes, want_hess):
+    """The one-pass tangent terms: the Hessian blocks summed per (slave facet, master
+    facet) pair and the compressed rows B^I, against the reference (the per-point
+    references summed); the scenes hold pairs of several points, of which some have
+    p_w = 0, and facets paired with several master facets."""
+    args, p, kcoef = scene(*ftypes, seed=200 + sum(ftypes), nq=7)
+    h_idx, h_val, c_off, c_idx, c_val = check_jacobian_terms(args, p, kcoef, want_hess)
+    # the blocks are the reference's per-point blocks summed per pair, grouped here
+    # independently of kref.jacobian_terms (first-row order by dict)
+    res_idx, _, hess_val, _ = kref.contact_terms(*args, p, True)
     live = (res_idx >= 0).any(axis=1)
     assert c_off[-1] > 0
     if want_hess:
@@ -220,6 +243,7 @@ def test_jacobian_terms_matches_reference(ftypes, want_hess):
         fr, qr = np.nonzero(qp_m >= 0)
         key = fr * args[4].shape[0] + qp_m[fr, qr]
         hkey = list(dict.fromkeys(key[hess_val.any(axis=(1, 2))]))  # first-row order
+        assert len(hkey) == h_idx.shape[0]
         for b, k in enumerate(hkey):
             close(h_val[b], hess_val[key == k].sum(axis=0), RTOL_HESS)
     else:

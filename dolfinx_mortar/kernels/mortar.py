@@ -755,36 +755,27 @@ def contact_terms(
     mdofs,
     node_of,
     p,
-    kcoef,
-    want_jac,
     res_idx,
     res_val,
-    hess_val,
-    b_count,
     force,
 ):
-    """Residual entries, Hessian blocks and the number of B^I entries of every active node.
+    """The contact residual's entries per paired point, and the contact force.
 
     Inputs: xs (nsf, ns, d), xm (nmf, nm, d) current nodes, msign (nmf,), qp_xi (nsf, nq,
     ks), qp_w (nsf, nq) weights w J₀, qp_m (nsf, nq) paired master facet or −1, qp_zeta
     (nsf, nq, km) the converged closest-point projections of the paired points (as
     :func:`pair_points`); node_of (nsf, nphi) owned-node index or −1; p (n_nodes,) nodal
-    pressures; kcoef (n_nodes,) = ε H^I / A^I (0: no B⊗B term); sdofs (nsf, ns·d), mdofs
-    (nmf, nm·d) global dofs (−1 = ignored by PETSc); nloc = (ns + nm)·d.
+    pressures; sdofs (nsf, ns·d), mdofs (nmf, nm·d) global dofs (−1 = ignored by PETSc);
+    nloc = (ns + nm)·d.
 
     Per paired point (f, q) with master m, p_w = w J₀ Σ_I p^I Φ_I(ξ_q) over the owned nodes
     I of facet f (node_of ≥ 0). Outputs: res_idx, res_val (n_paired, nloc): entries of
     R_c = −Σ_I p^I B^I per PAIRED point (qp_m ≥ 0), in (facet, point) order: res_idx =
     [sdofs[f], mdofs[m]], res_val = −p_w ∂g/∂u (local dofs); a row with p_w = 0 (weight 0,
-    or no pressure at its facet's owned nodes) gets res_idx −1 and its res_val and hess_val
-    rows are left as given (pass zeros); hess_val (n_paired, nloc, nloc): −p_w ∂²g/∂u² =
-    −Σ_I p^I w J₀ Φ_I ∂²g per paired point when want_jac (indices = res_idx row; not
-    touched otherwise, then (1, nloc, nloc) will do). Rows are per paired point only:
-    segment integration leaves most of the (nsf, nq) slots empty, and a dense Hessian per
-    slot took gigabytes in 3D. b_count (n_nodes,) += nloc for every paired point (weight 0
-    included) of every facet of an owned node with kcoef > 0: the length of its row B^I in
-    :func:`node_rows`. force (d,) += Σ_q p_w ν(ζ_q) = Σ_I p^I Σ_q w J₀ Φ_I ν, the force of
-    the master on the slave (ν = ∂g/∂x₁, the master's outward unit normal).
+    or no pressure at its facet's owned nodes) gets res_idx −1 and its res_val row is left
+    as given (pass zeros). force (d,) += Σ_q p_w ν(ζ_q) = Σ_I p^I Σ_q w J₀ Φ_I ν, the force
+    of the master on the slave (ν = ∂g/∂x₁, the master's outward unit normal). The
+    tangent's terms (the gap's Hessian, the rows B^I) are :func:`jacobian_terms`'.
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -792,7 +783,7 @@ def contact_terms(
     nphi = node_of.shape[1]
     nloc = (ns + nm) * d
     N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
-        ftype_s, ns, nm, d, np.bool_(True)
+        ftype_s, ns, nm, d, np.bool_(False)
     )
     wm = work(ftype_m)
     row = -1
@@ -810,47 +801,26 @@ def contact_terms(
                 node = node_of[f, i]
                 if node >= 0:
                     pw += p[node] * Phi[i]
-                    if kcoef[node] > 0.0:
-                        b_count[node] += nloc
             pw *= qp_w[f, q]
             if pw == 0.0:
                 continue
-            if want_jac:
-                _local_derivatives(
-                    ftype_s,
-                    ftype_m,
-                    xs[f],
-                    xm[m],
-                    msign[m],
-                    qp_xi[f, q],
-                    qp_zeta[f, q],
-                    want_jac,
-                    dg_loc,
-                    d2g_loc,
-                    dg,
-                    d2g,
-                    x1,
-                    N,
-                    dN,
-                    ddN,
-                )
-            else:  # the residual: no Hessian of the gap
-                _local_gradient(
-                    ftype_s,
-                    ftype_m,
-                    xs[f],
-                    xm[m],
-                    msign[m],
-                    qp_xi[f, q],
-                    qp_zeta[f, q],
-                    dg_loc,
-                    dg,
-                    x1,
-                    N,
-                    dN,
-                    ddN,
-                    wm,
-                )
+            # no Hessian of the gap
+            _local_gradient(
+                ftype_s,
+                ftype_m,
+                xs[f],
+                xm[m],
+                msign[m],
+                qp_xi[f, q],
+                qp_zeta[f, q],
+                dg_loc,
+                dg,
+                x1,
+                N,
+                dN,
+                ddN,
+                wm,
+            )
             for c in range(d):
                 force[c] += pw * dg[c]
             for j in range(ns * d):
@@ -859,94 +829,6 @@ def contact_terms(
                 res_idx[row, ns * d + j] = mdofs[m, j]
             for j in range(nloc):
                 res_val[row, j] = -pw * dg_loc[j]
-            if want_jac:
-                for i in range(nloc):
-                    for j in range(nloc):
-                        hess_val[row, i, j] = -pw * d2g_loc[i, j]
-
-
-@numba.njit(cache=True)
-def node_rows(
-    ftype_s,
-    ftype_m,
-    ftype_phi,
-    xs,
-    xm,
-    msign,
-    qp_xi,
-    qp_w,
-    qp_m,
-    qp_zeta,
-    sdofs,
-    mdofs,
-    node_of,
-    kcoef,
-    b_off,
-    b_idx,
-    b_val,
-):
-    """Fill the rows B^I = ∂G^I/∂u = Σ_q w J₀ Φ_I(ξ_q) ∂g_q/∂u of the owned nodes with
-    kcoef > 0, uncompressed (:func:`compress_rows` merges them).
-
-    The leading arguments are those of :func:`contact_terms`; kcoef (n_nodes,); b_off
-    (n_nodes + 1,) the offsets of the rows, the cumulative sum of :func:`contact_terms`'
-    b_count. Row I (b_idx, b_val in b_off[I]:b_off[I+1]) holds, per paired point of each
-    facet f of I (weight 0 included), in (facet, point) order, nloc = (ns + nm)·d entries:
-    the dofs [sdofs[f], mdofs[m]] (−1 kept) and the values w J₀ Φ_I ∂g/∂u (local dofs).
-    """
-    nsf, ns, d = xs.shape
-    nq = qp_xi.shape[1]
-    nm = xm.shape[1]
-    nphi = node_of.shape[1]
-    nloc = (ns + nm) * d
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
-        ftype_s, ns, nm, d, np.bool_(False)
-    )
-    fill = b_off[:-1].copy()
-    for f in range(nsf):
-        for q in range(nq):
-            m = qp_m[f, q]
-            if m < 0:
-                continue
-            need = False
-            for i in range(nphi):
-                node = node_of[f, i]
-                if node >= 0 and kcoef[node] > 0.0:
-                    need = True
-            if not need:
-                continue
-            _local_derivatives(
-                ftype_s,
-                ftype_m,
-                xs[f],
-                xm[m],
-                msign[m],
-                qp_xi[f, q],
-                qp_zeta[f, q],
-                np.bool_(False),
-                dg_loc,
-                d2g_loc,
-                dg,
-                d2g,
-                x1,
-                N,
-                dN,
-                ddN,
-            )
-            shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
-            for i in range(nphi):
-                node = node_of[f, i]
-                if node < 0 or kcoef[node] <= 0.0:
-                    continue
-                wphi = qp_w[f, q] * Phi[i]
-                o = fill[node]
-                for j in range(ns * d):
-                    b_idx[o + j] = sdofs[f, j]
-                for j in range(nm * d):
-                    b_idx[o + ns * d + j] = mdofs[m, j]
-                for j in range(nloc):
-                    b_val[o + j] = wphi * dg_loc[j]
-                fill[node] += nloc
 
 
 @numba.njit(cache=True)
@@ -991,8 +873,8 @@ def jacobian_terms(
     want_hess,
 ):
     """The tangent's point terms in one pass, summed per (slave facet, master facet) pair:
-    the Hessian blocks of :func:`contact_terms` and the compressed rows B^I of
-    :func:`node_rows` and :func:`compress_rows`.
+    the Hessian blocks −p_w ∂²g/∂u² and the rows B^I = ∂G^I/∂u = Σ_q w J₀ Φ_I(ξ_q) ∂g_q/∂u,
+    compressed (:func:`compress_rows`).
 
     The leading arguments are those of :func:`contact_terms`; p (n_nodes,) the nodal
     pressures, mask (n_nodes,) the nodes whose rows B^I are wanted (mask > 0: kcoef for
@@ -1008,12 +890,13 @@ def jacobian_terms(
       −Σ_q p_w ∂²g/∂u² over the group's points, for every group with a point of p_w ≠ 0
       (p_w as in :func:`contact_terms`), in the order of their first such point
       ((facet, point) order); (0, nloc) and (0, nloc, nloc) unless ``want_hess``. The
-      blocks are those of :func:`contact_terms`' rows with p_w ≠ 0 summed per group.
+      blocks are the per-point blocks −p_w ∂²g/∂u² (rows of :func:`contact_terms` with
+      p_w ≠ 0) summed per group.
     * c_off (n_nodes + 1,), c_idx, c_val: the rows B^I of the owned nodes with mask > 0 as
       :func:`compress_rows` gives them (sorted dofs ≥ 0, each once; c_idx and c_val are
-      longer than c_off[-1]), the same rows as :func:`node_rows` (the paired points of
-      every facet of I, weight 0 included) compressed; values to round-off (the points of
-      a group are summed first).
+      longer than c_off[-1]): per paired point of every facet of I (weight 0 included),
+      the nloc entries w J₀ Φ_I ∂g/∂u at the dofs [sdofs[f], mdofs[m]], compressed;
+      values to round-off (the points of a group are summed first).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]

@@ -2,7 +2,7 @@ r"""Slow, obviously-correct NumPy/SciPy reference implementations of the contact
 
 Used by the tests to validate the numba kernels of :mod:`.shape` and :mod:`.gap`, the
 point kernels of :mod:`.mortar` (:func:`facet_mass`, :func:`contact_terms`,
-:func:`node_rows`, :func:`compress_rows`, :func:`jacobian_terms`, :func:`point_xi_terms`) and
+:func:`compress_rows`, :func:`jacobian_terms`, :func:`point_xi_terms`) and
 :func:`.friction.slip_motion_blocks` (:func:`slip_motion_blocks`; the other references
 of :mod:`.friction` live there); same conventions (see :mod:`dolfinx_mortar.kernels.gap`).
 The point kernels' references are written from the kernels' docstring equations, with the
@@ -374,19 +374,18 @@ def contact_terms(
     mdofs,
     node_of,
     p,
-    kcoef,
-    want_jac,
+    want_jac=False,
 ):
-    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.contact_terms`.
+    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.contact_terms` and, with
+    ``want_jac``, of the per-point Hessian blocks that :func:`jacobian_terms` sums.
 
     Per paired point (f, q) with master m, p_w = w_q J₀ Σ_I p^I Φ_I(ξ_q) over the owned
     nodes I of facet f; rows with p_w = 0 keep res_idx = −1. Otherwise res_idx = [sdofs[f],
     mdofs[m]], res_val = −p_w ∂g/∂u, hess_val = −p_w ∂²g/∂u² (u the local dofs, through
-    x₁ = Σ_a N_a(ξ) x_a) and force += p_w ν(ζ_q). b_count^I = nloc × (paired points of the
-    facets of I) for the owned nodes with kcoef > 0 (the length of the row B^I).
-    Returns (res_idx, res_val, hess_val or None, b_count, force).
+    x₁ = Σ_a N_a(ξ) x_a) and force += p_w ν(ζ_q).
+    Returns (res_idx, res_val, hess_val or None, force).
     """
-    nsf, ns, d = xs.shape
+    ns, d = xs.shape[1:]
     nm = xm.shape[1]
     nloc = (ns + nm) * d
     fr, qr = _paired_rows(qp_m)
@@ -395,11 +394,6 @@ def contact_terms(
     res_val = np.zeros((n, nloc))
     hess_val = np.zeros((n, nloc, nloc)) if want_jac else None
     force = np.zeros(d)
-    b_count = np.zeros(p.size, np.int64)
-    fi, ii = np.nonzero(node_of >= 0)
-    nodes = node_of[fi, ii]
-    sel = kcoef[nodes] > 0.0
-    np.add.at(b_count, nodes[sel], nloc * np.bincount(fr, minlength=nsf)[fi[sel]])
     for r, (f, q) in enumerate(zip(fr, qr, strict=True)):
         m = qp_m[f, q]
         xi, zeta = qp_xi[f, q], qp_zeta[f, q]
@@ -415,7 +409,7 @@ def contact_terms(
         if want_jac:
             hess_val[r] = -pw * (T.T @ d2g @ T)
         force += pw * normal(xm[m], ftype_m, msign[m], zeta)
-    return res_idx, res_val, hess_val, b_count, force
+    return res_idx, res_val, hess_val, force
 
 
 def node_rows(
@@ -434,8 +428,8 @@ def node_rows(
     node_of,
     kcoef,
 ):
-    """NumPy reference of :func:`dolfinx_mortar.kernels.mortar.node_rows`: the rows
-    B^I = ∂G^I/∂u = Σ_q w_q J₀ Φ_I(ξ_q) ∂g_q/∂u of the owned nodes with kcoef > 0, one block
+    """The rows B^I = ∂G^I/∂u = Σ_q w_q J₀ Φ_I(ξ_q) ∂g_q/∂u of the owned nodes with
+    kcoef > 0 (the rows of :func:`jacobian_terms`, before compression), one block
     of nloc entries (dofs [sdofs[f], mdofs[m]], values w Φ_I ∂g/∂u_loc) per paired point of
     the node's facets, in (facet, point) order, uncompressed. Returns (b_off, b_idx, b_val).
     """
@@ -490,7 +484,7 @@ def jacobian_terms(
     nloc = (xs.shape[1] + xm.shape[1]) * xs.shape[2]
     h_idx, h_val = np.zeros((0, nloc), np.int64), np.zeros((0, nloc, nloc))
     if want_hess:
-        r_hess = contact_terms(*args, p, mask, True)[2]
+        r_hess = contact_terms(*args, p, True)[2]
         fr, qr = _paired_rows(qp_m)
         pws = np.array(
             [
