@@ -647,9 +647,7 @@ def _local_derivatives(
     sign,
     xi,
     zeta,
-    want_hess,
     dg_loc,
-    d2g_loc,
     dg,
     d2g,
     x1,
@@ -657,7 +655,8 @@ def _local_derivatives(
     dN,
     ddN,
 ):
-    """g and its derivatives with respect to the local dofs [slave facet, master facet] of one point."""
+    """g, ∂g/∂u with respect to the local dofs [slave facet, master facet] of one point
+    (dg_loc), and the derivatives with respect to y = [x1, xm] (dg, d2g)."""
     ns = xs_f.shape[0]
     nm = xm_m.shape[0]
     d = xs_f.shape[1]
@@ -665,25 +664,11 @@ def _local_derivatives(
     g = gap_and_derivatives(x1, xm_m, ftype_m, sign, zeta, dg, d2g)
     # T maps local dofs to y = [x1, xm]: dx1_c/dxs_{a,c} = N_a, identity on the master block
     nsd = ns * d
-    nloc = nsd + nm * d
     for a in range(ns):
         for c in range(d):
             dg_loc[a * d + c] = N[a] * dg[c]
     for j in range(nm * d):
         dg_loc[nsd + j] = dg[d + j]
-    if want_hess:
-        for i in range(nloc):
-            if i < nsd:
-                wi = N[i // d]
-                yi = i % d
-            else:
-                wi = 1.0
-                yi = d + i - nsd
-            for j in range(nloc):
-                if j < nsd:
-                    d2g_loc[i, j] = wi * N[j // d] * d2g[yi, j % d]
-                else:
-                    d2g_loc[i, j] = wi * d2g[yi, d + j - nsd]
     return g
 
 
@@ -715,15 +700,13 @@ def _local_gradient(ftype_s, ftype_m, xs_f, xm_m, sign, xi, zeta, dg_loc, dg, x1
 
 
 @numba.njit(cache=True)
-def _workspace(ftype_s, ns, nm, d, want_hess):
+def _workspace(ftype_s, ns, nm, d):
     """Work arrays of the point loops: slave shape functions (N, dN, ddN), mixed shape
     functions (Phi, dP, ddP; up to 9 nodes), the slave point x1, the gap derivatives with
-    respect to y = [x1, xm] (dg, d2g) and to the local dofs (dg_loc, d2g_loc; 1×1 when
-    no Hessian is wanted)."""
+    respect to y = [x1, xm] (dg, d2g) and to the local dofs (dg_loc)."""
     ks = tdim(ftype_s)
     nloc = (ns + nm) * d
     ny = d * (1 + nm)
-    h = nloc if want_hess else 1
     return (
         np.empty(ns),
         np.empty((ns, ks)),
@@ -735,7 +718,6 @@ def _workspace(ftype_s, ns, nm, d, want_hess):
         np.empty(ny),
         np.empty((ny, ny)),
         np.empty(nloc),
-        np.empty((h, h)),
     )
 
 
@@ -782,9 +764,7 @@ def contact_terms(
     nm = xm.shape[1]
     nphi = node_of.shape[1]
     nloc = (ns + nm) * d
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
-        ftype_s, ns, nm, d, np.bool_(False)
-    )
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc = _workspace(ftype_s, ns, nm, d)
     wm = work(ftype_m)
     row = -1
     for f in range(nsf):
@@ -905,9 +885,7 @@ def jacobian_terms(
     nloc = (ns + nm) * d
     nsd = ns * d
     n_nodes = mask.shape[0]
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
-        ftype_s, ns, nm, d, np.bool_(False)
-    )
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc = _workspace(ftype_s, ns, nm, d)
     wm = work(ftype_m)
     # pass 1: the groups of each facet, p_w, the Hessian blocks and the rows' lengths
     gid = np.full((nsf, nq), -1, np.int64)  # group of the point within its facet
@@ -1005,9 +983,7 @@ def jacobian_terms(
                     msign[m],
                     qp_xi[f, q],
                     qp_zeta[f, q],
-                    np.bool_(False),
                     dg_loc,
-                    d2g_loc,
                     dg,
                     d2g,
                     x1,
@@ -1121,9 +1097,7 @@ def point_xi_terms(
     nm = xm.shape[1]
     k = qp_xi.shape[2]
     nphi = phi.shape[1]
-    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc, d2g_loc = _workspace(
-        ftype_s, ns, nm, d, np.bool_(False)
-    )
+    N, dN, ddN, Phi, dP, ddP, x1, dg, d2g, dg_loc = _workspace(ftype_s, ns, nm, d)
     xp = np.empty((k, d))
     row = -1
     for f in range(nsf):
@@ -1140,9 +1114,7 @@ def point_xi_terms(
                 msign[m],
                 qp_xi[f, q],
                 qp_zeta[f, q],
-                np.bool_(False),
                 dg_loc,
-                d2g_loc,
                 dg,
                 d2g,
                 x1,
