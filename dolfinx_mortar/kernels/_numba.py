@@ -22,8 +22,8 @@ change), ``friction.py``'s cached kernels still loaded with the old ``gap`` code
 and where the old and the new code of one callee met in a process under the same symbol
 name (numba names a function by its qualified name, a per-process counter and its
 argument types), the first one loaded served both: a session-62 edit of ``mortar.py``
-left ``node_rows`` returning wrong rows after a frictional run in the same process,
-until the cache was deleted. Here every function of this package's files is cached
+left ``node_rows`` (a kernel since removed) returning wrong rows after a frictional run
+in the same process, until the cache was deleted. Here every function of this package's files is cached
 against :func:`source_stamp`, the times and sizes of all the kernel sources
 (:data:`KERNEL_DIR`'s ``*.py``) and of its own file: an edit of any kernel source makes
 every kernel compile afresh, once. numba's own choice of the cache folder is kept (the
