@@ -706,6 +706,76 @@ def test_two_cycle_rule():
     assert _two_cycle([0.27, 0.082, 0.27 * 1.04, 0.082 * 0.96])
 
 
+@pytest.mark.parametrize("friction", [0.0, 0.2])
+def test_a_damped_exact_update_takes_half_its_step(friction, tmp_path, monkeypatch):
+    """The 2-cycle rule's damping (uzawa.CYCLE_DAMPING) on both exact updates, the
+    frictionless one (_exact_multipliers) and the finite-difference one with friction
+    (_exact_multipliers_fd): with _two_cycle made to fire at the second update of each
+    step, that round's λ (and λ_T) is the old value plus half the exact update's change
+    at every node the round does not clear (paired area, not a sliver), its displacement
+    update is half the exact one, it says "damped (a 2-cycle)", and the rounds still
+    converge to the Uzawa tolerance (serial)."""
+    from dolfinx_mortar.runner import run
+    from dolfinx_mortar.scene import parse_scene
+
+    monkeypatch.setattr(uzawa, "_two_cycle", lambda changes: len(changes) == 2)
+    seen = []
+    exact_fns = {
+        name: getattr(uzawa.UzawaRounds, name)
+        for name in ("_exact_multipliers", "_exact_multipliers_fd")
+    }
+
+    def recording(name):
+        def wrapper(self, *args):
+            out = exact_fns[name](self, *args)
+            lam, lam_t = (out, None) if name == "_exact_multipliers" else out
+            du = self.displacement_update
+            seen[-1]["exact"] = (
+                lam.copy(),
+                None if lam_t is None else lam_t.copy(),
+                None if du is None else du.copy(),
+            )
+            return out
+
+        return wrapper
+
+    for name in exact_fns:
+        monkeypatch.setattr(uzawa.UzawaRounds, name, recording(name))
+    update = uzawa.UzawaRounds.uzawa_update
+
+    def multipliers(term):
+        return term.lmbda.copy(), term.lmbda_t.copy() if term.frictional else None
+
+    def watched(self):
+        seen.append({"before": multipliers(self)})
+        done, info = update(self)
+        seen[-1].update(
+            info=info,
+            after=multipliers(self),
+            keep=self.has_area & ~self.sliver_nodes(),
+            du=self.displacement_update,
+        )
+        return done, info
+
+    monkeypatch.setattr(uzawa.UzawaRounds, "uzawa_update", watched)
+    out = run(parse_scene(_hertz("newton", friction=friction), tmp_path), MPI.COMM_WORLD, tmp_path)
+    assert out["status"] == "ok", out.get("error")
+    damped = [r for r in seen if "damped (a 2-cycle)" in r["info"].get("exact_update", "")]
+    assert damped and all("exact" in r for r in damped), [r["info"] for r in seen]
+    for r in damped:
+        (lam0, lt0), (lam1, lt1, du1), (lam, lt) = r["before"], r["exact"], r["after"]
+        keep = r["keep"]
+        assert np.allclose(lam[keep], (lam0 + 0.5 * (lam1 - lam0))[keep], rtol=0, atol=1e-12)
+        if friction:
+            half = lt0 + 0.5 * (lt1 - lt0)
+            assert np.allclose(lt[keep], half[keep], rtol=0, atol=1e-12)
+        if du1 is not None:
+            assert np.allclose(r["du"], 0.5 * du1, rtol=0, atol=1e-15)
+    for st in out["steps"]:
+        last = next(iter(st["uzawa"][-1].values()))
+        assert max(last["multiplier_change"], last.get("tangential_change", 0.0)) <= 1e-8
+
+
 @pytest.mark.mpi2
 def test_a_slow_constrained_3d_press_switches_to_the_exact_update(tmp_path_factory):
     """ "auto" on a pair with a mixed normal recovery is Aitken, switching to the exact
