@@ -118,3 +118,27 @@ def test_two_processes_saving_two_signatures_at_once_keep_each_its_code(tmp_path
     names = sorted(p.name for p in keyed.iterdir())
     assert len(names) == 3 and names[-1] == "k.f-1.py311.nbi", names  # A's, B's, index
     assert _numba.KeyedIndexDataCacheFile(str(tmp_path), "x", stamp).keyed is False
+
+
+def test_a_keyed_entry_is_indexed_after_its_data_is_written(tmp_path, monkeypatch):
+    """KeyedIndexDataCacheFile.save writes the data file before the index names it, so a
+    process that reads the new entry finds its data (numba writes the index first; a
+    reader in between loaded whatever an earlier compile had left under the name)."""
+    stamp = (("kernels/f.py", 1.0, 10),)
+    monkeypatch.setattr(_numba, "PACKAGE_CACHE_PATHS", {str(tmp_path)})
+    cache = _numba.KeyedIndexDataCacheFile(str(tmp_path), "k.f-1.py311", stamp)
+    name = cache.keyed_name(("A",))
+    save_index = cache._save_index
+    seen = []
+
+    def checked(overloads):
+        seen.append((tmp_path / name).is_file())
+        save_index(overloads)
+
+    cache._save_index = checked
+    cache.save(("A",), "code for A")
+    cache.save(("A",), "code for A, again")  # the entry is indexed: no index write
+    assert seen == [True]
+    assert _numba.KeyedIndexDataCacheFile(str(tmp_path), "k.f-1.py311", stamp).load(("A",)) == (
+        "code for A, again"
+    )

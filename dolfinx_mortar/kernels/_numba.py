@@ -16,19 +16,19 @@ nothing is ignored where numba was imported already.
 
 **Cache freshness.** numba's on-disk cache (``cache=True``) keys a kernel's entries to
 the modification time and size of the kernel's own source file only, but a cached kernel
-holds the machine code of every kernel it calls, from other files too, as they were
-when it was compiled. After an edit of ``gap.py`` (an update of the package, a developer's
+holds the machine code of every kernel it calls, from other files too, as they were when
+it was compiled. After an edit of ``gap.py`` (an update of the package, a developer's
 change), ``friction.py``'s cached kernels still loaded with the old ``gap`` code inside,
 and where the old and the new code of one callee met in a process under the same symbol
 name (numba names a function by its qualified name, a per-process counter and its
 argument types), the first one loaded served both: a session-62 edit of ``mortar.py``
 left ``node_rows`` (a kernel since removed) returning wrong rows after a frictional run
-in the same process, until the cache was deleted. Here every function of this package's files is cached
-against :func:`source_stamp`, the times and sizes of all the kernel sources
-(:data:`KERNEL_DIR`'s ``*.py``) and of its own file: an edit of any kernel source makes
-every kernel compile afresh, once. numba's own choice of the cache folder is kept (the
-locators below wrap numba's ``NUMBA_CACHE_DIR``, in-tree ``__pycache__`` and user-wide
-ones); other packages' functions are cached as numba does it.
+in the same process, until the cache was deleted. Here every function of this package's
+files is cached against :func:`source_stamp`, the times and sizes of all the kernel
+sources (:data:`KERNEL_DIR`'s ``*.py``) and of its own file: an edit of any kernel
+source makes every kernel compile afresh, once. numba's own choice of the cache folder
+is kept (the locators below wrap numba's ``NUMBA_CACHE_DIR``, in-tree ``__pycache__``
+and user-wide ones); other packages' functions are cached as numba does it.
 
 **Processes that compile at once.** numba names a function's data files 1, 2, … in the
 order its signatures are saved, each process choosing the first number that its read
@@ -130,17 +130,19 @@ class KeyedIndexDataCacheFile(caching.IndexDataCacheFile):
         return f"{self._base}.{digest}.nbc"
 
     def save(self, key, data):
-        """numba's save, the data file named by key where :attr:`keyed`: the index takes
-        the entry, then the data file is written whole (``os.replace``). A process that
-        reads the index in between finds no data file yet and compiles."""
+        """numba's save, the data file named by key where :attr:`keyed`, and written
+        (whole: ``os.replace``) before the index takes the entry, so that a process that
+        finds the entry finds this data (numba writes the index first: a process reading
+        in between loaded the file left under that name by an earlier compile, as after
+        an edit that kept a function's bytecode)."""
         if not self.keyed:
             return super().save(key, data)
-        overloads = self._load_index()
         name = self.keyed_name(key)
+        self._save_data(name, data)
+        overloads = self._load_index()
         if overloads.get(key) != name:
             overloads[key] = name
             self._save_index(overloads)
-        self._save_data(name, data)
 
 
 def _install() -> None:
