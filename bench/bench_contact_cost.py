@@ -47,8 +47,9 @@ from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
 from dolfinx_mortar import contact
+from dolfinx_mortar.errors import SceneError
 from dolfinx_mortar.runner import prepare
-from dolfinx_mortar.scene import parse_scene
+from dolfinx_mortar.scene import parse_scene, quadrature_degree_choice
 
 
 def scene(gen: str, h: float, integration: str, material: str = "neo-hookean") -> dict:
@@ -98,6 +99,20 @@ def median_time(fn, repeat: int) -> float:
         MPI.COMM_WORLD.barrier()
         times.append(perf_counter() - t0)
     return float(np.median(times))
+
+
+def _quadrature_degree(text: str) -> int:
+    """``--quadrature-degree``: an integer >= 1, checked by the rule of MortarContact's
+    ``quadrature_degree`` argument (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`;
+    0 gave basix's one-point rule, silently)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"an integer >= 1, got {text!r}") from None
+    try:
+        return quadrature_degree_choice("", value)
+    except SceneError as exc:
+        raise argparse.ArgumentTypeError(exc.reason) from None
 
 
 def run_level(args, level: int, comm) -> dict:
@@ -184,7 +199,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument(
         "--quadrature-degree",
-        type=int,
+        type=_quadrature_degree,
         default=None,
         help="degree of the slave facet rule (default: the facet type's, P1 triangles 4)",
     )

@@ -459,7 +459,7 @@ def test_bench_contact_cost_runs(tmp_path, material):
     assert len(_read(tmp_path / "c.csv")) == 1
 
 
-def test_bench_contact_cost_quadrature_degree(tmp_path):
+def test_bench_contact_cost_quadrature_degree(tmp_path, capsys):
     """``--quadrature-degree 6`` puts the 12-point rule on hertz3d's slave triangles (the
     default, degree 4, has 6: BENCHMARKS §83) and leaves the package's default as it was."""
     from dolfinx_mortar import contact
@@ -472,6 +472,13 @@ def test_bench_contact_cost_quadrature_degree(tmp_path):
     assert contact.DEFAULT_QUADRATURE_DEGREE == default
     rows = bench.main([*args, "--csv", str(tmp_path / "d.csv")])
     assert rows[0]["quadrature_points"] == 6
+    # a degree below 1 or not an integer: argparse's one-line usage error (exit 2); 0 had
+    # run basix's one-point rule without a word
+    for bad, said in (("0", "must be >= 1, got 0"), ("2.5", "an integer >= 1, got '2.5'")):
+        with pytest.raises(SystemExit) as exc:
+            bench.main([*args, "--quadrature-degree", bad])
+        assert exc.value.code == 2
+        assert said in capsys.readouterr().err
 
 
 def test_bench_linear_solvers_runs(tmp_path):
