@@ -11,7 +11,9 @@ rounds). The update is plain, accelerated on the stacked vector [λ, λ_T]
 (:class:`UzawaAcceleration`: Aitken or Anderson) or exact (Newton on the rounds'
 fixed-point map, :meth:`UzawaRounds._exact_multipliers` and
 :meth:`UzawaRounds._exact_multipliers_fd`, one back-substitution with the solver's last
-factorization per GMRES product); :func:`resolve_acceleration` picks it per pair.
+factorization per GMRES product); :func:`resolve_acceleration` picks it per pair. An
+exact update in a step whose rounds 2-cycle takes half its step (:func:`_two_cycle`,
+:data:`CYCLE_DAMPING`).
 
 :class:`UzawaRounds` holds these methods of :class:`~dolfinx_mortar.contact.MortarContact`
 (its base class: it reads the pair's nodal state, p̂, λ, γ, the stick/slip states, and
@@ -377,7 +379,8 @@ class UzawaRounds:
         ``uzawa_acceleration = "newton"`` (the default "auto" of the lumped pairs,
         :func:`resolve_acceleration`) the multipliers take the exact update instead
         (:meth:`_exact_multipliers`, :meth:`_exact_multipliers_fd`; the plain one after a
-        solve whose frozen or held states the free law contradicts); otherwise the step
+        solve whose frozen or held states the free law contradicts; half of it where the
+        step's rounds 2-cycle, :func:`_two_cycle`); otherwise the step
         is accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`). λ is
         kept ≥ 0. With friction the change counts max |τ − λ_T| too,
         measured, as max |p̂ − λ|, against the largest p̂ of the pair; a pair whose
