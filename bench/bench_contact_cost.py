@@ -24,10 +24,9 @@ takes from it (``candidate_master_facets_max``) and the master surface's size
 (``master_facets``).
 
 ``--quadrature-degree N`` sets the degree of the pair's slave facet rule (element
-integration: the rule on every slave facet; segment: the rule per segment), which is a
-:class:`~dolfinx_mortar.contact.MortarContact` argument and not a scene key: the bench
-sets ``contact.DEFAULT_QUADRATURE_DEGREE`` to N for every facet type while it builds the
-problem. Left out, the default degree of the facet type (P1 triangles: 4, 6 points)::
+integration: the rule on every slave facet; segment: the rule per segment), the scene's
+``[[contact]] quadrature_degree``. Left out, the default degree of the facet type (P1
+triangles: 4, 6 points)::
 
     /usr/bin/python3 bench/bench_contact_cost.py --material linear-elastic --h0 0.06 \
         --levels 0 --repeat 5 --quadrature-degree 6
@@ -46,7 +45,6 @@ from dolfinx import fem
 from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
-from dolfinx_mortar import contact
 from dolfinx_mortar.errors import SceneError
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene, quadrature_degree_choice
@@ -102,13 +100,14 @@ def median_time(fn, repeat: int) -> float:
 
 
 def _quadrature_degree(text: str) -> int:
-    """``--quadrature-degree``: an integer >= 1, checked by the rule of MortarContact's
-    ``quadrature_degree`` argument (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`;
-    0 gave basix's one-point rule, silently)."""
+    """``--quadrature-degree``: an integer from 2 to 30, checked by the rule of the scene's
+    ``[[contact]] quadrature_degree`` and MortarContact's argument
+    (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`; 0 gave basix's one-point rule,
+    silently)."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"an integer >= 1, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"an integer from 2 to 30, got {text!r}") from None
     try:
         return quadrature_degree_choice("", value)
     except SceneError as exc:
@@ -119,13 +118,9 @@ def run_level(args, level: int, comm) -> dict:
     """Time search, contact and bulk assembly at one mesh level (collective)."""
     h = args.h0 / 2**level
     data, body = scene(args.generator, h, args.integration, args.material)
-    default = dict(contact.DEFAULT_QUADRATURE_DEGREE)
-    if args.quadrature_degree is not None:  # a MortarContact argument, not a scene key
-        contact.DEFAULT_QUADRATURE_DEGREE.update(dict.fromkeys(default, args.quadrature_degree))
-    try:
-        problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
-    finally:
-        contact.DEFAULT_QUADRATURE_DEGREE.update(default)
+    if args.quadrature_degree is not None:
+        data["contact"][0]["quadrature_degree"] = args.quadrature_degree
+    problem, _ = prepare(parse_scene(data, pathlib.Path(".")), comm)
     term = problem.contacts[0]
     push(problem, body, 0.08 if args.generator == "hertz3d" else 0.05)  # Hertz approach a²/R
     x = problem.u.vector

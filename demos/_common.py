@@ -42,11 +42,12 @@ def parser(
     recovery: bool = False,
     acceleration: bool | str = False,
     frame: bool = False,
+    quadrature: bool = False,
 ) -> argparse.ArgumentParser:
     """The common options: ``--refine K``, ``--out DIR`` and (optionally) ``--integration``,
     ``--recovery``, ``--uzawa-acceleration`` (see :func:`set_acceleration`; a string
-    ``acceleration`` is that option's default, ``True`` means "auto") and ``--frame``
-    (:func:`set_frame`)."""
+    ``acceleration`` is that option's default, ``True`` means "auto"), ``--frame``
+    (:func:`set_frame`) and ``--quadrature-degree`` (:func:`set_quadrature`)."""
     ap = _OneLineParser(description=description)
     ap.add_argument(
         "--refine",
@@ -89,6 +90,16 @@ def parser(
             help="tangential_frame of the frictional pairs: the convected slave frame or the "
             "master's convected covariant basis (METHOD.md §1) [slave]",
         )
+    if quadrature:
+        ap.add_argument(
+            "--quadrature-degree",
+            type=int,
+            default=None,
+            metavar="N",
+            help="quadrature_degree of every pair: the Gauss rule's degree on each slave facet "
+            "(element) or segment (segment), 2..30 [the facet type's default: 7 on lines and "
+            "quadrilaterals, 4 on triangles]",
+        )
     return ap
 
 
@@ -105,6 +116,16 @@ def set_acceleration(scene: dict, acceleration: str) -> dict:
     ``--uzawa-acceleration`` of :func:`parser`); returns the scene."""
     for pair in scene["contact"]:
         pair["uzawa_acceleration"] = acceleration
+    return scene
+
+
+def set_quadrature(scene: dict, degree: int | None) -> dict:
+    """``scene`` with ``quadrature_degree`` set on every contact pair (the option
+    ``--quadrature-degree`` of :func:`parser`; None leaves the pairs at their facet type's
+    default); returns the scene."""
+    if degree is not None:
+        for pair in scene["contact"]:
+            pair["quadrature_degree"] = degree
     return scene
 
 

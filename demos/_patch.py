@@ -18,7 +18,8 @@ p0 × area, the number of slave nodes not in contact. Expected: round-off with
 ``--integration segment`` (``--recovery constrained``: Newton's tolerance, 5e-12 in 2D and
 3e-10 in 3D; BENCHMARKS.md §4, session 53); a quadrature error with ``element``: <= 2 % on quadrilaterals,
 triangles and hexahedra (2D 0.1–0.5 %, 3D 1.2–1.9 %), 5–7 % on tetrahedra (3D
-``--tri``: 7.0e-2 slave finer, 5.0e-2 slave coarser; BENCHMARKS.md §4).
+``--tri``: 7.0e-2 slave finer, 5.0e-2 slave coarser; BENCHMARKS.md §4), 1.30e-2 and 1.21e-2
+with ``--quadrature-degree 6`` (the pair's ``quadrature_degree``: 12 points on a triangle).
 """
 
 from __future__ import annotations
@@ -117,7 +118,11 @@ def evaluate(summary: dict, out_dir, dim: int, slave: str, master: str) -> dict:
 
 def main(dim: int, argv=None) -> dict:
     ap = cm.parser(
-        f"Contact patch test, {dim}D", f"results/demo_patch{dim}d", recovery=True, acceleration=True
+        f"Contact patch test, {dim}D",
+        f"results/demo_patch{dim}d",
+        recovery=True,
+        acceleration=True,
+        quadrature=True,
     )
     ap.add_argument(
         "--swap", action="store_true", help="slave = lower_top (the coarser side), master = upper"
@@ -128,6 +133,7 @@ def main(dim: int, argv=None) -> dict:
     args = ap.parse_args(argv)
     comm = MPI.COMM_WORLD
     sc = scene(dim, args.refine, args.integration, args.swap, not args.tri, args.recovery)
+    cm.set_quadrature(sc, args.quadrature_degree)
     cm.set_acceleration(sc, args.uzawa_acceleration)
     slave, master = sc["contact"][0]["slave"], sc["contact"][0]["master"]
     summary, wall = cm.run_scene(sc, args.out, comm)

@@ -128,7 +128,11 @@ def evaluate(summary: dict, out_dir, nu: float = NU, load: float = P) -> dict:
 
 def main(argv=None) -> dict:
     ap = cm.parser(
-        __doc__.splitlines()[0], "results/demo_hertz2d", recovery=True, acceleration=True
+        __doc__.splitlines()[0],
+        "results/demo_hertz2d",
+        recovery=True,
+        acceleration=True,
+        quadrature=True,
     )
     ap.add_argument("--order", type=int, choices=(1, 2), default=1, help="element order [1]")
     ap.add_argument("--steps", type=int, default=4, help="load steps [4]")
@@ -148,6 +152,7 @@ def main(argv=None) -> dict:
         load=args.load,
     )
     cm.set_acceleration(sc, args.uzawa_acceleration)
+    cm.set_quadrature(sc, args.quadrature_degree)
     summary, wall = cm.run_scene(sc, args.out, comm, round_off=True)
     m = cm.on_root(evaluate, summary, args.out, load=args.load, comm=comm)
     m["wall_time"] = wall

@@ -210,7 +210,11 @@ def evaluate(summary: dict, out_dir) -> dict:
 
 def main(argv=None) -> dict:
     ap = cm.parser(
-        __doc__.splitlines()[0], "results/demo_hertz3d", recovery=True, acceleration=True
+        __doc__.splitlines()[0],
+        "results/demo_hertz3d",
+        recovery=True,
+        acceleration=True,
+        quadrature=True,
     )
     ap.add_argument("--W", type=float, default=10.0, help="block width and height [10]")
     ap.add_argument("--steps", type=int, default=2, help="load steps [2]")
@@ -219,6 +223,7 @@ def main(argv=None) -> dict:
     comm = MPI.COMM_WORLD
     sc = scene(args.refine, args.integration, args.W, args.steps, args.recovery, args.order)
     cm.set_acceleration(sc, args.uzawa_acceleration)
+    cm.set_quadrature(sc, args.quadrature_degree)
     summary, wall = cm.run_scene(sc, args.out, round_off=True)
     m = cm.on_root(evaluate, summary, args.out, comm=comm)
     m["wall_time"] = wall

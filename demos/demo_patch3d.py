@@ -4,7 +4,9 @@ See ``_patch.py`` for the set-up. The interface pressure must equal p0 at every
 slave node: to round-off with ``--integration segment``, within the quadrature
 error with ``--integration element`` (the default): <= 2 % on these hexahedra (1.2 %
 with the finer side as the slave, 1.9 % with ``--swap``), 7.0 % and 5.0 % with
-``--tri`` (tetrahedra: the default rule on a triangle has 6 points; BENCHMARKS.md §4).
+``--tri`` (tetrahedra: the default rule on a triangle has 6 points; BENCHMARKS.md §4),
+1.3 % and 1.2 % with ``--tri --quadrature-degree 6`` (``[[contact]] quadrature_degree``: 12
+points).
 ``--swap`` makes the coarser side the slave; ``--tri`` uses tetrahedra.
 
 Run, from the repository root (``scripts/env.sh`` sets ``$PY`` to Debian's python3, and

@@ -78,7 +78,16 @@ from .assembly import (
 from .errors import SceneError, SceneTypeError
 from .kernels import friction as kfriction
 from .kernels import mortar as kmortar
-from .kernels.shape import INTERVAL1, QUAD1, QUAD2, REFERENCE_NODES, TRIANGLE1, TRIANGLE2, tdim
+from .kernels.shape import (
+    INTERVAL1,
+    INTERVAL2,
+    QUAD1,
+    QUAD2,
+    REFERENCE_NODES,
+    TRIANGLE1,
+    TRIANGLE2,
+    tdim,
+)
 from .layout import FacetArrays
 from .scene import (
     TANGENTIAL_FRAMES,
@@ -137,8 +146,21 @@ INTEGRATIONS = ("element", "segment", "node")
 #: triangles (tetrahedra) degree 4 (6 points) does not: 5–7 % on the structured patch,
 #: up to 10.5 % on gmsh ones; degree 6 would (1.2–1.4 % structured), but the hertz3d demo
 #: then reads a Newton order ≥ 1.77 in its first step (docs/method-notes.md, "Default
-#: quadrature"; BENCHMARKS.md §84).
+#: quadrature"; BENCHMARKS.md §84). A scene sets another degree per pair:
+#: ``[[contact]] quadrature_degree`` (6 for tetrahedral models that must pass the patch
+#: test with element integration).
 DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
+#: The centre of each reference facet (INTERVAL1/2: [0, 1]; TRIANGLE1/2: the unit
+#: triangle; QUAD1/2: [0, 1]²), where a rule's point is warned about (a chosen
+#: ``quadrature_degree``'s rule, element integration).
+REFERENCE_CENTRES = {
+    0: np.array([0.5]),
+    1: np.array([0.5]),
+    2: np.array([1 / 3, 1 / 3]),
+    3: np.array([1 / 3, 1 / 3]),
+    4: np.array([0.5, 0.5]),
+    5: np.array([0.5, 0.5]),
+}
 #: ``penalty = "auto"``: ε_N^I = AUTO_PENALTY_FACTOR · E* / h_I (h_I: mean size of the
 #: slave facets around node I, E* the plane-strain effective modulus of the two bodies).
 AUTO_PENALTY_FACTOR = 100.0
@@ -397,8 +419,12 @@ class MortarContact(UzawaRounds):
         recoveries (2D and 3D, with or without friction), "aitken" elsewhere, switching
         to "newton" in a step whose rounds are predicted to take too many where it
         applies, :func:`resolve_acceleration`, :data:`~dolfinx_mortar.uzawa.AUTO_EXACT_BOUND`).
-    quadrature_degree: of the slave facet rule, an integer >= 1, or None (the default:
-        :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type).
+    quadrature_degree: of the slave facet rule (element integration) or of each segment's
+        rule (segment integration), an integer in [2,
+        :data:`~dolfinx_mortar.scene.MAX_QUADRATURE_DEGREE`], at least 4 on quadratic
+        facets (the mortar mass matrix integrated exactly, else SceneError), or None (the
+        default: :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type); not with node
+        integration.
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
     penalty_tangential: ε_T (stress per length), "auto" (AUTO_PENALTY_T_FACTOR E*/h_I,
@@ -417,7 +443,8 @@ class MortarContact(UzawaRounds):
     penalty_tangential <= 0 (or a string other than "auto"), a uzawa_tol < 0 or a
     uzawa_max < 1 SceneError (a ValueError; :func:`dolfinx_mortar.scene.contact_numbers`),
     so do a uzawa_acceleration "newton" where the exact update does not apply
-    (:func:`~dolfinx_mortar.scene.uzawa_acceleration_choice`) and a quadrature_degree < 1
+    (:func:`~dolfinx_mortar.scene.uzawa_acceleration_choice`) and a quadrature_degree
+    outside [2, 30] or given with node integration
     (:func:`~dolfinx_mortar.scene.quadrature_degree_choice`), a value of the wrong type
     SceneTypeError (a TypeError), keyed ``KEY.NAME`` (``contact.penalty: must be > 0, got
     -5``). A ``problem`` whose displacement degree is not 1 or 2
@@ -471,7 +498,7 @@ class MortarContact(UzawaRounds):
         uzawa_acceleration = uzawa_acceleration_choice(
             key, uzawa_acceleration, friction, recovery, tangential_recovery
         )
-        quadrature_degree = quadrature_degree_choice(key, quadrature_degree)
+        quadrature_degree = quadrature_degree_choice(key, quadrature_degree, integration)
         # the problem's displacement degree: the contact facets are P1/Q1 and P2/Q2 of the
         # mesh's geometry order (ContactProblem's default degree); a degree of 3 was a
         # plain ValueError of surface.facet_type naming no argument (local, before any
@@ -554,6 +581,14 @@ class MortarContact(UzawaRounds):
         master_local = relative_to(master_local, self.origin)
         self.ftype = slave_local.ftype
         self.ftype_phi = TRIANGLE1 if self.ftype == TRIANGLE2 else self.ftype
+        quadratic = self.ftype in (INTERVAL2, TRIANGLE2, QUAD2)
+        if quadrature_degree is not None and quadratic and quadrature_degree < 4:
+            # the same facet type on every rank: all raise
+            raise SceneError(
+                f"{key}.quadrature_degree",
+                f"must be >= 4 on quadratic (P2) slave facets, got {quadrature_degree}: the "
+                "rule must integrate the mortar mass matrix ∫ N_I N_J dA exactly",
+            )
         self.mixed = mixed_nodes(self.ftype)
         self.slave = distribute_slave_facets(comm, slave_local, self.mixed, self.ranges)
         self._midsides = None  # fill_midsides' layout (_midside_layout), made on first use
@@ -569,6 +604,19 @@ class MortarContact(UzawaRounds):
             else quadrature_degree
         )
         self.rule = quadrature(self.ftype, qdeg)
+        #: the rule's degree (summary.json ``modelled``); None with node integration
+        self.quadrature_degree = None if integration == "node" else qdeg
+        if integration == "element" and quadrature_degree is not None:
+            centre = REFERENCE_CENTRES[self.ftype]
+            if np.any(np.all(np.abs(self.rule[0] - centre) < 1e-12, axis=1)):
+                log.warning(
+                    "%s.quadrature_degree = %d: the rule has a point at the slave facet's "
+                    "centre; on structured non-matching meshes a master edge can pass "
+                    "through it, where the gap has a kink and Newton can stall (the "
+                    "defaults have no centre point: contact.DEFAULT_QUADRATURE_DEGREE)",
+                    key,
+                    qdeg,
+                )
         if integration == "node":
             try:
                 self.qp_xi, self.qp_w = nodal_rule(self.ftype, self.slave.X)
@@ -944,6 +992,7 @@ class MortarContact(UzawaRounds):
             pair.integration,
             pair.uzawa_tol,
             pair.uzawa_max,
+            quadrature_degree=pair.quadrature_degree,
             key=key,
             friction=pair.friction,
             penalty_tangential=pair.penalty_tangential,
@@ -1172,6 +1221,18 @@ class MortarContact(UzawaRounds):
             "tangential_fields": self.frictional,
             "recovery": self.recovery,
             "integration": self.integration,
+            **(
+                {}
+                if self.quadrature_degree is None
+                else {
+                    "quadrature": f"degree {self.quadrature_degree}, "
+                    + (
+                        f"{self.rule[1].size} points per slave facet"
+                        if self.integration == "element"
+                        else f"{self.seg_rule[1].size} points per segment"
+                    )
+                }
+            ),
             "penalty": self.penalty_description,
             "penalty_range": list(self.penalty_range),
             "uzawa_tol": self.uzawa_tol,

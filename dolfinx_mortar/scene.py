@@ -34,6 +34,10 @@ Schema (``*`` = required; defaults in brackets)::
       friction   float in [0, 1e6], Coulomb coefficient mu    [0.0]
       recovery   "unconstrained" | "lumped" | "constrained"   ["lumped"]
       integration "element" | "segment" | "node"             ["element"]
+      quadrature_degree  int in [2, MAX_QUADRATURE_DEGREE = 30]  [None = the facet
+                 type's default, contact.DEFAULT_QUADRATURE_DEGREE] (the slave
+                 facet rule of "element", the segments' rule of "segment";
+                 "node" has none: an error there)
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
                  (at most contact.MAX_PENALTY_RATIO = 1e10 × the auto value)
       penalty_tangential  float > 0 or "auto"                 [None = penalty]
@@ -184,6 +188,17 @@ KINEMATICS = ("finite", "small")
 RECOVERIES = ("unconstrained", "lumped", "constrained")
 #: Allowed values of ``contact.integration`` (METHOD.md section 7).
 INTEGRATIONS = ("element", "segment", "node")
+#: The highest ``contact.quadrature_degree``: basix's rules up to it are the
+#: Xiao–Gimbutas ones (171 points on a triangle, 256 on a quadrilateral); above it they are
+#: collapsed Gauss–Jacobi products whose point count grows as degree², and every point is
+#: a projection per slave facet and Newton iteration. Degree 12 already brings element
+#: integration on unstructured tetrahedral patches within 1.6 % (BENCHMARKS.md §4).
+MAX_QUADRATURE_DEGREE = 30
+#: The lowest ``contact.quadrature_degree``: a rule must integrate the mortar mass matrix
+#: ∫ N_I N_J dA of linear facets exactly (degree 1 left it singular: the unconstrained and
+#: constrained recoveries stopped with "singular mortar mass matrix"); quadratic facets
+#: need 4 (:class:`~dolfinx_mortar.contact.MortarContact` checks that).
+MIN_QUADRATURE_DEGREE = 2
 #: Allowed values of ``contact.tangential_weights``: the dual (biorthogonal) basis Ψ_I of the
 #: slave facets or the standard basis Φ_I (docs/method-notes.md, "Dual tangential weights");
 #: the first is the default, resolved per pair by
@@ -298,6 +313,13 @@ class ContactPair:
         ``"unconstrained"``, ``"lumped"`` or ``"constrained"`` (METHOD.md section 3).
     integration:
         ``"element"``, ``"segment"`` or ``"node"`` (METHOD.md section 7).
+    quadrature_degree:
+        Degree of the Gauss rule on each slave facet (``"element"``) or on each segment
+        (``"segment"``), an integer in [2 (4 on quadratic facets),
+        :data:`MAX_QUADRATURE_DEGREE`], or ``None``
+        (default: :data:`dolfinx_mortar.contact.DEFAULT_QUADRATURE_DEGREE` of the facet
+        type: 7 on lines and quadrilaterals, 4 on 3-node triangles, ...). Not with
+        ``"node"`` (its points are the slave nodes).
     penalty:
         Normal penalty epsilon_N (stress per length, e.g. MPa/mm), > 0, or ``"auto"``.
     penalty_tangential:
@@ -342,6 +364,7 @@ class ContactPair:
     friction: float = 0.0
     recovery: str = "lumped"
     integration: str = "element"
+    quadrature_degree: int | None = None
     penalty: float | str = "auto"
     penalty_tangential: float | str | None = None
     tangential_weights: str = "auto"
@@ -917,6 +940,7 @@ _CONTACT_KEYS = (
     "friction",
     "recovery",
     "integration",
+    "quadrature_degree",
     "penalty",
     "penalty_tangential",
     "tangential_weights",
@@ -1098,16 +1122,34 @@ def uzawa_acceleration_choice(
     return acceleration
 
 
-def quadrature_degree_choice(prefix: str, value: Any) -> int | None:
-    """``quadrature_degree`` of a contact pair's slave facet rule checked: None (the
-    element type's default) or an integer >= 1 (local). The scene has no such key: the
-    rule for :class:`~dolfinx_mortar.contact.MortarContact`'s argument. Raises SceneError
-    keyed ``PREFIX.quadrature_degree`` for an integer < 1 (0 stood for the default, -3
-    was a C++ length error), SceneTypeError for a non-integer (2.5 was a basix
-    TypeError)."""
+def quadrature_degree_choice(prefix: str, value: Any, integration: str = "element") -> int | None:
+    """``quadrature_degree`` of a contact pair's slave facet rule checked (local): None
+    (the facet type's default) or an integer in [:data:`MIN_QUADRATURE_DEGREE`,
+    :data:`MAX_QUADRATURE_DEGREE`], with ``integration`` "element" or "segment" (on
+    quadratic facets MortarContact asks for 4 at least). The rule of the scene's
+    ``[[contact]] quadrature_degree`` and of
+    :class:`~dolfinx_mortar.contact.MortarContact`'s argument. Raises SceneError keyed
+    ``PREFIX.quadrature_degree`` for an integer < 2 (0 stood for the default, -3 was a
+    C++ length error, 1 left the mortar mass matrix singular) or above the bound, and for a degree with ``integration = "node"``
+    (which has no rule: it was ignored); SceneTypeError for a non-integer (2.5 was a
+    basix TypeError)."""
     if value is None:
         return None
-    return _int_at_least(_plain(value), _key(prefix, "quadrature_degree"), 1)
+    key = _key(prefix, "quadrature_degree")
+    degree = _int_at_least(_plain(value), key, MIN_QUADRATURE_DEGREE)
+    if degree > MAX_QUADRATURE_DEGREE:
+        raise SceneError(
+            key,
+            f"must be <= {MAX_QUADRATURE_DEGREE}, got {degree} (a rule's points grow as "
+            "degree²; 12 brings element integration within 1.6 % on tetrahedral patches)",
+        )
+    if integration == "node":
+        raise SceneError(
+            key,
+            "node integration has no quadrature rule (its points are the slave nodes): omit "
+            'quadrature_degree, or choose integration = "element" or "segment"',
+        )
+    return degree
 
 
 def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
@@ -1128,6 +1170,9 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
     recovery = _choice(table.get("recovery", "lumped"), _key(prefix, "recovery"), RECOVERIES)
     integration = _choice(
         table.get("integration", "element"), _key(prefix, "integration"), INTEGRATIONS
+    )
+    quadrature_degree = quadrature_degree_choice(
+        prefix, table.get("quadrature_degree"), integration
     )
     weights = _choice(
         table.get("tangential_weights", TANGENTIAL_WEIGHTS[0]),
@@ -1157,6 +1202,7 @@ def _parse_contact(table: Mapping[str, Any], prefix: str) -> ContactPair:
         friction=friction,
         recovery=recovery,
         integration=integration,
+        quadrature_degree=quadrature_degree,
         penalty=penalty,
         penalty_tangential=penalty_t,
         tangential_weights=weights,

@@ -472,9 +472,9 @@ def test_bench_contact_cost_quadrature_degree(tmp_path, capsys):
     assert contact.DEFAULT_QUADRATURE_DEGREE == default
     rows = bench.main([*args, "--csv", str(tmp_path / "d.csv")])
     assert rows[0]["quadrature_points"] == 6
-    # a degree below 1 or not an integer: argparse's one-line usage error (exit 2); 0 had
+    # a degree below 2 or not an integer: argparse's one-line usage error (exit 2); 0 had
     # run basix's one-point rule without a word
-    for bad, said in (("0", "must be >= 1, got 0"), ("2.5", "an integer >= 1, got '2.5'")):
+    for bad, said in (("0", "must be >= 2, got 0"), ("2.5", "an integer from 2 to 30, got '2.5'")):
         with pytest.raises(SystemExit) as exc:
             bench.main([*args, "--quadrature-degree", bad])
         assert exc.value.code == 2

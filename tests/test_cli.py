@@ -704,6 +704,18 @@ CASES = [
         "contact[0].friction",
         "friction coefficient must be at most 1e+06, got 1e+308",
     ),
+    (  # node integration has no rule: the degree was ignored (session 64)
+        "quadrature-degree-with-node",
+        _add_contact(integration="node", quadrature_degree=6),
+        "contact[0].quadrature_degree",
+        "node integration has no quadrature rule",
+    ),
+    (  # basix's collapsed rules grow as degree² points per facet
+        "quadrature-degree-huge",
+        _add_contact(quadrature_degree=1000),
+        "contact[0].quadrature_degree",
+        "must be <= 30, got 1000",
+    ),
     (  # gmsh died of std::bad_alloc (or meshed for ages), `check` too (session 53)
         "mesh-generator-too-big",
         lambda s: s.update(mesh={"generator": "patch2d", "params": {"n_lower": 2000000000}}),

@@ -8,6 +8,8 @@ rank 0 reads the CSV files, the output directory is shared.
 
 from __future__ import annotations
 
+import json
+import logging
 import sys
 from pathlib import Path
 
@@ -18,6 +20,7 @@ DEMOS = Path(__file__).resolve().parents[1] / "demos"
 sys.path.insert(0, str(DEMOS))
 
 import _common as cm  # noqa: E402
+import _patch  # noqa: E402
 import demo_custom_law  # noqa: E402
 import demo_hertz2d  # noqa: E402
 import demo_hertz3d  # noqa: E402
@@ -208,15 +211,94 @@ def test_patch3d_constrained_segment_to_newtons_tolerance(shared_tmp):
 @pytest.mark.parametrize("swap,tol", [(False, 0.075), (True, 0.055)], ids=["finer", "coarser"])
 def test_patch3d_on_tetrahedra(shared_tmp, swap, tol):
     """``--tri``: segment integration to round-off, element integration NOT within 2 %
-    (the default 6-point rule on a triangle): 7.0e-2 slave finer, 5.0e-2 coarser
-    (docs/method-notes.md, "Default quadrature"; BENCHMARKS.md §4, session 48)."""
-    base = ["--tri", "--out", str(shared_tmp / "patch3d_tri")] + (["--swap"] if swap else [])
+    with the default 6-point rule on a triangle (7.0e-2 slave finer, 5.0e-2 coarser), and
+    within it with ``[[contact]] quadrature_degree = 6`` (12 points: 1.30e-2 and 1.21e-2;
+    docs/method-notes.md, "Default quadrature"; BENCHMARKS.md §4, §84), which summary.json
+    records."""
+    out = shared_tmp / "patch3d_tri"
+    base = ["--tri", "--out", str(out)] + (["--swap"] if swap else [])
     m = demo_patch3d.main(base + ["--integration", "segment"])
     assert m["p_err"] <= 1e-8, m["p_err"]
     m = demo_patch3d.main(base)
     assert 0.02 < m["p_err"] <= tol, m["p_err"]
     assert m["force_err"] <= 1e-8, m["force_err"]
     assert m["open_nodes"] == 0
+    m = demo_patch3d.main(base + ["--quadrature-degree", "6"])
+    assert m["p_err"] <= 0.02, m["p_err"]
+    assert m["force_err"] <= 1e-8, m["force_err"]
+    assert m["open_nodes"] == 0
+    if MPI.COMM_WORLD.rank == 0:
+        (pair,) = json.loads((out / "summary.json").read_text())["modelled"][
+            "contact_pairs"
+        ].values()
+        assert pair["quadrature"] == "degree 6, 12 points per slave facet", pair
+
+
+def test_quadratic_facets_need_a_quadrature_degree_of_4(shared_tmp):
+    """On P2 slave facets a ``quadrature_degree`` below 4 does not integrate the mortar mass
+    matrix ∫ N_I N_J dA exactly: the scene error keyed by the pair's key, raised before
+    anything is written (degree 1 left the matrix singular on P1 facets: the scene's
+    minimum is 2). Degree 4 runs."""
+    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar.errors import SceneError
+
+    for degree, ok in ((3, False), (4, True)):
+        sc = cm.set_quadrature(_patch.scene(2), degree)
+        sc["mesh"]["params"]["order"] = 2
+        out = shared_tmp / f"patch2d_p2_degree{degree}"
+        if ok:
+            summary = run(parse_scene(sc, shared_tmp), MPI.COMM_WORLD, out)
+            assert summary["status"] == "ok", summary["error"]
+            continue
+        with pytest.raises(SceneError) as err:
+            run(parse_scene(sc, shared_tmp), MPI.COMM_WORLD, out)
+        assert err.value.key == "contact[0].quadrature_degree"
+        assert "must be >= 4 on quadratic (P2) slave facets, got 3" in err.value.reason
+        assert not out.exists()
+
+
+class _Warnings(logging.Handler):
+    """The messages of the WARNING records of the logger dolfinx_mortar (on the logger
+    itself: caplog's root handler misses them after a test that set the logger's level)."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.messages = []
+
+    def emit(self, record):
+        self.messages.append(record.getMessage())
+
+
+def _warnings_of(fn, *args):
+    """``fn(*args)`` and the WARNING messages the package logged meanwhile."""
+    logger, handler = logging.getLogger("dolfinx_mortar"), _Warnings()
+    level = logger.level
+    logger.setLevel(logging.WARNING)
+    logger.addHandler(handler)
+    try:
+        return fn(*args), handler.messages
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+def test_a_quadrature_rule_with_a_centre_point_is_warned_about(shared_tmp):
+    """A ``quadrature_degree`` whose rule has a point at the slave facet's centre (degree 5
+    on a line: 3 Gauss points) is warned about, naming the key (on structured
+    non-matching meshes a master edge can pass through the centre; the defaults have no
+    centre point); the default's degree given explicitly is not, and gives the default's
+    results."""
+    out = str(shared_tmp / "patch2d_degree")
+    m5, warned = _warnings_of(demo_patch2d.main, ["--quadrature-degree", "5", "--out", out])
+    assert any(
+        "contact[0].quadrature_degree = 5: the rule has a point at the slave facet's centre" in w
+        for w in warned
+    ), warned
+    assert m5["p_err"] <= 0.02, m5["p_err"]  # still the patch test, with 3 points
+    m7, warned = _warnings_of(demo_patch2d.main, ["--quadrature-degree", "7", "--out", out])
+    assert not [w for w in warned if "quadrature_degree" in w], warned
+    m = demo_patch2d.main(["--out", out])
+    assert m7["p_err"] == m["p_err"] and m7["newton_iterations"] == m["newton_iterations"]
 
 
 def test_hertz3d(shared_tmp):

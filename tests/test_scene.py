@@ -202,7 +202,7 @@ def test_defaults_are_filled():
     assert c.friction == 0.0
     assert c.recovery == "lumped" and c.tangential_recovery == "lumped"
     assert c.tangential_frame == "slave"
-    assert c.integration == "element"
+    assert c.integration == "element" and c.quadrature_degree is None
     assert c.penalty == "auto"
     assert c.penalty_tangential is None and c.penalty_t == "auto"
     assert c.uzawa_tol == 1e-6 and c.uzawa_max == 20 and c.uzawa_acceleration == "auto"
@@ -451,6 +451,9 @@ CASES = [
     (("contact", 0, "friction"), -0.1, "contact[0].friction", "must be >= 0"),
     (("contact", 0, "recovery"), "lump", "contact[0].recovery", '"unconstrained", "lumped"'),
     (("contact", 0, "integration"), "mortar", "contact[0].integration", '"segment", "node"'),
+    (("contact", 0, "quadrature_degree"), 1, "contact[0].quadrature_degree", "must be >= 2"),
+    (("contact", 0, "quadrature_degree"), 31, "contact[0].quadrature_degree", "<= 30, got 31"),
+    (("contact", 0, "quadrature_degree"), 6.0, "contact[0].quadrature_degree", "an integer"),
     (("contact", 0, "penalty"), 0, "contact[0].penalty", "must be > 0"),
     (("contact", 0, "penalty"), -1e4, "contact[0].penalty", "must be > 0"),
     (("contact", 0, "penalty"), "big", "contact[0].penalty", "\"auto\", got 'big'"),
@@ -983,8 +986,10 @@ def test_one_uzawa_round_is_refused_where_it_cannot_converge():
 @pytest.mark.parametrize(
     "value, error, reason",
     [
-        (0, ValueError, "must be >= 1, got 0"),
-        (-3, ValueError, "must be >= 1, got -3"),
+        (0, ValueError, "must be >= 2, got 0"),
+        (-3, ValueError, "must be >= 2, got -3"),
+        (1, ValueError, "must be >= 2, got 1"),
+        (31, ValueError, "must be <= 30, got 31"),
         (2.5, TypeError, "expected an integer, got float 2.5"),
         (True, TypeError, "expected an integer, got boolean"),
     ],
@@ -994,7 +999,10 @@ def test_mortar_contact_checks_its_quadrature_degree(value, error, reason):
     integer >= 1, checked before the problem is looked at (before any collective;
     ``scene.quadrature_degree_choice``), a SceneError or SceneTypeError keyed
     ``KEY.quadrature_degree``. 0 stood for the default, -3 was a C++ length error in the
-    set-up and 2.5 a basix TypeError. The scene has no such key."""
+    set-up, 1 a singular mortar mass matrix, and 2.5 a basix TypeError; degree 31 would be a collapsed Gauss–Jacobi rule
+    of 256 points per triangle, growing as degree² (the bound: scene.MAX_QUADRATURE_DEGREE).
+    The scene's ``[[contact]] quadrature_degree`` has the same rule
+    (test_a_pair_takes_a_quadrature_degree)."""
     from dolfinx_mortar.contact import MortarContact
     from dolfinx_mortar.scene import quadrature_degree_choice
 
@@ -1005,6 +1013,31 @@ def test_mortar_contact_checks_its_quadrature_degree(value, error, reason):
     assert reason in err.value.reason
     assert quadrature_degree_choice("contact", None) is None
     assert quadrature_degree_choice("contact", 3) == 3
+
+
+def test_a_pair_takes_a_quadrature_degree():
+    """``[[contact]] quadrature_degree``: the pair's slave facet rule (element) or segment
+    rule (segment), kept as given; with node integration, which has no rule, an error
+    keyed by the key (it would be ignored), in the scene and in MortarContact alike."""
+    from dolfinx_mortar.contact import MortarContact
+
+    for integration in ("element", "segment"):
+        data = example()
+        data["contact"][0].update(integration=integration, quadrature_degree=6)
+        c = parse_scene(data, BASE).contacts[0]
+        assert c.quadrature_degree == 6 and c.integration == integration
+    data = example()
+    data["contact"][0].update(integration="node", quadrature_degree=6)
+    with pytest.raises(SceneError) as err:
+        parse_scene(data, BASE)
+    assert err.value.key == "contact[0].quadrature_degree"
+    assert "node integration has no quadrature rule" in err.value.reason
+    with pytest.raises(SceneError) as err:
+        MortarContact(None, "s", "m", integration="node", quadrature_degree=4, key="c")
+    assert err.value.key == "c.quadrature_degree"
+    # node integration without the key is what it was
+    data["contact"][0].pop("quadrature_degree")
+    assert parse_scene(data, BASE).contacts[0].quadrature_degree is None
 
 
 def test_numpy_values_are_taken_as_toml_numbers_and_arrays():
