@@ -90,7 +90,14 @@ def facet_submesh(mesh, facets: np.ndarray):
     own copy of the shared vertices): each cell is named a ghost on every other rank
     whose cells hold one of its vertices (:func:`_ghost_destinations`), a layer by vertex,
     so that vertices shared at a corner only are found as well. No cell moves.
-    Curved (P2) facets are not built (the caller asks for affine ones only)."""
+
+    On a second-order mesh (geometry degree 2: 6-node triangles, 9-node quadrilaterals,
+    10-node tetrahedra, 27-node hexahedra) the surface has the facets' own second-order
+    geometry (3-node intervals, 6-node triangles, 9-node quadrilaterals): each cell lists
+    every geometry node of its facet, the midside (and face-centre) nodes included, in the
+    layout ``create_mesh`` takes (:func:`_facet_geometry_nodes`), and the ghost
+    destinations account for all of them. Raises RuntimeError (on every rank: the degree
+    is the same there) for a geometry degree above 2."""
     from dolfinx.cpp.graph import AdjacencyList_int32
     from dolfinx.cpp.mesh import GhostMode, entities_to_geometry
     from dolfinx.mesh import create_mesh
@@ -101,9 +108,16 @@ def facet_submesh(mesh, facets: np.ndarray):
     owned = np.asarray(facets, dtype=np.int32)
     owned = owned[owned < mesh.topology.index_map(tdim - 1).size_local]
     facet, per_facet = FACET_CELL[mesh.topology.cell_name()]
-    cpp_mesh = getattr(mesh, "_mesh", mesh)  # Debian's 0.5.2 wraps the C++ mesh
-    nodes = entities_to_geometry(cpp_mesh, tdim - 1, owned, False)  # local geometry nodes
-    nodes = np.asarray(nodes, dtype=np.int32).reshape(owned.size, per_facet)
+    degree = mesh.geometry.cmap.degree
+    if degree == 1:
+        cpp_mesh = getattr(mesh, "_mesh", mesh)  # Debian's 0.5.2 wraps the C++ mesh
+        nodes = entities_to_geometry(cpp_mesh, tdim - 1, owned, False)  # local geometry nodes
+        nodes = np.asarray(nodes, dtype=np.int32).reshape(owned.size, per_facet)
+    elif degree == 2:  # entities_to_geometry gives the vertices' nodes only
+        nodes = _facet_geometry_nodes(mesh, owned)
+        per_facet = nodes.shape[1]
+    else:
+        raise RuntimeError(f"facet_submesh: geometry degree {degree} (only 1 and 2)")
     gmap = mesh.geometry.index_map()
     cells = np.asarray(gmap.local_to_global(nodes.reshape(-1)), dtype=np.int64)
     cells = cells.reshape(owned.size, per_facet)
@@ -115,8 +129,54 @@ def facet_submesh(mesh, facets: np.ndarray):
         return AdjacencyList_int32(data, offsets)
 
     x = np.ascontiguousarray(mesh.geometry.x[: gmap.size_local, :gdim])  # in global order
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.Cell(facet, geometric_dimension=gdim), 1))
+    cell = ufl.Cell(facet, geometric_dimension=gdim)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell, degree))
     return create_mesh(comm, cells, x, domain, GhostMode.none, stay)
+
+
+def _facet_geometry_nodes(mesh, facets: np.ndarray) -> np.ndarray:
+    """Every local geometry node of each facet of ``facets`` (local indices), shape
+    (n_facets, nodes per facet; int32), in the layout of the facet's own coordinate
+    element, which is the order dolfinx 0.5.2's ``create_mesh`` takes (basix's: the
+    vertices, then one node per edge in the reference cell's edge order, then the
+    interior node: what ``gmshio.cell_perm_gmsh`` turns gmsh's order into). Not
+    collective; for a geometry of degree 2 (one node per edge and per quadrilateral face,
+    so that no node needs a permutation).
+
+    Each facet's nodes are read from the first cell that holds it (its geometry dofmap,
+    whose layout is the coordinate element's, ``create_dof_layout``): its vertices in the
+    order of the cell's reference facet (a quadrilateral's in tensor order, as a
+    quadrilateral cell has them), then the node of the cell edge that joins each pair of
+    them that the facet's reference cell names an edge, then (a quadrilateral facet of a
+    27-node hexahedron) the node of the face itself."""
+    import basix
+
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    mesh.topology.create_connectivity(tdim, tdim - 1)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    c2f = mesh.topology.connectivity(tdim, tdim - 1)
+    layout = mesh.geometry.cmap.create_dof_layout()
+    name = mesh.topology.cell_name()
+    cell_topology = basix.topology(getattr(basix.CellType, name))
+    facet_topology = basix.topology(getattr(basix.CellType, FACET_CELL[name][0]))
+    table = []  # for each local facet of the cell: its nodes' places in the cell's layout
+    for verts in cell_topology[tdim - 1]:
+        row = [layout.entity_dofs(0, v)[0] for v in verts]
+        for d in range(1, tdim):  # the facet's edges (by its own vertices), then its face
+            for sub in facet_topology[d]:
+                joined = sorted(verts[i] for i in sub)
+                entity = next(e for e, vs in enumerate(cell_topology[d]) if sorted(vs) == joined)
+                row += list(layout.entity_dofs(d, entity))
+        table.append(row)
+    table = np.asarray(table, dtype=np.int32)
+    facets = np.asarray(facets, dtype=np.int32)
+    cells = np.asarray(f2c.array, dtype=np.int32)[np.asarray(f2c.offsets)[facets]]
+    per_cell = len(cell_topology[tdim - 1])
+    cell_facets = np.asarray(c2f.array, dtype=np.int32).reshape(-1, per_cell)[cells]
+    local = np.argmax(cell_facets == facets[:, None], axis=1)  # each facet's place in its cell
+    x_dofs = cell_geometry_nodes(mesh)
+    return np.ascontiguousarray(x_dofs[cells[:, None], table[local]], dtype=np.int32)
 
 
 def _ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
