@@ -9,9 +9,8 @@
   gap, state; tangential traction and slip where friction is modelled) as
   nodal functions of the mesh's degree, zero away from slave surfaces;
 - ``contact_<SLAVE>.xdmf`` (+ ``.h5``), one per slave surface: the same fields on the
-  slave surface as a mesh of its own (its facets), for plots of the contact zone alone;
-  on meshes with affine facets (dolfinx 0.5.2 cannot cut out curved ones; then only
-  ``fields.xdmf`` has them).
+  slave surface as a mesh of its own (its facets, with their second-order geometry on a
+  P2 mesh), for plots of the contact zone alone.
 
 <SLAVE> is the slave surface's physical name, with every character other than a letter,
 a digit, "_", "." or "-" replaced by "_" (:func:`contact_stem`): a name holding "/" wrote
@@ -851,7 +850,10 @@ class SurfaceFields:
     Each surface dof is matched, on its rank, to the volume dof at the same coordinates
     among the dofs of that rank's owned facets (a k-d tree, within 1e-10 of the surface's
     size plus SURFACE_MATCH_ULPS of the coordinates' round-off; not among all dofs: a
-    touching body can have a node at the same place). ``parent``
+    touching body can have a node at the same place). On a second-order mesh the surface
+    has the facets' second-order geometry and its spaces the volume's degree (2): every
+    facet node, midside and face-centre ones too, is a dof matched so; dolfinx writes a
+    function of the geometry's degree as values at every geometry node. ``parent``
     (n_owned_surface_dofs,) holds the local volume dof of each owned surface dof; the
     surface's ghost values then come from their owners."""
 
@@ -1103,11 +1105,9 @@ class OutputWriter:
             ) from None
 
     def _start_surfaces(self, Q) -> None:
-        """One :class:`SurfaceFields` per slave surface, on meshes with affine facets."""
+        """One :class:`SurfaceFields` per slave surface (collective), affine or curved
+        (a P2 mesh's facets keep their second-order geometry: compat.facet_submesh)."""
         p = self.problem
-        if p.mesh.geometry.cmap.degree > 1:
-            log.info("contact_<SLAVE>.xdmf not written: curved facets (dolfinx 0.5.2)")
-            return
         md = p.mesh_data
         for name in (term.slave_name for term in p.contacts):  # one pair per slave (scene)
             facets = compat.tagged_entities(md.facet_tags, md.facet_groups[name])
@@ -1199,16 +1199,23 @@ class OutputWriter:
         surfaces are written, on their nodes; a CSV row of 25 characters per column for
         each slave node; an HDF5 dataset's overhead per field and a page per file. With
         ``mesh``: also the meshes (the coordinates, 3 values per node, and the cells'
-        node lists, 8 bytes each), which the series write first."""
+        node lists, 8 bytes each), which the series write first. A slave surface's nodes
+        are its slave nodes, and on 10-node tetrahedra, whose slave nodes are the facets'
+        vertices, at most one more per facet and midside node (the surface file has them)."""
         p = self.problem
         nodes = p.V.dofmap.index_map.size_global
         slaves = [int(term.n_global_nodes) for term in p.contacts]
-        surfaces = p.mesh.geometry.cmap.degree == 1  # :meth:`_start_surfaces`
+        layout = p.mesh.geometry.cmap.create_dof_layout()
+        per_facet = layout.num_entity_closure_dofs(p.mesh.topology.dim - 1)  # 2 to 9
+        facets = sum(int(term.n_global_facets) for term in p.contacts)
+        shown = sum(slaves) + sum(
+            (per_facet - len(term.mixed)) * int(term.n_global_facets) for term in p.contacts
+        )  # the surfaces' nodes (:meth:`_start_surfaces`)
         per_node = 3 * ("displacement" in self.fields) + len(self._contact_names())
         datasets = int("displacement" in self.fields) + len(self._contact_names())
-        values = per_node * (nodes + (sum(slaves) if surfaces else 0))
+        values = per_node * (nodes + shown)
         columns = len(CSV_FIELDS_2D if p.gdim == 2 else CSV_FIELDS_3D)
-        files = len(slaves) * (2 if surfaces else 1) + 2  # the CSVs, .h5, summary.json
+        files = len(slaves) * 2 + 2  # the CSVs, the .h5 files, summary.json
         size = 8 * values + 25 * columns * sum(slaves)
         size += DATASET_OVERHEAD * datasets * (1 + len(slaves)) + FILE_OVERHEAD * files
         if mesh:
@@ -1217,8 +1224,7 @@ class OutputWriter:
             per_cell = p.mesh.geometry.cmap.create_dof_layout().num_dofs
             geometry = p.mesh.geometry.index_map().size_global
             size += 8 * (3 * geometry + per_cell * cells) + 4 * DATASET_OVERHEAD
-            if surfaces:  # a surface facet has at most 4 nodes, about as many as nodes
-                size += 8 * (3 + 4) * sum(slaves) + 4 * DATASET_OVERHEAD * len(slaves)
+            size += 8 * (3 * shown + per_facet * facets) + 4 * DATASET_OVERHEAD * len(slaves)
         return size
 
     def _check_room(self, what: str, mesh: bool = False) -> None:
@@ -1312,7 +1318,7 @@ class OutputWriter:
             self._fill(functions, [(term, claimed) for term in p.contacts])
             for f in functions.values():
                 self._xdmf.file.write_function(f, t)
-            if self._surfaces:  # none on curved facets (_start_surfaces)
+            if self._surfaces:
                 for term, surface in zip(p.contacts, self._surfaces, strict=True):
                     if len(p.contacts) > 1:  # one pair: its values are fields.xdmf's
                         self._fill(functions, [(term, None)])

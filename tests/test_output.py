@@ -25,15 +25,16 @@ DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("dim, quads", [(2, False), (2, True), (3, False), (3, True)])
-@pytest.mark.parametrize("degree", [1, 2])
-def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads, degree):
+@pytest.mark.parametrize("degree, order", [(1, 1), (2, 1), (2, 2)])
+def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads, degree, order):
     """A scalar and a vector field of the block restricted to its top face: every surface
     dof (owned and ghost) holds the volume field's value at its coordinates, which for
     these polynomials is the expression itself, to round-off; the surface has the face's
-    facets."""
+    facets, with the mesh's geometry degree (``order``: on a second-order block 3-node
+    intervals, 6-node triangles, 9-node quadrilaterals)."""
     from dolfinx import fem
 
-    md = load_mesh(MPI.COMM_WORLD, file=block_msh(dim, n=2, quads=quads))
+    md = load_mesh(MPI.COMM_WORLD, file=block_msh(dim, n=2, quads=quads, order=order))
     Q = fem.FunctionSpace(md.mesh, ("CG", degree))
     V = compat.vector_space(md.mesh, degree)
     f = fem.Function(Q, name="scalar")
@@ -41,8 +42,9 @@ def test_surface_fields_take_the_volume_values(block_msh, shared_tmp, dim, quads
     u = fem.Function(V, name="vector")
     u.interpolate(lambda x: np.array([x[c] ** degree + c for c in range(dim)]))
     facets = compat.tagged_entities(md.facet_tags, md.facet_groups["top"])
-    path = shared_tmp / f"top_{dim}{quads}{degree}.xdmf"
+    path = shared_tmp / f"top_{dim}{quads}{degree}{order}.xdmf"
     surface = SurfaceFields(path, Q, facets)
+    assert surface.surface.geometry.cmap.degree == order
     surface.begin_step()
     surface.write(f, 0.0)
     surface.write(u, 0.0)
@@ -119,8 +121,10 @@ def _xdmf_counts(path: Path) -> tuple[int, int]:
 def test_a_run_writes_the_slave_surface(shared_tmp):
     """The hertz2d demo's run writes contact_cylinder_surface.xdmf: the slave facets
     (summary.json's slave_facets), with contact_pressure, gap and contact_state at step 0
-    and after each of the 4 steps; the P2 mesh (curved facets) writes none, and
-    fields.xdmf has the fields either way."""
+    and after each of the 4 steps. The P2 mesh (9-node quadrilaterals, curved facets)
+    writes it too (before session 64 it wrote none), with the arc's 3-node intervals:
+    every node, the midside ones too, on the circle, and at every node the values of
+    fields.xdmf and of the CSV (:func:`_check_surface_file`). 1–3 ranks."""
     sys.path.insert(0, str(DEMOS))
     import demo_hertz2d
 
@@ -149,11 +153,176 @@ def test_a_run_writes_the_slave_surface(shared_tmp):
         cells, stamps = _xdmf_counts(out / "contact_cylinder_surface.xdmf")
         assert cells == pair["slave_facets"]
         assert stamps == 3 * 5
-        assert not (out2 / "contact_cylinder_surface.xdmf").exists()
-        assert (out2 / "fields.xdmf").is_file()
+        x, cells2, kind = _check_surface_file(out2, "cylinder_surface", 2, step=1, every=True)
+        summary2 = json.loads((out2 / "summary.json").read_text())
+        pair2 = next(iter(summary2["modelled"]["contact_pairs"].values()))
+        assert kind == "Edge_3" and len(cells2) == pair2["slave_facets"]
+        assert _xdmf_counts(out2 / "contact_cylinder_surface.xdmf") == (len(cells2), 3 * 2)
+        assert len(x) == 2 * len(cells2) + 1  # an open arc
+        # the facets' true second-order geometry: the midside nodes on the circle, off the
+        # chords (by about h^2 / (8 R)), between their vertices
+        R = demo_hertz2d.R
+        radius = np.linalg.norm(x - [0.0, R], axis=1)
+        assert np.abs(radius - R).max() <= 1e-12 * R
+        mid, ends = x[cells2[:, 2]], x[cells2[:, :2]]
+        chord = np.linalg.norm(mid - ends.mean(axis=1), axis=1)
+        assert chord.min() > 1e-6, chord.min()
+        assert np.all(np.einsum("ij,ij->i", mid - ends[:, 0], mid - ends[:, 1]) < 0)
         # the hidden series that dolfinx wrote are gone; the data stay under <name>.h5
         assert sorted(f.name for f in out.iterdir() if f.name.startswith(".")) == []
         assert (out / "fields.h5").stat().st_nlink == 1
+
+
+#: For each XDMF topology type of a second-order surface: its vertices' count, then the
+#: vertices of the edge of each node after them (VTK's order, as the XDMF file has it).
+SURFACE_VERTICES = {"Edge_3": 2, "Triangle_6": 3, "Quadrilateral_9": 4}
+SURFACE_EDGE_NODES = {
+    "Edge_3": [(0, 1)],
+    "Triangle_6": [(0, 1), (1, 2), (2, 0)],
+    "Quadrilateral_9": [(0, 1), (1, 2), (2, 3), (3, 0)],
+}
+
+#: The CSV column of each contact field.
+CSV_COLUMN = {"contact_pressure": "p_N", "gap": "gap", "contact_state": "state"}
+
+
+def _check_surface_file(out: Path, slave: str, gdim: int, step: int, every: bool):
+    """Assert that contact_<slave>.xdmf (rank 0 reads it) holds, at its last time stamp,
+    at every node the values of fields.xdmf at the same place (one of them where a
+    touching body has a node there too), and at each node with a row in the last CSV
+    (``contact_<slave>_<step>.csv``, its reference coordinates) the CSV's values (0 for its
+    gap's nan: no master); with
+    ``every``, every node has one (the slave nodes are all the facets' nodes), else (10-node
+    tetrahedra) the vertices do and each midside node holds the mean of its edge's two
+    vertices. Returns (coordinates (m, gdim), cells (n, nodes per cell; the file's VTK
+    order), the XDMF topology type)."""
+    from scipy.spatial import cKDTree
+
+    index = (out / f"contact_{slave}.xdmf").read_text()
+    kind, per = re.search(
+        r'TopologyType="(\w+)" NumberOfElements="\d+" NodesPerElement="(\d+)"', index
+    ).groups()
+    h5 = out / f"contact_{slave}.h5"
+    cells = _h5_values(h5, "/Mesh/mesh/topology", int(per)).astype(np.int64)
+    table = np.genfromtxt(out / f"contact_{slave}_{step}.csv", delimiter=",", names=True)
+    X = np.column_stack([table[c] for c in "xyz"[:gdim]])  # the reference coordinates
+    x = None
+    for name, column in CSV_COLUMN.items():
+        x, values = _h5_nodal(out / f"contact_{slave}.xdmf", name, gdim)
+        x_vol, values_vol = _h5_nodal(out / "fields.xdmf", name, gdim)
+        assert len(values) == len(x) == cells.max() + 1
+        # dolfinx evaluates a function at the geometry nodes (its basis there): round-off
+        tol = 1e-12 * max(1.0, np.abs(values_vol).max())
+        for node, near in enumerate(cKDTree(x_vol).query_ball_point(x, 1e-12)):
+            assert near and min(abs(values_vol[near] - values[node])) <= tol, (name, x[node])
+        dist, row = cKDTree(X).query(x)
+        at = dist <= 1e-12
+        assert sorted(row[at]) == list(range(len(X)))  # each CSV row once
+        csv = table[column][row[at]]  # the gap: nan where no master is found, 0 in the files
+        assert np.abs(values[at] - np.nan_to_num(csv)).max() <= 1e-12 * max(
+            1.0, np.nanmax(np.abs(csv))
+        ), name
+        vertices = np.unique(cells[:, : SURFACE_VERTICES[kind]])
+        if every:
+            assert at.all()
+        else:
+            assert np.array_equal(np.flatnonzero(at), vertices)
+            edges = SURFACE_EDGE_NODES[kind]
+            for place, (a, b) in enumerate(edges, start=SURFACE_VERTICES[kind]):
+                mean = 0.5 * (values[cells[:, a]] + values[cells[:, b]])
+                assert np.abs(values[cells[:, place]] - mean).max() <= 1e-12 * max(
+                    1.0, np.abs(values).max()
+                ), name
+    return x, cells, kind
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "generator, params, slave",
+    [
+        ("hertz2d", {"order": 2}, "cylinder_surface"),
+        ("hertz2d", {"order": 2, "quads": True}, "cylinder_surface"),
+        ("hertz3d", {"order": 2}, "sphere_surface"),
+        (
+            "patch3d",
+            {"order": 2, "quads": True, "n_lower": 2, "n_upper": 3, "n_y": 1},
+            "upper_bottom",
+        ),
+    ],
+)
+def test_a_curved_surface_keeps_the_facets_second_order_geometry(generator, params, slave):
+    """compat.facet_submesh on second-order meshes (6-node triangles, 9-node
+    quadrilaterals, 10-node tetrahedra, 27-node hexahedra; the cylinder's and the sphere's
+    facets curved): the surface has the facets' second-order geometry (3-node intervals,
+    6-node triangles, 9-node quadrilaterals), its nodes are the volume facets' nodes, and
+    a polynomial integrated over it equals its integral over the facets in the volume mesh
+    (ds), to round-off: a node out of place in a cell (the layout create_mesh takes)
+    would change it. 1–3 ranks."""
+    import ufl
+    from dolfinx import fem
+
+    comm = MPI.COMM_WORLD
+    md = load_mesh(comm, generator=generator, params=params)
+    mesh, tag = md.mesh, md.facet_groups[slave]
+    facets = compat.tagged_entities(md.facet_tags, tag)
+    surface = compat.facet_submesh(mesh, facets)
+    tdim = mesh.topology.dim
+    assert surface.geometry.cmap.degree == 2
+    per_cell = {"interval": 3, "triangle": 6, "quadrilateral": 9}[surface.topology.cell_name()]
+    assert compat.cell_geometry_nodes(surface).shape[1] == per_cell
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=md.facet_tags)
+    x, y = ufl.SpatialCoordinate(mesh), ufl.SpatialCoordinate(surface)
+    on_facets = fem.form((1.0 + x[0] ** 2 + x[0] * x[1] + x[tdim - 1] ** 3) * ds(tag))
+    on_surface = fem.form(
+        (1.0 + y[0] ** 2 + y[0] * y[1] + y[tdim - 1] ** 3) * ufl.dx(domain=surface)
+    )
+    a = comm.allreduce(fem.assemble_scalar(on_facets))
+    b = comm.allreduce(fem.assemble_scalar(on_surface))
+    assert abs(a - b) <= 1e-12 * abs(a), (a, b)
+    # the surface's nodes: the volume facets' nodes (each once over the ranks)
+    imap = surface.geometry.index_map()
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    owned = facets[facets < mesh.topology.index_map(tdim - 1).size_local]
+    closure = mesh.geometry.cmap.create_dof_layout().num_entity_closure_dofs(tdim - 1)
+    assert closure == per_cell
+    nodes = compat._facet_geometry_nodes(mesh, owned)
+    x_vol = np.concatenate(comm.allgather(mesh.geometry.x[np.unique(nodes)]))
+    x_surf = np.concatenate(comm.allgather(surface.geometry.x[: imap.size_local]))
+    assert len(x_surf) == imap.size_global == len(np.unique(x_vol.round(12), axis=0))
+    assert np.array_equal(np.unique(x_surf.round(12), axis=0), np.unique(x_vol.round(12), axis=0))
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("quads", [False, True])
+def test_a_second_order_patch_writes_its_slave_surface(shared_tmp, quads):
+    """patch3d with order = 2 (10-node tetrahedra, 27-node hexahedra), the upper top
+    pressed down in 2 steps: contact_upper_bottom.xdmf has the slave facets as 6-node
+    triangles (9-node quadrilaterals), each midside (and face-centre) node at its place on
+    the flat face, and at every node the last step's values of fields.xdmf, of the CSV at
+    its rows, and on the tetrahedra, whose contact fields live on the facets' vertices,
+    the mean of the edge's vertices at each midside node (docs/scenes.md), as
+    fields.xdmf has it (:func:`_check_surface_file`). 1–3 ranks."""
+    from dolfinx_mortar import parse_scene, run
+
+    comm = MPI.COMM_WORLD
+    out = shared_tmp / f"p2patch{int(quads)}"
+    scene = _tetra_patch_scene(out)
+    scene["mesh"]["params"].update(order=2, quads=quads)
+    summary = run(parse_scene(scene, shared_tmp), comm, out)
+    assert summary["status"] == "ok" and len(summary["steps"]) == 2
+    if comm.rank == 0:
+        x, cells, kind = _check_surface_file(out, "upper_bottom", 3, step=2, every=quads)
+        pair = next(iter(summary["modelled"]["contact_pairs"].values()))
+        assert kind == ("Quadrilateral_9" if quads else "Triangle_6")
+        assert len(cells) == pair["slave_facets"] == (9 if quads else 18)
+        assert len(x) == 7 * 7  # the 3 x 3 squares' second-order nodes
+        edges = SURFACE_EDGE_NODES[kind]
+        for place, (a, b) in enumerate(edges, start=SURFACE_VERTICES[kind]):
+            half = 0.5 * (x[cells[:, a]] + x[cells[:, b]])
+            assert np.abs(x[cells[:, place]] - half).max() <= 1e-12
+        if quads:  # the face-centre node
+            assert np.abs(x[cells[:, 8]] - x[cells[:, :4]].mean(axis=1)).max() <= 1e-12
+        assert np.ptp(x, axis=0).min() <= 1e-12  # a flat face
 
 
 @pytest.mark.mpi
