@@ -1195,8 +1195,8 @@ class OutputWriter:
     def _estimate(self, mesh: bool) -> float:
         """A bound on the bytes one step's write adds, from the problem's sizes (the same
         on every rank, no communication): 8 bytes per value of each field on the volume
-        mesh's nodes (a vector as 3 values, as dolfinx writes it) and, where the slave
-        surfaces are written, on their nodes; a CSV row of 25 characters per column for
+        mesh's nodes (a vector as 3 values, as dolfinx writes it) and on the slave
+        surfaces' nodes; a CSV row of 25 characters per column for
         each slave node; an HDF5 dataset's overhead per field and a page per file. With
         ``mesh``: also the meshes (the coordinates, 3 values per node, and the cells'
         node lists, 8 bytes each), which the series write first. A slave surface's nodes
