@@ -592,6 +592,9 @@ class MortarContact(UzawaRounds):
         self.mixed = mixed_nodes(self.ftype)
         self.slave = distribute_slave_facets(comm, slave_local, self.mixed, self.ranges)
         self._midsides = None  # fill_midsides' layout (_midside_layout), made on first use
+        #: the global node blocks of the slave facets this rank extracted (its cells'
+        #: facets: every node owned or a ghost here), for :meth:`_midside_layout`
+        self._own_facet_blocks = slave_local.blocks
         #: slave facets over all ranks (each is extracted by the rank owning its cell)
         self.n_global_facets = comm.allreduce(slave_local.num_facets)
         self.master_local = master_local
@@ -3710,7 +3713,8 @@ class MortarContact(UzawaRounds):
         index map (the slave facets do not change during a run; the output writes every
         step with one function space): the local
         indices of the slave facets' midside nodes and of their edges' two vertices, one
-        entry per (facet, edge), each as long as ``blocks.shape[0] × 3``; the owned nodes
+        entry per (facet, edge) of the slave facets this rank extracted (its cells':
+        every node local), each ``3 ×`` their number long; the owned nodes
         that some rank's slave facet holds as a midside (``hit``); and ``count``, per owned
         node, the number of such entries over all ranks (length ``size_local``).
 
@@ -3732,15 +3736,29 @@ class MortarContact(UzawaRounds):
         order = np.argsort(ghosts)
 
         def to_local(g):
-            """Local indices (owned, then ghosts) of this rank's global nodes g."""
+            """Local indices (owned, then ghosts) of the global nodes g; −1 for a node that
+            is neither on this rank."""
             out = g - lo
             off = (out < 0) | (out >= n_owned)
-            out[off] = n_owned + order[np.searchsorted(ghosts, g[off], sorter=order)]
+            at = np.minimum(np.searchsorted(ghosts, g[off], sorter=order), ghosts.size - 1)
+            at = order[at] if ghosts.size else at
+            found = ghosts[at] == g[off] if ghosts.size else np.zeros(at.size, bool)
+            out[off] = np.where(found, n_owned + at, -1)
             return out
 
-        blocks = self.slave.blocks
+        # the facets this rank extracted, whose nodes are all local here, each facet on
+        # one rank. Before session 64 these were the distributed slave facets
+        # (self.slave): a facet received from another rank (it touches a node owned
+        # here) can have nodes that are neither owned nor ghosts here, which the search
+        # gave another node's index: a 3-rank hertz3d P2 run wrote a midside mean into a
+        # vertex, whose gap fields.xdmf showed as 0 where the CSV has 0.54.
+        blocks = self._own_facet_blocks
         mid = to_local(np.concatenate([blocks[:, m] for m, _, _ in edges]))
         ends = tuple(to_local(np.concatenate([blocks[:, e[i]] for e in edges])) for i in (1, 2))
+        lost = int(np.sum((mid < 0) | (ends[0] < 0) | (ends[1] < 0)))
+        lost = self.comm.allreduce(lost)
+        if lost:  # on every rank, so that none waits in the scatter below
+            raise RuntimeError(f"fill_midsides: {lost} slave facet node(s) not on their rank")
         # every rank that holds a slave facet with the edge gives its midside the mean;
         # the owner takes the mean of those (all equal: the vertices' scattered values)
         counter = function.vector.duplicate()

@@ -293,6 +293,31 @@ def test_a_curved_surface_keeps_the_facets_second_order_geometry(generator, para
 
 
 @pytest.mark.mpi
+def test_the_hertz3d_p2_run_writes_its_curved_slave_surface(shared_tmp):
+    """demo_hertz3d --order 2 (10-node tetrahedra), one step: contact_sphere_surface.xdmf
+    has the sphere's slave facets as 6-node triangles, every node on the sphere (the
+    midside ones off the chords), and at every node the values of fields.xdmf and of the
+    CSV, the midside nodes the mean of their edge's vertices (:func:`_check_surface_file`).
+    1–3 ranks."""
+    sys.path.insert(0, str(DEMOS))
+    import demo_hertz3d
+
+    out = shared_tmp / "hertz3d_p2"
+    demo_hertz3d.main(["--order", "2", "--steps", "1", "--out", str(out)])
+    if MPI.COMM_WORLD.rank == 0:
+        x, cells, kind = _check_surface_file(out, "sphere_surface", 3, step=1, every=False)
+        summary = json.loads((out / "summary.json").read_text())
+        pair = next(iter(summary["modelled"]["contact_pairs"].values()))
+        assert kind == "Triangle_6" and len(cells) == pair["slave_facets"]
+        R = demo_hertz3d.R
+        radius = np.linalg.norm(x - [0.0, 0.0, R], axis=1)
+        assert np.abs(radius - R).max() <= 1e-12 * R
+        for place, (a, b) in enumerate(SURFACE_EDGE_NODES[kind], start=3):
+            half = 0.5 * (x[cells[:, a]] + x[cells[:, b]])
+            assert np.linalg.norm(x[cells[:, place]] - half, axis=1).min() > 1e-6
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("quads", [False, True])
 def test_a_second_order_patch_writes_its_slave_surface(shared_tmp, quads):
     """patch3d with order = 2 (10-node tetrahedra, 27-node hexahedra), the upper top
