@@ -830,6 +830,8 @@ class MortarContact(UzawaRounds):
         self.master = None
         self._u_exchange = None
         self._exchanges = 0
+        #: (inputs, results) of the last two pairings of :meth:`_pair_and_integrate`
+        self._pairing_memo = []
         #: (inputs, result) of the last :meth:`block_couplings`: its inputs are replaced,
         #: never changed in place, and mostly the same between Newton solves
         self._couplings_memo = None
@@ -1166,6 +1168,7 @@ class MortarContact(UzawaRounds):
         self._hist_far = None  # ((version, exchanges), _history_far's value)
         self._history_key = None
         self._history_memo = []  # (points, t_n pairing) of _history_pairing
+        self._slip_memo = []  # (inputs, results) of the last two _slip_integrals
         self._pending = None  # (u, τ, t^n vectors) of a committed step, for begin_step
 
     # ------------------------------------------------------------------ helpers
@@ -1360,7 +1363,61 @@ class MortarContact(UzawaRounds):
 
     def _pair_and_integrate(self) -> None:
         """Candidates, pairing and the nodal integrals A^I, G^I at the current ``xs`` and
-        ``xm`` (local)."""
+        ``xm`` (local).
+
+        A function of its inputs (:meth:`_pairing_inputs`): the results for the last two
+        sets of inputs are kept (``_pairing_memo``), and inputs equal to one of them, bit
+        for bit, take copies of its results. The exact multiplier update
+        (``uzawa._exact_multipliers_fd``) pairs at the converged state once per product,
+        and the line search and the Jacobian revisit iterates: 135 of the 314 pairings of
+        demo_cattaneo3d were repeats. Segment integration, whose points move with the
+        pairing, always pairs afresh."""
+        memo = self._pairing_memo
+        inputs = self._pairing_inputs()
+        if inputs is not None:
+            for i, (key, result) in enumerate(memo):
+                if key == inputs:
+                    memo.insert(0, memo.pop(i))
+                    self._set_pairing(tuple(a.copy() for a in result))
+                    return
+        self._pair_and_integrate_afresh()
+        if inputs is not None:
+            memo.insert(0, (inputs, tuple(a.copy() for a in self._pairing_results())))
+            del memo[2:]
+
+    def _pairing_inputs(self) -> tuple | None:
+        """What :meth:`_pair_and_integrate` depends on that can change after the term is
+        made (local): the coordinates ``xs``, ``xm``, the master layer (its exchange), the
+        pins it applies, and the points, facet sizes and tolerance; None (no memo) with
+        segment integration."""
+        if self.integration == "segment":
+            return None
+        pins = self.qp_pinned is not None and self._pin_exchange == self._exchanges
+        return (
+            self._exchanges,
+            self.xs.shape,
+            self.xs.tobytes(),
+            self.xm.shape,
+            self.xm.tobytes(),
+            self.qp_pinned.tobytes() if pins else None,
+            self.qp_xi.shape,
+            self.qp_xi.tobytes(),
+            self.qp_w.tobytes(),
+            self.h_facet.tobytes(),
+            self.outside_tol,
+        )
+
+    def _pairing_results(self) -> tuple:
+        """The arrays that :meth:`_pair_and_integrate` makes (local): the candidates' CSR,
+        the points' master facets, coordinates and gaps, and A^I, G^I."""
+        return (self.cand_off, self.cand, self.qp_m, self.qp_zeta, self.qp_g, self.A, self.G)
+
+    def _set_pairing(self, result: tuple) -> None:
+        """Take the arrays of :meth:`_pairing_results` (local)."""
+        (self.cand_off, self.cand, self.qp_m, self.qp_zeta, self.qp_g, self.A, self.G) = result
+
+    def _pair_and_integrate_afresh(self) -> None:
+        """:meth:`_pair_and_integrate` without its memo (local)."""
         off, idx = candidates(self.xs, self.xm, 0.5 * self.h_facet)
         self.cand_off, self.cand = off, idx
         self._pair()
@@ -1578,10 +1635,11 @@ class MortarContact(UzawaRounds):
         segment integration, whose points move with u: there it is made at every update
         whose points differ from those of the last two (:meth:`_history_pairing`; the
         exact multiplier update, :meth:`_exact_multipliers_fd`, returns to the converged
-        state between its perturbed ones).
+        state between its perturbed ones). The rest (:meth:`_slip_integrals`) is kept for
+        the last two sets of its inputs with the slave frames (``_slip_memo``), as the
+        pairing is (:meth:`_pair_and_integrate`): inputs equal to one of them, bit for bit,
+        take copies of its results.
         """
-        nsf, nq = self.qp_w.shape
-        n, d = self.node_blocks.size, self.gdim
         key = (self._exchanges, self._u_n_version)
         new_key = key != self._history_key
         if new_key:
@@ -1602,6 +1660,51 @@ class MortarContact(UzawaRounds):
                 self.frame_a_n = self._frames_at(xs_n, xm_n, False)[0]
                 if self._hist_vec is not None:  # master frames, the first search at a new t_n
                     self._carry_history()
+        self.dual_on = self._dual_facets()
+        self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
+        # S-weights and frames: a function of the arrays below (and of the term's fixed
+        # layout), kept for the last two sets of them (_slip_memo), like the pairing's
+        # (_pair_and_integrate); the master frames carry a state of their own: no memo
+        inputs = None
+        if self.tangential_frame == "slave":
+            arrays = (
+                self.xs, self.xm, *self._x_n, self.qp_xi, self.qp_w, self.qp_m, self.qp_mn,
+                self.qp_zn, self.qp_zeta, self.node_touching, self.t_weights, self.dual_on,
+            )  # fmt: skip
+            inputs = (
+                self._exchanges,
+                self.force_at_current,
+                *((a.shape, a.dtype.str, a.tobytes()) for a in arrays),
+            )
+            for i, (key, result) in enumerate(self._slip_memo):
+                if key == inputs:
+                    self._slip_memo.insert(0, self._slip_memo.pop(i))
+                    self._set_slip(tuple(a.copy() for a in result))
+                    return
+        self._slip_integrals()
+        if inputs is not None:
+            self._slip_memo.insert(0, (inputs, tuple(a.copy() for a in self._slip_results())))
+            del self._slip_memo[2:]
+
+    def _slip_results(self) -> tuple:
+        """The arrays that :meth:`_slip_integrals` makes (local)."""
+        return (
+            self.AT, self.S, self.S_n, self.s_node, self.s_key, self.s_dof, self.s_w,
+            self.s_g, self.s_off, self.frame_a, self.frame_n,
+        )  # fmt: skip
+
+    def _set_slip(self, result: tuple) -> None:
+        """Take the arrays of :meth:`_slip_results` (local)."""
+        (
+            self.AT, self.S, self.S_n, self.s_node, self.s_key, self.s_dof, self.s_w,
+            self.s_g, self.s_off, self.frame_a, self.frame_n,
+        ) = result  # fmt: skip
+
+    def _slip_integrals(self) -> None:
+        """A_T, S, S_n and the S-weights per node (``slip_integrals``), and the nodal frames
+        now, at the current pairing and t_n pairing (local; :meth:`_friction_integrals`)."""
+        nsf, nq = self.qp_w.shape
+        n, d = self.node_blocks.size, self.gdim
         ns, nm = self.slave.nodes_per_facet, self.master.nodes_per_facet
         current = self.force_at_current
         cap = nsf * nq * self.node_of.shape[1] * (ns + (2 if current else 1) * nm)
@@ -1611,7 +1714,6 @@ class MortarContact(UzawaRounds):
         e_w = np.empty(cap)
         e_g = np.empty(cap)
         self.AT, self.S, self.S_n = np.zeros(n), np.zeros((n, d)), np.zeros((n, d))
-        self.dual_on = self._dual_facets()
         ne = 0
         if nsf:
             ne = kfriction.slip_integrals(
@@ -1656,7 +1758,6 @@ class MortarContact(UzawaRounds):
         self.s_g = np.add.reduceat(e_g[order], first) if ne else np.empty(0)
         self.s_off = np.searchsorted(self.s_node, np.arange(n + 1))
         self.frame_a, self.frame_n, _ = self._frames_at(self.xs, self.xm, False)
-        self._frame_dA = None  # computed when a Jacobian asks (frame_dA)
 
     def _history_pairing(self) -> None:
         """The pairing of the quadrature points in the t_n configuration (``_x_n``, its
