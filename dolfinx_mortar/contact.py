@@ -3371,30 +3371,28 @@ class MortarContact(UzawaRounds):
         return np.unique(keys), np.unique(self.learned_couplings())
 
     def _block_couplings(self, nsf, cand_sets) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`block_couplings` computed (local)."""
+        """:meth:`block_couplings` computed (local): each (block row, block col) pair once,
+        sorted by row, then column (the learned couplings after them, as they are).
+
+        Node I couples every pair of the blocks its slave facets see (its set S_I): the
+        pattern is the union of S_I × S_I, the product Bᵀ B of the (node, block)
+        incidence B (scipy's sparse product, counts in int32: no entry cancels). It was
+        made as every S_I × S_I, concatenated (7.2 × 10⁶ pairs on demo_cattaneo3d, for
+        4.1 × 10⁵ distinct ones), and sorted by the problem (``unique_runs``)."""
         cf, cb = self._candidate_blocks(nsf, cand_sets)
         fac = np.concatenate([np.repeat(np.arange(nsf), self.slave.nodes_per_facet), cf])
         blk = np.concatenate([self.slave.blocks.ravel(), cb])
-        # (node, block) incidence through the facets around each owned node
+        nb, n = int(self.ranges[-1]), self.node_blocks.size
+        # (slave facet, block) and (node, slave facet) incidences: B = N F, (node, block)
+        F = sp.csr_matrix((np.ones(fac.size, np.int32), (fac, blk)), shape=(nsf, nb))
         fi, ii = np.nonzero(self.node_of >= 0)
-        node_of_f = self.node_of[fi, ii]
-        order = np.argsort(fac, kind="stable")
-        fac, blk = fac[order], blk[order]
-        start = np.searchsorted(fac, np.arange(nsf))
-        stop = np.searchsorted(fac, np.arange(nsf), side="right")
-        nodes = np.concatenate(
-            [np.full(stop[f] - start[f], n) for f, n in zip(fi, node_of_f, strict=True)]
-        )
-        blocks = np.concatenate([blk[start[f] : stop[f]] for f in fi])
-        pairs = np.unique(nodes * (self.ranges[-1] + 1) + blocks)
-        nodes, blocks = pairs // (self.ranges[-1] + 1), pairs % (self.ranges[-1] + 1)
-        bounds = np.searchsorted(nodes, np.arange(self.node_blocks.size + 1))
-        rows, cols = [], []
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            sset = blocks[a:b]
-            rows.append(np.repeat(sset, sset.size))
-            cols.append(np.tile(sset, sset.size))
-        nb = int(self.ranges[-1])
+        N = sp.csr_matrix((np.ones(fi.size, np.int32), (self.node_of[fi, ii], fi)), shape=(n, nsf))
+        B = (N @ F).tocsr()
+        B.data[:] = 1
+        P = (B.T.tocsr() @ B).tocsr()
+        P.sort_indices()
+        rows = [np.repeat(np.arange(nb, dtype=np.int64), np.diff(P.indptr))]
+        cols = [P.indices.astype(np.int64)]
         for learned in (self._learned, self._learned_t):
             # the unconstrained/constrained tangents couple nodes a few rings apart: the
             # couplings of the last assembled tangent

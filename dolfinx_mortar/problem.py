@@ -1473,7 +1473,7 @@ class ContactProblem:
                 return last[1]  # the terms' memos: the same couplings as last time
         r = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
         c = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
-        # the terms give each node's couplings as a sorted run
+        # each term gives its couplings as sorted runs (contact._block_couplings: one)
         keys = unique_runs(r * self._pattern.nblocks + c)
         self._couplings_last = parts, keys
         return keys
