@@ -3378,21 +3378,25 @@ class MortarContact(UzawaRounds):
         pattern is the union of S_I × S_I, the product Bᵀ B of the (node, block)
         incidence B (scipy's sparse product, counts in int32: no entry cancels). It was
         made as every S_I × S_I, concatenated (7.2 × 10⁶ pairs on demo_cattaneo3d, for
-        4.1 × 10⁵ distinct ones), and sorted by the problem (``unique_runs``)."""
+        4.1 × 10⁵ distinct ones), and sorted by the problem (``unique_runs``). The product
+        runs over the blocks this rank's facets see (``seen``, sorted), not over all the
+        problem's blocks: no array of the global size per rank."""
         cf, cb = self._candidate_blocks(nsf, cand_sets)
         fac = np.concatenate([np.repeat(np.arange(nsf), self.slave.nodes_per_facet), cf])
-        blk = np.concatenate([self.slave.blocks.ravel(), cb])
-        nb, n = int(self.ranges[-1]), self.node_blocks.size
+        seen, blk = np.unique(
+            np.concatenate([self.slave.blocks.ravel(), cb]).astype(np.int64), return_inverse=True
+        )
+        nb, n, m = int(self.ranges[-1]), self.node_blocks.size, seen.size
         # (slave facet, block) and (node, slave facet) incidences: B = N F, (node, block)
-        F = sp.csr_matrix((np.ones(fac.size, np.int32), (fac, blk)), shape=(nsf, nb))
+        F = sp.csr_matrix((np.ones(fac.size, np.int32), (fac, blk)), shape=(nsf, m))
         fi, ii = np.nonzero(self.node_of >= 0)
         N = sp.csr_matrix((np.ones(fi.size, np.int32), (self.node_of[fi, ii], fi)), shape=(n, nsf))
         B = (N @ F).tocsr()
         B.data[:] = 1
         P = (B.T.tocsr() @ B).tocsr()
-        P.sort_indices()
-        rows = [np.repeat(np.arange(nb, dtype=np.int64), np.diff(P.indptr))]
-        cols = [P.indices.astype(np.int64)]
+        P.sort_indices()  # seen is sorted: the global pairs come sorted too
+        rows = [np.repeat(seen, np.diff(P.indptr))]
+        cols = [seen[P.indices]]
         for learned in (self._learned, self._learned_t):
             # the unconstrained/constrained tangents couple nodes a few rings apart: the
             # couplings of the last assembled tangent
