@@ -1934,3 +1934,49 @@ def test_a_one_facet_slave_compiles_no_read_only_kernel_variant(tmp_path):
     ]
     assert not read_only, read_only
     assert len(kmortar.pair_points.signatures) == 1, kmortar.pair_points.signatures
+
+
+@pytest.mark.parametrize("case", ["hertz2d-P1", "hertz3d-P1"])
+def test_a_repeated_configuration_takes_the_kept_pairing(monkeypatch, case):
+    """The pairing (candidates, pair_points, A^I, G^I) and the S-weights with the slave
+    frames are kept for the last two configurations (``_pairing_memo``, ``_slip_memo``):
+    an update at one of them computes neither again and gives the same arrays, bit for
+    bit, as copies (an array changed in place afterwards does not change what is kept); a
+    third configuration drops the oldest, which then computes again."""
+    problem = _problem(case)
+    term = problem.contacts[0]
+    _frictional_state(problem, case)
+    calls = {"pairing": 0, "slip": 0}
+    for name, what in (("_pair_and_integrate_afresh", "pairing"), ("_slip_integrals", "slip")):
+        method = getattr(term, name)
+
+        def counted(method=method, what=what):
+            calls[what] += 1
+            return method()
+
+        monkeypatch.setattr(term, name, counted)
+    names = ("qp_m", "qp_zeta", "qp_g", "A", "G", "AT", "S", "S_n", "s_w", "s_g", "frame_a")
+    u1 = problem.u.x.array.copy()
+
+    def update(u):
+        problem.u.x.array[:] = u
+        problem.u.x.scatter_forward()
+        term.update(problem.u)
+        return {k: getattr(term, k).copy() for k in names}
+
+    first = update(u1)  # _frictional_state's own last update was at u1
+    assert calls == {"pairing": 0, "slip": 0}
+    u2 = u1 + 1e-3 * np.sin(np.arange(u1.size))
+    update(u2)
+    assert calls == {"pairing": 1, "slip": 1}
+    term.A[:] = -1.0  # changed in place: the kept arrays are copies
+    again = update(u1)
+    assert calls == {"pairing": 1, "slip": 1}
+    for k in names:
+        np.testing.assert_array_equal(again[k], first[k], err_msg=k)
+    update(u1 + 2e-3 * np.cos(np.arange(u1.size)))  # a third: u2 is the oldest, dropped
+    assert calls == {"pairing": 2, "slip": 2}
+    update(u1)
+    assert calls == {"pairing": 2, "slip": 2}
+    update(u2)
+    assert calls == {"pairing": 3, "slip": 3}
