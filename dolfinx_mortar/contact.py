@@ -1387,9 +1387,11 @@ class MortarContact(UzawaRounds):
 
     def _pairing_inputs(self) -> tuple | None:
         """What :meth:`_pair_and_integrate` depends on that can change after the term is
-        made (local): the coordinates ``xs``, ``xm``, the master layer (its exchange), the
-        pins it applies, and the points, facet sizes and tolerance; None (no memo) with
-        segment integration."""
+        made (local): the coordinates ``xs``, ``xm``, the master layer (its exchange) and
+        the pins it applies; None (no memo) with segment integration. The points
+        ``qp_xi``, ``qp_w``, the facet sizes and the tolerance are fixed at construction
+        with element and node integration (only segment integration sets its points
+        again): not copied into the key at every update."""
         if self.integration == "segment":
             return None
         pins = self.qp_pinned is not None and self._pin_exchange == self._exchanges
@@ -1400,11 +1402,6 @@ class MortarContact(UzawaRounds):
             self.xm.shape,
             self.xm.tobytes(),
             self.qp_pinned.tobytes() if pins else None,
-            self.qp_xi.shape,
-            self.qp_xi.tobytes(),
-            self.qp_w.tobytes(),
-            self.h_facet.tobytes(),
-            self.outside_tol,
         )
 
     def _pairing_results(self) -> tuple:
