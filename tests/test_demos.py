@@ -9,11 +9,11 @@ rank 0 reads the CSV files, the output directory is shared.
 from __future__ import annotations
 
 import json
-import logging
 import sys
 from pathlib import Path
 
 import pytest
+from _logs import warnings_of
 from mpi4py import MPI
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
@@ -257,31 +257,6 @@ def test_quadratic_facets_need_a_quadrature_degree_of_4(shared_tmp):
         assert not out.exists()
 
 
-class _Warnings(logging.Handler):
-    """The messages of the WARNING records of the logger dolfinx_mortar (on the logger
-    itself: caplog's root handler misses them after a test that set the logger's level)."""
-
-    def __init__(self):
-        super().__init__(logging.WARNING)
-        self.messages = []
-
-    def emit(self, record):
-        self.messages.append(record.getMessage())
-
-
-def _warnings_of(fn, *args):
-    """``fn(*args)`` and the WARNING messages the package logged meanwhile."""
-    logger, handler = logging.getLogger("dolfinx_mortar"), _Warnings()
-    level = logger.level
-    logger.setLevel(logging.WARNING)
-    logger.addHandler(handler)
-    try:
-        return fn(*args), handler.messages
-    finally:
-        logger.removeHandler(handler)
-        logger.setLevel(level)
-
-
 def test_a_quadrature_rule_with_a_centre_point_is_warned_about(shared_tmp):
     """A ``quadrature_degree`` whose rule has a point at the slave facet's centre (degree 5
     on a line: 3 Gauss points) is warned about, naming the key (on structured
@@ -289,13 +264,13 @@ def test_a_quadrature_rule_with_a_centre_point_is_warned_about(shared_tmp):
     centre point); the default's degree given explicitly is not, and gives the default's
     results."""
     out = str(shared_tmp / "patch2d_degree")
-    m5, warned = _warnings_of(demo_patch2d.main, ["--quadrature-degree", "5", "--out", out])
+    m5, warned = warnings_of(demo_patch2d.main, ["--quadrature-degree", "5", "--out", out])
     assert any(
         "contact[0].quadrature_degree = 5: the rule has a point at the slave facet's centre" in w
         for w in warned
     ), warned
     assert m5["p_err"] <= 0.02, m5["p_err"]  # still the patch test, with 3 points
-    m7, warned = _warnings_of(demo_patch2d.main, ["--quadrature-degree", "7", "--out", out])
+    m7, warned = warnings_of(demo_patch2d.main, ["--quadrature-degree", "7", "--out", out])
     assert not [w for w in warned if "quadrature_degree" in w], warned
     m = demo_patch2d.main(["--out", out])
     assert m7["p_err"] == m["p_err"] and m7["newton_iterations"] == m["newton_iterations"]

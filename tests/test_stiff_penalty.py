@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _logs import warnings_of
 from mpi4py import MPI
 from test_contact_parallel import HERTZ2D
 
@@ -41,30 +42,6 @@ def _pressures(out_dir, step: int) -> np.ndarray:
 
     t = _node_table(out_dir, step)
     return t["p_N"][np.argsort(t["X"])]
-
-
-class _Warnings(logging.Handler):
-    """The messages of the WARNING records of the logger dolfinx_mortar during a run."""
-
-    def __init__(self):
-        super().__init__(logging.WARNING)
-        self.messages = []
-
-    def emit(self, record):
-        self.messages.append(record.getMessage())
-
-
-def _run_logged(data: dict, out_dir) -> tuple[dict, list[str]]:
-    """_run, with the WARNING messages it logged (as caplog.at_level(WARNING) reads them)."""
-    logger, handler = logging.getLogger("dolfinx_mortar"), _Warnings()
-    level = logger.level
-    logger.setLevel(logging.WARNING)
-    logger.addHandler(handler)
-    try:
-        return _run(data, out_dir), handler.messages
-    finally:
-        logger.removeHandler(handler)
-        logger.setLevel(level)
 
 
 # Runs that several tests compare with, made once per module (session 60: the unit
@@ -102,7 +79,7 @@ def unit3d(module_tmp):
 def small_auto(module_tmp):
     """HERTZ2D with E and the load times 1e-9 and the default atol ("auto"): the summary
     and the WARNING messages the run logged."""
-    return _run_logged(_scaled(1e-9), module_tmp / "scaled_small_auto")
+    return warnings_of(_run, _scaled(1e-9), module_tmp / "scaled_small_auto")
 
 
 @pytest.mark.mpi
