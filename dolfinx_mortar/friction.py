@@ -62,7 +62,7 @@ lumped or the constrained normal recovery); the point integrals are in
   node's force weights (session 55): on the slave those of S^I (w J₀ Ψ_I N_a), on the
   master −w J₀ Ψ_I N^m_b(ζ) at the CURRENT projection ζ of each point (the continuum's
   δg_T at the current closest point), or at ζ_n, G^I = ∂S^I/∂u (before session 55):
-  ``contact.FORCE_AT_CURRENT_PROJECTION``. At ζ, G^I also takes the points paired now
+  ``tangential.FORCE_AT_CURRENT_PROJECTION``. At ζ, G^I also takes the points paired now
   but not at t_n (session 56: the strip a master end swept since t_n), which have no
   S-weight.
   The variation of the frame is not part of the weak form (as the paper omits the
@@ -482,7 +482,7 @@ def return_mapping(lam, gamma, p, active, mu, eps_t, frozen=None, tol=None):
     slip node keeps its slip direction s, so τ = μ p_N s is smooth in u; with directions
     None only the states are imposed and s follows the trial traction (the exact
     multiplier update's differences), and so it does at a node whose row of directions
-    is NaN (a pair frozen with no node in stick: contact.FREE_SLIP_DIRECTIONS); tol (n,) a node
+    is NaN (a pair frozen with no node in stick: tangential.FREE_SLIP_DIRECTIONS); tol (n,) a node
     slips only when Φ > tol (round-off in a touching node's slip must not select a
     slip direction).
 

@@ -747,7 +747,7 @@ class ContactProblem:
 
     def stick_only_at_start(self) -> list[UnheldBody]:
         """The bodies of :meth:`stick_only_motions` none of whose frictional pairs has a
-        slave node in contact at the current state (mixed gap γ ≤ HISTORY_GAP_TOL h:
+        slave node in contact at the current state (mixed gap γ ≤ tangential.HISTORY_GAP_TOL h:
         ``MortarContact.node_touching``), asked before the first step: there the first
         step has no friction at all, and nothing holds the body along those motions
         (collective: one contact update at u, where there is such a body). The answer is

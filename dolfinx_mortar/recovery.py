@@ -466,7 +466,7 @@ def recover_tangential(
 
     With the tangential mortar matrix M_IJ = ∫Ψ_I Φ_J dA₀ (Ψ the tangential weights, row
     sums A^I = ∫Ψ_I dA₀) and the weighted slip since t_n σ^I_α = a^I_α·S^I − a^I_{α,n}·S^I_n
-    in each node's frame (:meth:`.contact.MortarContact._slip_since_t_n`):
+    in each node's frame (:meth:`.tangential.TangentialTerms._slip_since_t_n`):
 
         M γ_α = σ_α,    τ̂^I = Coulomb(λ_T^I + ε_T^I γ^I; μ p^I),    F^I = A^I τ̂^I,
 

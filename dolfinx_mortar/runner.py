@@ -173,7 +173,7 @@ def warn_unheld_bodies(problem) -> None:
 def stick_only_text(body, gdim: int) -> str:
     """The one line that names a body of :meth:`ContactProblem.stick_only_motions` whose
     frictional pairs have no slave node in contact at t = 0 (local)."""
-    from .contact import HISTORY_GAP_TOL
+    from .tangential import HISTORY_GAP_TOL
 
     return (
         f"{body.describe(gdim)} but for stick: no [[dirichlet]] condition holds these "

@@ -430,7 +430,8 @@ class UzawaRounds:
             if self.frozen is not None:
                 fstate, tau_law = self._recover_tangential(frozen=None)
                 s_free = tau_law / np.maximum(np.linalg.norm(tau_law, axis=1), 1e-300)[:, None]
-                # (a direction left free, NaN: FREE_SLIP_DIRECTIONS, never counts as moved)
+                # (a direction left free, NaN: tangential.FREE_SLIP_DIRECTIONS, never counts
+                # as moved)
                 moved = (self.fstate == fr.SLIP) & (
                     np.linalg.norm(s_free - self.frozen[1], axis=1) > FROZEN_DIRECTION_TOL
                 )

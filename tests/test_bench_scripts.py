@@ -296,7 +296,7 @@ def test_newton_diagnostics_hertz2d(tmp_path, mesh):
     included) where the residual is smooth along the Newton step (the remainder quadratic
     in t), the tangent matches central differences along the step; the last two steps are
     smooth. On triangles the FD check holds at every iterate; on quadrilaterals at the smooth
-    ones. Measured on quadrilaterals (4 iterates since contact.DEEP_PENETRATION_TOL, 5
+    ones. Measured on quadrilaterals (4 iterates since tangential.DEEP_PENETRATION_TOL, 5
     before): the first iterate, the predictor 0.05 h deep, is not smooth along its step
     (quotients 1.23 … 1.14); the other three are, and |du_k+1|/|du_k|² = 2.8, 1.5, 1.6."""
     log = _load("newton_diagnostics").main(["--step", "4", "--out", str(tmp_path), *mesh])

@@ -20,7 +20,7 @@ from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 
 #: the finite-difference checks of the tangent: the exact tangent at every Jacobian (the
-#: fixture raises contact.DEEP_PENETRATION_TOL to inf). Per test, never module-wide: the
+#: fixture raises DEEP_PENETRATION_TOL to inf). Per test, never module-wide: the
 #: other tests, and any test that runs a scene, see the shipped settings.
 exact_tangent = pytest.mark.usefixtures("exact_contact_tangent")
 #: the pattern tests compare Jacobians assembled one after the other at one state (or
@@ -587,9 +587,9 @@ def test_a_pair_that_carries_no_load_yet_is_a_first_contact():
 @pytest.mark.mpi
 @pytest.mark.parametrize("integration", ["element", "segment"])
 def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_moves(
-    monkeypatch, integration
+    monkeypatch, request, integration
 ):
-    """contact.DEEP_PENETRATION_TOL. The FD configuration hertz2d-P1 presses the cylinder
+    """tangential.DEEP_PENETRATION_TOL. The FD configuration hertz2d-P1 presses the cylinder
     more than 0.05 h_I into the block. The first Jacobian of a solve there leaves the
     geometric part out and does NOT match finite differences; the next Jacobian at the
     same active set is exact again (FD to 1e-5), as is the first one with the rule off.
@@ -628,7 +628,7 @@ def test_deep_penetration_leaves_the_geometric_tangent_out_while_the_active_set_
         kept.axpy(-1.0, first)
         assert kept.norm() > 1e-6 * first.norm()
         return
-    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
+    request.getfixturevalue("exact_contact_tangent")
     term.begin_solve()
     assert max(fd_errors(problem, term, jacobian(), u0, n=2)) < 1e-5
     # the penalty part: symmetric, and v·K v >= 0
@@ -883,14 +883,14 @@ def test_every_paired_point_is_pinned_from_hold_after():
 
 
 @pytest.mark.mpi
-def test_the_held_contact_set_keeps_nodes_in_tension_until_the_recheck(monkeypatch):
+def test_the_held_contact_set_keeps_nodes_in_tension_until_the_recheck(request):
     """Chattering control of the lumped contact set (contact.HOLD_AFTER): a node in
     contact at a Jacobian from the HOLD_AFTER-th of a solve on stays in contact when a
     later iterate opens it, with p = λ − εγ < 0 and an exact tangent, while the law's
     pressure p̂ stays ⟨λ − εγ⟩ = 0; a node in contact at an earlier Jacobian only is not
     held. uzawa_update counts a held node in tension as a changed state
     (``released_nodes``) and does not accept the round; the next solve starts free."""
-    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)  # exact tangents only
+    request.getfixturevalue("exact_contact_tangent")  # exact tangents only
     comm = MPI.COMM_WORLD
     problem = _problem("hertz2d-P1", "element", "lumped")
     term = problem.contacts[0]
@@ -1066,7 +1066,7 @@ FRICTIONAL_PATCH = {
 }
 
 
-def test_residual_and_jacobian_are_evaluated_at_x(tmp_path, monkeypatch):
+def test_residual_and_jacobian_are_evaluated_at_x(tmp_path, request):
     """ContactProblem.residual(x) and jacobian(x) evaluate at x, whatever state the
     contact terms were last updated at (they were evaluated at the last update: the
     Jacobian differed by 41 % from J(x) on a slide), and the Jacobian is the derivative
@@ -1085,7 +1085,7 @@ def test_residual_and_jacobian_are_evaluated_at_x(tmp_path, monkeypatch):
     problem = held[0]
     # the press above ran with the shipped settings; the comparisons below take the
     # exact tangent (the fixture exact_contact_tangent, from here on)
-    monkeypatch.setattr(contact, "DEEP_PENETRATION_TOL", np.inf)
+    request.getfixturevalue("exact_contact_tangent")
     try:
         term = problem.contacts[0]
         md, V = problem.mesh_data, problem.V

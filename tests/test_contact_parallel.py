@@ -510,7 +510,7 @@ def test_p2_half_model_with_segments_passes_the_symmetry_sliver(shared_tmp, reco
     between consistent and lumped from one iterate to the next, a jump of the residual:
     the run stopped near t = 0.1012 when the step could not be halved further. Now it
     completes without a cutback, the load carried, and every facet that is paired at all
-    is paired whole or beyond the threshold (contact.PARTIAL_FACET_TOL)."""
+    is paired whole or beyond the threshold (tangential.PARTIAL_FACET_TOL)."""
     from dolfinx_mortar import contact as contact_module
 
     data = {

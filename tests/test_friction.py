@@ -24,7 +24,7 @@ from dolfinx_mortar.surface import dual_coefficients
 
 #: the finite-difference checks of the tangent (_check_tangent): the exact tangent at every
 #: Jacobian. Per test, never module-wide: the scene runs below (runner.run) must see the
-#: shipped settings (contact.DEEP_PENETRATION_TOL changes the Newton tangent).
+#: shipped settings (tangential.DEEP_PENETRATION_TOL changes the Newton tangent).
 exact_tangent = pytest.mark.usefixtures("exact_contact_tangent")
 
 MU = 0.3
@@ -33,13 +33,13 @@ MU = 0.3
 @pytest.fixture(params=["t_n", pytest.param("current", marks=pytest.mark.mpi_not3)])
 def force_at(request, monkeypatch):
     """Both places where the tangential traction can act on the master (session 55,
-    contact.FORCE_AT_CURRENT_PROJECTION): "t_n", the default (the t_n projections ζ_n,
+    tangential.FORCE_AT_CURRENT_PROJECTION): "t_n", the default (the t_n projections ζ_n,
     G = W), and "current" (the current projections ζ, the force weights and their
     geometric tangent block; serial and on 2 ranks, not on 3: the suite's time). Yields
     the choice."""
-    from dolfinx_mortar import contact
+    from dolfinx_mortar import tangential
 
-    monkeypatch.setattr(contact, "FORCE_AT_CURRENT_PROJECTION", request.param == "current")
+    monkeypatch.setattr(tangential, "FORCE_AT_CURRENT_PROJECTION", request.param == "current")
     return request.param
 
 
@@ -350,9 +350,9 @@ def test_frames_rotate_with_the_surface():
 @pytest.mark.parametrize("weights", ["dual", "standard"])
 @pytest.mark.parametrize("case", ["hertz2d-P2", "hertz3d-P1"])
 def test_slip_integrals_match_reference(case, weights, monkeypatch):
-    from dolfinx_mortar import contact
+    from dolfinx_mortar import tangential
 
-    monkeypatch.setattr(contact, "FORCE_AT_CURRENT_PROJECTION", True)  # G ≠ W
+    monkeypatch.setattr(tangential, "FORCE_AT_CURRENT_PROJECTION", True)  # G ≠ W
     problem = _problem(case, weights=weights)
     term = _frictional_state(problem, case)
     if weights == "dual":
@@ -1001,7 +1001,7 @@ def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch
     that springs back 3 h along the die; a leading-edge node that re-closes with 16 μ p).
     The trial-traction criterion holds with the constrained normal recovery too (since
     session 47: test_a_3d_slide_with_the_constrained_normal_recovery)."""
-    from dolfinx_mortar import contact as contact_module
+    from dolfinx_mortar import tangential
 
     problem = _problem("hertz2d-P1", penalty_t=1e3, recovery=recovery)
     term = _frictional_state(problem, "hertz2d-P1")
@@ -1010,20 +1010,20 @@ def test_a_node_frozen_open_sticks_when_it_closes_unless_it_slid_far(monkeypatch
     active = free_state != fr.OPEN
     assert comm.allreduce(int(np.count_nonzero(free_state == fr.SLIP))) >= 1
     term.frozen = (np.full_like(term.fstate, fr.OPEN), np.zeros_like(term.lmbda_t))
-    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
-    monkeypatch.setattr(contact_module, "REENTRY_TRIAL_CONE", 1e30)
+    monkeypatch.setattr(tangential, "REENTRY_FREE_SLIP", 1e30)
+    monkeypatch.setattr(tangential, "REENTRY_TRIAL_CONE", 1e30)
     term._recover_tangential()
     assert np.all(term.fstate[active] == fr.STICK)
     trial = term.lmbda_t + term.eps_t[:, None] * term.gamma_t
     assert np.allclose(term.tau[active], trial[active], rtol=0, atol=1e-12)
-    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 0.0)
+    monkeypatch.setattr(tangential, "REENTRY_FREE_SLIP", 0.0)
     term._recover_tangential()
     assert np.array_equal(term.fstate, free_state)
     assert np.allclose(term.tau, free_tau, rtol=0, atol=1e-12)
     # the trial-traction criterion alone: a cone factor below every active node's
     # |trial|/(μ p) frees all of them
-    monkeypatch.setattr(contact_module, "REENTRY_FREE_SLIP", 1e30)
-    monkeypatch.setattr(contact_module, "REENTRY_TRIAL_CONE", 0.0)
+    monkeypatch.setattr(tangential, "REENTRY_FREE_SLIP", 1e30)
+    monkeypatch.setattr(tangential, "REENTRY_TRIAL_CONE", 0.0)
     moving = active & (np.linalg.norm(trial, axis=1) > 0.0)
     term._recover_tangential()
     assert np.array_equal(term.fstate[moving], free_state[moving])
@@ -1419,7 +1419,7 @@ def test_a_3d_press_with_the_constrained_tangential_recovery(tmp_path):
 def test_the_unconstrained_tangential_recovery_has_no_reversal_rule(tmp_path):
     """``bench/scenes/slide_one_step2d.toml`` (a press, then a slide of 1.3 in one step)
     with the unconstrained tangential recovery: the chattering control's slip-reversal
-    rule (``contact.REVERSAL_RECOVERIES``: lumped and constrained) froze a node in stick
+    rule (``tangential.REVERSAL_RECOVERIES``: lumped and constrained) froze a node in stick
     at the 5th Jacobian of the slide, which then failed and was cut back (3 steps, 60 + 31
     Newton iterations, the force 0.46 % off). Without the rule: 2 steps, the slide in 29
     + 2 + 1 + 1 + 1, no cutback: l2's 25 iterations (its max_it), then 4 full Newton
@@ -1429,8 +1429,8 @@ def test_the_unconstrained_tangential_recovery_has_no_reversal_rule(tmp_path):
     (BENCHMARKS.md §72)."""
     import tomllib
 
-    from dolfinx_mortar.contact import REVERSAL_RECOVERIES
     from dolfinx_mortar.runner import run
+    from dolfinx_mortar.tangential import REVERSAL_RECOVERIES
 
     assert "unconstrained" not in REVERSAL_RECOVERIES
     scene = pathlib.Path(__file__).resolve().parents[1] / "bench" / "scenes"
@@ -1648,7 +1648,7 @@ def test_a_held_load_keeps_the_stick_tractions(dim, integration, frame, shared_t
     acts on the master at the t_n material points ζ_n (the default), those of the last
     loading step's end, which its slip moved: 2D 3.0e-7 |F|, 3D 1.1e-5 |F| (element and
     segment integration). With the traction at the current projection ζ (session 55,
-    contact.FORCE_AT_CURRENT_PROJECTION, ``force_at`` "current"): 4e-13 / 3e-12 (slave
+    tangential.FORCE_AT_CURRENT_PROJECTION, ``force_at`` "current"): 4e-13 / 3e-12 (slave
     frame, element; segment 5e-13 / 1e-14), 1e-13 / 8.3e-8 (master frame: its basis a^I
     sits at the node's own t_n projection, which the new t_n moves). The steps after the
     first are compared. Serially and on 2 ranks (:func:`_force_point_cases`).
@@ -1736,7 +1736,7 @@ def test_the_first_held_step_after_gross_slip(dim, integration, frame, shared_tm
     so by default (``force_at`` "t_n": 5.1e-3 … 5.3e-3 on this patch with a deformable
     master, 2D and 3D, element and segment, either frame; asserted above 1e-3 on two of
     them, :func:`_force_point_cases`). With the
-    traction at the current projection ζ (contact.FORCE_AT_CURRENT_PROJECTION = True,
+    traction at the current projection ζ (tangential.FORCE_AT_CURRENT_PROJECTION = True,
     opt-in; "current") the held state is the slid one: 0 with the slave frame (0 Newton
     iterations), 6.1e-5 (2D) / 3.8e-5 (3D) with the master frame (its basis a^I at the
     node's own t_n projection moves with the new t_n). Cases: :func:`_force_point_cases`

@@ -123,7 +123,7 @@ def test_friction_patch3d_slide_p2_tetrahedra_needs_no_cutback(shared_tmp):
     cross-slip traction nothing to balance it, and the next Newton step moved the block by
     2.3e8 along y: DIVERGED_DTOL and a cutback (12 + 4 + 1 + 0 iterations at t = 0.25).
     Now a pair frozen with no node in stick keeps its slip directions free
-    (contact.FREE_SLIP_DIRECTIONS): 8 + 1 + 1 + 0 at t = 0.5, no cutback, exact. With
+    (tangential.FREE_SLIP_DIRECTIONS): 8 + 1 + 1 + 0 at t = 0.5, no cutback, exact. With
     FREE_SLIP_DIRECTIONS = False the same run cuts back once (measured when it landed;
     not re-run here: the suite's 2-core budget). On 2 ranks only (mpi2): 35 s serially."""
     import _common as cm
@@ -233,7 +233,7 @@ def test_cattaneo2d(shared_tmp):
     elements, L2(q) 11.7 %, L2(p) 3.75 % (dual weights: L2(q) 8.8 %, 30 s instead of
     14 s). The issue's 5 % on q is NOT met here (BENCHMARKS.md §8). The second press step
     (t = 0.5 → 1) converges from the extrapolated predictor, which puts the previous
-    contact zone 0.5 h into the block (contact.DEEP_PENETRATION_TOL; before that rule it
+    contact zone 0.5 h into the block (tangential.DEEP_PENETRATION_TOL; before that rule it
     failed after 35 iterations from the predictor and again from the converged state, and
     was cut back)."""
     out = str(shared_tmp / "cattaneo2d")
@@ -327,7 +327,7 @@ def test_ironing2d_snap_of_the_dragged_corner(shared_tmp):
     the chattering control's freeze, and as a node frozen open it was imposed stick at its
     t_n material point 3 h away: the round converged back on the vanished pre-snap side
     and the next made the jump, 18 + 31 + 6 + 1 Newton iterations. It now follows the
-    free law (contact.REENTRY_FREE_SLIP): 31 + 4 + 1, and 18 + 10 + 1 with every paired
+    free law (tangential.REENTRY_FREE_SLIP): 31 + 4 + 1, and 18 + 10 + 1 with every paired
     point pinned from the 12th Jacobian, 18 + 6 + 1 with full steps in the round after the
     pins (solver.ROUND_FULL_STEPS; measured, serial, ~30 s): no step of the path needs
     more than 25 (issue 4). The step after the snap starts from the converged state

@@ -138,7 +138,7 @@ def test_paired_fraction_is_the_paired_reference_measure(ftype):
     """kernels.mortar.paired_fraction on curved P2 facets (random mid-edge offsets): the
     fraction of a facet that its paired points cover equals the sum of their rule weights
     ŵ over the reference measure (1 for an interval, 1/2 for a triangle), whatever J₀;
-    every point paired gives 1 to round-off (contact.PARTIAL_FACET_TOL compares with it)."""
+    every point paired gives 1 to round-off (tangential.PARTIAL_FACET_TOL compares with it)."""
     from dolfinx_mortar.surface import quadrature
 
     rng = np.random.default_rng(1)

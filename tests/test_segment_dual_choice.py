@@ -16,7 +16,7 @@ sliver of 0.9–2e-6 of a facet near the unloading steps' solutions, so the choi
 switched between Newton iterates (the residual jumped by 3e-4, Newton cycled at
 ‖R‖ ≈ 4–7e-4) and, with the choice fixed per Newton solve only, between the solves of
 the Uzawa rounds. Before the fix the step t = 2.625 failed twice (2 cutbacks); now the
-choice is made at the step attempt's first evaluation (MortarContact._dual_facets), and
+choice is made at the step attempt's first evaluation (TangentialTerms._dual_facets), and
 no step is cut back.
 """
 

@@ -1130,7 +1130,7 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
     to the slip tolerance SLIP_TOL ε_T h_I (5.5e-7, against μp ≈ 5e-11) and dropped to
     τ = 0 when it opened; the last round's Newton solve cycled between ‖R‖ 2.2e-8 and
     3.4e-9 on 2 ranks until max_it (a cutback) and took 4–14 iterations serially. The
-    tolerance now fades to 0 below the unloaded floor (MortarContact._law_slip_tol): that
+    tolerance now fades to 0 below the unloaded floor (TangentialTerms._law_slip_tol): that
     solve takes one iteration. The release takes one more round than without friction: its first
     round ends with states frozen by the slip-reversal rule that the free law
     contradicts, and the plain update follows (docs/method-notes.md)."""
