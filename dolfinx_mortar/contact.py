@@ -70,6 +70,7 @@ from petsc4py import PETSc
 
 from . import friction as fr
 from . import recovery as rc
+from . import tangential as tg
 from .analytic import effective_modulus
 from .assembly import add_keyed_blocks, add_outer_blocks, padded_rows
 from .errors import SceneError, SceneTypeError
@@ -112,12 +113,7 @@ from .surface import (
     relative_to,
     shared_nodes,
 )
-from .tangential import (
-    DEEP_PENETRATION_TOL,
-    PARTIAL_FACET_TOL,
-    SLIP_TOL,
-    TangentialTerms,
-)
+from .tangential import TangentialTerms
 from .uzawa import (
     ACCELERATIONS,
     UNLOADED_ROUND_OFF,
@@ -1388,7 +1384,9 @@ class MortarContact(TangentialTerms, UzawaRounds):
             self.first_contact = n_active == 0 or (not self.loaded and n_lmbda == 0)
         moved = prev is None or (prev.shape == act.shape and bool(np.any(prev != act)))
         depth = float(np.max(-self.gamma[act] / self.h_node[act], initial=0.0))
-        flags = self.comm.allreduce(int(moved) | int(depth > DEEP_PENETRATION_TOL) << 1, op=MPI.BOR)
+        flags = self.comm.allreduce(
+            int(moved) | int(depth > tg.DEEP_PENETRATION_TOL) << 1, op=MPI.BOR
+        )
         return bool(flags & 1) and (self.first_contact or bool(flags & 2))
 
     def _watch_contact_set(self) -> None:
@@ -1599,7 +1597,7 @@ class MortarContact(TangentialTerms, UzawaRounds):
             # A facet paired over part of its area only (the edge of the paired region, a
             # slave facet beyond the master's edge) enters lumped: with few paired points
             # its consistent block is rank deficient. The row sums, M·1 = A, are kept.
-            partial = np.flatnonzero(self.paired_fraction(self.qp_m) < 1.0 - PARTIAL_FACET_TOL)
+            partial = np.flatnonzero(self.paired_fraction(self.qp_m) < 1.0 - tg.PARTIAL_FACET_TOL)
             sums = Mf[partial].sum(axis=2)
             Mf[partial] = 0.0
             Mf[partial, np.arange(nphi)[:, None], np.arange(nphi)[:, None]] = sums.T
@@ -2245,7 +2243,7 @@ class MortarContact(TangentialTerms, UzawaRounds):
         self.eps = self.eps_soft if on else self._eps_own
         if self.frictional:
             self.eps_t = self.eps_t_soft if on else self._eps_t_own
-            self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
+            self._slip_tol = tg.SLIP_TOL * self.eps_t * self.h_node
 
     @property
     def soft_start(self) -> bool:

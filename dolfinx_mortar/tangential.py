@@ -43,8 +43,8 @@ rounds, steps and outputs read (``AT``, ``S``, ``s_*``, ``frame_a``, ``frame_n``
 ``tau``, ``t_vec``, ``fstate``, ``frozen``, ``lmbda_t``, ...).
 
 The constants of the friction rules are here; DEEP_PENETRATION_TOL, PARTIAL_FACET_TOL
-and SLIP_TOL are shared with the normal stage, which imports them from here (a test that
-changes one of them changes it in both modules).
+and SLIP_TOL are shared with the normal stage, which reads them as ``tangential.X`` at
+each use (one definition: a test that sets ``tangential.X`` changes both stages).
 """
 
 from __future__ import annotations

@@ -182,18 +182,17 @@ def exact_contact_tangent(monkeypatch):
     """The exact contact tangent at every Jacobian: the finite-difference configurations
     press the bodies up to 0.125 h_I into each other (a few active nodes on coarse meshes),
     where DEEP_PENETRATION_TOL would leave the geometric part of the tangent out
-    (tested on its own in test_contact_jacobian.py), raised to inf in both modules that
-    read it: contact.py (the normal tangent) and tangential.py (the friction's
-    slip-reversal rule and ``deep_start``; defined there, contact.py imports it). Only
-    for tests that compare the tangent with finite differences, marked one by one: it
-    changes the Newton tangent, so a scene run under it does not test the shipped solver
-    (never a module-wide ``pytestmark``)."""
+    (tested on its own in test_contact_jacobian.py), raised to inf where it is defined,
+    tangential.py, which both stages read (the normal tangent in contact.py; the
+    friction's slip-reversal rule and ``deep_start``). Only for tests that compare the
+    tangent with finite differences, marked one by one: it changes the Newton tangent, so
+    a scene run under it does not test the shipped solver (never a module-wide
+    ``pytestmark``)."""
     import numpy as np
 
-    from dolfinx_mortar import contact, tangential
+    from dolfinx_mortar import tangential
 
-    for module in (contact, tangential):
-        monkeypatch.setattr(module, "DEEP_PENETRATION_TOL", np.inf)
+    monkeypatch.setattr(tangential, "DEEP_PENETRATION_TOL", np.inf)
 
 
 def stick_only_scene(gap0: float = 0.005) -> dict:

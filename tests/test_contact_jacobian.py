@@ -15,7 +15,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx_mortar import contact, uzawa
+from dolfinx_mortar import contact, tangential, uzawa
 from dolfinx_mortar.runner import prepare
 from dolfinx_mortar.scene import parse_scene
 
@@ -30,7 +30,7 @@ exact_tangent = pytest.mark.usefixtures("exact_contact_tangent")
 #: the fixture: by 0.3 % to 9 % of ‖J‖). They take the exact tangent too.
 same_tangent_twice = exact_tangent
 #: the library's value
-DEEP_PENETRATION_TOL = contact.DEEP_PENETRATION_TOL
+DEEP_PENETRATION_TOL = tangential.DEEP_PENETRATION_TOL
 
 CASES = {
     # name: (generator, params, slave, master, bodies (slave, master), gdim)
