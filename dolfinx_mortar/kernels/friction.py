@@ -475,7 +475,7 @@ def slip_point_terms(
     ∂N^m_b(ζ)/∂ξ_β through ζ at fixed nodes, ∂ζ/∂ξ_β = (∂ζ/∂x¹) x¹,β(ξ) in the current
     configuration (the force weights' master part, :func:`slip_integrals`' e_g), computed
     only where ``current`` (bool: the traction acts at ζ,
-    contact.FORCE_AT_CURRENT_PROJECTION; else Nc, dNc are left as they are, one
+    tangential.FORCE_AT_CURRENT_PROJECTION; else Nc, dNc are left as they are, one
     projection derivative per point saved); psi, dpsi (nphi,), (nphi, k): the weight
     functions Ψ_i(ξ) and ∂Ψ_i/∂ξ_β (dual where
     :func:`slip_integrals` uses them), phi, dphi: the mixed basis Φ_i(ξ) and ∂Φ_i/∂ξ_β.
