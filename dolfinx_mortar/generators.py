@@ -393,8 +393,12 @@ def build(name: str, params: dict | None = None) -> dict:
             # which subdivides to guarantee quadrilaterals only.
             gmsh.model.mesh.clear()
             gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
+            gmsh.model.mesh.generate(1)
+            _check_even_boundaries(gmsh, meta, name)
             gmsh.model.mesh.generate(dim)
         gmsh.model.mesh.setOrder(p["order"])
+    except SceneError:
+        raise
     except Exception as exc:  # gmsh and OpenCASCADE raise bare Exceptions
         raise SceneError("mesh", f"generator {name!r} failed: {exc}{_tiny_hint(p)}") from exc
     out = {"generator": name, "gdim": dim, **p}
@@ -549,6 +553,34 @@ def _has_mixed_2d(gmsh, meta: dict) -> bool:
     for body in meta["bodies"]:
         ents += _group_entities(gmsh, *meta["groups"][body])
     return len(_element_types(gmsh, 2, ents)) > 1
+
+
+def _check_even_boundaries(gmsh, meta: dict, name: str) -> None:
+    """Raise SceneError where a body's surface has an odd number of boundary edges in the
+    current 1D mesh. gmsh's all-quadrilateral recombination (RecombinationAlgorithm 3)
+    needs an even number on every surface; with an odd one gmsh 4.8 throws a C++
+    string that no API layer catches ("1D mesh cannot be divided by 2"): the process
+    aborts (SIGABRT, a C backtrace on every rank). It happens where h_far is larger than
+    a body (hertz2d with quads = true and h_far > H: a side of one edge)."""
+    odd = []
+    for body in meta["bodies"]:
+        d, tag = meta["groups"][body]
+        for surface in _group_entities(gmsh, d, tag):
+            curves = gmsh.model.getBoundary([(d, surface)], combined=False, oriented=False)
+            edges = 0
+            for _, curve in curves:
+                _, etags, _ = gmsh.model.mesh.getElements(1, abs(curve))
+                edges += sum(len(x) for x in etags)
+            if edges % 2:
+                odd.append(f"{body!r} has {edges}")
+    if odd:
+        raise SceneError(
+            "mesh",
+            f"generator {name!r} with quads = true: Blossom recombination left triangles, "
+            f"and its all-quadrilateral variant needs an even number of boundary edges on "
+            f"every body, and {', '.join(odd)}: give smaller element sizes where a body is "
+            f"thinner than them (h_far, say), or quads = false",
+        )
 
 
 def _mesh_stats(gmsh, meta: dict, dim: int) -> dict:

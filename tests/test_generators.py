@@ -262,6 +262,22 @@ def test_quad_fallback(model, monkeypatch):
     convert("hertz2d", meta)
 
 
+@pytest.mark.parametrize("params", [{"H": 1.0}, {"W": 4.0, "h_far": 4.0}])
+def test_a_body_thinner_than_its_elements_cannot_be_all_quads(model, params):
+    """hertz2d with quads = true and h_far above the block's height (or half-width):
+    Blossom leaves triangles, and the all-quadrilateral variant meets a block boundary of
+    an odd number of edges, where gmsh 4.8 threw a C++ string that nothing caught (the
+    process aborted with SIGABRT, QA of session 65). Now a SceneError says so."""
+    with pytest.raises(SceneError) as err:
+        G.build("hertz2d", dict(params, quads=True))
+    assert err.value.key == "mesh"
+    reason = err.value.reason
+    assert reason.startswith("generator 'hertz2d' with quads = true: "), reason
+    assert "'block' has " in reason and "or quads = false" in reason, reason
+    odd = int(reason.split("'block' has ")[1].split(":")[0])
+    assert odd % 2 == 1, reason
+
+
 @pytest.mark.parametrize(
     "name",
     ["hertz2d", "hertz3d", "patch2d", "patch3d", "cattaneo2d", "ironing2d", "ironing3d"]
