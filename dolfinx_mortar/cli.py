@@ -196,16 +196,17 @@ def load_laws(path: Path) -> None:
         raise SceneError("--laws", f"{path} failed: {reason}") from None
 
 
-def _on_every_rank(comm, action, *args) -> None:
-    """``action(*args)`` on every rank (collective): where it raises SceneError on some
-    ranks, every rank raises the first rank's error (naming that rank where others did
-    not fail), so that no rank waits alone in a later collective."""
-    error = None
+def _on_every_rank(comm, action, *args):
+    """``action(*args)`` on every rank (collective), its result: where it raises
+    SceneError on some ranks, every rank raises the first rank's error (naming that rank
+    where others did not fail), so that no rank waits alone in a later collective."""
+    error = result = None
     try:
-        action(*args)
+        result = action(*args)
     except SceneError as exc:
         error = (exc.key, exc.reason)
     raise_on_every_rank(comm, error)
+    return result
 
 
 def _progress(comm):
@@ -438,7 +439,9 @@ def main(argv=None) -> int:
             _import_dolfinx(comm.rank, verbose)
         for path in dict.fromkeys(args.laws):  # a file named twice runs once
             _on_every_rank(comm, load_laws, path)
-        scene = load_scene(args.scene)
+        # collective: a --laws file that registers a law on some ranks only leaves the
+        # scene valid on those (rank 0 went on into the mesh's collectives and hung)
+        scene = _on_every_rank(comm, load_scene, args.scene)
         if petsc:  # command-line PETSc options override the scene's
             import dataclasses
 

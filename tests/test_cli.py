@@ -1751,7 +1751,8 @@ def test_laws_file(cli_call, workdir, ranks):
     missing or raises, the scene is one error line per rank, exit status 2.
 
     On 2 ranks: the run with the law (the file run on every rank), a file that raises on
-    every rank and one that raises on rank 1 only. The other refusals, asserted serially,
+    every rank, one that raises on rank 1 only and one that registers the law on rank 0
+    only (the scene's reading is collective too). The other refusals, asserted serially,
     are a SceneError raised on every rank by the same calls: a file that is missing, a
     directory or exits, as the one that raises (``_on_every_rank(comm, load_laws,
     path)``), and a law that no file registered by the scene's reading, as
@@ -1800,6 +1801,14 @@ def test_laws_file(cli_call, workdir, ranks):
         )
         res = cli_call(workdir, "check", "law.toml", "--laws", "rank1.py", ranks=ranks)
         _one_error_line(res, n, "--laws", "RuntimeError: only here (on rank 1)")
+        # a law registered on rank 0 only: the scene is valid there and not on rank 1;
+        # rank 0 went on into the mesh's collectives and the run hung (QA, session 65)
+        (workdir / "rank0.py").write_text(
+            "from mpi4py import MPI\n"
+            "if MPI.COMM_WORLD.rank == 0:\n    exec(open('laws.py').read())\n"
+        )
+        res = cli_call(workdir, "run", "law.toml", "--laws", "rank0.py", ranks=ranks)
+        _one_error_line(res, n, "material[0].model", "register_law (on rank 1)")
 
 
 def test_run_not_converging(cli_call, workdir):
