@@ -82,6 +82,10 @@ def _parser() -> argparse.ArgumentParser:
     )
     c = sub.add_parser("check", help="validate a scene (reads the mesh) without solving")
     c.add_argument("scene", type=Path)
+    c.epilog = (
+        "PETSc options with the prefix dm_ are checked as `run` takes them, e.g. "
+        "-dm_ksp_type gmres."
+    )
     for x in (r, c):
         x.add_argument(
             "--laws",
@@ -368,21 +372,23 @@ def main(argv=None) -> int:
     petsc = {}
     if extra:
         try:
-            if args.command != "run":
+            if args.command not in ("run", "check"):
                 raise ValueError(extra[0])
             petsc = petsc_arguments(extra)
         except ValueError as exc:
             bad = str(exc)
             if bad in _subcommand_options(parser, args.command):
                 hint = f"an option of `{args.command}`: put it after `{args.command}`"
-            elif args.command != "run":  # the PETSc hint is run's
+            elif args.command not in ("run", "check"):  # the PETSc hint is theirs
                 hint = (
                     f"an option of `run`, not of `{args.command}`"
                     if bad in _subcommand_options(parser, "run")
                     else f"`{args.command}` takes no such argument"
                 )
+            elif bad in _subcommand_options(parser, "run"):  # check ... --out
+                hint = f"an option of `run`, not of `{args.command}`"
             else:
-                hint = "PETSc options of `run` take the prefix -dm_"
+                hint = f"PETSc options of `{args.command}` take the prefix -dm_"
             _usage_exit(
                 f"dolfinx-mortar: error: command line: unrecognized argument {bad} ({hint})"
             )

@@ -1258,8 +1258,9 @@ def test_usage_errors_are_one_line(cli_call, workdir):
         # an option of the subcommand before it: where it goes, not the PETSc prefix
         (("-v", "run", "s.toml"), "unrecognized argument -v (an option of `run`: put it after"),
         (("-x", "run", "s.toml"), "unrecognized argument -x (PETSc options of `run` take"),
-        # the PETSc hint belongs to run only
+        # run's own options are not PETSc's
         (("check", "s.toml", "--out", "x"), "argument --out (an option of `run`, not of `check`)"),
+        (("check", "s.toml", "-snes_monitor"), "-snes_monitor (PETSc options of `check` take"),
         (("generators", "extra"), "argument extra (`generators` takes no such argument)"),
     ):
         _one_error_line(cli_call(workdir, *args), 1, "command line", reason)
@@ -2173,15 +2174,22 @@ def test_petsc_options_on_the_command_line(cli_call, workdir):
     res = cli_call(workdir, "run", "s.toml", "--out", "o2", "-dm_snes_linesearch_type", "nonsense")
     assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
     assert "solver.petsc" in res.stderr and "snes_linesearch_type" in res.stderr
+    run_line = res.stderr.strip()
     before = snapshot(workdir)
     for args in (["run", "s.toml", "--bogus"], ["run", "s.toml", "-snes_monitor"],
-                 ["check", "s.toml", "-dm_snes_monitor"]):  # fmt: skip
+                 ["check", "s.toml", "-snes_monitor"]):  # fmt: skip
         res = cli_call(workdir, *args)
         assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
         (line,) = res.stderr.splitlines()
         m = ERROR_LINE.match(line)
         assert m and m.group("key") == "command line", line
         assert f"unrecognized argument {args[-1]}" in m.group("reason"), line
+    # `check` takes the same -dm_ options and checks them as `run` does (it refused them
+    # as arguments it does not take: a command line could not be checked before its run)
+    res = cli_call(workdir, "check", "s.toml", "-dm_ksp_type", "gmres", "-dm_snes_monitor")
+    assert res.returncode == 0 and res.stdout.startswith("s.toml: ok"), res.stderr
+    res = cli_call(workdir, "check", "s.toml", "-dm_snes_linesearch_type", "nonsense")
+    assert res.returncode == 2 and res.stderr.strip() == run_line, (res.stderr, run_line)
     assert snapshot(workdir) == before
 
 
