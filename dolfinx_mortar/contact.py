@@ -287,6 +287,40 @@ def resolve_tangential_weights(
     return "dual" if small_strain and tangential_recovery == "lumped" else "standard"
 
 
+#: The defaults of a pair's tangential keys (:class:`MortarContact`'s arguments).
+TANGENTIAL_DEFAULTS = {
+    "tangential_weights": TANGENTIAL_WEIGHTS[0],
+    "tangential_recovery": "lumped",
+    "tangential_frame": TANGENTIAL_FRAMES[0],
+    "penalty_tangential": None,
+}
+
+
+def _warn_unused_tangential_keys(key: str, friction: float, integration: str, **given) -> None:
+    """Log a warning (local) where a pair's tangential keys ``given`` (name -> value, the
+    names of TANGENTIAL_DEFAULTS) differ from their defaults but do nothing: every one of
+    them on a frictionless pair (friction = 0: no tangential field is modelled), and
+    ``tangential_weights = "dual"`` with node integration (which uses the standard
+    weights). They ran without a word (QA, session 65); a warning, not an error, so that
+    a sweep over μ that includes 0 runs as written."""
+    changed = [
+        f"{name} = {value!r}" for name, value in given.items() if value != TANGENTIAL_DEFAULTS[name]
+    ]
+    if friction == 0.0 and changed:
+        log.warning(
+            "%s: %s %s no effect with friction = 0 (frictionless: no tangential field is modelled)",
+            key,
+            ", ".join(changed),
+            "has" if len(changed) == 1 else "have",
+        )
+    elif integration == "node" and given.get("tangential_weights") == "dual":
+        log.warning(
+            '%s.tangential_weights = "dual" has no effect with integration = "node" '
+            "(node integration uses the standard weights)",
+            key,
+        )
+
+
 def _max_change(a: tuple, b: tuple) -> float:
     """The largest entry of |a_i − b_i| over the pairs of arrays (a_0, a_1), (b_0, b_1)
     (slave and master facet displacements; local, 0 for empty arrays)."""
@@ -513,6 +547,15 @@ class MortarContact(TangentialTerms, UzawaRounds):
                     key,
                     qdeg,
                 )
+        _warn_unused_tangential_keys(
+            key,
+            friction,
+            integration,
+            tangential_weights=tangential_weights,
+            tangential_recovery=tangential_recovery,
+            tangential_frame=tangential_frame,
+            penalty_tangential=penalty_tangential,
+        )
         if integration == "node":
             try:
                 self.qp_xi, self.qp_w = nodal_rule(self.ftype, self.slave.X)

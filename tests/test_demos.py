@@ -276,6 +276,46 @@ def test_a_quadrature_rule_with_a_centre_point_is_warned_about(shared_tmp):
     assert m7["p_err"] == m["p_err"] and m7["newton_iterations"] == m["newton_iterations"]
 
 
+@pytest.mark.parametrize(
+    "friction, integration, keys, said",
+    [
+        (
+            0.0,
+            "element",
+            {"tangential_recovery": "constrained", "tangential_frame": "master"},
+            "contact[0]: tangential_recovery = 'constrained', tangential_frame = 'master' "
+            "have no effect with friction = 0",
+        ),
+        (0.0, "element", {"penalty_tangential": 50.0}, "penalty_tangential = 50.0 has no"),
+        (
+            0.3,
+            "node",
+            {"tangential_weights": "dual"},
+            'contact[0].tangential_weights = "dual" has no effect with integration = "node"',
+        ),
+        (0.3, "element", {"tangential_weights": "dual"}, None),
+        (0.0, "element", {"tangential_weights": "auto", "tangential_frame": "slave"}, None),
+    ],
+)
+def test_tangential_keys_that_do_nothing_are_warned_about(
+    shared_tmp, friction, integration, keys, said
+):
+    """A pair's tangential keys set to other than their defaults where they do nothing (a
+    frictionless pair; "dual" weights with node integration) are named in a warning; they
+    ran without a word (QA, session 65). Where they act, or set to their defaults, none."""
+    from dolfinx_mortar import parse_scene
+    from dolfinx_mortar.runner import prepare
+
+    sc = _patch.scene(2, integration=integration)
+    sc["contact"][0].update(keys, friction=friction)
+    _, warned = warnings_of(prepare, parse_scene(sc, shared_tmp), MPI.COMM_WORLD)
+    mine = [w for w in warned if "no effect" in w]
+    if said is None:
+        assert not mine, warned
+    else:
+        assert len(mine) == 1 and said in mine[0], warned
+
+
 def test_hertz3d(shared_tmp):
     m = demo_hertz3d.main(["--out", str(shared_tmp / "hertz3d")])
     assert abs(m["P_measured"] / demo_hertz3d.P - 1.0) <= 0.02  # faceted top: slightly less
