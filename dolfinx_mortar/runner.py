@@ -14,6 +14,7 @@ from pathlib import Path
 from time import perf_counter
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
@@ -40,8 +41,6 @@ def software_versions() -> dict[str, str]:
     import platform
 
     import dolfinx
-    from mpi4py import MPI
-    from petsc4py import PETSc
 
     from . import __version__
 
@@ -56,15 +55,27 @@ def software_versions() -> dict[str, str]:
     }
 
 
-def _check_scene(scene, caller: str) -> None:
+def _check_scene(scene, caller: str, comm, **callbacks) -> None:
     """TypeError unless ``scene`` is a Scene (a dict or a path failed deep inside, with
-    "'dict' object has no attribute 'mesh'"; local)."""
+    "'dict' object has no attribute 'mesh'"), ``comm`` an mpi4py communicator and each of ``callbacks`` (name -> value) callable or None (local).
+    ``run(scene, None)`` failed on ``None.rank``; ``run(..., progress=5)`` solved a step,
+    then stopped "interrupted by TypeError" (QA, session 65)."""
     if not isinstance(scene, Scene):
         raise TypeError(
             f"{caller}() takes a Scene, not {type(scene).__name__}: build it with "
             "dolfinx_mortar.parse_scene(data, base_dir) from a dict, or "
             "dolfinx_mortar.load_scene(path) from a file"
         )
+    if not isinstance(comm, MPI.Comm):
+        raise TypeError(
+            f"{caller}() takes an mpi4py communicator (MPI.COMM_WORLD, MPI.COMM_SELF, "
+            f"mesh.comm), not {type(comm).__name__}"
+        )
+    for name, value in callbacks.items():
+        if value is not None and not callable(value):
+            raise TypeError(
+                f"{caller}(): {name} must be a function or None, not {type(value).__name__}"
+            )
 
 
 def prepare(scene: Scene, comm, setup=None):
@@ -73,9 +84,10 @@ def prepare(scene: Scene, comm, setup=None):
     ``setup(problem)``, if given, is called before the contact terms are added (e.g. to
     :meth:`~dolfinx_mortar.problem.ContactProblem.add_dirichlet_field`).
     Returns ``(problem, mesh_data)``. Raises SceneError on every rank for bad input,
-    TypeError when ``scene`` is not a :class:`~dolfinx_mortar.scene.Scene`.
+    TypeError when ``scene`` is not a :class:`~dolfinx_mortar.scene.Scene`, ``comm`` not
+    an mpi4py communicator or ``setup`` neither callable nor None.
     """
-    _check_scene(scene, "prepare")
+    _check_scene(scene, "prepare", comm, setup=setup)
     parsed = dict(scene.laws)
     for i, mat in enumerate(scene.materials):
         if mat.model in parsed and registered_law(mat.model) is not parsed[mat.model]:
@@ -317,7 +329,8 @@ def run(
     Raises SceneError before writing anything when the input is bad (the output
     directory too: checked before the set-up; an ``out_dir`` that is neither a string
     nor a ``pathlib.Path`` a SceneTypeError keyed ``out_dir``), TypeError when ``scene``
-    is not a :class:`~dolfinx_mortar.scene.Scene`, and OutputError on every rank where the
+    is not a :class:`~dolfinx_mortar.scene.Scene`, ``comm`` not an mpi4py communicator,
+    or ``progress`` or ``setup`` neither callable nor None, and OutputError on every rank where the
     initial state cannot be written (a full disk, a surface file that cannot be set up,
     an OSError of rank 0's): summary.json then says "failed" and the error with
     :data:`SETUP_FAILURE`, and nothing else of the run is left
@@ -350,7 +363,7 @@ def run(
     from .output import OutputLock, OutputWriter, check_out_dir
     from .solver import NewtonSolver
 
-    _check_scene(scene, "run")
+    _check_scene(scene, "run", comm, progress=progress, setup=setup)
     t_setup = perf_counter()
     key = "out_dir" if out_dir is not None else "output.dir"
     out_dir = path_argument(out_dir, key) if out_dir is not None else scene.output.dir

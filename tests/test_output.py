@@ -423,6 +423,18 @@ def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(SceneError, match="out_dir: cannot use .* it exists and is not a directory"):
         run(parse_scene(data, tmp_path), MPI.COMM_SELF, out_dir=tmp_path / "afile")
+    # the communicator and the callbacks too, before anything is read or written (QA,
+    # session 65: None failed on None.rank; progress = 5 solved a step, then stopped
+    # "interrupted by TypeError" and left the hidden field files)
+    scene, out = parse_scene(data, tmp_path), tmp_path / "api"
+    for fn in (run, prepare):
+        with pytest.raises(TypeError, match=r"takes an mpi4py communicator .*, not NoneType"):
+            fn(scene, None)
+        with pytest.raises(TypeError, match=r"\(\): setup must be a function or None, not str"):
+            fn(scene, MPI.COMM_SELF, setup="bcs")
+    with pytest.raises(TypeError, match=r"run\(\): progress must be a function or None, not int"):
+        run(scene, MPI.COMM_SELF, out_dir=out, progress=5)
+    assert not out.exists()
 
 
 def test_a_callback_that_raises_leaves_a_summary_that_says_so(tmp_path):
