@@ -523,7 +523,7 @@ class Scene:
     mesh, materials, contacts, dirichlet, tractions, steps, solver, output:
         The sections of the scene file, in file order.
     source:
-        Where the scene came from (file path, or ``"<dict>"``).
+        Where the scene came from (the absolute file path, or ``"<dict>"``).
     base_dir:
         Directory against which relative paths were resolved.
     laws:
@@ -1569,7 +1569,9 @@ def load_scene(path: str | Path) -> Scene:
             where = f"{path}, line {match.group(1)}, column {match.group(2)}"
             raise SceneError("", f"{where}: TOML syntax error: {detail}") from None
         raise SceneError("", f"{path}: TOML syntax error: {detail}") from None
-    return parse_scene(data, path.resolve().parent, source=str(path))
+    # the absolute path (summary.json's ``source``): a relative one named no file once
+    # the run's working directory was forgotten (QA, session 65)
+    return parse_scene(data, path.resolve().parent, source=str(path.resolve()))
 
 
 def _group_error(

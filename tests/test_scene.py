@@ -295,7 +295,7 @@ def test_a_relative_base_dir_is_taken_from_the_current_directory(tmp_path, monke
     assert s.mesh.file == tmp_path / "proj" / "a.msh"
 
 
-def test_load_scene_from_file(tmp_path):
+def test_load_scene_from_file(tmp_path, monkeypatch):
     sub = tmp_path / "cases"
     sub.mkdir()
     text = EXAMPLE.replace('title = "2D Hertz, cylinder on block"', "").replace(
@@ -310,6 +310,10 @@ def test_load_scene_from_file(tmp_path):
     assert s.mesh.file == sub.resolve() / "hertz2d.msh"
     assert s.output.dir == sub.resolve() / "results" / "my_hertz"
     assert load_scene(str(f)) == s
+    # named relative to the working directory: the source is still absolute (summary.json
+    # said "cases/my_hertz.toml", which named no file once the directory was forgotten)
+    monkeypatch.chdir(tmp_path)
+    assert load_scene("cases/../cases/my_hertz.toml").source == str(f.resolve())
 
 
 def test_dataclasses_are_frozen():
