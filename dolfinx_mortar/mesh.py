@@ -363,11 +363,15 @@ def _msh_problem(file) -> str | None:
     if head.startswith(b"$"):
         return None
     first = head.splitlines()[0] if head.strip() else b""
-    shown = first[:40].decode("utf-8", "replace")
     if Path(file).suffix.lower() != ".msh":
         return "only gmsh .msh files are read"
+    try:
+        text = first.decode("utf-8")[:40]
+    except UnicodeDecodeError:  # binary: its bytes, escaped (it echoed raw garbage)
+        text = None
+    shown = repr(text) if text is not None and text.isprintable() else f"with bytes {first[:16]!r}"
     return (
-        f"not a gmsh .msh file: it begins {shown!r}, where a .msh file begins with "
+        f"not a gmsh .msh file: it begins {shown}, where a .msh file begins with "
         "$MeshFormat (gmsh would run it as a .geo script)"
     )
 

@@ -232,6 +232,13 @@ def test_a_script_named_msh_is_refused_unrun(tmp_path):
     path.write_text("\n" + _msh(SQUARE, TRIS))
     with pytest.raises(SceneError, match="not a gmsh .msh file: it begins ''"):
         load_mesh(MPI.COMM_SELF, file=path)
+    # binary bytes are shown escaped (they were decoded with replacement characters and
+    # echoed raw to the terminal; QA, session 65), an escape sequence too
+    path.write_bytes(b"\xda\xaa\x1b[2Jl\x8bc\x00\xff|v,\n" + bytes(range(256)))
+    with pytest.raises(SceneError) as info:
+        load_mesh(MPI.COMM_SELF, file=path)
+    assert "it begins with bytes b'\\xda\\xaa\\x1b[2Jl\\x8bc\\x00\\xff|v,'" in str(info.value)
+    assert str(info.value).isascii() and "\x1b" not in str(info.value)
 
 
 def test_an_options_file_beside_the_mesh_is_not_read(tmp_path):
