@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import bisect
 import functools
 import logging
 import math
@@ -2123,8 +2124,30 @@ def default_uzawa_max(problem) -> int:
     return max([term.uzawa_max for term in getattr(problem, "contacts", ())] or [1])
 
 
+#: Output times within this fraction of t_end from a step time (or from each other) are
+#: that step: ``output_times = [0.5000000000000001]`` with n = 2 added a step of 1e-16
+#: after t = 0.5 (no Newton iteration, a second record that printed t = 0.5).
+TARGET_MERGE_TOL = 1e-12
+
+
+def step_targets(t_end: float, n: int, output_times=()) -> list[float]:
+    """The times a load stepper works towards (local): the ``n`` equal steps' ends and
+    the ``output_times`` in (0, t_end], sorted; an output time within TARGET_MERGE_TOL ×
+    t_end of a step's end, or of a smaller output time, is not one more target."""
+    targets = np.linspace(0.0, t_end, n + 1)[1:].tolist()
+    tol = TARGET_MERGE_TOL * t_end
+    for t in sorted(float(t) for t in output_times):
+        i = bisect.bisect_left(targets, t)
+        near = targets[max(i - 1, 0) : i + 1]
+        if 0.0 < t <= t_end + tol and all(abs(t - s) > tol for s in near):
+            targets.insert(i, t)
+    return targets
+
+
 class LoadStepper:
-    """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective).
+    """Walks t = 0 → t_end over ``n`` equal steps plus ``output_times`` (collective; the
+    targets: :func:`step_targets`, an output time within round-off of a step's end is
+    that step).
 
     A step that raises FrozenStatesError (wrong frozen stick/slip states, see
     :data:`FROZEN_RETRY_ROUNDS`) is first retried at the same size with the states
@@ -2160,8 +2183,7 @@ class LoadStepper:
         self.problem = problem
         self.newton = newton
         self.t_end = float(t_end)
-        grid = set(np.linspace(0.0, t_end, n + 1)[1:].tolist()) | {float(t) for t in output_times}
-        self.targets = sorted(t for t in grid if 0.0 < t <= t_end * (1 + 1e-12))
+        self.targets = step_targets(self.t_end, n, output_times)
         self.max_cutbacks = max_cutbacks
         if uzawa_max is None:
             # the terms' own bound: a default of 1 round stopped every step of a patch test

@@ -2300,3 +2300,17 @@ def test_a_field_corner_on_one_rank_is_a_corner_on_every_rank(patch2d_api):
     assert comm.allgather(solver_module._path_bends(problem, *ts)) == [True] * comm.size
     assert not solver_module._path_bends(problem, 1.0, 1.5, 2.0)
     problem.destroy()
+
+
+def test_output_times_within_round_off_of_a_step_are_that_step():
+    """An output time within TARGET_MERGE_TOL × t_end of a step's end (or of another
+    output time) is no target of its own: ``output_times = [0.5000000000000001]`` with
+    n = 2 added a step of 1e-16 (no Newton iteration, a second record printed t = 0.5;
+    QA, session 65). t_end stays the last target exactly."""
+    from dolfinx_mortar.solver import step_targets
+
+    assert step_targets(1.0, 2, [0.5000000000000001]) == [0.5, 1.0]
+    assert step_targets(1.0, 2, [0.9999999999999999, 1.0]) == [0.5, 1.0]
+    assert step_targets(1.0, 4, [0.3 + 1e-15, 0.3, 0.6]) == [0.25, 0.3, 0.5, 0.6, 0.75, 1.0]
+    assert step_targets(2.0, 1, [0.0, 0.5, 2.5]) == [0.5, 2.0]  # (0, t_end] only
+    assert step_targets(1.0, 3, []) == np.linspace(0.0, 1.0, 4)[1:].tolist()
