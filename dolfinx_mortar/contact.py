@@ -50,7 +50,7 @@ With ``friction > 0`` the tangential part (METHOD.md §1, §2, §4; the node-lev
 formulas in :mod:`dolfinx_mortar.friction`, the point integrals in
 :mod:`dolfinx_mortar.kernels.friction`) adds R_T = Σ_I (G^I)ᵀ t^I (G^I the force
 weights: the traction acts on the master at the t_n projections ζ_n, G = ∂S/∂u, or with
-FORCE_AT_CURRENT_PROJECTION at the current ones) and its exact non-symmetric tangent,
+tangential.FORCE_AT_CURRENT_PROJECTION at the current ones) and its exact non-symmetric tangent,
 tangential multipliers to the Uzawa rounds, a slip history (u_n, λ_T = τ_n) committed
 per step and the chattering control of FREEZE_AFTER. With ``friction = 0`` none of it is
 created. Its slip integrals, recovery, Jacobian blocks and state predictor are the
