@@ -174,6 +174,12 @@ MAX_PENALTY_RATIO = 1e10
 #: with DIVERGED_DTOL after 6 cutbacks, a tangential 2.6e4 × auto with "Uzawa
 #: augmentation stalled", neither naming the penalty; 1e3 × auto ran).
 MEASURED_PENALTY_RATIO = 1e4
+#: A penalty more than this many times softer than its auto rule at some node (the
+#: ratio ε_auto^I/ε^I, ``MortarContact.softness``) is named in the error of a run that
+#: stops with Uzawa rounds (:meth:`MortarContact.stiff_penalty_note`): the rounds move
+#: the multipliers by ε γ and crawl (a QA probe of session 65: 3e-7 × auto converged
+#: in 8 rounds, 3e-8 × auto stalled).
+SOFT_PENALTY_NOTE = 1e3
 #: Penalties stiffer than "auto": a pair whose largest ε^I (or ε_T^I) exceeds the largest
 #: ε_auto^I = AUTO_PENALTY_FACTOR E*/h_I is stiff (:attr:`MortarContact.soft_start`).
 #: Three rules follow (docs/method-notes.md, "Stiff penalties"); pairs at or below the
@@ -674,6 +680,13 @@ class MortarContact(TangentialTerms, UzawaRounds):
         self.penalty_ratio = self.penalty_range[1] / self._eps_auto_max
         self._check_penalty_ratio(self.penalty_ratio, self.penalty_range[1], f"{key}.penalty")
         self._penalty_t_ratio = 0.0
+        #: max_I ε_auto^I / ε^I over the ranks (and the tangential one, set with
+        #: friction): how many times softer than its auto rule the softest node's penalty
+        #: is (:meth:`stiff_penalty_note`; collective at set-up)
+        self.softness = comm.allreduce(
+            float(UzawaRounds._softness(self.eps, self.eps_auto).max(initial=1.0)), op=MPI.MAX
+        )
+        self.softness_t = 1.0
         self.mu = float(friction)
         self.frictional = self.mu > 0.0
         if self.frictional and recovery == "unconstrained":
@@ -2299,8 +2312,10 @@ class MortarContact(TangentialTerms, UzawaRounds):
     def stiff_penalty_note(self) -> str:
         """A clause for the error of a run that stops, where this pair's largest normal or
         tangential penalty exceeds :data:`MEASURED_PENALTY_RATIO` times the largest normal
-        auto value ε_auto = AUTO_PENALTY_FACTOR E*/h (the ratios of set-up); "" otherwise.
-        Local; the same on every rank (the ratios are reduced at set-up)."""
+        auto value ε_auto = AUTO_PENALTY_FACTOR E*/h (the ratios of set-up), or, with
+        Uzawa rounds, where a node's penalty is more than SOFT_PENALTY_NOTE times softer
+        than its auto rule (``softness``, ``softness_t``); "" otherwise. Local; the same
+        on every rank (the ratios are reduced at set-up)."""
         keys = [
             (k, r)
             for k, r in (
@@ -2309,14 +2324,29 @@ class MortarContact(TangentialTerms, UzawaRounds):
             )
             if r > MEASURED_PENALTY_RATIO
         ]
-        if not keys:
-            return ""
-        said = " and the ".join(f"{k} is {r:.3g} times" for k, r in keys)
-        return (
-            f"on {self.name} the {said} the auto normal penalty ({AUTO_PENALTY_FACTOR:g} "
-            f"E*/h), beyond the {MEASURED_PENALTY_RATIO:g} times at which stiff penalties "
-            'were measured: with Uzawa a softer penalty ("auto") reaches the same solution'
-        )
+        soft = [
+            (k, r)
+            for k, r in (("penalty", self.softness), ("penalty_tangential", self.softness_t))
+            if r > SOFT_PENALTY_NOTE and self.uzawa_tol > 0.0
+        ]
+        notes = []
+        if keys:
+            said = " and the ".join(f"{k} is {r:.3g} times" for k, r in keys)
+            notes.append(
+                f"on {self.name} the {said} the auto normal penalty ({AUTO_PENALTY_FACTOR:g} "
+                f"E*/h), beyond the {MEASURED_PENALTY_RATIO:g} times at which stiff "
+                'penalties were measured: with Uzawa a softer penalty ("auto") reaches '
+                "the same solution"
+            )
+        if soft:
+            said = " and the ".join(f"{k} is up to {r:.3g} times softer" for k, r in soft)
+            notes.append(
+                f"on {self.name} the {said} than its auto rule: a round moves the "
+                "multipliers by the penalty times the penetration (or the elastic slip), "
+                'so the Uzawa rounds crawl; a stiffer penalty ("auto") reaches the same '
+                "solution in fewer rounds"
+            )
+        return "; ".join(notes)
 
     @property
     def round_off_scale(self) -> float:

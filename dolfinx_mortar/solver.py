@@ -1765,10 +1765,16 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
         change = max((i.get("multiplier_change", 0.0) for i in info.values()), default=0.0)
         exact = getattr(problem, "exact_multiplier_update", False)
         rtol = min(1e-3, 1e-2 * change) if inexact and not exact else None
+        # the rounds' test: a penalty softer than its auto rule is tested at the auto
+        # rule's change (soft_penalty_change, UzawaRounds._softness)
         changes.append(
             max(
                 (
-                    max(i.get("multiplier_change", 0.0), i.get("tangential_change", 0.0))
+                    max(
+                        i.get("multiplier_change", 0.0),
+                        i.get("tangential_change", 0.0),
+                        i.get("soft_penalty_change", 0.0),
+                    )
                     for i in info.values()
                 ),
                 default=0.0,
@@ -1810,6 +1816,7 @@ def _rounds(problem, newton, uzawa_max, inexact, dtol=None, resume=None) -> tupl
 _ROUND_WORDS = {
     "multiplier_change": "change",
     "tangential_change": "tangential change",
+    "soft_penalty_change": "change at the auto penalty",
     "max_penetration": "largest penetration",
 }
 

@@ -183,8 +183,11 @@ class TangentialTerms:
         """Tangential fields, history and frames (only when μ > 0; METHOD.md §1, §4)."""
         n, d = self.node_blocks.size, self.gdim
         self.deep_start = False  # the start of the step penetrates deeply (local)
+        #: the tangential auto rule ε_T,auto^I = AUTO_PENALTY_T_FACTOR E*/h_I (n,): the Uzawa
+        #: test of a softer ε_T (:meth:`~dolfinx_mortar.uzawa.UzawaRounds._softness`)
+        self.eps_t_auto = AUTO_PENALTY_T_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
         if penalty_t == "auto":
-            self.eps_t = AUTO_PENALTY_T_FACTOR * self.E_star / np.maximum(self.h_node, 1e-300)
+            self.eps_t = self.eps_t_auto
             self.penalty_t_description = f"auto: {AUTO_PENALTY_T_FACTOR:g} E*/h_I"
         else:
             self.eps_t = np.full(n, float(penalty_t))
@@ -194,6 +197,9 @@ class TangentialTerms:
         eps_t_max = self.comm.allreduce(float(self.eps_t.max(initial=0.0)), op=MPI.MAX)
         self._penalty_t_ratio = eps_t_max / self._eps_auto_max
         self._check_penalty_ratio(self._penalty_t_ratio, eps_t_max, f"{key}.penalty_tangential")
+        self.softness_t = self.comm.allreduce(
+            float(self._softness(self.eps_t, self.eps_t_auto).max(initial=1.0)), op=MPI.MAX
+        )
         self._slip_tol = SLIP_TOL * self.eps_t * self.h_node
         self._p_floor = 0.0  # the unloaded floor of p at the last _recover (_law_slip_tol)
         #: ε_T,soft^I = min(ε_T^I, ε_auto^I) (n,), used with ε_soft (SOFT_START_RATIO)

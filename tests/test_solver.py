@@ -2195,8 +2195,9 @@ def test_the_penalty_hint_names_penalties_beyond_the_measured_band():
 
     from dolfinx_mortar.contact import MEASURED_PENALTY_RATIO, MortarContact
 
-    def note(normal, tangential):
+    def note(normal, tangential, **soft):
         pair = SimpleNamespace(name="a:b", penalty_ratio=normal, _penalty_t_ratio=tangential)
+        pair.__dict__.update({"softness": 1.0, "softness_t": 1.0, "uzawa_tol": 1e-6, **soft})
         return MortarContact.stiff_penalty_note(pair)
 
     assert note(MEASURED_PENALTY_RATIO, 0.1) == ""
@@ -2205,6 +2206,15 @@ def test_the_penalty_hint_names_penalties_beyond_the_measured_band():
     assert "penalty_tangential" not in text
     text = note(1.0, 2.6e5)
     assert text.startswith("on a:b the penalty_tangential is 2.6e+05 times"), text
+    # session 65: with Uzawa rounds, a penalty more than SOFT_PENALTY_NOTE times softer
+    # than its auto rule (the rounds crawl); not as pure penalty, nor 10 times softer
+    text = note(1e-9, 1e-9, softness=2.2e8, softness_t=2.2e7)
+    assert text.startswith(
+        "on a:b the penalty is up to 2.2e+08 times softer and the penalty_tangential is up "
+        "to 2.2e+07 times softer than its auto rule"
+    ), text
+    assert note(1e-9, 1e-9, softness=2.2e8, uzawa_tol=0.0) == ""
+    assert note(0.1, 0.1, softness=10.0) == ""
     problem = SimpleNamespace(
         contacts=[SimpleNamespace(stiff_penalty_note=lambda: "x"), SimpleNamespace()]
     )

@@ -1158,3 +1158,45 @@ def test_a_contact_closing_or_opening_at_a_step_end_converges(
         assert release["newton_iterations"][-1] <= 3, release["newton_iterations"]
     assert np.abs(force[10]).max() <= 1e-7 * scale, force[10]
     assert np.allclose(force[15], force[7], rtol=1e-6, atol=1e-9 * scale)
+
+
+def _soft_press(penalty) -> dict:
+    """patch2d (6 and 4 elements, finite strain, E = 100): the upper block's top pressed
+    down by 0.02 in one step, frictionless, segment integration (round-off patch test)."""
+    return {
+        "mesh": {"generator": "patch2d", "params": {"n_lower": 6, "n_upper": 4, "n_y": 2}},
+        "material": [
+            {"region": r, "model": "neo-hookean", "E": 100.0, "nu": 0.3} for r in ("lower", "upper")
+        ],
+        "contact": [
+            {
+                "slave": "upper_bottom",
+                "master": "lower_top",
+                "integration": "segment",
+                "penalty": penalty,
+            }
+        ],
+        "dirichlet": [
+            {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]},
+            {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0], [1.0, 0.0, -0.02]]},
+        ],
+        "steps": {"n": 1},
+    }
+
+
+@pytest.mark.mpi
+def test_a_soft_penalty_reaches_the_auto_penalty_s_solution(tmp_path_factory):
+    """Uzawa rounds with a penalty far softer than the auto rule (1e-3 here, the auto rule
+    about 3e4 at these facets) reach the state of penalty = "auto": a round moves a
+    pressed node's multiplier by ε γ, and the relative change had passed uzawa_tol with
+    the bodies 0.1 h into each other and the force 1.8 % short, status "ok" (QA, session
+    65). The rounds' test now takes the change the auto rule would make
+    (``soft_penalty_change``, UzawaRounds._softness). 1–3 ranks."""
+    auto = _run_scene(_soft_press("auto"), tmp_path_factory, "press_auto")
+    soft = _run_scene(_soft_press(1e-3), tmp_path_factory, "press_soft")
+    (fa,) = auto["steps"][-1]["contact_force"].values()
+    (fs,) = soft["steps"][-1]["contact_force"].values()
+    assert abs(fs[1] / fa[1] - 1.0) <= 1e-6, (fs, fa)
+    rounds = [r["upper_bottom:lower_top"] for r in soft["steps"][-1]["uzawa"]]
+    assert all(r["soft_penalty_change"] > r["multiplier_change"] for r in rounds[:-1]), rounds
+    assert rounds[-1]["max_penetration"] <= 1e-8, rounds[-1]
