@@ -775,6 +775,12 @@ def _int_at_least(value: Any, key: str, low: int) -> int:
     return n
 
 
+def count_at_least(value: Any, key: str, low: int) -> int:
+    """An integer >= ``low`` (a NumPy integer taken) by the scene's rules, for a Python
+    API's argument (local): SceneTypeError / SceneError keyed ``key``."""
+    return _int_at_least(_plain(value), key, low)
+
+
 def _auto_or(number, value: Any, key: str, bound: str) -> float | str:
     """The string ``"auto"``, or a number that ``number(value, key)`` checks (``bound``:
     its condition, for the message)."""
@@ -1299,24 +1305,40 @@ def _parse_steps(value: Any) -> Steps:
     """Parse ``[steps]``."""
     table = _table(value, "steps")
     _check_keys(table, _STEPS_KEYS, "steps")
-    t_end = _positive(table.get("t_end", 1.0), "steps.t_end")
-    n = table.get("n", 10)
+    return steps_numbers(
+        "steps",
+        table.get("t_end", 1.0),
+        table.get("n", 10),
+        table.get("max_cutbacks", 6),
+        table.get("output_times", []),
+    )
+
+
+def steps_numbers(prefix: str, t_end: Any, n: Any, max_cutbacks: Any, output_times: Any) -> Steps:
+    """The numbers of a load path, checked by the scene's rules for ``[steps]`` (one
+    definition: the scene's keys, prefix "steps", and
+    :class:`~dolfinx_mortar.solver.LoadStepper`'s arguments, prefix "LoadStepper"): t_end
+    a finite number > 0, n an integer in [1, MAX_STEPS], max_cutbacks an integer >= 0,
+    output_times an array (a list, a tuple or a 1-D numpy array) of numbers in (0, t_end].
+    Raises SceneError / SceneTypeError keyed ``<prefix>.<name>`` (local)."""
+    t_end = _positive(_plain(t_end), f"{prefix}.t_end")
+    n = _plain(n)
     if isinstance(n, int) and not isinstance(n, bool) and n > MAX_STEPS:  # before c_int's
-        raise SceneError("steps.n", f"at most {MAX_STEPS} load steps, got {n}")
-    n = _int_at_least(n, "steps.n", 1)
-    max_cutbacks = _int_at_least(table.get("max_cutbacks", 6), "steps.max_cutbacks", 0)
-    raw = table.get("output_times", [])
+        raise SceneError(f"{prefix}.n", f"at most {MAX_STEPS} load steps, got {n}")
+    n = _int_at_least(n, f"{prefix}.n", 1)
+    max_cutbacks = _int_at_least(_plain(max_cutbacks), f"{prefix}.max_cutbacks", 0)
+    raw = _plain(output_times)
     if not isinstance(raw, list | tuple):
         raise SceneTypeError(
-            "steps.output_times",
+            f"{prefix}.output_times",
             f"expected an array of numbers, got {_type_name(raw)} {_show(raw)}",
         )
     times = []
     for item in raw:
-        t = _number(item, "steps.output_times")
+        t = _number(item, f"{prefix}.output_times")
         if not 0.0 < t <= t_end:
             raise SceneError(
-                "steps.output_times", f"time {t:g} outside (0, t_end] = (0, {t_end:g}]"
+                f"{prefix}.output_times", f"time {t:g} outside (0, t_end] = (0, {t_end:g}]"
             )
         times.append(t)
     return Steps(

@@ -40,7 +40,7 @@ from .errors import (
     check_stop,
     raise_on_every_rank,
 )
-from .scene import solver_options
+from .scene import count_at_least, solver_options, steps_numbers
 
 log = logging.getLogger(__name__)
 
@@ -443,6 +443,11 @@ def _owning_options(method):
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
+        if self._destroyed:  # its SNES, matrix and vectors are freed: PETSc crashed (SEGV)
+            raise RuntimeError(
+                f"NewtonSolver.destroy() has freed this solver's PETSc objects: it cannot "
+                f"{method.__name__.strip('_').replace('_', ' ')} any more (make a new one)"
+            )
         self._load_options()
         return method(self, *args, **kwargs)
 
@@ -468,6 +473,23 @@ class NewtonSolver:
     """
 
     def __init__(self, problem, settings: SolverSettings | None = None):
+        # the arguments' kinds first (they failed on a missing attribute: "'SolverSettings'
+        # object has no attribute 'comm'", "'dict' object has no attribute 'petsc'")
+        if isinstance(problem, SolverSettings) or getattr(problem, "comm", None) is None:
+            raise TypeError(
+                "NewtonSolver(problem, settings): problem must be a ContactProblem, got "
+                f"{type(problem).__name__}"
+            )
+        if settings is not None and not isinstance(settings, SolverSettings):
+            hint = (
+                " (SolverSettings(**d) builds one from a dict)"
+                if isinstance(settings, dict)
+                else ""
+            )
+            raise TypeError(
+                "NewtonSolver(problem, settings): settings must be a SolverSettings or None, "
+                f"got {type(settings).__name__}{hint}"
+            )
         self.problem = problem
         self.settings = settings = settings or SolverSettings()
         #: whether a solve has run (the options were read: _warn_unused_options)
@@ -2187,11 +2209,21 @@ class LoadStepper:
         on_step: Callable | None = None,
         predictor: bool = True,
     ):
+        if isinstance(problem, NewtonSolver) or not callable(getattr(newton, "solve", None)):
+            raise TypeError(
+                "LoadStepper(problem, newton, t_end, n, ...): newton must be a NewtonSolver, "
+                f"got {type(newton).__name__} (the problem comes first)"
+            )
+        # the scene's rules for [steps] (one definition): t_end = -1 ran backwards, n = 0
+        # returned no step, n = -3 was numpy's error, max_cutbacks = -1 was taken
+        steps = steps_numbers("LoadStepper", t_end, n, max_cutbacks, output_times)
+        if uzawa_max is not None:
+            uzawa_max = count_at_least(uzawa_max, "LoadStepper.uzawa_max", 1)
         self.problem = problem
         self.newton = newton
-        self.t_end = float(t_end)
-        self.targets = step_targets(self.t_end, n, output_times)
-        self.max_cutbacks = max_cutbacks
+        self.t_end = steps.t_end
+        self.targets = step_targets(steps.t_end, steps.n, steps.output_times)
+        self.max_cutbacks = steps.max_cutbacks
         if uzawa_max is None:
             # the terms' own bound: a default of 1 round stopped every step of a patch test
             # built through the Python API ("did not converge in 1 rounds")

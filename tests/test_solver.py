@@ -2324,3 +2324,51 @@ def test_output_times_within_round_off_of_a_step_are_that_step():
     assert step_targets(1.0, 4, [0.3 + 1e-15, 0.3, 0.6]) == [0.25, 0.3, 0.5, 0.6, 0.75, 1.0]
     assert step_targets(2.0, 1, [0.0, 0.5, 2.5]) == [0.5, 2.0]  # (0, t_end] only
     assert step_targets(1.0, 3, []) == np.linspace(0.0, 1.0, 4)[1:].tolist()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "key", "reason"),
+    [
+        ({"t_end": -1.0}, "LoadStepper.t_end", "must be > 0, got -1"),
+        ({"t_end": float("nan")}, "LoadStepper.t_end", "must be a finite number"),
+        ({"n": 0}, "LoadStepper.n", "must be >= 1, got 0"),
+        ({"n": -3}, "LoadStepper.n", "must be >= 1, got -3"),
+        ({"n": 2.5}, "LoadStepper.n", "expected an integer, got float 2.5"),
+        ({"max_cutbacks": -1}, "LoadStepper.max_cutbacks", "must be >= 0, got -1"),
+        ({"output_times": 5}, "LoadStepper.output_times", "expected an array of numbers"),
+        ({"output_times": [1.5]}, "LoadStepper.output_times", "1.5 outside (0, t_end]"),
+        ({"uzawa_max": 0}, "LoadStepper.uzawa_max", "must be >= 1, got 0"),
+    ],
+)
+def test_load_stepper_arguments_obey_the_scene_rules(kwargs, key, reason):
+    """LoadStepper's numbers are checked by the rules of the scene's [steps]
+    (``scene.steps_numbers``): t_end = -1 ran backwards, n = 0 returned no step, n = -3
+    was numpy's error, max_cutbacks = -1 and uzawa_max = 0 were taken (QA, session 65)."""
+    from dolfinx_mortar.errors import SceneError
+
+    p = _Problem()
+    args = {"t_end": 1.0, "n": 2, **kwargs}
+    with pytest.raises(SceneError) as info:  # SceneTypeError is one
+        LoadStepper(p, _Newton(p, lambda t0: 1.0), **args)
+    assert info.value.key == key and reason in info.value.reason, str(info.value)
+
+
+def test_load_stepper_and_newton_solver_refuse_misplaced_arguments(cubic_vectors):
+    """Arguments of the wrong kind or in the wrong order are a TypeError that says so
+    (they failed on a missing attribute), NumPy numbers are taken, and a destroyed
+    NewtonSolver refuses to solve (PETSc crashed with SEGV; QA, session 65)."""
+    p = _Problem()
+    newton = _Newton(p, lambda t0: 1.0)
+    with pytest.raises(TypeError, match="newton must be a NewtonSolver, got _Problem"):
+        LoadStepper(newton, p, 1.0, 2)
+    stepper = LoadStepper(p, newton, np.float64(1.0), np.int64(2), output_times=np.array([0.3]))
+    assert stepper.targets == [0.3, 0.5, 1.0]
+    cubic = _Cubic(1.0)
+    with pytest.raises(TypeError, match="problem must be a ContactProblem, got SolverSettings"):
+        NewtonSolver(SolverSettings(), cubic)
+    with pytest.raises(TypeError, match=r"settings must be .* got dict \(SolverSettings\(\*\*d\)"):
+        NewtonSolver(cubic, {"rtol": 1e-8})
+    newton = NewtonSolver(cubic, SolverSettings(prefix="test_destroyed_"))
+    newton.destroy()
+    with pytest.raises(RuntimeError, match=r"destroy\(\) has freed .* cannot solve any more"):
+        newton.solve()
