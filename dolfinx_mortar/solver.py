@@ -1891,15 +1891,20 @@ def _open_contact_hint(problem) -> str:
     lost = [name for name in free if name not in apart and name in touched]
     near = [name for name in free if name not in apart and name not in touched]
     find = getattr(problem, "unheld_motions", None)
-    drifted = {p for b in find() for p in b.pairs} if find is not None else set()
     stick = getattr(problem, "stick_only_motions", None)
-    drifted |= {p for b in stick() for p in b.pairs} if stick is not None else set()
+    movers = list(find()) if find is not None else []
+    movers += list(stick()) if stick is not None else []
+    drifted = {p for b in movers for p in b.pairs}
     clauses = []
     if apart and set(apart) <= drifted:
-        # the free body named before (_unheld_hint) drifted off: not a question of positions
+        # a free body drifted off: not a question of positions. Named here: a body that
+        # only stick holds is named by no other clause unless it started apart or slipped
+        # (the clause said "the free body drifted along those motions" and named none)
+        said = dict.fromkeys(b.describe(problem.gdim) for b in movers if set(b.pairs) & set(apart))
         clauses.append(
             f"no slave point of {', '.join(apart)} faces its master surface at the last "
-            "attempt: the free body drifted along those motions"
+            f"attempt: {'; '.join(said)}, held there only by contact, and it drifted off "
+            "(check the loads: a body held only by contact follows one that pulls it away)"
         )
     elif apart:
         clauses.append(

@@ -2372,3 +2372,43 @@ def test_load_stepper_and_newton_solver_refuse_misplaced_arguments(cubic_vectors
     newton.destroy()
     with pytest.raises(RuntimeError, match=r"destroy\(\) has freed .* cannot solve any more"):
         newton.solve()
+
+
+def test_the_drifted_body_is_named():
+    """A body that only stick held (no clause of _unheld_hint or _friction_hold_hint named
+    it: it started in contact and did not slip) and that drifted off its master is named
+    with its motions and the loads blamed; the clause said "the free body drifted along
+    those motions" and named none (QA, session 65: a block pulled off by its traction)."""
+
+    class Body:
+        pairs = ("a:b",)
+
+        def describe(self, gdim):
+            return "body 'upper' is free in translation along x"
+
+    class Term:
+        name = "a:b"
+        free_body = True
+
+    class P:
+        contacts = [Term()]
+        gdim = 2
+
+        def open_pairs(self):
+            return ["a:b"]
+
+        def unpaired_pairs(self):
+            return ["a:b"]
+
+        def unheld_motions(self):
+            return []
+
+        def stick_only_motions(self):
+            return [Body()]
+
+    text = solver_module._open_contact_hint(P())
+    assert (
+        "no slave point of a:b faces its master surface at the last attempt: body 'upper' is "
+        "free in translation along x, held there only by contact, and it drifted off (check "
+        "the loads"
+    ) in text, text
