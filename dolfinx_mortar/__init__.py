@@ -9,7 +9,8 @@ Public API (imported lazily, so that ``import dolfinx_mortar`` and the scene
 checks stay light):
 
 - :func:`load_scene`, :func:`parse_scene` (:mod:`dolfinx_mortar.scene`)
-- :func:`run` (:mod:`dolfinx_mortar.runner`): run a scene, write its outputs
+- :func:`run` (:mod:`dolfinx_mortar.runner`): run a scene, write its outputs;
+  :func:`prepare`: the mesh and the problem of a scene, for a solver of one's own
 - :class:`ContactProblem` (:mod:`dolfinx_mortar.problem`) and
   :class:`MortarContact` (:mod:`dolfinx_mortar.contact`): the problem side
 - :class:`NewtonSolver`, :class:`SolverSettings`, :class:`LoadStepper`
@@ -42,6 +43,7 @@ _LAZY = {
     "load_scene": "scene",
     "parse_scene": "scene",
     "run": "runner",
+    "prepare": "runner",
     "ContactProblem": "problem",
     "MortarContact": "contact",
     "NewtonSolver": "solver",

@@ -47,15 +47,20 @@ def register_law(name: str, psi: Callable, replace: bool = False) -> None:
 
     Call it on every rank before the scene is parsed; a scene keeps the ψ it was parsed
     with, and a run refuses a scene whose law was registered again since
-    (``Scene.laws``). Raises ValueError for a name that
-    is empty or built in, a ``psi`` that is not callable, or a name already registered
-    with another function (unless ``replace``)."""
-    if not isinstance(name, str) or not name.strip():
+    (``Scene.laws``). Raises TypeError for a name that is not a string or a ``psi``
+    that is not callable (the two swapped included), ValueError for a name that is empty
+    or built in, or already registered with another function (unless ``replace``)."""
+    if not isinstance(name, str):
+        hint = " (the name comes first: register_law(name, psi))" if callable(name) else ""
+        raise TypeError(f"register_law: the name must be a string, got {type(name).__name__}{hint}")
+    if not name.strip():
         raise ValueError(f"register_law: the name must be a non-empty string, got {name!r}")
     if name in BUILTIN_MODELS:
         raise ValueError(f"register_law: {name!r} is a built-in law and cannot be replaced")
     if not callable(psi):
-        raise ValueError(f"register_law: psi for {name!r} must be callable, got {psi!r}")
+        raise TypeError(
+            f"register_law: psi for {name!r} must be callable, got {type(psi).__name__} {psi!r}"
+        )
     old = _LAWS.get(name)
     if old is not None and old is not psi and not replace:
         raise ValueError(

@@ -420,9 +420,16 @@ def test_register_law_rejects_what_it_cannot_use(no_laws):
     for name, psi, match in (
         ("neo-hookean", _hand_neo_hooke, "built-in"),
         ("", _hand_neo_hooke, "non-empty"),
-        ("law", 3.0, "callable"),
     ):
         with pytest.raises(ValueError, match=match):
+            register_law(name, psi)
+    # a wrong type is a TypeError (it was a ValueError; QA, session 65)
+    for name, psi, match in (
+        ("law", 3.0, "must be callable, got float 3.0"),
+        (7, _hand_neo_hooke, "the name must be a string, got int$"),
+        (_hand_neo_hooke, "law", r"got function \(the name comes first"),
+    ):
+        with pytest.raises(TypeError, match=match):
             register_law(name, psi)
     register_law("law", _hand_neo_hooke)
     register_law("law", _hand_neo_hooke)  # the same function again: nothing changes

@@ -403,9 +403,8 @@ def test_run_takes_a_scene_and_checks_its_output_directory(tmp_path):
     Scene (it was "'dict' object has no attribute 'mesh'" deep inside); ``run`` with
     ``out_dir`` on a file: a SceneError before the set-up (it was a FileExistsError after
     it)."""
-    from dolfinx_mortar import parse_scene, run
+    from dolfinx_mortar import parse_scene, prepare, run  # prepare: exported (session 65)
     from dolfinx_mortar.errors import SceneError
-    from dolfinx_mortar.runner import prepare
 
     data = {
         "mesh": {"generator": "patch2d"},
