@@ -81,8 +81,27 @@ def test_hertz2d_newton_superlinear(hertz2d):
     assert cm.quadratic_constants(steps)[0] <= 1.0, cm.quadratic_constants(steps)
     # issue 3's order >= 1.8 holds in steps 1, 2 and 4 (>=2.32, 2.33, 3.54 on 1-3 ranks);
     # step 3 reads 1.71 on a clean triple and is held to superlinear only
-    q = hertz2d["newton_order"]
-    assert min(q[0], q[1], q[3]) >= 1.8 and q[2] >= 1.5, hertz2d["newton_order_text"]
+    q = list(hertz2d["newton_order"])
+    for k in (0, 1, 3):
+        # Step 4 ends 9.8e-2, 5.8e-3, 2.7e-7, 4.4e-13 with f = 2.9e-13: its last norm is
+        # round-off, below the floor 3 f, and the three before it read 3.54. MUMPS's
+        # parallel factorization is not bitwise reproducible, and one of session 65's
+        # three 3-rank passes of the suite ended that solve just above 3 f, where the
+        # reading took the noise for an iterate (1.28; the demo alone on 3 ranks read
+        # 3.54 in 7 runs of 7). A last norm within NOISE_FACTOR x f is that
+        # noise: the order is then read from the norms before it.
+        st = steps["steps"][k]
+        main = max(st["residual_norms"], key=len)
+        r = [x for x in main if x > cm.step_floor(st)]
+        if q[k] < 1.8 and r[-1] <= NOISE_FACTOR * st["residual_round_off"]:
+            q[k] = cm.observed_order(r[:-1])
+    assert min(q[0], q[1], q[3]) >= 1.8 and q[2] >= 1.5, (q, hertz2d["newton_order_text"])
+
+
+#: test_hertz2d_newton_superlinear: a step's last residual norm within this many times
+#: its measured round-off level f is noise, whatever side of the demos' floor (3 f) a
+#: run's rounding puts it
+NOISE_FACTOR = 10.0
 
 
 def test_hertz2d_load_option(shared_tmp):
