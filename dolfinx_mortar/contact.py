@@ -703,6 +703,10 @@ class MortarContact(TangentialTerms, UzawaRounds):
         self._fetch_cand = None
         if self.frictional:
             self._init_friction(penalty if penalty_tangential is None else penalty_tangential, key)
+        if uzawa_tol > 0.0 and (soft := self._soft_clause()):
+            # said at set-up too: a penalty in the wrong units is caught before the rounds
+            # crawl (a QA pass of session 65 ran 3e-9 × auto without a word)
+            log.warning("%s: %s", key, soft)
 
         # multipliers and nodal state
         # checked on entry (uzawa_acceleration_choice)
@@ -2324,11 +2328,6 @@ class MortarContact(TangentialTerms, UzawaRounds):
             )
             if r > MEASURED_PENALTY_RATIO
         ]
-        soft = [
-            (k, r)
-            for k, r in (("penalty", self.softness), ("penalty_tangential", self.softness_t))
-            if r > SOFT_PENALTY_NOTE and self.uzawa_tol > 0.0
-        ]
         notes = []
         if keys:
             said = " and the ".join(f"{k} is {r:.3g} times" for k, r in keys)
@@ -2338,15 +2337,29 @@ class MortarContact(TangentialTerms, UzawaRounds):
                 'penalties were measured: with Uzawa a softer penalty ("auto") reaches '
                 "the same solution"
             )
-        if soft:
-            said = " and the ".join(f"{k} is up to {r:.3g} times softer" for k, r in soft)
-            notes.append(
-                f"on {self.name} the {said} than its auto rule: a round moves the "
-                "multipliers by the penalty times the penetration (or the elastic slip), "
-                'so the Uzawa rounds crawl; a stiffer penalty ("auto") reaches the same '
-                "solution in fewer rounds"
-            )
+        if self.uzawa_tol > 0.0 and (soft := self._soft_clause()):
+            notes.append(f"on {self.name} {soft}")
         return "; ".join(notes)
+
+    def _soft_clause(self) -> str:
+        """ "the penalty is up to C times softer ... than its auto rule: ..." where a
+        node's normal or tangential penalty is more than SOFT_PENALTY_NOTE times softer
+        than its auto rule (``softness``, ``softness_t``), else "" (local; the same on
+        every rank). Said at set-up (a warning, with Uzawa rounds) and in the error of a
+        run that stops (:meth:`stiff_penalty_note`)."""
+        soft = [
+            (k, r)
+            for k, r in (("penalty", self.softness), ("penalty_tangential", self.softness_t))
+            if r > SOFT_PENALTY_NOTE
+        ]
+        if not soft:
+            return ""
+        said = " and the ".join(f"{k} is up to {r:.3g} times softer" for k, r in soft)
+        return (
+            f"the {said} than its auto rule: a round moves the multipliers by the penalty "
+            "times the penetration (or the elastic slip), so the Uzawa rounds crawl; a "
+            'stiffer penalty ("auto") reaches the same solution in fewer rounds'
+        )
 
     @property
     def round_off_scale(self) -> float:

@@ -2198,6 +2198,7 @@ def test_the_penalty_hint_names_penalties_beyond_the_measured_band():
     def note(normal, tangential, **soft):
         pair = SimpleNamespace(name="a:b", penalty_ratio=normal, _penalty_t_ratio=tangential)
         pair.__dict__.update({"softness": 1.0, "softness_t": 1.0, "uzawa_tol": 1e-6, **soft})
+        pair._soft_clause = lambda: MortarContact._soft_clause(pair)
         return MortarContact.stiff_penalty_note(pair)
 
     assert note(MEASURED_PENALTY_RATIO, 0.1) == ""

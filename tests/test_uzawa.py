@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _logs import warnings_of
 from mpi4py import MPI
 
 from dolfinx_mortar import uzawa
@@ -1192,8 +1193,11 @@ def test_a_soft_penalty_reaches_the_auto_penalty_s_solution(tmp_path_factory):
     the bodies 0.1 h into each other and the force 1.8 % short, status "ok" (QA, session
     65). The rounds' test now takes the change the auto rule would make
     (``soft_penalty_change``, UzawaRounds._softness). 1–3 ranks."""
-    auto = _run_scene(_soft_press("auto"), tmp_path_factory, "press_auto")
-    soft = _run_scene(_soft_press(1e-3), tmp_path_factory, "press_soft")
+    auto, said = warnings_of(_run_scene, _soft_press("auto"), tmp_path_factory, "press_auto")
+    assert not [w for w in said if "softer" in w], said
+    soft, said = warnings_of(_run_scene, _soft_press(1e-3), tmp_path_factory, "press_soft")
+    # said at set-up too (SOFT_PENALTY_NOTE): a penalty in the wrong units shows at once
+    assert any("contact[0]: the penalty is up to" in w and "times softer" in w for w in said)
     (fa,) = auto["steps"][-1]["contact_force"].values()
     (fs,) = soft["steps"][-1]["contact_force"].values()
     assert abs(fs[1] / fa[1] - 1.0) <= 1e-6, (fs, fa)
