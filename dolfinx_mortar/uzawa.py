@@ -7,7 +7,9 @@ converged state,
     λ^I ← ⟨λ^I − ε^I γ^I⟩ = p̂^I,   λ_T^I ← τ̂^I,
 
 until max_I |p̂^I − λ^I| ≤ uzawa_tol · max_I p̂^I (``uzawa_tol = 0``: pure penalty, no
-rounds). The update is plain, accelerated on the stacked vector [λ, λ_T]
+rounds), a pressed node's change counted max(ε_auto^I/ε^I, 1) times (a stuck node's
+tangential one max(ε_T,auto^I/ε_T^I, 1) times: :meth:`UzawaRounds._softness`), so that a
+penalty softer than its auto rule stops at the auto rule's penetration. The update is plain, accelerated on the stacked vector [λ, λ_T]
 (:class:`UzawaAcceleration`: Aitken or Anderson) or exact (Newton on the rounds'
 fixed-point map, :meth:`UzawaRounds._exact_multipliers` and
 :meth:`UzawaRounds._exact_multipliers_fd`, one back-substitution with the solver's last
@@ -383,7 +385,9 @@ class UzawaRounds:
         step's rounds 2-cycle, :func:`_two_cycle`); otherwise the step
         is accelerated on the stacked vector [λ, λ_T] (:class:`UzawaAcceleration`). λ is
         kept ≥ 0. With friction the change counts max |τ − λ_T| too,
-        measured, as max |p̂ − λ|, against the largest p̂ of the pair; a pair whose
+        measured, as max |p̂ − λ|, against the largest p̂ of the pair, at pressed (stuck)
+        nodes times their penalty's softness (:meth:`_softness`; summary.json
+        ``soft_penalty_change`` where that makes it larger); a pair whose
         largest p̂ is at most :data:`UNLOADED_ROUND_OFF` times the nodal law's round-off
         (0 included: a contact open, or touching exactly, at the step's end) counts as
         converged with λ ← max(p̂, 0), λ_T ← τ̂ (:meth:`_clear_unloaded`; summary.json
