@@ -415,8 +415,14 @@ class UzawaRounds:
         change = comm.allreduce(np.abs(d).max(initial=0.0), op=MPI.MAX)
         # the test's change: at a pressed node the one the auto penalty would make at the
         # same penetration (_softness; the same as the change for ε ≥ ε_auto)
-        soft = np.where((self.p_hat > 0.0) & ~sliver, self._softness(self.eps, self.eps_auto), 1.0)
-        change_test = comm.allreduce(np.abs(d * soft).max(initial=0.0), op=MPI.MAX)
+        # (softness: reduced over the ranks at set-up, so every rank takes the same branch;
+        # a pair at or above its auto rule, the default, needs neither array nor allreduce)
+        change_test = change
+        if self.softness > 1.0:
+            soft = np.where(
+                (self.p_hat > 0.0) & ~sliver, self._softness(self.eps, self.eps_auto), 1.0
+            )
+            change_test = comm.allreduce(np.abs(d * soft).max(initial=0.0), op=MPI.MAX)
         # a pair whose pressures are all at the law's round-off carries no load: its
         # relative change would be round-off over round-off (UNLOADED_ROUND_OFF)
         floor = UNLOADED_ROUND_OFF * self._law_round_off() if self.uzawa_tol > 0.0 else 0.0
@@ -464,10 +470,11 @@ class UzawaRounds:
             target = np.where(sliver[:, None], self.lmbda_t_committed, tau_law)
             dt = np.linalg.norm(target - self.lmbda_t, axis=1)
             # in stick the change is ε_T times the elastic slip: the test's at ε_T,auto
-            stick = (fstate == fr.STICK) & ~sliver
-            soft_t = np.where(stick, self._softness(self.eps_t, self.eps_t_auto), 1.0)
-            dt_max = comm.allreduce(dt.max(initial=0.0), op=MPI.MAX)
-            dt_test = comm.allreduce((dt * soft_t).max(initial=0.0), op=MPI.MAX)
+            dt_max = dt_test = comm.allreduce(dt.max(initial=0.0), op=MPI.MAX)
+            if self.softness_t > 1.0:
+                stick = (fstate == fr.STICK) & ~sliver
+                soft_t = np.where(stick, self._softness(self.eps_t, self.eps_t_auto), 1.0)
+                dt_test = comm.allreduce((dt * soft_t).max(initial=0.0), op=MPI.MAX)
             if pref > 0 and not unloaded:
                 rel_t, rel_t_test = dt_max / pref, dt_test / pref
             info["tangential_change"] = rel_t
