@@ -593,7 +593,9 @@ def _type_name(value: Any) -> str:
 
 
 def _show(value: Any) -> str:
-    """Short representation of an offending value."""
+    """Short representation of an offending value (a boolean as TOML writes it)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
@@ -1030,7 +1032,7 @@ def _parse_material(table: Mapping[str, Any], prefix: str, kinematics: str | Non
         _get(table, "model", prefix),
         _key(prefix, "model"),
         model_names(),
-        "; a law of your own is registered from Python with dolfinx_mortar.register_law",
+        " (a law of your own is registered from Python with dolfinx_mortar.register_law)",
     )
     E = _number(_get(table, "E", prefix), _key(prefix, "E"))
     nu = _number(_get(table, "nu", prefix), _key(prefix, "nu"))

@@ -425,7 +425,7 @@ CASES = [
     (("title",), 3, "title", "expected a string, got integer"),
     (("material",), {"region": "a"}, "material", "array of tables ([[material]])"),
     (("contact",), "a", "contact", "array of tables"),
-    (("material", 0, "E"), True, "material[0].E", "expected a number, got boolean"),
+    (("material", 0, "E"), True, "material[0].E", "expected a number, got boolean true"),
     (("material", 0, "E"), "200", "material[0].E", "expected a number, got string"),
     (("material", 0, "region"), ["a"], "material[0].region", "expected a string, got array"),
     (("material", 0, "region"), " ", "material[0].region", "must not be empty"),
