@@ -250,6 +250,158 @@ def test_jacobian_terms_matches_reference(ftypes, want_hess):
         assert h_idx.shape == (0, res_idx.shape[1]) and h_val.shape[0] == 0
 
 
+#: (slave, master, mixed) facet types over an AFFINE master facet, where jacobian_terms
+#: builds a group's Hessian block from its point moments (kernels.mortar._add_group_hessian):
+#: P1 and P2 slaves, P2 mixed fields (shape functions of both signs)
+AFFINE_CASES = [
+    (INTERVAL1, INTERVAL1, INTERVAL1),
+    (INTERVAL2, INTERVAL1, INTERVAL2),
+    (TRIANGLE1, TRIANGLE1, TRIANGLE1),
+    (TRIANGLE2, TRIANGLE1, TRIANGLE1),
+]
+AFFINE_IDS = ["I1", "I2-I1", "T1", "T2-T1"]
+
+
+def _point_weights(args, p):
+    """c_q = −p_w per point (nsf, nq), p_w = w J₀ Σ_I p^I Φ_I(ξ_q) over the owned nodes."""
+    ftype_phi, qp_xi, qp_w, node_of = args[2], args[6], args[7], args[12]
+    c = np.zeros(qp_w.shape)
+    for f, q in np.ndindex(*qp_w.shape):
+        phi = kref.shape(ftype_phi, qp_xi[f, q])[0]
+        own = node_of[f] >= 0
+        c[f, q] = -qp_w[f, q] * (p[node_of[f][own]] @ phi[own])
+    return c
+
+
+def _group_blocks(args, p):
+    """The reference's per-point Hessian blocks summed per (slave facet, master facet)
+    group, keyed (f, m) in first-point order, and each group's point weights c_q."""
+    res_idx, _, hess_val, _ = kref.contact_terms(*args, p, True)
+    qp_m = args[8]
+    c = _point_weights(args, p)
+    blocks, weights = {}, {}
+    for row, (f, q) in enumerate(zip(*np.nonzero(qp_m >= 0), strict=True)):
+        if c[f, q] == 0.0:
+            continue
+        key = (f, qp_m[f, q])
+        blocks[key] = blocks.get(key, 0.0) + hess_val[row]
+        weights.setdefault(key, []).append(c[f, q])
+    return blocks, weights
+
+
+def _check_blocks_per_group(args, p, rtol=1e-12):
+    """jacobian_terms' blocks against the reference's per-point blocks summed per group,
+    each to rtol of the block's own largest entry; returns the groups' weights c_q."""
+    h_val = kmortar.jacobian_terms(*args, p, np.ones_like(p), True)[1]
+    blocks, weights = _group_blocks(args, p)
+    assert len(blocks) == h_val.shape[0]
+    for b, key in enumerate(blocks):
+        close(h_val[b], blocks[key], rtol)
+    return list(weights.values())
+
+
+@pytest.mark.parametrize("ftypes", AFFINE_CASES, ids=AFFINE_IDS)
+def test_jacobian_terms_moments_on_affine_masters(ftypes):
+    """On affine master facets the blocks come from the groups' point moments: they are
+    the per-point blocks of the reference summed per group to 1e-12 of each block's
+    scale, with pressures of both signs (groups whose c_q = −p_w are of one sign: one
+    gap Hessian at their weighted mean; of mixed signs: two), with a group whose c_q sum
+    to zero (round-off), and with ζ that is not the projection of the point (the
+    moments give the per-point formulas' sum for any ζ)."""
+    ftype_s, ftype_m, ftype_phi = ftypes
+    args, p, _ = scene(*ftypes, seed=300 + sum(ftypes), nq=9)
+    rng = np.random.default_rng(7)
+    p = rng.uniform(-1.0, 2.0, p.size)
+    weights = _check_blocks_per_group(args, p)
+    mixed = [w for w in weights if min(w) < 0.0 < max(w)]
+    assert mixed and [w for w in weights if len(w) > 1 and (min(w) > 0.0 or max(w) < 0.0)]
+    # a group whose weights cancel: p^I of one of its facet's nodes solves Σ_q c_q = 0
+    # (c_q is affine in p^I), where the others' p keep some c_q ≠ 0
+    qp_m, node_of = args[8], args[12]
+    c0 = _point_weights(args, p)
+    for (f, m), w in _group_blocks(args, p)[1].items():
+        sel = qp_m[f] == m
+        for node in node_of[f][node_of[f] >= 0]:
+            p1 = p.copy()
+            p1[node] += 1.0
+            slope = _point_weights(args, p1)[f, sel].sum() - c0[f, sel].sum()
+            if len(w) > 1 and abs(slope) > 1e-3:
+                p2 = p.copy()
+                p2[node] -= c0[f, sel].sum() / slope
+                w2 = _point_weights(args, p2)[f, sel]
+                if np.abs(w2).max() > 1e-3:
+                    break
+        else:
+            continue
+        break
+    else:
+        raise AssertionError("no group to cancel")
+    assert abs(w2.sum()) < 1e-12 * np.abs(w2).sum()
+    _check_blocks_per_group(args, p2)
+    # ζ off the projection (shifted by up to 0.2): the kernel's per-point formulas at that
+    # ζ (gap.gap_and_derivatives, whose x1 − S = gν holds at the projection only: not
+    # the reference's there) summed, the kernel one point per call
+    zeta = args[9] + rng.uniform(-0.2, 0.2, args[9].shape)
+    off = args[:9] + (zeta,) + args[10:]
+    h_val = kmortar.jacobian_terms(*off, p, np.ones_like(p), True)[1]
+    sums = _per_point_sums(off, p)
+    assert len(sums) == h_val.shape[0]
+    for b, key in enumerate(sums):
+        close(h_val[b], sums[key], 1e-12)
+
+
+def _per_point_sums(args, p):
+    """The kernel's blocks built one point at a time (one call per point with the others
+    unpaired) and summed per group in point order, as the per-point path sums them."""
+    qp_m = args[8]
+    sums = {}
+    for f, q in zip(*np.nonzero(qp_m >= 0), strict=True):
+        one = np.full_like(qp_m, -1)
+        one[f, q] = qp_m[f, q]
+        h_val = kmortar.jacobian_terms(*args[:8], one, *args[9:], p, np.ones_like(p), True)[1]
+        if h_val.shape[0]:
+            key = (f, qp_m[f, q])
+            sums[key] = sums[key] + h_val[0] if key in sums else 0.0 + h_val[0]
+    return sums
+
+
+def test_jacobian_terms_moment_path_and_its_fallback():
+    """_moment_path: affine (INTERVAL1, TRIANGLE1) and non-degenerate master facets only.
+    On a degenerate triangle (det m ≤ 1e-12 tr², the test of gap._project_affine) the
+    kernel falls back to one gap Hessian per point: its blocks are then the single-point
+    blocks summed in point order, bit for bit; on a sound one they are the moments' (not
+    bit for bit, equal to round-off)."""
+    z = np.empty(2)
+    tri = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.1], [0.0, 1.0, -0.2]])
+    thin = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 1e-7, 0.0]])
+    assert kmortar._moment_path(TRIANGLE1, tri, z)
+    assert not kmortar._moment_path(TRIANGLE1, thin, z)
+    assert kmortar._moment_path(INTERVAL1, tri[:2, :2].copy(), z[:1])
+    assert not kmortar._moment_path(INTERVAL1, np.zeros((2, 2)), z[:1])
+    assert not kmortar._moment_path(QUAD1, np.zeros((4, 3)), z)
+    assert not kmortar._moment_path(TRIANGLE2, np.zeros((6, 3)), z)
+    args, p, _ = scene(TRIANGLE1, TRIANGLE1, TRIANGLE1, seed=17, nq=9)
+    rng = np.random.default_rng(5)
+    xm = args[4].copy()
+    xm[0] = xm[0, 0] + np.outer([0.0, 1.0, 2.0], xm[0, 1] - xm[0, 0])
+    xm[0, 2] += 1e-7 * rng.standard_normal(3)
+    assert not kmortar._moment_path(TRIANGLE1, xm[0], z)
+    args = args[:4] + (xm,) + args[5:]
+    h_val = kmortar.jacobian_terms(*args, p, np.ones_like(p), True)[1]
+    sums = _per_point_sums(args, p)
+    assert len(sums) == h_val.shape[0]
+    many = {f: 0 for f in range(3)}
+    for b, (f, m) in enumerate(sums):
+        npts = int(np.count_nonzero(args[8][f] == m))
+        if m == 0:
+            np.testing.assert_array_equal(h_val[b], sums[(f, m)])
+            many[m] += npts > 1
+        else:
+            close(h_val[b], sums[(f, m)], 1e-12)
+            many[m] += not np.array_equal(h_val[b], sums[(f, m)])
+    assert many[0] and (many[1] or many[2])
+
+
 def _compressed(b_off, b_idx, b_val):
     """compress_rows of the rows (b_off, b_idx, b_val), checked against its reference;
     returns the kernel's (c_off, c_idx, c_val)."""

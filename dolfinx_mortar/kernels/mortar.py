@@ -42,6 +42,7 @@ import numpy as np
 
 from ._numba import numba
 from .gap import (
+    _project_affine,
     faces,
     gap_and_derivatives,
     gap_only_in,
@@ -50,7 +51,7 @@ from .gap import (
     unit_normal_in,
     work,
 )
-from .shape import TRIANGLE1, TRIANGLE2, clamp_to_reference, shape, tdim
+from .shape import INTERVAL1, TRIANGLE1, TRIANGLE2, clamp_to_reference, shape, tdim
 
 #: Newton iterations of the closest-point projection of a slave point
 PROJECT_MAXIT = 30
@@ -834,6 +835,93 @@ def _add_point_hessian(ns, nm, d, wq, N, d2g, h):
 
 
 @numba.njit(cache=True)
+def _moment_path(ftype_m, xm_m, zeta):
+    """Whether the Hessian block of a group on master facet xm_m (nm, d) is built from its
+    point moments (:func:`_add_group_hessian`): the facet is affine (INTERVAL1, TRIANGLE1)
+    and not degenerate by the metric test of :func:`.gap._project_affine` (zeta (km,) is
+    a work array). Otherwise the group's points add their blocks one by one."""
+    if ftype_m != INTERVAL1 and ftype_m != TRIANGLE1:
+        return False
+    return _project_affine(xm_m[0], xm_m, zeta)
+
+
+@numba.njit(cache=True)
+def _add_group_hessian(
+    ftype_m, xm_m, sign, ns, d, mom, cx, cz, csum, ax, az, asum, mixed, y, z, dg, d2g, d2g0, h
+):
+    r"""h += Σ_q c_q T_qᵀ ∂²g(x1_q, ζ_q) T_q (nloc × nloc) for the points q of one group
+    on an AFFINE master facet xm_m (nm, d) (:func:`_moment_path`), from the group's
+    moments instead of one gap Hessian per point (:func:`_add_point_hessian`).
+
+    On an affine facet S(ζ) = x_0 + Σ_α ζ_α a_α the parametrisation's second derivatives
+    vanish (SS = 0, hence b = K = 0 in :func:`.gap.gap_and_derivatives`), and with
+    E_b = Σ_α N_{b,α} D_α constant over the facet the Hessian with respect to
+    y = [x1, xm] at a point (x1, ζ) is
+
+        ∂²g/∂x1² = 0,   ∂²g/∂x1∂x^m_b = E_b,
+        ∂²g/∂x^m_a∂x^m_b = −N_a(ζ) E_b − N_b(ζ) E_aᵀ − g(x1, ζ) E_aᵀ E_b,
+
+    g = (x1 − S(ζ))·ν: jointly affine in (x1, ζ), for ANY ζ (the exact projection, or a
+    pinned or forced point's: the formulas read ζ only through N(ζ) and S(ζ)). With
+    T_q: dx1_c/dxs_{a,c} = N_a(ξ_q), identity on the master block, the group's block is
+
+        slave–slave 0,   slave a – master b: M_a E_b,   M_a = Σ_q c_q N_a(ξ_q),
+        master–master Σ_q c_q F(y_q) = C F(ȳ) for C = Σ_q c_q, ȳ = Σ_q c_q y_q / C,
+
+    F the master–master block, y_q = (x1_q, ζ_q). When the c_q are of one sign
+    (``mixed`` False; c_q = −p_w > 0 at every point of an active group is the usual
+    case) ȳ is a convex combination of the y_q and F is evaluated once there. Otherwise
+    (C may vanish) with s = Σ_q |c_q|, y⁰ = Σ_q |c_q| y_q / s and
+    y¹ = y⁰ + (Σ_q c_q y_q − C y⁰)/s (both within the hull's size of the points),
+    Σ_q c_q F(y_q) = s F(y¹) + (C − s) F(y⁰) since F is affine.
+
+    Inputs: mom (ns,) the M_a, cx (d,) Σ c_q x1_q, cz (km,) Σ c_q ζ_q, csum = C;
+    ax (d,), az (km,), asum = s the same with |c_q|; y (d,), z (km,), dg (ny,),
+    d2g, d2g0 (ny, ny) work arrays (ny = d (1 + nm)).
+    """
+    nm = xm_m.shape[0]
+    km = z.shape[0]
+    nsd = ns * d
+    nmd = nm * d
+    if mixed:
+        for i in range(d):
+            y[i] = ax[i] / asum
+        for a in range(km):
+            z[a] = az[a] / asum
+        gap_and_derivatives(y, xm_m, ftype_m, sign, z, dg, d2g0)
+        r = csum / asum
+        for i in range(d):
+            y[i] = ax[i] / asum * (1.0 - r) + cx[i] / asum
+        for a in range(km):
+            z[a] = az[a] / asum * (1.0 - r) + cz[a] / asum
+        gap_and_derivatives(y, xm_m, ftype_m, sign, z, dg, d2g)
+        w1 = asum
+        w0 = csum - asum
+    else:
+        for i in range(d):
+            y[i] = cx[i] / csum
+        for a in range(km):
+            z[a] = cz[a] / csum
+        gap_and_derivatives(y, xm_m, ftype_m, sign, z, dg, d2g)
+        w1 = csum
+        w0 = 0.0
+    for a in range(ns):
+        wa = mom[a]
+        for c in range(d):
+            for j in range(nmd):
+                h[a * d + c, nsd + j] += wa * d2g[c, d + j]
+                h[nsd + j, a * d + c] += wa * d2g[d + j, c]
+    if mixed:
+        for i in range(nmd):
+            for j in range(nmd):
+                h[nsd + i, nsd + j] += w1 * d2g[d + i, d + j] + w0 * d2g0[d + i, d + j]
+    else:
+        for i in range(nmd):
+            for j in range(nmd):
+                h[nsd + i, nsd + j] += w1 * d2g[d + i, d + j]
+
+
+@numba.njit(cache=True)
 def jacobian_terms(
     ftype_s,
     ftype_m,
@@ -877,6 +965,14 @@ def jacobian_terms(
       longer than c_off[-1]): per paired point of every facet of I (weight 0 included),
       the nloc entries w J₀ Φ_I ∂g/∂u at the dofs [sdofs[f], mdofs[m]], compressed;
       values to round-off (the points of a group are summed first).
+
+    On an affine master facet (INTERVAL1, TRIANGLE1, not degenerate: :func:`_moment_path`)
+    a group's Hessian block comes from its point moments (:func:`_add_group_hessian`:
+    M_a = Σ_q c_q N_a(ξ_q), Σ_q c_q x1_q, Σ_q c_q ζ_q with c_q = −p_w, and one or two
+    gap Hessians per group), equal to the sum of the per-point blocks to round-off, for
+    any ζ_q (pinned and forced points included); the cost per point is then that of the
+    slave shape functions and the rows B^I. Other master facets: one gap Hessian per
+    point (:func:`_add_point_hessian`).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -939,6 +1035,21 @@ def jacobian_terms(
     b_val = np.zeros(b_off[n_nodes])
     fill = b_off[:-1].copy()
     base = np.empty(nphi, np.int64)  # where facet f's groups start in the row of its node i
+    # the moments of the groups on affine master facets (_add_group_hessian), per group
+    km = tdim(ftype_m)
+    moment = np.zeros(nq, np.bool_)
+    mom = np.empty((nq, ns))
+    cx = np.empty((nq, d))
+    cz = np.empty((nq, km))
+    ax = np.empty((nq, d))
+    az = np.empty((nq, km))
+    csum = np.empty(nq)
+    asum = np.empty(nq)
+    npos = np.empty(nq, np.int64)
+    nneg = np.empty(nq, np.int64)
+    yb = np.empty(d)
+    zb = np.empty(km)
+    d2g0 = np.empty_like(d2g)
     # pass 2: the derivatives of the points that add to a block or a row
     for f in range(nsf):
         ng = ngrp[f]
@@ -946,6 +1057,17 @@ def jacobian_terms(
             continue
         for g in range(ng):
             s = hslot[f, g]
+            moment[g] = s >= 0 and _moment_path(ftype_m, xm[gm[f, g]], zb)
+            if moment[g]:
+                mom[g, :] = 0.0
+                cx[g, :] = 0.0
+                cz[g, :] = 0.0
+                ax[g, :] = 0.0
+                az[g, :] = 0.0
+                csum[g] = 0.0
+                asum[g] = 0.0
+                npos[g] = 0
+                nneg[g] = 0
             if s >= 0:
                 for j in range(nsd):
                     h_idx[s, j] = sdofs[f, j]
@@ -974,7 +1096,7 @@ def jacobian_terms(
             s = hslot[f, g] if pw != 0.0 else -1
             if s < 0 and not need[f]:
                 continue
-            if s >= 0:
+            if s >= 0 and not moment[g]:
                 _local_derivatives(
                     ftype_s,
                     ftype_m,
@@ -992,7 +1114,7 @@ def jacobian_terms(
                     ddN,
                 )
                 _add_point_hessian(ns, nm, d, -pw, N, d2g, h_val[s])
-            else:  # a row B^I only: no Hessian of the gap
+            elif need[f]:  # no Hessian of the gap at the point (N and x1 come with it)
                 _local_gradient(
                     ftype_s,
                     ftype_m,
@@ -1009,6 +1131,26 @@ def jacobian_terms(
                     ddN,
                     wm,
                 )
+            else:  # a moment only
+                _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
+            if s >= 0 and moment[g]:
+                c = -pw
+                ac = abs(c)
+                for a in range(ns):
+                    mom[g, a] += c * N[a]
+                for i in range(d):
+                    cx[g, i] += c * x1[i]
+                    ax[g, i] += ac * x1[i]
+                zq = qp_zeta[f, q]
+                for a in range(km):
+                    cz[g, a] += c * zq[a]
+                    az[g, a] += ac * zq[a]
+                csum[g] += c
+                asum[g] += ac
+                if c > 0.0:
+                    npos[g] += 1
+                else:
+                    nneg[g] += 1
             if need[f]:
                 shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
                 for i in range(nphi):
@@ -1018,6 +1160,30 @@ def jacobian_terms(
                     o = base[i] + g * nloc
                     for j in range(nloc):
                         b_val[o + j] += wphi * dg_loc[j]
+        for g in range(ng):
+            if moment[g]:
+                m = gm[f, g]
+                _add_group_hessian(
+                    ftype_m,
+                    xm[m],
+                    msign[m],
+                    ns,
+                    d,
+                    mom[g],
+                    cx[g],
+                    cz[g],
+                    csum[g],
+                    ax[g],
+                    az[g],
+                    asum[g],
+                    npos[g] > 0 and nneg[g] > 0,
+                    yb,
+                    zb,
+                    dg,
+                    d2g,
+                    d2g0,
+                    h_val[hslot[f, g]],
+                )
     c_off = np.zeros(n_nodes + 1, np.int64)
     c_idx = np.empty_like(b_idx)
     c_val = np.empty_like(b_val)
