@@ -861,15 +861,17 @@ def _add_group_hessian(
         ∂²g/∂x1² = 0,   ∂²g/∂x1∂x^m_b = E_b,
         ∂²g/∂x^m_a∂x^m_b = −N_a(ζ) E_b − N_b(ζ) E_aᵀ − g(x1, ζ) E_aᵀ E_b,
 
-    g = (x1 − S(ζ))·ν: jointly affine in (x1, ζ), for ANY ζ (the exact projection, or a
-    pinned or forced point's: the formulas read ζ only through N(ζ) and S(ζ)). With
+    g = (x1 − S(ζ))·ν: jointly affine in (x1, ζ) (these are gap_and_derivatives'
+    formulas, which read ζ only through N(ζ) and S(ζ); they are g's Hessian where ζ is
+    the projection onto the facet's plane, as it is at pinned and forced points too,
+    :func:`forced_points`; the sum below is theirs for any ζ). With
     T_q: dx1_c/dxs_{a,c} = N_a(ξ_q), identity on the master block, the group's block is
 
         slave–slave 0,   slave a – master b: M_a E_b,   M_a = Σ_q c_q N_a(ξ_q),
         master–master Σ_q c_q F(y_q) = C F(ȳ) for C = Σ_q c_q, ȳ = Σ_q c_q y_q / C,
 
     F the master–master block, y_q = (x1_q, ζ_q). When the c_q are of one sign
-    (``mixed`` False; c_q = −p_w > 0 at every point of an active group is the usual
+    (``mixed`` False; c_q = −p_w < 0 at every point of a pressed group is the usual
     case) ȳ is a convex combination of the y_q and F is evaluated once there. Otherwise
     (C may vanish) with s = Σ_q |c_q|, y⁰ = Σ_q |c_q| y_q / s and
     y¹ = y⁰ + (Σ_q c_q y_q − C y⁰)/s (both within the hull's size of the points),
