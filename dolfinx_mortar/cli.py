@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import sys
 import traceback
@@ -156,22 +157,37 @@ def _error_line(text: str) -> None:
 
 
 #: Seconds a rank with a command-line error waits for the other ranks under mpirun
-#: (:func:`_every_rank_has_printed`).
+#: (:func:`_every_rank_has_printed`); the environment variable
+#: ``DOLFINX_MORTAR_USAGE_ERROR_WAIT`` (seconds, a number >= 0) sets another bound.
 USAGE_ERROR_WAIT = 10.0
+
+
+def _usage_error_wait() -> float:
+    """The bound of :func:`_every_rank_has_printed`: ``DOLFINX_MORTAR_USAGE_ERROR_WAIT``
+    where it is a finite number >= 0, else USAGE_ERROR_WAIT (an unreadable value is
+    ignored: the command line's own error is the one to report)."""
+    text = os.environ.get("DOLFINX_MORTAR_USAGE_ERROR_WAIT", "")
+    try:
+        seconds = float(text)
+    except ValueError:
+        return USAGE_ERROR_WAIT
+    return seconds if math.isfinite(seconds) and seconds >= 0.0 else USAGE_ERROR_WAIT
 
 
 def _every_rank_has_printed() -> None:
     """Under mpirun (Open MPI's or MPICH's environment says more than one rank), wait
     until every rank gets here, or USAGE_ERROR_WAIT seconds (a non-blocking barrier;
-    nothing otherwise). Each rank parses its own command line and finds the same error;
-    the first to exit made mpirun kill the others before they had printed theirs (3
-    ranks: 5 of 30 runs lost a line, BENCHMARKS §46). The wait is bounded: ranks of an MPMD launch (or
-    ranks that run another command) never get here, and a blocking barrier hung them."""
+    nothing otherwise; ``DOLFINX_MORTAR_USAGE_ERROR_WAIT`` sets another bound:
+    :func:`_usage_error_wait`). Each rank parses its own command line and finds the same
+    error; the first to exit made mpirun kill the others before they had printed theirs
+    (3 ranks: 5 of 30 runs lost a line, BENCHMARKS §46). The wait is bounded: ranks of an
+    MPMD launch (or ranks that run another command) never get here, and a blocking
+    barrier hung them."""
     size = os.environ.get("OMPI_COMM_WORLD_SIZE") or os.environ.get("PMI_SIZE") or "1"
     if size.isdigit() and int(size) > 1:
         from mpi4py import MPI
 
-        every_rank_arrives(MPI.COMM_WORLD, USAGE_ERROR_WAIT)
+        every_rank_arrives(MPI.COMM_WORLD, _usage_error_wait())
 
 
 def _usage_exit(text: str):

@@ -1275,15 +1275,30 @@ def test_usage_errors_are_one_line(cli_call, workdir):
 def test_a_usage_error_waits_a_bounded_time_for_the_other_ranks(workdir):
     """A rank with a command-line error waits for the others so that every rank prints
     its line, but not for ever: in an MPMD launch the other rank runs another command
-    and never joins (a blocking barrier hung there)."""
+    and never joins (a blocking barrier hung there). The bound is 1 s here
+    (DOLFINX_MORTAR_USAGE_ERROR_WAIT; 10 s by default: the test waited for it)."""
     mpirun = shutil.which("mpirun")
     py = [sys.executable, "-m", "dolfinx_mortar"]
     cmd = [mpirun, "-q", "-n", "1", *py, "run", "--bogus", ":", "-n", "1", *py, "generators"]
-    res = subprocess.run(
-        cmd, cwd=workdir, env=_env(), capture_output=True, text=True, timeout=TIMEOUT
-    )
+    env = _env(DOLFINX_MORTAR_USAGE_ERROR_WAIT="1")
+    res = subprocess.run(cmd, cwd=workdir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
     assert res.returncode == 2, res.stderr
     assert "dolfinx-mortar: error: command line:" in res.stderr, res.stderr
+
+
+def test_the_usage_error_wait_is_read_from_the_environment(monkeypatch):
+    """DOLFINX_MORTAR_USAGE_ERROR_WAIT sets the bound of the wait above (seconds, >= 0);
+    unset, or not such a number, the bound is cli_module.USAGE_ERROR_WAIT."""
+    from dolfinx_mortar import cli as cli_module
+
+    monkeypatch.delenv("DOLFINX_MORTAR_USAGE_ERROR_WAIT", raising=False)
+    assert cli_module._usage_error_wait() == cli_module.USAGE_ERROR_WAIT == 10.0
+    for text, seconds in (("1", 1.0), ("0", 0.0), ("2.5", 2.5)):
+        monkeypatch.setenv("DOLFINX_MORTAR_USAGE_ERROR_WAIT", text)
+        assert cli_module._usage_error_wait() == seconds, text
+    for text in ("", "soon", "-1", "nan", "inf"):
+        monkeypatch.setenv("DOLFINX_MORTAR_USAGE_ERROR_WAIT", text)
+        assert cli_module._usage_error_wait() == cli_module.USAGE_ERROR_WAIT, text
 
 
 def test_petsc_errors_in_the_solve_stop_the_run(cli_call, workdir):
