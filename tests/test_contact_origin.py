@@ -151,11 +151,15 @@ def test_pair_origin_rounds_the_centre_and_is_zero_near_the_origin():
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not3
 def test_a_frictional_patch_far_from_the_origin_runs_as_at_the_origin(shared_tmp):
     """The press-slide patch shifted by (0, 1e4): it stopped after 6 cutbacks ("Uzawa
     augmentation stalled"). Now the unshifted run's Uzawa rounds (3, 3, 3, 2), contact
     forces to 1e-8 (2.5e-10 measured) and nodal pressures; the unshifted pair's origin is
-    0 (it runs as before, to the last bit)."""
+    0 (it runs as before, to the last bit). Serially and on 2 ranks (mpi_not3, session
+    66: the origin is the slave nodes' bounding box by a min and a max allreduce, on any
+    number of ranks; test_pair_origin_rounds_the_centre_and_is_zero_near_the_origin
+    checks it on 3 ranks, one of them without slave facets)."""
     shift = np.array([0.0, 1e4])
     out0, out_far = shared_tmp / "fric_at0", shared_tmp / "fric_far"
     at0, o0 = _run(_frictional(_mesh(shared_tmp, "fric0", FRICTIONAL, [0, 0])), out0)

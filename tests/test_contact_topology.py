@@ -212,6 +212,7 @@ def _force(data, out, comm) -> np.ndarray:
     return np.asarray(s["steps"][-1]["contact_force"]["arm_lo_top:arm_up_bot"])
 
 
+@pytest.mark.mpi_not3
 def test_self_contact_carries_the_force_of_the_two_body_split(shared_tmp):
     """Self-contact: the slave and master groups on one body. The C's two arms pressed
     together carry the contact force of the same mesh cut along the mirror line into two
@@ -223,7 +224,9 @@ def test_self_contact_carries_the_force_of_the_two_body_split(shared_tmp):
     1e-4 and 2e-4 of the force. A self-contact that failed (the arms passing through each
     other, a force on one side only) would be off by the whole force: the slot closes,
     so without contact there would be none. On several ranks the forces are also the
-    serial ones (1e-8)."""
+    serial ones (1e-8): serially and on 2 ranks (mpi_not3, session 66; the pairing across
+    3 ranks against serial runs is test_contact_parallel's, whose pairs are found as
+    these, one body or two)."""
     comm = MPI.COMM_WORLD
     forces = {}
     for split in (False, True):
