@@ -33,7 +33,8 @@ XDIST_LONG_FILES = (
 def mpi_marks(size: int) -> str:
     """The marker expression of a run on ``size`` > 1 ranks (pyproject's markers): on 2
     ranks every ``mpi`` and ``mpi2`` test, on 3 or more the ``mpi`` tests but the
-    ``mpi_not3`` ones. The other tests are serial: run on every rank, each would repeat
+    ``mpi_not3`` ones (``mpi_not1`` ones too: they leave the serial pass of
+    scripts/test.sh only). The other tests are serial: run on every rank, each would repeat
     the serial run in the ranks' shared folders (a test's output lock then fails it)."""
     return "mpi or mpi2" if size == 2 else "mpi and not mpi_not3"
 

@@ -222,6 +222,7 @@ def serial_runs(request, tmp_path_factory):
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_not1
 @pytest.mark.parametrize("name, data, slave", PARALLEL_CASES)
 def test_parallel_equals_serial(shared_tmp, serial_runs, name, data, slave):
     """Each of PARALLEL_CASES on COMM_WORLD against its serial run: the slave table of the
@@ -229,7 +230,10 @@ def test_parallel_equals_serial(shared_tmp, serial_runs, name, data, slave):
     gap, slip and state to 1e-8), the contact force and the reactions to 1e-8. On 3 ranks
     these comparisons stand for the scenario tests that run serially and on 2 ranks only
     (``mpi_not3``): 2D and 3D, frictionless and frictional, each normal recovery, the
-    master frame, large sliding, and the 3D frictional exact Uzawa update."""
+    master frame, large sliding, and the 3D frictional exact Uzawa update. Not in the
+    serial pass of scripts/test.sh (``mpi_not1``, session 66): serially the parallel run
+    is the serial one, and the MPI passes run each serial reference (``serial_runs``)
+    and check it as the serial pass did (status, surface counts, pressures, states)."""
     comm = MPI.COMM_WORLD
     box = {}
     par = _run(data, shared_tmp / f"{name}_par", comm, box)
