@@ -5,10 +5,11 @@ Every case is one scene file run as a user runs it, in its own process::
     OMP_NUM_THREADS=1 /usr/bin/python3 -m dolfinx_mortar run SCENE --out OUT/runs/CASE
 
 (serially, one process at a time), and its ``summary.json`` is read back. Cases
-(``--cases``, default all; ``--quick``: the hertz2d gap and penetration and the four patch
-cases, which take seconds each):
+(``--cases``, default all; ``--quick``: the hertz2d gap and penetration, the four patch
+cases and ``hertz2d_kappa1e2_penalty``, which take seconds each):
 
-- ``hertz2d_auto``: the demo's scene (penalty "auto", Uzawa 1e-6): the reference row;
+- ``hertz2d_auto``: the scene of ``demos/demo_hertz2d.py --tri`` (P1 triangles, penalty
+  "auto", Uzawa 1e-6): the reference row;
 - ``hertz2d_gap``: initial gap 0.01 under force control (the cylinder is held by
   contact only);
 - ``hertz2d_penetration``: initial penetration 0.02 under force control;

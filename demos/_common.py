@@ -97,8 +97,9 @@ def parser(
             default=None,
             metavar="N",
             help="quadrature_degree of every pair: the Gauss rule's degree on each slave facet "
-            "(element) or segment (segment), 2..30 [the facet type's default: 7 on lines and "
-            "quadrilaterals, 4 on triangles]",
+            "(element) or segment (segment), 2..30 [the facet type's default: 7 on P1 lines "
+            "and quadrilaterals, 4 on P1 triangles, 11 on P2 lines and quadrilaterals, 6 on P2 "
+            "triangles]",
         )
     return ap
 

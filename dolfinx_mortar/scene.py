@@ -318,7 +318,8 @@ class ContactPair:
         (``"segment"``), an integer in [2 (4 on quadratic facets),
         :data:`MAX_QUADRATURE_DEGREE`], or ``None``
         (default: :data:`dolfinx_mortar.contact.DEFAULT_QUADRATURE_DEGREE` of the facet
-        type: 7 on lines and quadrilaterals, 4 on 3-node triangles, ...). Not with
+        type: 7 on P1 lines and quadrilaterals, 4 on P1 triangles, 11 on P2 lines and
+        quadrilaterals, 6 on P2 triangles). Not with
         ``"node"`` (its points are the slave nodes).
     penalty:
         Normal penalty epsilon_N (stress per length, e.g. MPa/mm), > 0, or ``"auto"``.
