@@ -1824,7 +1824,7 @@ def test_laws_file(cli_call, workdir, ranks):
             "if MPI.COMM_WORLD.rank == 0:\n    exec(open('laws.py').read())\n"
         )
         res = cli_call(workdir, "run", "law.toml", "--laws", "rank0.py", ranks=ranks)
-        _one_error_line(res, n, "material[0].model", "register_law (on rank 1)")
+        _one_error_line(res, n, "material[0].model", "register_law) (on rank 1)")
 
 
 def test_run_not_converging(cli_call, workdir):
