@@ -25,8 +25,9 @@ takes from it (``candidate_master_facets_max``) and the master surface's size
 
 ``--quadrature-degree N`` sets the degree of the pair's slave facet rule (element
 integration: the rule on every slave facet; segment: the rule per segment), the scene's
-``[[contact]] quadrature_degree``. Left out, the default degree of the facet type (P1
-triangles: 4, 6 points)::
+``[[contact]] quadrature_degree``. Left out, the pair's default (element integration
+without friction on P1 triangles: 12, 33 points; segment: 4, 6 points a segment
+triangle; ``contact.default_quadrature_degree``)::
 
     /usr/bin/python3 bench/bench_contact_cost.py --material linear-elastic --h0 0.06 \
         --levels 0 --repeat 5 --quadrature-degree 6
@@ -196,7 +197,9 @@ def main(argv=None):
         "--quadrature-degree",
         type=_quadrature_degree,
         default=None,
-        help="degree of the slave facet rule (default: the facet type's, P1 triangles 4)",
+        help="degree of the slave facet rule (default: the pair's, "
+        "contact.default_quadrature_degree: 12 on hertz3d's P1 triangles with element "
+        "integration, 4 with segment)",
     )
     ap.add_argument("--csv", default="bench/out/contact_cost.csv")
     args = ap.parse_args(argv)

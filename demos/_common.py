@@ -98,8 +98,8 @@ def parser(
             metavar="N",
             help="quadrature_degree of every pair: the Gauss rule's degree on each slave facet "
             "(element) or segment (segment), 2..30 [the facet type's default: 7 on P1 lines "
-            "and quadrilaterals, 4 on P1 triangles, 11 on P2 lines and quadrilaterals, 6 on P2 "
-            "triangles]",
+            "and quadrilaterals, 4 on P1 triangles (12 with element integration and no "
+            "friction), 11 on P2 lines and quadrilaterals, 6 on P2 triangles]",
         )
     return ap
 

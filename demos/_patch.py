@@ -17,8 +17,10 @@ Metrics: max |p/p0 - 1| over all slave nodes, the normal contact force against
 p0 × area, the number of slave nodes not in contact. Expected: round-off with
 ``--integration segment`` (``--recovery constrained``: Newton's tolerance, 5e-12 in 2D and
 3e-10 in 3D; BENCHMARKS.md §4, session 53); a quadrature error with ``element``: <= 2 % on quadrilaterals,
-triangles and hexahedra (2D 0.1–0.5 %, 3D 1.2–1.9 %), 5–7 % on tetrahedra (3D
-``--tri``: 7.0e-2 slave finer, 5.0e-2 slave coarser; BENCHMARKS.md §4), 1.30e-2 and 1.21e-2
+triangles and hexahedra (2D 0.1–0.5 %, 3D 1.2–1.9 %) and on tetrahedra with the default
+rule of degree 12 (3D ``--tri``: 2.8e-3 slave finer, 8.9e-3 coarser; BENCHMARKS.md §90,
+§94); 5–7 % on tetrahedra with ``--quadrature-degree 4`` (7.0e-2, 5.0e-2; 6 points, the
+default before session 66 and of frictional pairs; BENCHMARKS.md §4), 1.30e-2 and 1.21e-2
 with ``--quadrature-degree 6`` (the pair's ``quadrature_degree``: 12 points on a triangle).
 """
 

@@ -3,8 +3,10 @@
 See ``_patch.py`` for the set-up. The interface pressure must equal p0 at every
 slave node: to round-off with ``--integration segment``, within the quadrature
 error with ``--integration element`` (the default): <= 2 % on these hexahedra (1.2 %
-with the finer side as the slave, 1.9 % with ``--swap``), 7.0 % and 5.0 % with
-``--tri`` (tetrahedra: the default rule on a triangle has 6 points; BENCHMARKS.md §4),
+with the finer side as the slave, 1.9 % with ``--swap``), 0.28 % and 0.89 % with
+``--tri`` (tetrahedra: a frictionless pair's default rule on a triangle has degree 12, 33
+points, since session 66; BENCHMARKS.md §90, §94), 7.0 % and 5.0 % with ``--tri
+--quadrature-degree 4`` (6 points, the default of frictional pairs; BENCHMARKS.md §4),
 1.3 % and 1.2 % with ``--tri --quadrature-degree 6`` (``[[contact]] quadrature_degree``: 12
 points).
 ``--swap`` makes the coarser side the slave; ``--tri`` uses tetrahedra.

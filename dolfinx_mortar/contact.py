@@ -143,10 +143,32 @@ INTEGRATIONS = ("element", "segment", "node")
 #: triangles (tetrahedra) degree 4 (6 points) does not: 5–7 % on the structured patch,
 #: up to 10.5 % on gmsh ones; degree 6 would (1.2–1.4 % structured), but the hertz3d demo
 #: then reads a Newton order ≥ 1.77 in its first step (docs/method-notes.md, "Default
-#: quadrature"; BENCHMARKS.md §84). A scene sets another degree per pair:
-#: ``[[contact]] quadrature_degree`` (6 for tetrahedral models that must pass the patch
-#: test with element integration).
+#: quadrature"; BENCHMARKS.md §84): frictionless element integration takes degree 12
+#: there (:data:`FRICTIONLESS_ELEMENT_DEGREE`), the other pairs on P1 triangles keep 4. A
+#: scene sets another degree per pair: ``[[contact]] quadrature_degree``.
 DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
+#: The default degree on P1 triangles (tetrahedral models) with ELEMENT integration and
+#: no friction, in place of DEFAULT_QUADRATURE_DEGREE's 4: degree 12 (33 points, no centre
+#: point) passes the patch test (0.28 % slave finer, 0.89 % coarser on demo_patch3d's
+#: tetrahedra, ≤ 1.6 % on unstructured ones) and keeps the hertz3d demo's Newton order
+#: reading ≥ 1.83; since session 66 the tangent's Hessian on affine master facets costs
+#: one gap Hessian per facet pair whatever the points (BENCHMARKS.md §92), so contact
+#: assembly stays below the bulk's (0.87 × on hertz3d at 94k dofs; 0.54 × at degree 4).
+#: With friction the default stays 4: the tangential integrals are still evaluated point
+#: by point (demo_cattaneo3d took 2.6 × the wall time at degree 12), and segment
+#: integration is exact with any rule (BENCHMARKS.md §94).
+FRICTIONLESS_ELEMENT_DEGREE = {2: 12}
+
+
+def default_quadrature_degree(ftype: int, integration: str, frictional: bool) -> int:
+    """The slave rule's degree of a pair that sets no ``quadrature_degree``:
+    :data:`FRICTIONLESS_ELEMENT_DEGREE` for element integration without friction where it
+    names the facet type, else :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type (local)."""
+    if integration == "element" and not frictional and ftype in FRICTIONLESS_ELEMENT_DEGREE:
+        return FRICTIONLESS_ELEMENT_DEGREE[ftype]
+    return DEFAULT_QUADRATURE_DEGREE[ftype]
+
+
 #: The centre of each reference facet (INTERVAL1/2: [0, 1]; TRIANGLE1/2: the unit
 #: triangle; QUAD1/2: [0, 1]²), where a rule's point is warned about (a chosen
 #: ``quadrature_degree``'s rule, element integration).
@@ -356,8 +378,9 @@ class MortarContact(TangentialTerms, UzawaRounds):
         rule (segment integration), an integer in [2,
         :data:`~dolfinx_mortar.scene.MAX_QUADRATURE_DEGREE`], at least 4 on quadratic
         facets (the mortar mass matrix integrated exactly, else SceneError), or None (the
-        default: :data:`DEFAULT_QUADRATURE_DEGREE` of the facet type); not with node
-        integration.
+        default, :func:`default_quadrature_degree`: :data:`DEFAULT_QUADRATURE_DEGREE` of
+        the facet type, 12 on P1 triangles with element integration and no friction);
+        not with node integration.
     key: scene key used in error messages.
     friction: Coulomb coefficient μ; 0 creates no tangential history, fields or blocks.
     penalty_tangential: ε_T (stress per length), "auto" (tangential.AUTO_PENALTY_T_FACTOR E*/h_I,
@@ -535,7 +558,7 @@ class MortarContact(TangentialTerms, UzawaRounds):
 
         # quadrature: the element rule on every slave facet, or the rule per segment
         qdeg = (
-            DEFAULT_QUADRATURE_DEGREE[self.ftype]
+            default_quadrature_degree(self.ftype, integration, friction > 0.0)
             if quadrature_degree is None
             else quadrature_degree
         )

@@ -34,8 +34,8 @@ Schema (``*`` = required; defaults in brackets)::
       friction   float in [0, 1e6], Coulomb coefficient mu    [0.0]
       recovery   "unconstrained" | "lumped" | "constrained"   ["lumped"]
       integration "element" | "segment" | "node"             ["element"]
-      quadrature_degree  int in [2, MAX_QUADRATURE_DEGREE = 30]  [None = the facet
-                 type's default, contact.DEFAULT_QUADRATURE_DEGREE] (the slave
+      quadrature_degree  int in [2, MAX_QUADRATURE_DEGREE = 30]  [None = the pair's
+                 default, contact.default_quadrature_degree] (the slave
                  facet rule of "element", the segments' rule of "segment";
                  "node" has none: an error there)
       penalty    float > 0 (stress / length) or "auto"        ["auto"]
@@ -317,9 +317,9 @@ class ContactPair:
         Degree of the Gauss rule on each slave facet (``"element"``) or on each segment
         (``"segment"``), an integer in [2 (4 on quadratic facets),
         :data:`MAX_QUADRATURE_DEGREE`], or ``None``
-        (default: :data:`dolfinx_mortar.contact.DEFAULT_QUADRATURE_DEGREE` of the facet
-        type: 7 on P1 lines and quadrilaterals, 4 on P1 triangles, 11 on P2 lines and
-        quadrilaterals, 6 on P2 triangles). Not with
+        (default: :func:`dolfinx_mortar.contact.default_quadrature_degree`: 7 on P1 lines
+        and quadrilaterals, 4 on P1 triangles (12 with element integration and no
+        friction), 11 on P2 lines and quadrilaterals, 6 on P2 triangles). Not with
         ``"node"`` (its points are the slave nodes).
     penalty:
         Normal penalty epsilon_N (stress per length, e.g. MPa/mm), > 0, or ``"auto"``.

@@ -461,7 +461,9 @@ def test_bench_contact_cost_runs(tmp_path, material):
 
 def test_bench_contact_cost_quadrature_degree(tmp_path, capsys):
     """``--quadrature-degree 6`` puts the 12-point rule on hertz3d's slave triangles (the
-    default, degree 4, has 6: BENCHMARKS §83) and leaves the package's default as it was."""
+    default of a frictionless pair there, degree 12, has 33:
+    contact.FRICTIONLESS_ELEMENT_DEGREE, BENCHMARKS §94) and leaves the package's defaults
+    as they were."""
     from dolfinx_mortar import contact
 
     default = dict(contact.DEFAULT_QUADRATURE_DEGREE)
@@ -471,7 +473,7 @@ def test_bench_contact_cost_quadrature_degree(tmp_path, capsys):
     assert rows[0]["quadrature_points"] == 12 and rows[0]["active_nodes"] > 0
     assert contact.DEFAULT_QUADRATURE_DEGREE == default
     rows = bench.main([*args, "--csv", str(tmp_path / "d.csv")])
-    assert rows[0]["quadrature_points"] == 6
+    assert rows[0]["quadrature_points"] == 33
     # a degree below 2 or not an integer: argparse's one-line usage error (exit 2); 0 had
     # run basix's one-point rule without a word
     for bad, said in (("0", "must be >= 2, got 0"), ("2.5", "an integer from 2 to 30, got '2.5'")):
