@@ -416,6 +416,11 @@ def test_ironing3d_short(shared_tmp):
     assert m["stick_nodes"][-4] >= 20 and m["stick_nodes"][-3] > m["slip_nodes"][-3]
     assert m["slip_nodes"][-1] > 10 * m["stick_nodes"][-1]  # slipping at the end
     assert m["max_newton_per_solve"] <= 25 and max(m["newton_iterations"]) <= 30
+    # a frictional pair on P1 triangles keeps the 6-point rule of degree 4 by default
+    # (contact.default_quadrature_degree; frictionless ones take 12, BENCHMARKS §94)
+    summary = json.loads((shared_tmp / "ironing3d-short" / "summary.json").read_text())
+    (pair,) = summary["modelled"]["contact_pairs"].values()
+    assert pair["quadrature"] == "degree 4, 6 points per slave facet", pair
 
 
 @pytest.mark.mpi2

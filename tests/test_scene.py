@@ -1044,6 +1044,24 @@ def test_a_pair_takes_a_quadrature_degree():
     assert parse_scene(data, BASE).contacts[0].quadrature_degree is None
 
 
+def test_the_default_degree_follows_the_facet_integration_and_friction():
+    """A pair without ``quadrature_degree``: degree 12 on P1 triangles with element
+    integration and no friction (the tetrahedral patch test, BENCHMARKS.md §94), the facet
+    type's DEFAULT_QUADRATURE_DEGREE otherwise (4 on P1 triangles with friction or with
+    segments, 7 on P1 lines and quadrilaterals, ...)."""
+    from dolfinx_mortar.contact import DEFAULT_QUADRATURE_DEGREE, default_quadrature_degree
+    from dolfinx_mortar.kernels.shape import INTERVAL1, QUAD1, TRIANGLE1, TRIANGLE2
+
+    assert default_quadrature_degree(TRIANGLE1, "element", False) == 12
+    assert default_quadrature_degree(TRIANGLE1, "element", True) == 4
+    assert default_quadrature_degree(TRIANGLE1, "segment", False) == 4
+    for ftype in (INTERVAL1, QUAD1, TRIANGLE2):
+        for integration in ("element", "segment"):
+            for frictional in (False, True):
+                got = default_quadrature_degree(ftype, integration, frictional)
+                assert got == DEFAULT_QUADRATURE_DEGREE[ftype]
+
+
 def test_numpy_values_are_taken_as_toml_numbers_and_arrays():
     """A Python caller's NumPy values (np.int64 for ``steps.n`` and generator parameters,
     np.float32, an array for a ``path``) parse as TOML's integers, floats and arrays (the
