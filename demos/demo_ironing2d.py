@@ -16,7 +16,7 @@ sets a number or "auto" = 10 E*/h); ε_N = "auto" (100 E*/h), uzawa_tol 1e-4; Ne
 are penetration-limited (``--step-depth-limit``, ``[solver] step_depth_limit`` = 0.25: no
 slab node out of contact goes deeper than 0.25 h in one Newton step). With the
 die as slave (``--slave die``) the run does not complete: it stops where the die goes
-from stick to slip (t ≈ 1.19 with ε_T = E*/h, after cutbacks from the press on and some
+from stick to slip (t ≈ 1.21 with ε_T = E*/h, after 69 cutbacks from the press on and 13
 minutes; t ≈ 1.32 with ε_T "auto", 12 cutbacks; session 66): Newton and the Uzawa
 rounds stall whatever the step size, because a slave Gauss point on the die switches
 master facet between iterations (closest-point projection onto the kinked, concave
