@@ -872,7 +872,10 @@ def _add_group_hessian(
 
     F the master–master block, y_q = (x1_q, ζ_q). When the c_q are of one sign
     (``mixed`` False; c_q = −p_w < 0 at every point of a pressed group is the usual
-    case) ȳ is a convex combination of the y_q and F is evaluated once there. Otherwise
+    case; the caller reads it off the sums: Σ_q |c_q| and |Σ_q c_q|, summed in the same
+    order, are then equal bit for bit) ȳ is a convex combination of the y_q and F is
+    evaluated once there (where rounding hides a tiny term of the other sign, C ≠ 0 and
+    C F(ȳ) is still the sum: F is affine). Otherwise
     (C may vanish) with s = Σ_q |c_q|, y⁰ = Σ_q |c_q| y_q / s and
     y¹ = y⁰ + (Σ_q c_q y_q − C y⁰)/s (both within the hull's size of the points),
     Σ_q c_q F(y_q) = s F(y¹) + (C − s) F(y⁰) since F is affine.
@@ -1047,8 +1050,6 @@ def jacobian_terms(
     az = np.empty((nq, km))
     csum = np.empty(nq)
     asum = np.empty(nq)
-    npos = np.empty(nq, np.int64)
-    nneg = np.empty(nq, np.int64)
     yb = np.empty(d)
     zb = np.empty(km)
     d2g0 = np.empty_like(d2g)
@@ -1068,8 +1069,6 @@ def jacobian_terms(
                 az[g, :] = 0.0
                 csum[g] = 0.0
                 asum[g] = 0.0
-                npos[g] = 0
-                nneg[g] = 0
             if s >= 0:
                 for j in range(nsd):
                     h_idx[s, j] = sdofs[f, j]
@@ -1149,10 +1148,6 @@ def jacobian_terms(
                     az[g, a] += ac * zq[a]
                 csum[g] += c
                 asum[g] += ac
-                if c > 0.0:
-                    npos[g] += 1
-                else:
-                    nneg[g] += 1
             if need[f]:
                 shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
                 for i in range(nphi):
@@ -1178,7 +1173,7 @@ def jacobian_terms(
                     ax[g],
                     az[g],
                     asum[g],
-                    npos[g] > 0 and nneg[g] > 0,
+                    asum[g] != abs(csum[g]),  # c_q of both signs (one sign: equal, exactly)
                     yb,
                     zb,
                     dg,
