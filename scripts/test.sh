@@ -26,6 +26,16 @@ echo "== ruff"
 $PY -m ruff check .
 $PY -m ruff format --check .
 
+# The suite's numba kernels: compiled at LLVM optimisation level 1 (numba's default is 3)
+# into a cache of the suite's own, .numba-test-cache/ (gitignored); the package's cache
+# (dolfinx_mortar/kernels/__pycache__, the demos' and the Docker image's, level 3) is left
+# as it is. Level 1 compiles in about 3/4 of the time (the warm-up below 78 -> 57 s on
+# the 2-core machine) and the tests run no slower; the numbers are the same bit for bit
+# (no kernel asks for fast-math, so LLVM reorders no floating-point operation; checked on
+# demo_hertz3d and demo_cattaneo2d's outputs, BENCHMARKS.md section 97). The children that
+# the tests start (the CLI under mpirun, the bench scripts) inherit both settings.
+export NUMBA_OPT=1 NUMBA_CACHE_DIR="$REPO/.numba-test-cache"
+
 # The numba kernels compile on first use; fill their cache first, in two processes
 # (scripts/warm_cache.sh), or both xdist workers below compile the same kernels at once.
 sh "$REPO/scripts/warm_cache.sh"

@@ -1,5 +1,6 @@
 #!/bin/sh
-# Fill the on-disk caches of the numba kernels (dolfinx_mortar/kernels/__pycache__) and
+# Fill the on-disk caches of the numba kernels (dolfinx_mortar/kernels/__pycache__, or
+# NUMBA_CACHE_DIR where it is set: scripts/test.sh sets the suite's own, at NUMBA_OPT=1) and
 # of FFCx (~/.cache/fenics) with two tiny benchmark runs side by side: segment
 # integration (about 80 s on this project's 2-core machine, mostly compiling the clipping
 # kernels) and element integration with friction (about 40 s; the segment run then loads the kernels they
