@@ -246,6 +246,22 @@ def _progress(comm):
     return show
 
 
+def _pair_line(name: str, pair: dict) -> str:
+    """``check``'s line for one contact pair, from its summary.json ``modelled`` entry
+    (:meth:`dolfinx_mortar.contact.MortarContact.describe`): the choices the scene left to
+    the defaults (the quadrature rule, the penalty) as the run will make them."""
+    rule = f" ({pair['quadrature']})" if "quadrature" in pair else ""
+    friction = f"friction {pair['friction']:g}" if pair["friction"] else "frictionless"
+    lo, hi = (f"{v:.3g}" for v in pair["penalty_range"])
+    penalty = lo if lo == hi else f"{lo} … {hi}"
+    if isinstance(pair["penalty"], str):  # a rule ("auto: 100 E*/h_I"), not a number
+        penalty = f"{pair['penalty']} = {penalty}"
+    return (
+        f"  {name}: {pair['integration']} integration{rule}, {pair['recovery']} recovery, "
+        f"{friction}, penalty {penalty}, {pair['slave_facets']} slave facets"
+    )
+
+
 def _bench_progress(comm):
     """``bench``'s progress lines (:func:`dolfinx_mortar.bench.run_bench`) on stdout, once
     under mpirun (rank 0)."""
@@ -485,11 +501,14 @@ def main(argv=None) -> int:
             check_out_dir(scene.output.dir, "output.dir", comm, slaves, lock=False)
             problem, mesh_data = prepare(scene, comm)
             check_solver(scene, problem)  # the PETSc options, as `run` checks them
+            pairs = {c.name: c.describe() for c in problem.contacts}
             if comm.rank == 0:
                 print(
                     f"{args.scene}: ok ({mesh_data.gdim}D, {mesh_data.info['cell_type']}, "
                     f"{problem.num_dofs} dofs, {len(problem.contacts)} contact pair(s))"
                 )
+                for name, pair in pairs.items():
+                    print(_pair_line(name, pair))
             return 0
         slaves = [pair.slave for pair in scene.contacts]
         if args.out is not None:

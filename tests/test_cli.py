@@ -1707,6 +1707,45 @@ def test_check_ok(workdir, tmp_path_factory):
     assert snapshot(workdir) == before
 
 
+def test_check_names_each_pair_s_rule(cli_call, workdir):
+    """`check` prints, under its ok line, a line per contact pair with what the scene left
+    to the defaults as the run will take it: the integration and its quadrature rule (on
+    P1 tetrahedra degree 12 for a frictionless element pair, 4 with friction: contact.
+    default_quadrature_degree), the recovery, the friction, the penalty (the auto rule
+    and its range over the slave nodes, or the scene's number) and the slave facets, the
+    same as summary.json's ``modelled.contact_pairs``."""
+    scene = patch_press_scene()
+    scene["mesh"] = {
+        "generator": "patch3d",
+        "params": {"n_lower": 2, "n_upper": 3, "n_y": 1, "quads": False},
+    }
+    scene["dirichlet"] = [
+        {"boundary": "lower_bottom", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]},
+        {"boundary": "upper_top", "path": [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.01]]},
+    ]
+    (workdir / "tets.toml").write_text(to_toml(scene))
+    scene["contact"][0].update(friction=0.3, penalty=1000.0)
+    (workdir / "friction.toml").write_text(to_toml(scene))
+    lines = {}
+    for name in ("tets", "friction"):
+        res = cli_call(workdir, "check", f"{name}.toml")
+        assert res.returncode == 0 and res.stderr == "", res.stderr
+        lines[name] = res.stdout.splitlines()
+        assert len(lines[name]) == 2, res.stdout
+        assert lines[name][0].startswith(f"{name}.toml: ok (3D, tetrahedron P1, ")
+    head = "  upper_bottom:lower_top: element integration "
+    assert re.fullmatch(
+        re.escape(head + "(degree 12, 33 points per slave facet), lumped recovery, "
+                  "frictionless, penalty auto: 100 E*/h_I = ") + r"[0-9.e+]+( … [0-9.e+]+)?, "
+        r"\d+ slave facets",
+        lines["tets"][1],
+    ), lines["tets"][1]  # fmt: skip
+    assert lines["friction"][1].startswith(
+        head + "(degree 4, 6 points per slave facet), lumped recovery, friction 0.3, "
+        "penalty 1e+03, "
+    ), lines["friction"][1]
+
+
 def test_run_ok(cli_call, workdir):
     scene = base_scene()
     scene["output"]["dir"] = "fresh/results"
