@@ -927,6 +927,36 @@ def _add_group_hessian(
 
 
 @numba.njit(cache=True)
+def _add_group_rows(ftype_m, xm_m, sign, ns, d, nphi, base, off, r_s, r_t, r_z, z_0, wm, b_val):
+    """The entries of a group's rows B^I from its moments, on an affine master facet
+    xm_m (nm, d) (:func:`_moment_path`): there ∂g/∂x1 = ν and ∂g/∂x^m_a = −N_a(ζ) ν with
+    the facet's constant unit normal ν and N_a affine in ζ (:func:`_local_gradient`), so
+    Σ_q w Φ_i ∂g_q/∂u = [Σ_q w Φ_i N_a(ξ_q) ν, −(N_a(0) Σ_q w Φ_i + ∇N_a · Σ_q w Φ_i ζ_q) ν]
+    for any ζ_q. r_s (nphi, ns), r_t (nphi,), r_z (nphi, km): those sums for node i of the
+    slave facet; base (nphi,) where the facet's groups start in node i's row (−1: no row),
+    off the group's offset there; b_val the rows' values, added to. z_0 (km,) zeros; wm the
+    work arrays of :func:`.gap.work` for ftype_m."""
+    nm, km = xm_m.shape[0], z_0.shape[0]
+    nsd = ns * d
+    nu = wm[6]
+    unit_normal_in(xm_m, ftype_m, sign, z_0, nu, wm)  # ν, with N(0) and ∇N in wm[0], wm[1]
+    Nm, dNm = wm[0], wm[1]
+    for i in range(nphi):
+        if base[i] < 0:
+            continue
+        o = base[i] + off
+        for a in range(ns):
+            for c in range(d):
+                b_val[o + a * d + c] += r_s[i, a] * nu[c]
+        for a in range(nm):
+            na = r_t[i] * Nm[a]
+            for k in range(km):
+                na += r_z[i, k] * dNm[a, k]
+            for c in range(d):
+                b_val[o + nsd + a * d + c] -= na * nu[c]
+
+
+@numba.njit(cache=True)
 def jacobian_terms(
     ftype_s,
     ftype_m,
@@ -975,9 +1005,12 @@ def jacobian_terms(
     a group's Hessian block comes from its point moments (:func:`_add_group_hessian`:
     M_a = Σ_q c_q N_a(ξ_q), Σ_q c_q x1_q, Σ_q c_q ζ_q with c_q = −p_w, and one or two
     gap Hessians per group), equal to the sum of the per-point blocks to round-off, for
-    any ζ_q (pinned and forced points included); the cost per point is then that of the
-    slave shape functions and the rows B^I. Other master facets: one gap Hessian per
-    point (:func:`_add_point_hessian`).
+    any ζ_q (pinned and forced points included). The group's entries of the rows B^I
+    there come from moments too (:func:`_add_group_rows`: Σ_q w Φ_i N_a(ξ_q), Σ_q w Φ_i,
+    Σ_q w Φ_i ζ_q per node i, and the facet's one normal), equal to the per-point sums to
+    round-off; the cost per point is then that of the slave and mixed shape functions.
+    Other master facets: one gap Hessian and one gap gradient per point
+    (:func:`_add_point_hessian`, :func:`_local_gradient`).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -1042,6 +1075,7 @@ def jacobian_terms(
     base = np.empty(nphi, np.int64)  # where facet f's groups start in the row of its node i
     # the moments of the groups on affine master facets (_add_group_hessian), per group
     km = tdim(ftype_m)
+    aff = np.zeros(nq, np.bool_)  # the group's master facet affine (_moment_path)
     moment = np.zeros(nq, np.bool_)
     mom = np.empty((nq, ns))
     cx = np.empty((nq, d))
@@ -1053,6 +1087,12 @@ def jacobian_terms(
     yb = np.empty(d)
     zb = np.empty(km)
     d2g0 = np.empty_like(d2g)
+    # the row moments of the groups on affine master facets, per group and node i of the
+    # facet: Σ_q w Φ_i N_a(ξ_q) (ns), Σ_q w Φ_i, Σ_q w Φ_i ζ_q (km)
+    r_s = np.empty((nq, nphi, ns))
+    r_t = np.empty((nq, nphi))
+    r_z = np.empty((nq, nphi, km))
+    z_0 = np.zeros(km)
     # pass 2: the derivatives of the points that add to a block or a row
     for f in range(nsf):
         ng = ngrp[f]
@@ -1060,7 +1100,12 @@ def jacobian_terms(
             continue
         for g in range(ng):
             s = hslot[f, g]
-            moment[g] = s >= 0 and _moment_path(ftype_m, xm[gm[f, g]], zb)
+            aff[g] = (s >= 0 or need[f]) and _moment_path(ftype_m, xm[gm[f, g]], zb)
+            moment[g] = s >= 0 and aff[g]
+            if need[f] and aff[g]:
+                r_s[g] = 0.0
+                r_t[g] = 0.0
+                r_z[g] = 0.0
             if moment[g]:
                 mom[g, :] = 0.0
                 cx[g, :] = 0.0
@@ -1097,7 +1142,7 @@ def jacobian_terms(
             s = hslot[f, g] if pw != 0.0 else -1
             if s < 0 and not need[f]:
                 continue
-            if s >= 0 and not moment[g]:
+            if s >= 0 and not aff[g]:
                 _local_derivatives(
                     ftype_s,
                     ftype_m,
@@ -1115,7 +1160,7 @@ def jacobian_terms(
                     ddN,
                 )
                 _add_point_hessian(ns, nm, d, -pw, N, d2g, h_val[s])
-            elif need[f]:  # no Hessian of the gap at the point (N and x1 come with it)
+            elif need[f] and not aff[g]:  # no Hessian of the gap (N and x1 come with it)
                 _local_gradient(
                     ftype_s,
                     ftype_m,
@@ -1132,7 +1177,7 @@ def jacobian_terms(
                     ddN,
                     wm,
                 )
-            else:  # a moment only
+            else:  # moments only (N and x1)
                 _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
             if s >= 0 and moment[g]:
                 c = -pw
@@ -1150,14 +1195,27 @@ def jacobian_terms(
                 asum[g] += ac
             if need[f]:
                 shape(ftype_phi, qp_xi[f, q], Phi, dP, ddP)
+                zq = qp_zeta[f, q]
                 for i in range(nphi):
                     if base[i] < 0:
                         continue
                     wphi = qp_w[f, q] * Phi[i]
+                    if aff[g]:
+                        for a in range(ns):
+                            r_s[g, i, a] += wphi * N[a]
+                        r_t[g, i] += wphi
+                        for a in range(km):
+                            r_z[g, i, a] += wphi * zq[a]
+                        continue
                     o = base[i] + g * nloc
                     for j in range(nloc):
                         b_val[o + j] += wphi * dg_loc[j]
         for g in range(ng):
+            if need[f] and aff[g]:
+                _add_group_rows(
+                    ftype_m, xm[gm[f, g]], msign[gm[f, g]], ns, d, nphi, base, g * nloc,
+                    r_s[g], r_t[g], r_z[g], z_0, wm, b_val,
+                )  # fmt: skip
             if moment[g]:
                 m = gm[f, g]
                 _add_group_hessian(
