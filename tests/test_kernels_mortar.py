@@ -350,6 +350,50 @@ def test_jacobian_terms_moments_on_affine_masters(ftypes):
         close(h_val[b], sums[key], 1e-12)
 
 
+def _dense_rows(c_off, c_idx, c_val, ndof):
+    """Compressed rows (:func:`compress_rows`) as a dense (n_nodes, ndof) array."""
+    n = c_off.size - 1
+    dense = np.zeros((n, ndof))
+    rows = np.repeat(np.arange(n), np.diff(c_off))
+    np.add.at(dense, (rows, c_idx[: c_off[-1]]), c_val[: c_off[-1]])
+    return dense
+
+
+@pytest.mark.parametrize("ftypes", AFFINE_CASES, ids=AFFINE_IDS)
+def test_rows_from_moments_on_affine_masters(ftypes):
+    """On affine master facets the rows B^I come from the groups' point moments
+    (kernels.mortar._add_group_rows): against B^I = Σ_q w Φ_I(ξ_q) [N_a(ξ_q) ν,
+    −N^m_a(ζ_q) ν] written out here with the reference's shape functions and normal, to
+    1e-12 of the rows' scale, at the projections and with ζ moved off them by up to 0.2
+    (the formula holds for any ζ on an affine facet); the P2 mixed fields' Φ_I take both
+    signs."""
+    ftype_s, ftype_m, ftype_phi = ftypes
+    args, p, _ = scene(*ftypes, seed=500 + sum(ftypes), nq=9)
+    xs, xm, msign, qp_xi, qp_w, qp_m = args[3:9]
+    sdofs, mdofs, node_of = args[10:13]
+    d = xs.shape[2]
+    ndof = int(max(sdofs.max(), mdofs.max())) + 1
+    rng = np.random.default_rng(11)
+    for zeta in (args[9], args[9] + rng.uniform(-0.2, 0.2, args[9].shape)):
+        run = args[:9] + (zeta,) + args[10:]
+        c_off, c_idx, c_val = kmortar.jacobian_terms(*run, p, np.ones_like(p), False)[2:]
+        expected = np.zeros((p.size, ndof))
+        for f, q in zip(*np.nonzero(qp_m >= 0), strict=True):
+            m = qp_m[f, q]
+            N = kref.shape(ftype_s, qp_xi[f, q])[0]
+            Nm = kref.shape(ftype_m, zeta[f, q])[0]
+            nu = np.asarray(kref.normal(xm[m], ftype_m, msign[m], zeta[f, q]), float)
+            dg = np.concatenate([np.outer(N, nu).ravel(), -np.outer(Nm, nu).ravel()])
+            dofs = np.concatenate([sdofs[f], mdofs[m]])
+            phi = kref.shape(ftype_phi, qp_xi[f, q])[0]
+            for i, node in enumerate(node_of[f]):
+                if node >= 0:
+                    np.add.at(expected[node], dofs[dofs >= 0], qp_w[f, q] * phi[i] * dg[dofs >= 0])
+        got = _dense_rows(c_off, c_idx, c_val, ndof)
+        assert np.abs(expected).max() > 0.1 and d == xm.shape[2]
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+
 def _per_point_sums(args, p):
     """The kernel's blocks built one point at a time (one call per point with the others
     unpaired) and summed per group in point order, as the per-point path sums them."""
