@@ -1076,7 +1076,6 @@ def jacobian_terms(
     # the moments of the groups on affine master facets (_add_group_hessian), per group
     km = tdim(ftype_m)
     aff = np.zeros(nq, np.bool_)  # the group's master facet affine (_moment_path)
-    moment = np.zeros(nq, np.bool_)
     mom = np.empty((nq, ns))
     cx = np.empty((nq, d))
     cz = np.empty((nq, km))
@@ -1101,12 +1100,11 @@ def jacobian_terms(
         for g in range(ng):
             s = hslot[f, g]
             aff[g] = (s >= 0 or need[f]) and _moment_path(ftype_m, xm[gm[f, g]], zb)
-            moment[g] = s >= 0 and aff[g]
             if need[f] and aff[g]:
                 r_s[g] = 0.0
                 r_t[g] = 0.0
                 r_z[g] = 0.0
-            if moment[g]:
+            if s >= 0 and aff[g]:  # a Hessian block from moments
                 mom[g, :] = 0.0
                 cx[g, :] = 0.0
                 cz[g, :] = 0.0
@@ -1179,7 +1177,7 @@ def jacobian_terms(
                 )
             else:  # moments only (N and x1)
                 _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
-            if s >= 0 and moment[g]:
+            if s >= 0 and aff[g]:
                 c = -pw
                 ac = abs(c)
                 for a in range(ns):
@@ -1216,7 +1214,7 @@ def jacobian_terms(
                     ftype_m, xm[gm[f, g]], msign[gm[f, g]], ns, d, nphi, base, g * nloc,
                     r_s[g], r_t[g], r_z[g], z_0, wm, b_val,
                 )  # fmt: skip
-            if moment[g]:
+            if hslot[f, g] >= 0 and aff[g]:
                 m = gm[f, g]
                 _add_group_hessian(
                     ftype_m,
