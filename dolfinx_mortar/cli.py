@@ -501,14 +501,13 @@ def main(argv=None) -> int:
             check_out_dir(scene.output.dir, "output.dir", comm, slaves, lock=False)
             problem, mesh_data = prepare(scene, comm)
             check_solver(scene, problem)  # the PETSc options, as `run` checks them
-            pairs = {c.name: c.describe() for c in problem.contacts}
             if comm.rank == 0:
                 print(
                     f"{args.scene}: ok ({mesh_data.gdim}D, {mesh_data.info['cell_type']}, "
                     f"{problem.num_dofs} dofs, {len(problem.contacts)} contact pair(s))"
                 )
-                for name, pair in pairs.items():
-                    print(_pair_line(name, pair))
+                for c in problem.contacts:  # describe() is not collective
+                    print(_pair_line(c.name, c.describe()))
             return 0
         slaves = [pair.slave for pair in scene.contacts]
         if args.out is not None:
