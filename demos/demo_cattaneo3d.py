@@ -395,7 +395,10 @@ def evaluate_cycle(summary: dict, out_dir, h: float, shift: float = SHIFT) -> di
 
 def main(argv=None) -> dict:
     ap = cm.parser(
-        "3D Cattaneo–Mindlin (sphere on a block)", "results/demo_cattaneo3d", recovery=True
+        "3D Cattaneo–Mindlin (sphere on a block)",
+        "results/demo_cattaneo3d",
+        recovery=True,
+        quadrature=True,
     )
     ap.add_argument("--shift", type=float, default=SHIFT, help=f"sideways motion [{SHIFT}]")
     ap.add_argument("--press-steps", type=int, default=2, help="steps of the press [2]")
@@ -426,6 +429,7 @@ def main(argv=None) -> dict:
         recovery=args.recovery,
         cycle=args.cycle,
     )
+    cm.set_quadrature(sc, args.quadrature_degree)
     summary, wall = cm.run_scene(sc, args.out, comm)
 
     def measure():

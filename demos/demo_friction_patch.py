@@ -356,6 +356,7 @@ def main(argv=None) -> dict:
         "results/demo_friction_patch",
         frame=True,
         acceleration=True,
+        quadrature=True,
     )
     ap.add_argument("--dim", type=int, choices=(2, 3), default=2, help="dimension [2]")
     ap.add_argument(
@@ -371,6 +372,7 @@ def main(argv=None) -> dict:
         return _main_deformable(args, comm)
     sc = scene(args.dim, args.mode, args.integration, args.refine, quads=not args.tri)
     cm.set_acceleration(cm.set_frame(sc, args.frame), args.uzawa_acceleration)
+    cm.set_quadrature(sc, args.quadrature_degree)
     summary, wall = cm.run_scene(sc, args.out, comm)
     m = cm.on_root(evaluate, summary, args.out, args.dim, args.mode, comm=comm)
     m["wall_time"] = wall
@@ -400,6 +402,7 @@ def _main_deformable(args, comm) -> dict:
     n = args.slide_steps
     sc = deformable_scene(args.dim, args.integration, n, args.refine, quads=not args.tri)
     cm.set_acceleration(cm.set_frame(sc, args.frame), args.uzawa_acceleration)
+    cm.set_quadrature(sc, args.quadrature_degree)
     setup = deformable_setup(args.dim, n)
     summary, wall = cm.run_scene(sc, args.out, comm, setup=setup)
     m = cm.on_root(evaluate_deformable, summary, args.out, args.dim, n, args.refine, comm=comm)

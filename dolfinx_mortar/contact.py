@@ -155,8 +155,10 @@ DEFAULT_QUADRATURE_DEGREE = {0: 7, 1: 11, 2: 4, 3: 6, 4: 7, 5: 11}
 #: one gap Hessian per facet pair whatever the points (BENCHMARKS.md §92), so contact
 #: assembly stays below the bulk's (0.87 × on hertz3d at 94k dofs; 0.54 × at degree 4).
 #: With friction the default stays 4: the tangential integrals are still evaluated point
-#: by point (demo_cattaneo3d took 2.6 × the wall time at degree 12), and segment
-#: integration is exact with any rule (BENCHMARKS.md §94).
+#: by point (demo_cattaneo3d took 2.6 × the wall time at degree 12 in session 66; 1.56 ×
+#: since session 68's cheaper pairing, BENCHMARKS.md §99, where the stick patch test on
+#: tetrahedra reads 0.28 % at 12 against 6.9 % at 4), and segment integration is exact
+#: with any rule (BENCHMARKS.md §94).
 FRICTIONLESS_ELEMENT_DEGREE = {2: 12}
 
 

@@ -685,3 +685,21 @@ def test_flat_punch_files(tmp_path):
     for name in ("mesh.py", "punch.toml", "reference.py"):
         assert (BENCH / "flat_punch" / name).is_file()
         assert name in notes.split("## Flat-punch edge", 1)[1].split("\n## ", 1)[0], name
+
+
+def test_bench_pairing_times_every_call(tmp_path, capsys):
+    """``bench/bench_pairing.py`` on the hertz2d demo (1 load step): every call of the
+    element pairing is timed, of the current kind only (a frictionless pair has no t_n
+    pairings), the kernel is put back afterwards, and the demo's output lands where
+    ``--out`` after ``--`` says (BENCHMARKS §99; the times are not asserted)."""
+    from dolfinx_mortar import contact
+
+    kernel = contact.kmortar.pair_points
+    times = _load("bench_pairing").main(
+        ["--demo", "demo_hertz2d", "--", "--steps", "1", "--out", str(tmp_path / "h")]
+    )
+    assert contact.kmortar.pair_points is kernel
+    assert len(times["current"]) >= 5 and not times["t_n"]
+    assert all(t > 0.0 for t in times["current"])
+    assert (tmp_path / "h" / "summary.json").exists()
+    assert "current" in capsys.readouterr().out

@@ -751,3 +751,149 @@ def test_nearest_first_pairing_keeps_the_order_of_a_tie_cycle():
             )  # fmt: skip
             assert qp_m[0, 0] == winner, (order, nearest)
             assert qp_g[0, 0] == pytest.approx(d + [0.0, 0.7, 1.4][winner] * tie, abs=1e-16)
+
+
+@pytest.mark.parametrize("ftype", [INTERVAL1, TRIANGLE1])
+def test_affine_frames_give_the_gap_functions_values_bit_for_bit(ftype):
+    """kernels.mortar's affine shortcuts of the pairing (session 68): the unit normal of
+    ``_affine_frames`` and the gap of ``_affine_gap`` against gap.unit_normal and
+    gap.gap_only at the same ζ, on 200 random affine facets of both orientations, at ζ
+    inside and outside the facet and points on both sides: equal to the last bit (the
+    pairing's results, ties included, must not move)."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    rng = np.random.default_rng(68)
+    k = tdim(ftype)
+    d = k + 1
+    n = num_nodes(ftype)
+    xm = rng.normal(size=(200, n, d)) * rng.uniform(1e-3, 1e3, (200, 1, 1))
+    xm += rng.uniform(-1e4, 1e4, (200, 1, d))  # far from the origin too
+    sign = rng.choice([-1.0, 1.0], 200)
+    mnu, mnv, mjn = kmortar._affine_frames(ftype, xm, sign)
+    num, nu = np.empty(d), np.empty(d)
+    for m in range(200):
+        for _ in range(5):
+            zeta = rng.uniform(-0.5, 1.5, k)
+            x1 = xm[m].mean(axis=0) + rng.normal(size=d) * np.abs(xm[m]).max() * 1e-3
+            unit_normal(xm[m], ftype, sign[m], zeta, nu)
+            kmortar._affine_normal(m, mnu, num)
+            np.testing.assert_array_equal(num, nu)
+            want = gap_only(x1, xm[m], ftype, sign[m], zeta)
+            assert kmortar._affine_gap(ftype, x1, xm, m, zeta, mnv, mjn) == want
+    # other facet types get no frames: the pairing evaluates them per point
+    assert kmortar._affine_frames(QUAD1, np.zeros((3, 4, 3)), np.ones(3))[0].shape == (0, 3)
+
+
+def test_box_distance_of_a_box_bounds_its_points_in_floating_point():
+    """The pairing drops, per slave facet, the candidates whose bounding box lies beyond
+    ``reach`` from the box of the facet's points (session 68). That is exact only if no
+    point's rounded box distance is shorter than the rounded box-to-box distance: checked
+    at the corners, edges and random interior points of 500 random point boxes, against
+    master boxes on every side (rounding is monotone)."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+
+    rng = np.random.default_rng(168)
+    for _ in range(500):
+        d = int(rng.integers(2, 4))
+        c = rng.uniform(-1e3, 1e3, d)
+        lo = c + rng.uniform(-1.0, 0.0, d) * 10.0 ** rng.uniform(-8, 1)
+        hi = lo + rng.uniform(0.0, 1.0, d) * 10.0 ** rng.uniform(-8, 1)
+        pbox = np.array([lo, hi])
+        shift = rng.uniform(-3.0, 3.0, d) * (hi - lo + 1e-9)
+        boxes = np.array([[lo + shift - 1e-9, hi + shift * 0.5]])
+        boxes.sort(axis=1)
+        bb = kmortar._box_box_distance2(boxes, 0, pbox)
+        corners = np.array(np.meshgrid(*[[lo[i], hi[i]] for i in range(d)])).reshape(d, -1).T
+        inner = lo + rng.uniform(0.0, 1.0, (20, d)) * (hi - lo)
+        for x in np.concatenate([corners, inner]):
+            x = np.minimum(np.maximum(x, lo), hi)
+            assert kmortar._box_distance2(boxes, 0, x) >= bb
+
+
+def test_pairing_on_triangles_keeps_the_result_of_every_candidate():
+    """kernels.mortar.pair_points on affine triangles (P1 tetrahedra's faces, the
+    degree-12 rule: 33 points per facet) against itself with every master facet a
+    candidate of every slave facet: the same facets, ζ and gaps, bit for bit (the
+    per-facet drop of far candidates and the affine shortcuts change nothing), and each
+    pair as the gap module's per-point functions give it: ζ = gap.project, g =
+    gap.gap_only at that ζ, bit for bit; no paired point with a nearer valid facet
+    containing its projection (a brute-force check over all facets)."""
+    from dolfinx_mortar.kernels import mortar as kmortar
+    from dolfinx_mortar.search import candidates
+
+    rng = np.random.default_rng(268)
+
+    def tri_grid(n, lo, hi, z, jitter):
+        t = np.linspace(lo, hi, n + 1)
+        X, Y = np.meshgrid(t, t)
+        P = np.column_stack([X.ravel(), Y.ravel()])
+        P[:, :] += rng.uniform(-jitter, jitter, P.shape) * (hi - lo) / n
+        P3 = np.column_stack([P, [z(x, y) for x, y in P]])
+        out = []
+        for j in range(n):
+            for i in range(n):
+                a, b = j * (n + 1) + i, j * (n + 1) + i + 1
+                c, e = a + n + 1, b + n + 1
+                out += [P3[[a, b, e]], P3[[a, e, c]]]
+        return np.array(out)
+
+    xm = tri_grid(9, -0.2, 1.0, lambda x, y: 0.05 * (x - 0.5) ** 2 + 0.02 * y, 0.2)
+    # the slave opens away from the master with x: gaps 0.003 … 0.12, up to 0.45 h
+    xs = tri_grid(
+        5,
+        -0.3,
+        1.1,
+        lambda x, y: 0.05 * (x - 0.5) ** 2 + 0.02 * y - 0.003 - 0.2 * max(x - 0.5, 0),
+        0.1,
+    )
+    msign = _down(TRIANGLE1, xm)
+    ssign = -_down(TRIANGLE1, xs)
+    pts, wts = basix.make_quadrature(basix.CellType.triangle, 12)
+    nsf, nq = len(xs), len(wts)
+    qp_xi = np.broadcast_to(pts, (nsf, nq, 2)).copy()
+    qp_w = np.broadcast_to(wts, (nsf, nq)).copy()
+    qp_w[::7, -3:] = 0.0  # unused slots
+    h = np.linalg.norm(xs[:, 1] - xs[:, 0], axis=1)
+    keys = kmortar.facet_keys(xm)
+    off, cand = candidates(xs, xm, h)
+    full_off = np.arange(nsf + 1) * len(xm)
+    full = np.tile(np.arange(len(xm)), nsf)
+    out = []
+    for o, c in ((off, cand), (full_off, full)):
+        qp_m = np.full((nsf, nq), -7, np.int64)
+        qp_zeta, qp_g = np.full((nsf, nq, 2), 7.0), np.full((nsf, nq), 7.0)
+        kmortar.pair_points(
+            TRIANGLE1, TRIANGLE1, xs, ssign, qp_xi, qp_w, xm, msign, keys, o, c, 2.0 * h,
+            h, qp_m, qp_zeta, qp_g, kmortar.OUTSIDE_TOL, False,
+        )  # fmt: skip
+        out.append((qp_m, qp_zeta, qp_g))
+    for a, b in zip(*out, strict=True):
+        np.testing.assert_array_equal(a, b)
+    qp_m, qp_zeta, qp_g = out[0]
+    assert np.all(qp_m[qp_w == 0.0] == -1)
+    paired = np.argwhere(qp_m >= 0)
+    assert len(paired) > 0.5 * np.count_nonzero(qp_w)
+    assert np.count_nonzero((qp_m < 0) & (qp_w != 0.0)) > 50  # beyond the master
+    N, dN, ddN = np.empty(3), np.empty((3, 2)), np.empty((3, 2, 2))
+    zeta = np.empty(2)
+    for f, q in paired:
+        shape(TRIANGLE1, qp_xi[f, q], N, dN, ddN)
+        x1 = np.array([sum(N[a] * xs[f, a, c] for a in range(3)) for c in range(3)])
+        m = qp_m[f, q]
+        project(x1, xm[m], TRIANGLE1, np.full(2, np.nan), zeta, 1e-13, 30)
+        np.testing.assert_array_equal(qp_zeta[f, q], zeta)
+        assert qp_g[f, q] == gap_only(x1, xm[m], TRIANGLE1, msign[m], zeta)
+        if kmortar._outside(TRIANGLE1, zeta) <= kmortar.INSIDE_TOL:
+            for mm in range(len(xm)):  # no containing facet nearer by more than the tie
+                project(x1, xm[mm], TRIANGLE1, np.full(2, np.nan), zeta, 1e-13, 30)
+                if kmortar._outside(TRIANGLE1, zeta) <= kmortar.INSIDE_TOL:
+                    g = gap_only(x1, xm[mm], TRIANGLE1, msign[mm], zeta)
+                    assert abs(g) >= abs(qp_g[f, q]) - kmortar.PAIR_TIE_TOL * h[f]
+    assert np.max(qp_g[qp_m >= 0] / h[paired[:, 0]]) > 0.3  # open points paired far off
+    for f, q in np.argwhere((qp_m < 0) & (qp_w != 0.0)):  # no facet within reach holds them
+        shape(TRIANGLE1, qp_xi[f, q], N, dN, ddN)
+        x1 = np.array([sum(N[a] * xs[f, a, c] for a in range(3)) for c in range(3)])
+        for mm in range(len(xm)):
+            project(x1, xm[mm], TRIANGLE1, np.full(2, np.nan), zeta, 1e-13, 30)
+            if kmortar._outside(TRIANGLE1, zeta) <= kmortar.INSIDE_TOL:
+                assert abs(gap_only(x1, xm[mm], TRIANGLE1, msign[mm], zeta)) > h[f]

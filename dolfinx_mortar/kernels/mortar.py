@@ -42,6 +42,7 @@ import numpy as np
 
 from ._numba import numba
 from .gap import (
+    _normal,
     _project_affine,
     faces,
     gap_and_derivatives,
@@ -182,10 +183,12 @@ def facet_keys(X: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _better(out, dist, key, best_out, best_dist, best_key, tie):
-    """Whether a projection (ζ-distance ``out`` outside its facet, |g| = ``dist``, facet
-    key ``key``) beats the best so far: less outside, then closer, then the smaller key,
-    with ties within INSIDE_TOL in ζ and ``tie`` in distance (PAIR_TIE_TOL)."""
+def _better(out, dist, keys, m, best_out, best_dist, b, tie):
+    """Whether a projection onto facet m (ζ-distance ``out`` outside its facet, |g| =
+    ``dist``) beats the best so far, onto facet b: less outside, then closer, then the
+    smaller key (``keys[m]`` against ``keys[b]``: :func:`facet_keys`), with ties within
+    INSIDE_TOL in ζ and ``tie`` in distance (PAIR_TIE_TOL). Facets by index, not as rows:
+    a row is a view, whose reference count costs more than the test."""
     if best_dist == np.inf:
         return True
     if out < best_out - INSIDE_TOL:
@@ -196,9 +199,9 @@ def _better(out, dist, key, best_out, best_dist, best_key, tie):
         return True
     if dist > best_dist + tie:
         return False
-    for c in range(key.shape[0]):
-        if key[c] != best_key[c]:
-            return key[c] < best_key[c]
+    for c in range(keys.shape[1]):
+        if keys[m, c] != keys[b, c]:
+            return keys[m, c] < keys[b, c]
     return False
 
 
@@ -221,11 +224,25 @@ def _facet_boxes(xm):
 
 
 @numba.njit(cache=True)
-def _box_distance2(box, x):
-    """The squared distance from the point x (d,) to the box (2, d) (0 inside)."""
+def _box_distance2(boxes, m, x):
+    """The squared distance from the point x (d,) to the box ``boxes[m]`` (boxes (n, 2, d):
+    lowest, highest coordinates; 0 inside)."""
     e2 = 0.0
     for c in range(x.shape[0]):
-        e = max(box[0, c] - x[c], x[c] - box[1, c], 0.0)
+        e = max(boxes[m, 0, c] - x[c], x[c] - boxes[m, 1, c], 0.0)
+        e2 += e * e
+    return e2
+
+
+@numba.njit(cache=True)
+def _box_box_distance2(boxes, m, pbox):
+    """The squared distance between the boxes ``boxes[m]`` and pbox (2, d) (lowest,
+    highest coordinates; 0 where they overlap): for every point x of ``pbox``, at most
+    :func:`_box_distance2` (boxes, m, x), in floating point too (each difference, square
+    and sum is rounded monotonically)."""
+    e2 = 0.0
+    for c in range(pbox.shape[1]):
+        e = max(boxes[m, 0, c] - pbox[1, c], pbox[0, c] - boxes[m, 1, c], 0.0)
         e2 += e * e
     return e2
 
@@ -240,25 +257,85 @@ NEAREST_MARGIN = 1e-6
 
 
 @numba.njit(cache=True)
+def _affine_frames(ftype, x, sign):
+    """The unit normal (nf, d), the unnormalised normal n = ±a_1 (× a_2) (nf, d) and |n|
+    (nf,) of each facet x (nf, nodes, d) of an affine type (INTERVAL1, TRIANGLE1), whose
+    tangents, hence normals, do not depend on the reference point: evaluated once per
+    facet by :func:`.gap.unit_normal_in` and :func:`.gap._normal` at the reference centre,
+    they are the values those functions give at every point, bit for bit (the tangents
+    Σ_a ∂N_a x_a sum constant shape derivatives). Empty (0, d), (0, d), (0,) arrays for
+    other types: the callers then evaluate at each point. sign (nf,): ±1 per facet."""
+    nf, _, d = x.shape
+    if not (ftype == INTERVAL1 or ftype == TRIANGLE1):
+        return np.empty((0, d)), np.empty((0, d)), np.empty(0)
+    nu, nv, jn = np.empty((nf, d)), np.empty((nf, d)), np.empty(nf)
+    w = work(ftype)
+    zc = np.full(tdim(ftype), 1.0 / (tdim(ftype) + 1))
+    for f in range(nf):
+        unit_normal_in(x[f], ftype, sign[f], zc, nu[f], w)
+        jn[f] = _normal(w[4], sign[f], nv[f])
+    return nu, nv, jn
+
+
+@numba.njit(cache=True)
+def _affine_normal(m, mnu, num):
+    """num (d,) ← ``mnu[m]``, the unit normal of the affine master facet m
+    (:func:`_affine_frames`)."""
+    for c in range(num.shape[0]):
+        num[c] = mnu[m, c]
+
+
+@numba.njit(cache=True)
+def _affine_gap(ftype_m, x1, xm, m, zeta, mnv, mjn):
+    """g = (x1 − S(ζ))·ν on the affine master facet m (INTERVAL1, TRIANGLE1), with the
+    normal of :func:`_affine_frames`: :func:`.gap.gap_only_in`'s operations in its order,
+    the same bits (N(ζ) written as :func:`.shape.shape` writes it: 1 − ζ, ζ; 1 − ζ₁ − ζ₂,
+    ζ₁, ζ₂; S summed as :func:`.gap._surface_in` sums it)."""
+    x = zeta[0]
+    tri = ftype_m == TRIANGLE1
+    y = zeta[1] if tri else 0.0
+    n0 = 1.0 - x - y if tri else 1.0 - x
+    g = 0.0
+    for i in range(x1.shape[0]):
+        s = 0.0
+        s += n0 * xm[m, 0, i]
+        s += x * xm[m, 1, i]
+        if tri:
+            s += y * xm[m, 2, i]
+        g += (x1[i] - s) * mnv[m, i]
+    return g / mjn[m]
+
+
+@numba.njit(cache=True)
 def _first_sweep_test(
-    ftype_m, x1, nus, xm_m, msign_m, max_depth, outside_tol, z0, k, done, valid, vout,
-    vdist, vgap, vz, num, wm,
+    ftype_m, x1, nus, xm, msign_m, max_depth, outside_tol, z0, k, done, valid, vout,
+    vdist, vgap, vz, num, wm, m, mnu, mnv, mjn,
 ):  # fmt: skip
     """The tests of :func:`pair_points`' first sweep that do not depend on the best so
-    far, for the projection of x1 onto the master facet xm_m (nm, d), recorded in slot
-    k: done[k]; valid[k], and where valid vout[k] = max(ζ-distance outside, INSIDE_TOL),
-    vdist[k] = |g|, vgap[k] = g, vz[k] = ζ."""
+    far, for the projection of x1 onto the master facet m (xm (nmf, nm, d); its normals
+    in mnu, mnv, mjn where affine: :func:`_affine_frames`), recorded in slot k: done[k];
+    valid[k], and where valid vout[k] = max(ζ-distance outside, INSIDE_TOL), vdist[k] =
+    |g|, vgap[k] = g, vz[k] = ζ."""
     zeta = vz[k]
-    project_in(x1, xm_m, ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+    xm_m = xm[m]
+    affine = mnu.shape[0] > 0
+    if not (affine and _project_affine(x1, xm_m, zeta)):  # project_in's closed form
+        project_in(x1, xm_m, ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
     done[k] = True
     valid[k] = False
     out = _outside(ftype_m, zeta)
     if out > outside_tol:
         return
-    unit_normal_in(xm_m, ftype_m, msign_m, zeta, num, wm)
+    if affine:
+        _affine_normal(m, mnu, num)
+    else:
+        unit_normal_in(xm_m, ftype_m, msign_m, zeta, num, wm)
     if not faces(nus, num):
         return
-    g = gap_only_in(x1, xm_m, ftype_m, msign_m, zeta, wm)
+    if affine:
+        g = _affine_gap(ftype_m, x1, xm, m, zeta, mnv, mjn)
+    else:
+        g = gap_only_in(x1, xm_m, ftype_m, msign_m, zeta, wm)
     if g < -max_depth:
         return
     valid[k] = True
@@ -270,7 +347,7 @@ def _first_sweep_test(
 @numba.njit(cache=True)
 def _pair_nearest(
     ftype_m, x1, nus, xm, mbox, msign, mkey, cand, lo, hi, max_depth, reach, outside_tol,
-    z0, num, wm, dbox, order, done, valid, vout, vdist, vgap, vz, forder,
+    z0, num, wm, dbox, order, done, valid, vout, vdist, vgap, vz, forder, mnu, mnv, mjn,
 ):  # fmt: skip
     """The first sweep of :func:`pair_points` for one slave point (x1 (d,), unit normal
     nus (d,)) and its candidates ``cand[lo:hi]``, projecting only the master facets it
@@ -298,7 +375,8 @@ def _pair_nearest(
        the candidates' order is replayed from the recorded projections, projecting
        the few it reaches that step 1 did not.
 
-    mbox (nmf, 2, d): the master facets' bounding boxes (lowest, highest coordinates).
+    mbox (nmf, 2, d): the master facets' bounding boxes (lowest, highest coordinates);
+    mnu, mnv, mjn: their normals where affine (:func:`_affine_frames`).
     forder (≥ hi − lo,) int64: the slots 0 … hi − lo − 1 in the order step 1 inserts them
     into its sort (:func:`pair_points` passes the slave facet's own nearest-first order,
     by the box distances from the facet's centroid: the points' orders differ little
@@ -311,7 +389,7 @@ def _pair_nearest(
     for i in range(K):
         k = forder[i]
         m = cand[lo + k]
-        e2 = _box_distance2(mbox[m], x1)
+        e2 = _box_distance2(mbox, m, x1)
         dbox[k] = e2
         done[k] = False
         valid[k] = False
@@ -332,11 +410,11 @@ def _pair_nearest(
             continue
         m = cand[lo + k]
         _first_sweep_test(
-            ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done, valid,
-            vout, vdist, vgap, vz, num, wm,
+            ftype_m, x1, nus, xm, msign[m], max_depth, outside_tol, z0, k, done, valid,
+            vout, vdist, vgap, vz, num, wm, m, mnu, mnv, mjn,
         )  # fmt: skip
         if valid[k] and _better(
-            vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[cand[lo + max(kb, 0)]], tie
+            vout[k], vdist[k], mkey, m, best_out, best_dist, cand[lo + max(kb, 0)], tie
         ):
             kb, best_out, best_dist = k, vout[k], vdist[k]
     if kb < 0:
@@ -354,18 +432,18 @@ def _pair_nearest(
                 if dbox[k] > far:
                     continue
                 _first_sweep_test(
-                    ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done,
-                    valid, vout, vdist, vgap, vz, num, wm,
+                    ftype_m, x1, nus, xm, msign[m], max_depth, outside_tol, z0, k, done,
+                    valid, vout, vdist, vgap, vz, num, wm, m, mnu, mnv, mjn,
                 )  # fmt: skip
             if not valid[k]:
                 continue
             if k < kb:
-                beats = _better(best_out, best_dist, mkey[w], vout[k], vdist[k], mkey[m], tie)
+                beats = _better(best_out, best_dist, mkey, w, vout[k], vdist[k], m, tie)
                 prunes = vout[k] <= INSIDE_TOL and dbox[kb] > min(vdist[k] + tie, reach) ** 2
                 if not beats or prunes:
                     certain = False
                     break
-            elif _better(vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[w], tie):
+            elif _better(vout[k], vdist[k], mkey, m, best_out, best_dist, w, tie):
                 certain = False
                 break
     if certain:
@@ -380,14 +458,12 @@ def _pair_nearest(
         m = cand[lo + k]
         if not done[k]:
             _first_sweep_test(
-                ftype_m, x1, nus, xm[m], msign[m], max_depth, outside_tol, z0, k, done,
-                valid, vout, vdist, vgap, vz, num, wm,
+                ftype_m, x1, nus, xm, msign[m], max_depth, outside_tol, z0, k, done,
+                valid, vout, vdist, vgap, vz, num, wm, m, mnu, mnv, mjn,
             )  # fmt: skip
         if not valid[k] or vout[k] > best_out + INSIDE_TOL:
             continue
-        if _better(
-            vout[k], vdist[k], mkey[m], best_out, best_dist, mkey[cand[lo + max(kb, 0)]], tie
-        ):
+        if _better(vout[k], vdist[k], mkey, m, best_out, best_dist, cand[lo + max(kb, 0)], tie):
             kb, best_out, best_dist = k, vout[k], vdist[k]
     return kb
 
@@ -444,7 +520,6 @@ def pair_points(
     N = np.empty(ns)
     dN = np.empty((ns, ks))
     ddN = np.empty((ns, ks, ks))
-    x1 = np.empty(d)
     nus = np.empty(d)
     num = np.empty(d)
     zeta = np.empty(km)
@@ -455,44 +530,68 @@ def pair_points(
     zc, xa, xb = np.empty(km), np.empty(d), np.empty(d)
     wm, ws = work(ftype_m), work(ftype_s)  # no allocation per point
     mbox = _facet_boxes(xm)
+    mnu, mnv, mjn = _affine_frames(ftype_m, xm, msign)
+    affine = mnu.shape[0] > 0
+    s_affine = ftype_s == INTERVAL1 or ftype_s == TRIANGLE1
     kmax = 0
-    if nearest_first:
-        for f in range(nsf):
-            kmax = max(kmax, cand_off[f + 1] - cand_off[f])
+    for f in range(nsf):
+        kmax = max(kmax, cand_off[f + 1] - cand_off[f])
     box2, vout, vdist, vgap = np.empty(kmax), np.empty(kmax), np.empty(kmax), np.empty(kmax)
     vz, order = np.empty((kmax, km)), np.empty(kmax, np.int64)
     done, valid = np.empty(kmax, np.bool_), np.empty(kmax, np.bool_)
     forder, fc = np.empty(kmax, np.int64), np.empty(d)
+    near = np.empty(kmax, np.int64)  # the facet's candidates that some point may reach
+    xq, pbox = np.empty((nq, d)), np.empty((2, d))
     for f in range(nsf):
+        # the facet's points x1 and their bounding box; a candidate whose box lies beyond
+        # ``reach`` from it is beyond reach from every point (the per-point test below
+        # skips it: rounding is monotone, so no point's box distance is shorter than the
+        # boxes' distance, bit for bit) and is dropped for the whole facet, keeping the
+        # candidates' order (the sweep's result is that of the full list)
+        pbox[0, :] = np.inf
+        pbox[1, :] = -np.inf
+        for q in range(nq):
+            if qp_w[f, q] != 0.0:
+                _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, xq[q])
+                for c in range(d):
+                    pbox[0, c] = min(pbox[0, c], xq[q, c])
+                    pbox[1, c] = max(pbox[1, c], xq[q, c])
+        nc = 0
+        for j in range(cand_off[f], cand_off[f + 1]):
+            if _box_box_distance2(mbox, cand[j], pbox) <= reach[f] ** 2:
+                near[nc] = cand[j]
+                nc += 1
         if nearest_first:  # the facet's own nearest-first order (_pair_nearest's forder)
-            lo, hi = cand_off[f], cand_off[f + 1]
             for c in range(d):
                 fc[c] = 0.0
                 for a in range(ns):
                     fc[c] += xs[f, a, c] / ns
-            for i in range(hi - lo):
-                box2[i] = _box_distance2(mbox[cand[lo + i]], fc)
+            for i in range(nc):
+                box2[i] = _box_distance2(mbox, near[i], fc)
                 j = i
                 while j > 0 and box2[forder[j - 1]] > box2[i]:
                     forder[j] = forder[j - 1]
                     j -= 1
                 forder[j] = i
+        normal_done = False
         for q in range(nq):
             qp_m[f, q] = -1
             qp_g[f, q] = 0.0
             if qp_w[f, q] == 0.0:
                 continue
             xi = qp_xi[f, q]
-            _slave_point(ftype_s, xs[f], xi, N, dN, ddN, x1)
-            unit_normal_in(xs[f], ftype_s, ssign[f], xi, nus, ws)
+            x1 = xq[q]
+            if not (s_affine and normal_done):  # an affine facet's normal: once
+                unit_normal_in(xs[f], ftype_s, ssign[f], xi, nus, ws)
+                normal_done = True
             if nearest_first:
                 k = _pair_nearest(
-                    ftype_m, x1, nus, xm, mbox, msign, mkey, cand, cand_off[f],
-                    cand_off[f + 1], max_depth[f], reach[f], outside_tol, z0, num, wm, box2,
-                    order, done, valid, vout, vdist, vgap, vz, forder,
+                    ftype_m, x1, nus, xm, mbox, msign, mkey, near, 0, nc, max_depth[f],
+                    reach[f], outside_tol, z0, num, wm, box2, order, done, valid, vout, vdist,
+                    vgap, vz, forder, mnu, mnv, mjn,
                 )  # fmt: skip
                 if k >= 0:
-                    qp_m[f, q] = cand[cand_off[f] + k]
+                    qp_m[f, q] = near[k]
                     qp_g[f, q] = vgap[k]
                     for a in range(km):
                         qp_zeta[f, q, a] = vz[k, a]
@@ -509,10 +608,10 @@ def pair_points(
             for sweep in range(2):
                 if sweep == 1 and best >= 0:
                     break
-                for j in range(cand_off[f], cand_off[f + 1]):
-                    m = cand[j]
+                for k in range(nc):
+                    m = near[k]
                     # cheap rejection: distance from x1 to the facet's bounding box
-                    dbox = _box_distance2(mbox[m], x1)
+                    dbox = _box_distance2(mbox, m, x1)
                     # a facet farther than the best one cannot win while the best contains
                     # the point (``_better`` ranks "less outside" first); while the best
                     # lies outside its facet, a farther facet that contains the point must
@@ -521,30 +620,38 @@ def pair_points(
                     limit = best_dist + tie if best_out <= INSIDE_TOL else np.inf
                     if dbox > min(limit, reach[f]) ** 2:
                         continue
-                    k = j - cand_off[f]
+                    xm_m = xm[m]
                     if nearest_first and done[k]:
                         # the same projection, made by _pair_nearest for this point
                         for a in range(km):
                             zeta[a] = vz[k, a]
-                    else:
-                        project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+                    elif not (affine and _project_affine(x1, xm_m, zeta)):
+                        # project_in takes that closed form first: called for it, its
+                        # array arguments' reference counts cost 7 times the projection
+                        project_in(x1, xm_m, ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
                     out = _outside(ftype_m, zeta)
                     if out > best_out + INSIDE_TOL or (sweep == 0 and out > outside_tol):
                         continue
-                    unit_normal_in(xm[m], ftype_m, msign[m], zeta, num, wm)
+                    if affine:
+                        _affine_normal(m, mnu, num)
+                    else:
+                        unit_normal_in(xm_m, ftype_m, msign[m], zeta, num, wm)
                     if not faces(nus, num):
                         continue
-                    g = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
+                    if affine:
+                        g = _affine_gap(ftype_m, x1, xm, m, zeta, mnv, mjn)
+                    else:
+                        g = gap_only_in(x1, xm_m, ftype_m, msign[m], zeta, wm)
                     if g < -max_depth[f]:
                         continue
                     if out > outside_tol and (
                         g <= 0.0
-                        or _distance_outside(ftype_m, xm[m], zeta, Nm, dNm, ddNm, zc, xa, xb)
+                        or _distance_outside(ftype_m, xm_m, zeta, Nm, dNm, ddNm, zc, xa, xb)
                         > BLIND_SPOT_SLOPE * g
                     ):
                         continue
                     out = max(out, INSIDE_TOL)
-                    if _better(out, abs(g), mkey[m], best_out, best_dist, mkey[max(best, 0)], tie):
+                    if _better(out, abs(g), mkey, m, best_out, best_dist, max(best, 0), tie):
                         best_out = out
                         best_dist = abs(g)
                         best = m
