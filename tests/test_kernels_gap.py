@@ -817,7 +817,8 @@ def test_pairing_on_triangles_keeps_the_result_of_every_candidate():
     per-facet drop of far candidates and the affine shortcuts change nothing), and each
     pair as the gap module's per-point functions give it: ζ = gap.project, g =
     gap.gap_only at that ζ, bit for bit; no paired point with a nearer valid facet
-    containing its projection (a brute-force check over all facets)."""
+    containing its projection (a brute-force check over all facets); forced_points (segment
+    integration's gaps at given pairs) gives the same ζ and g."""
     from dolfinx_mortar.kernels import mortar as kmortar
     from dolfinx_mortar.search import candidates
 
@@ -871,6 +872,11 @@ def test_pairing_on_triangles_keeps_the_result_of_every_candidate():
         np.testing.assert_array_equal(a, b)
     qp_m, qp_zeta, qp_g = out[0]
     assert np.all(qp_m[qp_w == 0.0] == -1)
+    # segment integration's gaps at given pairs (forced_points): the same ζ and g
+    fz, fg = np.full((nsf, nq, 2), 7.0), np.full((nsf, nq), 7.0)
+    kmortar.forced_points(TRIANGLE1, TRIANGLE1, xs, qp_xi, qp_m, xm, msign, fz, fg)
+    np.testing.assert_array_equal(fz[qp_m >= 0], qp_zeta[qp_m >= 0])
+    np.testing.assert_array_equal(fg, np.where(qp_m >= 0, qp_g, 0.0))
     paired = np.argwhere(qp_m >= 0)
     assert len(paired) > 0.5 * np.count_nonzero(qp_w)
     assert np.count_nonzero((qp_m < 0) & (qp_w != 0.0)) > 50  # beyond the master

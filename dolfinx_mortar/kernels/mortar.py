@@ -512,6 +512,12 @@ def pair_points(
     projected) runs both sweeps below on those projections, recorded per slot, instead of
     making them again, twice (6 % of the points of the 3D friction patch's t_n pairings,
     whose projections made again were 39 % of all).
+
+    On affine masters (INTERVAL1, TRIANGLE1) the closed-form projection
+    (:func:`.gap._project_affine`) is called directly and the facets' normals come from
+    :func:`_affine_frames`: the results of :func:`.gap.project_in`,
+    :func:`.gap.unit_normal_in` and :func:`.gap.gap_only_in` bit for bit, without their
+    calls' reference counts of 14 work arrays (BENCHMARKS.md §99). Local (not collective).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -670,7 +676,8 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
 
     qp_m (nsf, nq) is given (−1: unused slot); the closest-point projection onto that
     master facet is used even slightly outside it (segments come from a clipping along
-    the slave normal).
+    the slave normal). On affine masters the closed form and :func:`_affine_frames`'
+    normals, as in :func:`pair_points` (the same bits as project_in and gap_only_in).
     """
     nsf, ns, d = xs.shape
     nq = qp_xi.shape[1]
@@ -683,6 +690,8 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
     zeta = np.empty(km)
     z0 = np.full(km, np.nan)
     wm = work(ftype_m)
+    _, mnv, mjn = _affine_frames(ftype_m, xm, msign)
+    affine = mnv.shape[0] > 0
     for f in range(nsf):
         for q in range(nq):
             m = qp_m[f, q]
@@ -690,8 +699,12 @@ def forced_points(ftype_s, ftype_m, xs, qp_xi, qp_m, xm, msign, qp_zeta, qp_g):
             if m < 0:
                 continue
             _slave_point(ftype_s, xs[f], qp_xi[f, q], N, dN, ddN, x1)
-            project_in(x1, xm[m], ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
-            qp_g[f, q] = gap_only_in(x1, xm[m], ftype_m, msign[m], zeta, wm)
+            xm_m = xm[m]
+            if affine and _project_affine(x1, xm_m, zeta):
+                qp_g[f, q] = _affine_gap(ftype_m, x1, xm, m, zeta, mnv, mjn)
+            else:
+                project_in(x1, xm_m, ftype_m, z0, zeta, 1e-13, np.int64(PROJECT_MAXIT), wm)
+                qp_g[f, q] = gap_only_in(x1, xm_m, ftype_m, msign[m], zeta, wm)
             for a in range(km):
                 qp_zeta[f, q, a] = zeta[a]
 
