@@ -142,3 +142,41 @@ def test_a_keyed_entry_is_indexed_after_its_data_is_written(tmp_path, monkeypatc
     assert _numba.KeyedIndexDataCacheFile(str(tmp_path), "k.f-1.py311", stamp).load(("A",)) == (
         "code for A, again"
     )
+
+
+def test_each_process_numbers_its_functions_apart(tmp_path):
+    """numba names the functions it compiles with a number counted in each process, and
+    cached code keeps the numbers of the process that compiled it: two processes' closures
+    of one definition (numba's sort and argsort) could meet under one symbol name in a
+    third process that loads both (session 68: nonsense dof indices from jacobian_terms
+    after search._box_sweep's code from another process). Importing the package's numba
+    starts each process's numbers at a random multiple of 2^20 (kernels/_numba.py): two
+    processes start apart, the numbers still count up within a process, and a cached
+    function compiles, saves and loads as before."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "function_numbers.py"
+    script.write_text(
+        "import numpy as np\n"
+        "from dolfinx_mortar.kernels._numba import numba\n"
+        "from numba.core import bytecode\n"
+        "@numba.njit(cache=True)\n"
+        "def order(a):\n"
+        "    return np.argsort(a)\n"
+        "a = np.array([3, 1, 2, 0])\n"
+        "assert list(order(a)) == [3, 1, 2, 0]\n"
+        "c = bytecode.FunctionIdentity._unique_ids\n"
+        "print(next(c), next(c))\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    starts = []
+    for _ in range(2):  # the first compiles and saves, the second loads
+        out = subprocess.run(
+            [sys.executable, str(script)], env=env, capture_output=True, text=True, check=True
+        )
+        first, second = map(int, out.stdout.split())
+        assert second == first + 1 and first >= 1 << 20, out.stdout
+        starts.append(first)
+    assert starts[0] // (1 << 20) != starts[1] // (1 << 20), starts
+    assert list((tmp_path / "cache").rglob("*.nbi")), "nothing cached"

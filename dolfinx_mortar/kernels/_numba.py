@@ -42,9 +42,28 @@ then loads, for one signature, the machine code compiled for another (numba issu
 package's cache entries is named by a hash of its key (:class:`KeyedIndexDataCacheFile`),
 so different signatures never share a file; a race can still drop an entry from the
 index (the last writer's index wins), which costs one more compile and nothing else.
+
+**Functions of other processes.** numba tells apart the functions it compiles by a
+number in their symbol names, counted from 1 in every process
+(``numba.core.bytecode.FunctionIdentity``): two functions made from one definition, such
+as the closures numba's sort and argsort are built of (an in-place ``sort`` and an
+``argsort`` of int64 arrays give functions of the same name and argument types but other
+code), differ by that number only. Cached machine code keeps the numbers of the process
+that compiled it, so a process that loads kernels compiled by two processes can meet two
+different functions under one symbol name, and the JIT links every call to the first one
+loaded. Seen in session 68 (and on the tree before it): with ``search._box_sweep``
+(an argsort of float64 and a sort of int64) cached by one process and
+``mortar.jacobian_terms`` (its ``compress_rows``, an argsort of int64) by another, a
+third process that loaded both in that order got nonsense dof indices from
+``jacobian_terms``, and the run stopped in an MPI call (``expecting 1 items, got 2``);
+the sequence: one kernel test, then a demo twice, all on one empty cache. Here each
+process counts from a random start of its own (:func:`_separate_function_numbers`), so
+numbers from different processes do not meet; within a process they are unique as
+before. The numbers only name functions; nothing else reads them.
 """
 
 import hashlib
+import itertools
 import os
 import warnings
 from pathlib import Path
@@ -53,7 +72,7 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)
     warnings.simplefilter("ignore", PendingDeprecationWarning)
     import numba
-    from numba.core import caching
+    from numba.core import bytecode, caching
 
 __all__ = ["KERNEL_DIR", "KeyedIndexDataCacheFile", "numba", "source_stamp"]
 
@@ -169,4 +188,31 @@ def _install() -> None:
     caching.IndexDataCacheFile = KeyedIndexDataCacheFile
 
 
+def _separate_function_numbers() -> None:
+    """Start this process's function numbers (numba's ``FunctionIdentity`` counter, see
+    the module's docstring) at a random multiple of 2^20 below 2^60, once a process
+    (local): two of a thousand processes that each number a million functions overlap with
+    a chance of about 10^-6. Numbers given before keep theirs."""
+    if getattr(bytecode.FunctionIdentity._unique_ids, "_dolfinx_mortar", False):
+        return
+    start = max(1, int.from_bytes(os.urandom(5), "little")) << 20
+    bytecode.FunctionIdentity._unique_ids = _Counter(start)
+
+
+class _Counter:
+    """itertools.count(start), marked as :func:`_separate_function_numbers`' counter."""
+
+    _dolfinx_mortar = True
+
+    def __init__(self, start: int):
+        self._it = itertools.count(start)
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> int:
+        return next(self._it)
+
+
 _install()
+_separate_function_numbers()
