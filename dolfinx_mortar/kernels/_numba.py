@@ -45,17 +45,17 @@ index (the last writer's index wins), which costs one more compile and nothing e
 
 **Functions of other processes.** numba tells apart the functions it compiles by a
 number in their symbol names, counted from 1 in every process
-(``numba.core.bytecode.FunctionIdentity``): two functions made from one definition, such
-as the closures numba's sort and argsort are built of (an in-place ``sort`` and an
-``argsort`` of int64 arrays give functions of the same name and argument types but other
-code), differ by that number only. Cached machine code keeps the numbers of the process
+(``numba.core.bytecode.FunctionIdentity``): two functions made from one definition with
+other captured variables, such as the closures numba builds its sorts and argsorts from,
+can have the same name and argument types but other code, and differ by that number
+only. Cached machine code keeps the numbers of the process
 that compiled it, so a process that loads kernels compiled by two processes can meet two
 different functions under one symbol name, and the JIT links every call to the first one
 loaded. Seen in session 68 (and on the tree before it): with ``search._box_sweep``
 (an argsort of float64 and a sort of int64) cached by one process and
 ``mortar.jacobian_terms`` (its ``compress_rows``, an argsort of int64) by another, a
 third process that loaded both in that order got nonsense dof indices from
-``jacobian_terms``, and the run stopped in an MPI call (``expecting 1 items, got 2``);
+``jacobian_terms`` (which two functions met was not traced further), and the run stopped in an MPI call (``expecting 1 items, got 2``);
 the sequence: one kernel test, then a demo twice, all on one empty cache. Here each
 process counts from a random start of its own (:func:`_separate_function_numbers`), so
 numbers from different processes do not meet; within a process they are unique as
