@@ -44,6 +44,7 @@ from ._numba import numba
 from .gap import (
     _normal,
     _project_affine,
+    _surface_in,
     faces,
     gap_and_derivatives,
     gap_only_in,
@@ -261,19 +262,23 @@ def _affine_frames(ftype, x, sign):
     """The unit normal (nf, d), the unnormalised normal n = ±a_1 (× a_2) (nf, d) and |n|
     (nf,) of each facet x (nf, nodes, d) of an affine type (INTERVAL1, TRIANGLE1), whose
     tangents, hence normals, do not depend on the reference point: evaluated once per
-    facet by :func:`.gap.unit_normal_in` and :func:`.gap._normal` at the reference centre,
-    they are the values those functions give at every point, bit for bit (the tangents
-    Σ_a ∂N_a x_a sum constant shape derivatives). Empty (0, d), (0, d), (0,) arrays for
-    other types: the callers then evaluate at each point. sign (nf,): ±1 per facet."""
+    facet at the reference centre, with :func:`.gap.unit_normal_in`'s operations (the
+    tangents by :func:`.gap._surface_in`, n and |n| by :func:`.gap._normal`, ν = n / |n|),
+    they are the values :func:`.gap.unit_normal_in` and :func:`.gap.gap_only_in` use at
+    every point, bit for bit (the tangents Σ_a ∂N_a x_a sum constant shape derivatives).
+    Empty (0, d), (0, d), (0,) arrays for other types: the callers then evaluate at each
+    point. sign (nf,): ±1 per facet."""
     nf, _, d = x.shape
     if not (ftype == INTERVAL1 or ftype == TRIANGLE1):
         return np.empty((0, d)), np.empty((0, d)), np.empty(0)
     nu, nv, jn = np.empty((nf, d)), np.empty((nf, d)), np.empty(nf)
-    w = work(ftype)
+    N, dN, ddN, S, A, SS = work(ftype)[:6]
     zc = np.full(tdim(ftype), 1.0 / (tdim(ftype) + 1))
     for f in range(nf):
-        unit_normal_in(x[f], ftype, sign[f], zc, nu[f], w)
-        jn[f] = _normal(w[4], sign[f], nv[f])
+        _surface_in(x[f], ftype, zc, N, dN, ddN, S, A, SS)
+        jn[f] = _normal(A, sign[f], nv[f])
+        for c in range(d):
+            nu[f, c] = nv[f, c] / jn[f]
     return nu, nv, jn
 
 
